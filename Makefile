@@ -1,0 +1,28 @@
+# navd: two commands on a fresh machine with Python 3.11 and git.
+#   make demo   sets up .venv if missing and runs navd's main job on built-in defaults
+#   make test   sets up .venv if missing and runs the whole test suite (lint, types, tests)
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test lint typecheck unit clean
+
+$(STAMP): pyproject.toml
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/navd run --config config/navd.toml
+
+test: $(STAMP)
+	$(BIN)/ruff check navd tests bench
+	$(BIN)/ruff format --check navd tests bench
+	$(BIN)/mypy
+	$(BIN)/pytest
+
+clean:
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

@@ -1,0 +1,245 @@
+"""Reading, checking, changing and writing the TOML configuration.
+
+Every failure is a ``ConfigError`` whose ``problems`` name the key path, the bad value and
+what is expected. A runtime change goes through the same model as the file and is applied
+whole or rejected whole.
+"""
+
+from __future__ import annotations
+
+import difflib
+import textwrap
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+from pydantic import BaseModel, ValidationError
+
+from navd.config.errors import ConfigError
+from navd.config.model import NavdConfig, restart_required
+
+__all__ = [
+    "apply_changes",
+    "changed_keys",
+    "check_runtime_changeable", "dump_toml", "load_config", "parse_config"]
+
+
+def load_config(path: str | Path) -> NavdConfig:
+    """Read and validate a TOML config file.
+
+    Raises:
+        ConfigError: the file is missing or unreadable, is not TOML, or has bad keys/values.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as err:
+        raise ConfigError([f"{path}: config file does not exist"]) from err
+    except IsADirectoryError as err:
+        raise ConfigError([f"{path}: is a directory, not a config file"]) from err
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError([f"{path}: cannot be read: {err}"]) from err
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError([f"{path}: not valid TOML: {err}"]) from err
+    return parse_config(data, source=str(path))
+
+
+def parse_config(data: Mapping[str, Any], source: str = "config") -> NavdConfig:
+    """Validate a mapping (a parsed TOML document) into a NavdConfig.
+
+    Raises:
+        ConfigError: naming every bad key.
+    """
+    try:
+        return NavdConfig.model_validate(dict(data))
+    except ValidationError as err:
+        raise ConfigError(_describe(err), source=source) from err
+
+
+def apply_changes(
+    config: NavdConfig, changes: Mapping[str, object]
+) -> tuple[NavdConfig, tuple[str, ...]]:
+    """Apply dotted-key changes (``{"safety.reaction_timeout_s": 0.3}``) to a config.
+
+    A key may also name a whole section with a table of its keys as the value.
+
+    Returns:
+        The new config and the dotted keys whose value changed.
+
+    Raises:
+        ConfigError: an unknown key, a key that needs a restart, or a value the model
+            rejects; nothing is applied.
+    """
+    if not changes:
+        raise ConfigError(["a config change must name at least one key"])
+    problems: list[str] = []
+    data = config.model_dump()
+    for key, value in _flatten({str(k): v for k, v in changes.items()}).items():
+        problems.extend(_set_dotted(data, key, value))
+    if problems:
+        raise ConfigError(problems, source="config change")
+    new = parse_config(data, source="config change")
+    changed = changed_keys(config, new)
+    check_runtime_changeable(changed, source="config change")
+    return new, changed
+
+
+def check_runtime_changeable(changed: tuple[str, ...], source: str) -> None:
+    """Raise if any of the dotted ``changed`` keys only takes effect at start-up.
+
+    Raises:
+        ConfigError: naming every such key.
+    """
+    blocked = [k for k in changed if _needs_restart(k)]
+    if blocked:
+        raise ConfigError(
+            [f"{k}: cannot change while navd runs; edit the file and restart" for k in blocked],
+            source=source,
+        )
+
+
+def changed_keys(old: NavdConfig, new: NavdConfig) -> tuple[str, ...]:
+    """The dotted keys whose value differs between two configs, in model order."""
+    before, after = _flatten(old.model_dump()), _flatten(new.model_dump())
+    return tuple(k for k in after if before.get(k) != after[k])
+
+
+def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
+    """Write a config back as TOML; with ``comments``, each key is preceded by its description.
+
+    Unset optional keys are written as a commented-out example when ``comments`` is on, and
+    left out otherwise (TOML has no null).
+    """
+    if not comments:
+        return tomli_w.dumps(config.model_dump(exclude_none=True))
+    lines = [
+        "# navd configuration. Every key is listed with its default; units are in brackets.",
+        "# Check a file with `navd config check FILE`; regenerate this one with",
+        "# `navd config dump --comments > config/navd.toml`.",
+    ]
+    for section_name, section_field in NavdConfig.model_fields.items():
+        section = getattr(config, section_name)
+        assert isinstance(section, BaseModel)
+        lines += ["", f"[{section_name}]"]
+        if section_field.annotation is not None and section_field.annotation.__doc__:
+            lines.insert(len(lines) - 1, f"# {section_field.annotation.__doc__.strip()}")
+        for name, field in type(section).model_fields.items():
+            note = field.description or ""
+            if restart_required(type(section), name):
+                note += " (needs a restart)"
+            lines += textwrap.wrap(note, width=98, initial_indent="# ", subsequent_indent="# ")
+            value = getattr(section, name)
+            if value is None:
+                example = field.examples[0] if field.examples else ""
+                lines.append(f"# {tomli_w.dumps({name: example}).strip()}")
+            else:
+                lines.append(tomli_w.dumps({name: _plain(value)}).strip())
+    return "\n".join(lines) + "\n"
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return [_plain(item) for item in value]
+    return value
+
+
+def _set_dotted(data: dict[str, Any], key: str, value: object) -> list[str]:
+    """Set ``data[a][b]`` for ``key == "a.b"``; returns problems instead of raising."""
+    parts = key.split(".")
+    node: dict[str, Any] = data
+    model: type[BaseModel] = NavdConfig
+    for depth, part in enumerate(parts):
+        fields = model.model_fields
+        if part not in fields:
+            where = ".".join(parts[:depth]) or "the config"
+            return [f"{key}: unknown key in {where}{_did_you_mean(part, list(fields))}"]
+        annotation = fields[part].annotation
+        is_section = isinstance(annotation, type) and issubclass(annotation, BaseModel)
+        if depth == len(parts) - 1:
+            if is_section:
+                return [f"{key}: is a section; give a table of its keys, got {value!r}"]
+            node[part] = value
+            return []
+        if not is_section:
+            return [f"{key}: {'.'.join(parts[: depth + 1])} is a value, not a section"]
+        assert isinstance(annotation, type) and issubclass(annotation, BaseModel)
+        node = node[part]
+        model = annotation
+    return []
+
+
+def _needs_restart(dotted: str) -> bool:
+    section, _, name = dotted.partition(".")
+    model = NavdConfig.model_fields[section].annotation
+    assert isinstance(model, type) and issubclass(model, BaseModel)
+    return restart_required(model, name.split(".")[0])
+
+
+def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        dotted = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, dotted + "."))
+        else:
+            flat[dotted] = value
+    return flat
+
+
+def _did_you_mean(name: str, options: list[str]) -> str:
+    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _field_description(loc: tuple[int | str, ...]) -> str | None:
+    """The description of the field at ``loc``, walking nested models."""
+    model: type[BaseModel] = NavdConfig
+    description: str | None = None
+    for part in loc:
+        if not isinstance(part, str) or part not in model.model_fields:
+            return description
+        field = model.model_fields[part]
+        description = field.description
+        annotation = field.annotation
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            model = annotation
+    return description
+
+
+def _describe(err: ValidationError) -> list[str]:
+    problems: list[str] = []
+    for error in err.errors():
+        loc = tuple(error["loc"])
+        key = ".".join(str(part) for part in loc) or "the config"
+        kind = error["type"]
+        if kind == "extra_forbidden":
+            parent = _model_at(loc[:-1])
+            options = list(parent.model_fields) if parent is not None else []
+            problems.append(f"{key}: unknown key{_did_you_mean(str(loc[-1]), options)}")
+            continue
+        message = str(error["msg"]).removeprefix("Value error, ")
+        if kind == "value_error":
+            problems.append(message)
+            continue
+        value = error.get("input")
+        shown = "" if isinstance(value, Mapping) else f" = {value!r}"
+        description = _field_description(loc)
+        expected = f" (expected {description})" if description else ""
+        problems.append(f"{key}{shown}: {message}{expected}")
+    return problems
+
+
+def _model_at(loc: tuple[int | str, ...]) -> type[BaseModel] | None:
+    model: type[BaseModel] = NavdConfig
+    for part in loc:
+        if not isinstance(part, str) or part not in model.model_fields:
+            return None
+        annotation = model.model_fields[part].annotation
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            return None
+        model = annotation
+    return model

@@ -1,0 +1,559 @@
+"""The configuration model: one pydantic section per subsystem, combined in ``NavdConfig``.
+
+Every model is strict (a string is never read as a number), forbids unknown keys, and is
+frozen, so the running config can only be replaced whole. Every number has bounds and a
+description that starts with its unit. Fields marked ``restart`` cannot change at runtime.
+The runtime-changeable fields follow the seed's ConfigProperty: updating_map,
+use_collisions, debug, reaction timeout, collision distance, and the planner, noise,
+localization, matching, sensor, stuck and metrics parameters.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+
+__all__ = [
+    "ChassisConfig",
+    "EstimationConfig",
+    "LifecycleConfig",
+    "LoggingConfig",
+    "NavdConfig",
+    "PlanningConfig",
+    "RobotConfig",
+    "SafetyConfig",
+    "SlamConfig",
+    "TcpConfig",
+    "WorldConfig",
+    "restart_required",
+]
+
+STANDARD_BAUD_RATES = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600)
+
+
+def _lists_to_tuples(value: Any) -> Any:
+    """TOML arrays arrive as lists; the frozen model stores tuples."""
+    if isinstance(value, list):
+        return tuple(_lists_to_tuples(item) for item in value)
+    return value
+
+
+Point2 = tuple[float, float]
+Polygon = Annotated[tuple[Point2, ...], BeforeValidator(_lists_to_tuples)]
+Table = Annotated[tuple[Point2, ...], BeforeValidator(_lists_to_tuples)]
+Polygons = Annotated[tuple[Polygon, ...], BeforeValidator(_lists_to_tuples)]
+
+
+def restart(description: str) -> dict[str, Any]:
+    """Field keyword arguments marking a field that only takes effect at start-up."""
+    return {"description": description, "json_schema_extra": {"restart": True}}
+
+
+def restart_required(model: type[BaseModel], field: str) -> bool:
+    """True if ``field`` of ``model`` cannot be changed while the daemon runs."""
+    extra = model.model_fields[field].json_schema_extra
+    return isinstance(extra, dict) and bool(extra.get("restart"))
+
+
+class Section(BaseModel):
+    """Common settings of every config section."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
+
+
+class LifecycleConfig(Section):
+    """The event loop, dispatch, workers and supervision."""
+
+    worker_threads: int = Field(
+        2, ge=1, le=16, **restart("[threads] worker threads for heavy jobs (scan matching, A*)")
+    )
+    transition_timeout_s: float = Field(
+        5.0, gt=0, le=120, description="[s] longest a module may take to start or stop"
+    )
+    status_rate_hz: float = Field(
+        1.0, gt=0, le=50, description="[Hz] how often the daemon publishes its status"
+    )
+    lag_sample_period_s: float = Field(
+        0.05, ge=0.001, le=1.0, description="[s] period of the event-loop lag probe"
+    )
+    lag_window: int = Field(
+        1200, ge=10, le=100_000, **restart("[samples] lag samples kept for the percentiles")
+    )
+    handler_budget_ms: float = Field(
+        1.0, gt=0, le=1000, description="[ms] a handler taking longer is counted as slow"
+    )
+    max_handler_failures: int = Field(
+        5, ge=1, le=10_000, description="[count] failures within failure_window_s that fault a module"
+    )
+    failure_window_s: float = Field(
+        10.0, gt=0, le=3600, description="[s] window over which handler failures are counted"
+    )
+    max_dispatch_cascade: int = Field(
+        10_000, ge=100, le=1_000_000,
+        description="[messages] most messages queued by handlers in one dispatch cascade",
+    )
+
+
+class LoggingConfig(Section):
+    """Structured logs: JSON lines for journald, readable lines on a terminal."""
+
+    level: Literal["debug", "info", "warning", "error"] = Field(
+        "info", description="lowest level written"
+    )
+    format: Literal["auto", "json", "console"] = Field(
+        "auto", **restart("auto: console on a terminal, JSON lines otherwise")
+    )
+    status_log_period_s: float = Field(
+        60.0, ge=0, le=86_400, description="[s] how often status is logged; 0 never"
+    )
+    debug: bool = Field(False, description="extra diagnostics (the seed's UseDebug)")
+
+
+class RobotConfig(Section):
+    """The robot body: footprint and motion limits."""
+
+    name: str = Field("navd-robot", min_length=1, max_length=64, description="robot name")
+    footprint: Literal["circle", "rectangle"] = Field(
+        "circle", description="footprint shape around base_link"
+    )
+    radius_m: float = Field(0.2, gt=0, le=5, description="[m] circle footprint radius")
+    length_m: float = Field(0.4, gt=0, le=10, description="[m] rectangle footprint length (x)")
+    width_m: float = Field(0.3, gt=0, le=10, description="[m] rectangle footprint width (y)")
+    track_width_m: float = Field(
+        0.3, gt=0, le=5, description="[m] distance between the left and right wheels"
+    )
+    max_linear_speed_mps: float = Field(0.5, gt=0, le=10, description="[m/s] top forward speed")
+    max_reverse_speed_mps: float = Field(
+        0.2, ge=0, le=10, description="[m/s] top backward speed (0 forbids reversing)"
+    )
+    max_angular_speed_radps: float = Field(
+        1.5, gt=0, le=20, description="[rad/s] top yaw rate"
+    )
+    max_linear_accel_mps2: float = Field(
+        0.5, gt=0, le=20, description="[m/s^2] top linear acceleration"
+    )
+    max_angular_accel_radps2: float = Field(
+        2.0, gt=0, le=50, description="[rad/s^2] top angular acceleration"
+    )
+
+    @model_validator(mode="after")
+    def _reverse_within_forward(self) -> RobotConfig:
+        if self.max_reverse_speed_mps > self.max_linear_speed_mps:
+            raise ValueError(
+                f"robot.max_reverse_speed_mps ({self.max_reverse_speed_mps}) must not exceed "
+                f"robot.max_linear_speed_mps ({self.max_linear_speed_mps})"
+            )
+        return self
+
+    @property
+    def circumradius_m(self) -> float:
+        """[m] radius of the smallest circle around base_link holding the footprint."""
+        if self.footprint == "circle":
+            return self.radius_m
+        return float((self.length_m**2 + self.width_m**2) ** 0.5 / 2.0)
+
+
+class ChassisConfig(Section):
+    """The STM32 on a UART that takes one "%d %d" line of wheel commands per period."""
+
+    enabled: bool = Field(False, **restart("drive a real chassis on the serial port"))
+    port: str = Field("/dev/ttyS0", min_length=1, **restart("serial device path"))
+    baudrate: int = Field(115200, **restart("[baud] serial speed; a standard rate"))
+    line_ending: Literal["lf", "crlf"] = Field("lf", description="line ending sent after a command")
+    command_rate_hz: float = Field(
+        20.0, ge=1, le=200, description="[Hz] how often a wheel command line is written"
+    )
+    scale_per_mps: float = Field(
+        1000.0, gt=0, le=100_000, description="[units/(m/s)] wheel command per wheel speed"
+    )
+    deadband: int = Field(
+        0, ge=0, le=100_000, description="[units] smaller wheel commands are sent as 0"
+    )
+    limit: int = Field(
+        1000, gt=0, le=1_000_000, description="[units] wheel commands are clamped to +-limit"
+    )
+    invert_left: bool = Field(False, description="negate the left wheel command")
+    invert_right: bool = Field(False, description="negate the right wheel command")
+    reconnect_initial_s: float = Field(
+        0.2, gt=0, le=60, description="[s] first wait before reopening a lost port"
+    )
+    reconnect_max_s: float = Field(
+        5.0, gt=0, le=600, description="[s] longest wait between reopening attempts"
+    )
+    feedback: Literal["off", "log"] = Field(
+        "log", description="what to do with lines the STM32 sends back"
+    )
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ChassisConfig:
+        if self.baudrate not in STANDARD_BAUD_RATES:
+            raise ValueError(
+                f"chassis.baudrate {self.baudrate} is not a standard rate; "
+                f"use one of {', '.join(map(str, STANDARD_BAUD_RATES))}"
+            )
+        if self.deadband >= self.limit:
+            raise ValueError(
+                f"chassis.deadband ({self.deadband}) must be below chassis.limit ({self.limit})"
+            )
+        if self.reconnect_initial_s > self.reconnect_max_s:
+            raise ValueError(
+                f"chassis.reconnect_initial_s ({self.reconnect_initial_s}) must not exceed "
+                f"chassis.reconnect_max_s ({self.reconnect_max_s})"
+            )
+        return self
+
+
+class TcpConfig(Section):
+    """The TCP server that sensor and control clients connect to."""
+
+    host: str = Field("127.0.0.1", min_length=1, **restart("address to listen on"))
+    port: int = Field(7420, ge=1, le=65535, **restart("TCP port to listen on"))
+    token: str | None = Field(
+        None,
+        min_length=16,
+        examples=["change-me-to-a-long-random-secret"],
+        **restart("shared secret clients give in hello; required beyond loopback"),
+    )
+    max_clients: int = Field(32, ge=1, le=1024, description="[clients] most connections at once")
+    max_line_bytes: int = Field(
+        262_144, ge=1024, le=16_777_216, description="[bytes] longest accepted line or frame"
+    )
+    handshake_timeout_s: float = Field(
+        5.0, gt=0, le=60, description="[s] time a new client has to send hello"
+    )
+    status_queue: int = Field(
+        8, ge=1, le=1024, description="[messages] status messages buffered per slow subscriber"
+    )
+    lidar_timeout_s: float = Field(
+        0.5, gt=0, le=60, description="[s] a lidar silent this long is stale"
+    )
+    imu_timeout_s: float = Field(0.2, gt=0, le=60, description="[s] an IMU silent this long is stale")
+    gps_timeout_s: float = Field(2.0, gt=0, le=600, description="[s] a GPS silent this long is stale")
+    compass_timeout_s: float = Field(
+        1.0, gt=0, le=600, description="[s] a compass silent this long is stale"
+    )
+    wheel_odometry_timeout_s: float = Field(
+        0.3, gt=0, le=60, description="[s] wheel odometry silent this long is stale"
+    )
+
+    @model_validator(mode="after")
+    def _token_beyond_loopback(self) -> TcpConfig:
+        if self.token is None and not _is_loopback(self.host):
+            raise ValueError(
+                f"tcp.host {self.host!r} listens beyond loopback, so tcp.token must be set "
+                f"(at least 16 characters) for clients to authenticate"
+            )
+        return self
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class SafetyConfig(Section):
+    """When the robot must stop, whatever the planner says."""
+
+    reaction_timeout_s: float = Field(
+        0.5, gt=0, le=10, description="[s] stop when no fresh velocity command came for this long"
+    )
+    use_collisions: bool = Field(True, description="stop for obstacles (the seed's UseCollisions)")
+    collision_distance_m: float = Field(
+        0.1, ge=0, le=5, description="[m] margin around the footprint a trajectory must keep"
+    )
+    stop_distance_m: float = Field(
+        0.15, ge=0, le=5, description="[m] scan points this close ahead of the footprint stop it"
+    )
+    slowdown_distance_m: float = Field(
+        0.5, ge=0, le=10, description="[m] scan points this close ahead slow the robot down"
+    )
+    slowdown_factor: float = Field(
+        0.4, gt=0, le=1, description="[ratio] speed scale inside the slow-down zone"
+    )
+
+    @model_validator(mode="after")
+    def _zones_nested(self) -> SafetyConfig:
+        if self.slowdown_distance_m < self.stop_distance_m:
+            raise ValueError(
+                f"safety.slowdown_distance_m ({self.slowdown_distance_m}) must be at least "
+                f"safety.stop_distance_m ({self.stop_distance_m})"
+            )
+        return self
+
+
+class SlamConfig(Section):
+    """Scan matching and the occupancy grid (the seed's IcpSlamConfig and MatchingParams)."""
+
+    updating_map: bool = Field(True, description="add scans to the map (off: localize only)")
+    resolution_m: float = Field(0.05, ge=0.01, le=1, description="[m] occupancy grid cell size")
+    voxel_size_m: float = Field(
+        0.1, ge=0.01, le=2, description="[m] voxel size for scan downsampling and ICP"
+    )
+    min_range_m: float = Field(0.1, ge=0, le=10, description="[m] shorter ranges are ignored")
+    max_range_m: float = Field(12.0, gt=0, le=100, description="[m] longer ranges are ignored")
+    laser_x_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar x in base_link")
+    laser_y_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar y in base_link")
+    laser_yaw_rad: float = Field(
+        0.0, ge=-3.1416, le=3.1416, description="[rad] lidar yaw in base_link"
+    )
+    search_xy_m: float = Field(
+        0.3, gt=0, le=5, description="[m] half-width of the correlative search window in x and y"
+    )
+    search_yaw_rad: float = Field(
+        0.35, gt=0, le=3.1416, description="[rad] half-width of the correlative search in yaw"
+    )
+    blur_sigma_m: float = Field(
+        0.05, gt=0, le=1, description="[m] Gaussian blur of the correlation grid"
+    )
+    keyframe_distance_m: float = Field(
+        0.3, gt=0, le=10, description="[m] travel that makes a new keyframe"
+    )
+    keyframe_angle_rad: float = Field(
+        0.3, gt=0, le=3.1416, description="[rad] rotation that makes a new keyframe"
+    )
+    map_dir: str = Field("maps", min_length=1, description="folder where maps are saved")
+    map_name: str = Field("map", min_length=1, description="base name of saved map files")
+    load_map: str | None = Field(
+        None,
+        examples=["maps/office.yaml"],
+        description="map .yaml to load at start-up and localize on; unset: start a new map",
+    )
+    save_on_shutdown: bool = Field(False, description="save the map when the daemon stops")
+
+    @model_validator(mode="after")
+    def _ranges_ordered(self) -> SlamConfig:
+        if self.min_range_m >= self.max_range_m:
+            raise ValueError(
+                f"slam.min_range_m ({self.min_range_m}) must be below "
+                f"slam.max_range_m ({self.max_range_m})"
+            )
+        return self
+
+
+class EstimationConfig(Section):
+    """Madgwick IMU filter, UKF and the event/state queues."""
+
+    madgwick_beta: float = Field(
+        0.1, ge=0, le=10, description="[rad/s] Madgwick gain (gyro error the accel corrects)"
+    )
+    ukf_alpha: float = Field(0.1, gt=0, le=1, description="[1] Merwe sigma point spread alpha")
+    ukf_beta: float = Field(2.0, ge=0, le=10, description="[1] Merwe prior knowledge beta")
+    ukf_kappa: float = Field(
+        6.0, ge=-8.9, le=100, description="[1] Merwe kappa (the seed uses N-3 = 6)"
+    )
+    accel_noise_mps2: float = Field(
+        0.5, gt=0, le=100, description="[m/s^2] process noise of the linear acceleration"
+    )
+    angular_accel_noise_radps2: float = Field(
+        1.0, gt=0, le=100, description="[rad/s^2] process noise of the angular acceleration"
+    )
+    lidar_gate_chi2: float = Field(
+        16.3, gt=0, le=1e6, description="[chi2] Mahalanobis gate of lidar poses (3 dof)"
+    )
+    gps_gate_chi2: float = Field(
+        13.8, gt=0, le=1e6, description="[chi2] Mahalanobis gate of GPS positions (2 dof)"
+    )
+    compass_gate_chi2: float = Field(
+        10.8, gt=0, le=1e6, description="[chi2] Mahalanobis gate of compass yaw (1 dof)"
+    )
+    history_horizon_s: float = Field(
+        1.0, gt=0, le=30, description="[s] late measurements older than this are dropped"
+    )
+    degraded_position_std_m: float = Field(
+        0.3, gt=0, le=100, description="[m] position std above which localization is degraded"
+    )
+    lost_position_std_m: float = Field(
+        1.0, gt=0, le=1000, description="[m] position std above which localization is lost"
+    )
+    publish_rate_hz: float = Field(
+        20.0, gt=0, le=1000, description="[Hz] how often the fused pose is published"
+    )
+
+    @model_validator(mode="after")
+    def _degraded_before_lost(self) -> EstimationConfig:
+        if self.degraded_position_std_m >= self.lost_position_std_m:
+            raise ValueError(
+                f"estimation.degraded_position_std_m ({self.degraded_position_std_m}) must be "
+                f"below estimation.lost_position_std_m ({self.lost_position_std_m})"
+            )
+        return self
+
+
+class WorldConfig(Section):
+    """Geographic frame: GPS and compass into the map frame (the seed's WorldMapConfig)."""
+
+    utm_zone: int | None = Field(
+        None, ge=1, le=60, examples=[33], description="[zone] fixed UTM zone; unset: automatic"
+    )
+    utm_threshold_m: float = Field(
+        10_000.0, gt=0, le=1e6, description="[m] distance from the datum that forces a zone check"
+    )
+    map_rotation_rad: float = Field(
+        0.0, ge=-3.1416, le=3.1416, description="[rad] map +x measured counter-clockwise from east"
+    )
+    coords_lifetime_s: float = Field(
+        1.0, gt=0, le=60, description="[s] GPS fixes older than this are ignored"
+    )
+    datum_latitude_deg: float | None = Field(
+        None, ge=-90, le=90, examples=[52.52], description="[deg] map origin latitude"
+    )
+    datum_longitude_deg: float | None = Field(
+        None, ge=-180, le=180, examples=[13.405], description="[deg] map origin longitude"
+    )
+    magnetic_declination_deg: float = Field(
+        0.0, ge=-180, le=180, description="[deg] true north minus magnetic north, east positive"
+    )
+
+    @model_validator(mode="after")
+    def _datum_pair(self) -> WorldConfig:
+        if (self.datum_latitude_deg is None) != (self.datum_longitude_deg is None):
+            raise ValueError(
+                "world.datum_latitude_deg and world.datum_longitude_deg must be set together "
+                "(or both left unset to take the datum from the first good fix)"
+            )
+        return self
+
+
+class PlanningConfig(Section):
+    """Global A*, local DWA, velocity profile and stuck handling."""
+
+    control_rate_hz: float = Field(20.0, ge=1, le=100, description="[Hz] local planner rate")
+    prediction_horizon_s: float = Field(
+        2.0, gt=0, le=10, description="[s] how far ahead DWA rolls trajectories out"
+    )
+    linear_samples: int = Field(
+        20, ge=2, le=200, description="[count] linear velocities sampled in the window"
+    )
+    angular_samples: int = Field(
+        21, ge=3, le=401, description="[count] angular velocities sampled in the window"
+    )
+    goal_weight: float = Field(1.0, ge=0, le=100, description="[1] weight of goal proximity")
+    path_weight: float = Field(1.0, ge=0, le=100, description="[1] weight of closeness to path")
+    clearance_weight: float = Field(
+        0.5, ge=0, le=100, description="[1] weight of obstacle clearance"
+    )
+    oscillation_weight: float = Field(
+        0.2, ge=0, le=100, description="[1] weight of the oscillation penalty"
+    )
+    heading_weight: float = Field(
+        0.5, ge=0, le=100, description="[1] weight of target-heading alignment near the goal"
+    )
+    goal_xy_tolerance_m: float = Field(
+        0.15, gt=0, le=10, description="[m] goal reached within this distance"
+    )
+    goal_yaw_tolerance_rad: float = Field(
+        0.2, gt=0, le=3.1416, description="[rad] goal heading reached within this angle"
+    )
+    inflation_radius_m: float = Field(
+        0.5, ge=0, le=10, description="[m] costs decay to zero this far from obstacles"
+    )
+    cost_decay: float = Field(
+        3.0, gt=0, le=100, description="[1/m] exponential decay rate of the inflation cost"
+    )
+    replan_period_s: float = Field(
+        5.0, ge=0, le=600, description="[s] replan on this timer; 0 replans only on events"
+    )
+    max_path_deviation_m: float = Field(
+        0.5, gt=0, le=10, description="[m] straying farther from the path triggers a replan"
+    )
+    approach_distance_m: float = Field(
+        1.0, ge=0, le=20, description="[m] start slowing down this far from the goal"
+    )
+    angular_limit_table: Table = Field(
+        ((0.0, 1.5), (0.5, 0.8)),
+        description="[(m/s, rad/s)] top yaw rate as a function of speed, linearly interpolated",
+    )
+    stuck_time_s: float = Field(
+        3.0, gt=0, le=600, description="[s] this long without progress means stuck"
+    )
+    stuck_min_progress_m: float = Field(
+        0.1, gt=0, le=10, description="[m] progress that resets the stuck timer"
+    )
+    stuck_time_force_backward_s: float = Field(
+        5.0, gt=0, le=600, description="[s] stuck this long forces backward motion"
+    )
+    max_stuck_time_s: float = Field(
+        15.0, gt=0, le=3600, description="[s] stuck this long reports StuckDetected and replans"
+    )
+    keep_out_zones: Polygons = Field(
+        (),
+        description="[m] polygons in the map frame the robot must never enter",
+    )
+
+    @model_validator(mode="after")
+    def _consistent(self) -> PlanningConfig:
+        weights = (
+            self.goal_weight,
+            self.path_weight,
+            self.clearance_weight,
+            self.oscillation_weight,
+            self.heading_weight,
+        )
+        if not any(w > 0 for w in weights):
+            raise ValueError("planning: at least one of the *_weight metrics must be > 0")
+        if not self.stuck_time_s < self.stuck_time_force_backward_s < self.max_stuck_time_s:
+            raise ValueError(
+                "planning: need stuck_time_s < stuck_time_force_backward_s < max_stuck_time_s, "
+                f"got {self.stuck_time_s} < {self.stuck_time_force_backward_s} < "
+                f"{self.max_stuck_time_s}"
+            )
+        _check_table(self.angular_limit_table)
+        for i, zone in enumerate(self.keep_out_zones):
+            if len(zone) < 3:
+                raise ValueError(
+                    f"planning.keep_out_zones[{i}] has {len(zone)} points; a polygon needs >= 3"
+                )
+        return self
+
+
+def _check_table(table: tuple[Point2, ...]) -> None:
+    if len(table) < 1:
+        raise ValueError("planning.angular_limit_table needs at least one [speed, yaw_rate] row")
+    speeds = [row[0] for row in table]
+    if speeds[0] < 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
+        raise ValueError(
+            f"planning.angular_limit_table speeds must start >= 0 and strictly increase, "
+            f"got {speeds}"
+        )
+    if any(row[1] <= 0 for row in table):
+        raise ValueError("planning.angular_limit_table yaw rates must all be > 0")
+
+
+class NavdConfig(BaseModel):
+    """The whole configuration, one section per subsystem."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
+
+    robot: RobotConfig = Field(default_factory=RobotConfig)
+    chassis: ChassisConfig = Field(default_factory=ChassisConfig)
+    tcp: TcpConfig = Field(default_factory=TcpConfig)
+    safety: SafetyConfig = Field(default_factory=SafetyConfig)
+    slam: SlamConfig = Field(default_factory=SlamConfig)
+    estimation: EstimationConfig = Field(default_factory=EstimationConfig)
+    world: WorldConfig = Field(default_factory=WorldConfig)
+    planning: PlanningConfig = Field(default_factory=PlanningConfig)
+    lifecycle: LifecycleConfig = Field(default_factory=LifecycleConfig)
+    logging: LoggingConfig = Field(default_factory=LoggingConfig)
+
+    @model_validator(mode="after")
+    def _across_sections(self) -> NavdConfig:
+        top_yaw = max(row[1] for row in self.planning.angular_limit_table)
+        if top_yaw > self.robot.max_angular_speed_radps:
+            raise ValueError(
+                f"planning.angular_limit_table allows {top_yaw} rad/s, above "
+                f"robot.max_angular_speed_radps ({self.robot.max_angular_speed_radps})"
+            )
+        two_periods_s = 2.0 / self.planning.control_rate_hz
+        if self.safety.reaction_timeout_s < two_periods_s:
+            raise ValueError(
+                f"safety.reaction_timeout_s ({self.safety.reaction_timeout_s}) is shorter than two "
+                f"planner periods ({two_periods_s:.3g} s at planning.control_rate_hz = "
+                f"{self.planning.control_rate_hz}): the robot would stop between commands"
+            )
+        return self

@@ -1,0 +1,226 @@
+"""The daemon: one event loop that owns the bus, the workers, the modules and the status.
+
+Start-up: internal probes start, modules are configured then activated in order, and a
+``ready`` line is logged. Shutdown (SIGTERM, SIGINT, or ``request_shutdown``): a zero
+VelocityCommand is published first, then modules stop in reverse order, and ``run`` returns.
+SIGHUP reloads the config file (applied whole or rejected whole).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import signal
+from collections.abc import Sequence
+from pathlib import Path
+
+from navd import __version__
+from navd.config import NavdConfig
+from navd.lifecycle.bus import Bus
+from navd.lifecycle.clock import Clock, MonotonicClock
+from navd.lifecycle.config_service import ConfigService
+from navd.lifecycle.lag import LoopLagMonitor
+from navd.lifecycle.messages import (
+    ConfigApplied,
+    DaemonStatus,
+    ModuleHealth,
+    VelocityCommand,
+)
+from navd.lifecycle.module import Module, ModuleContext, ModuleManager
+from navd.lifecycle.supervision import Supervisor
+from navd.lifecycle.workers import WorkerPool
+from navd.logs import get_logger
+
+__all__ = ["Daemon"]
+
+_log = get_logger("lifecycle")
+
+
+class Daemon:
+    """navd's event loop and everything it owns.
+
+    Args:
+        config: the config at start-up.
+        modules: in start order (stopped in reverse).
+        clock: the time source; real monotonic time by default.
+        config_path: the file SIGHUP reloads; None disables reloading.
+        handle_signals: install SIGTERM/SIGINT/SIGHUP handlers (off in tests that share a loop).
+    """
+
+    MODULE = "lifecycle"
+
+    def __init__(
+        self,
+        config: NavdConfig,
+        modules: Sequence[Module] = (),
+        *,
+        clock: Clock | None = None,
+        config_path: Path | None = None,
+        handle_signals: bool = True,
+    ) -> None:
+        lc = config.lifecycle
+        self.clock: Clock = clock if clock is not None else MonotonicClock()
+        self.supervisor = Supervisor(lc.max_handler_failures, lc.failure_window_s)
+        self.bus = Bus(
+            self.clock,
+            self.supervisor,
+            handler_budget_s=lc.handler_budget_ms / 1e3,
+            max_cascade=lc.max_dispatch_cascade,
+        )
+        self.config_service = ConfigService(self.bus, self.clock, config)
+        self.workers = WorkerPool(self.bus, lc.worker_threads)
+        self.lag = LoopLagMonitor(lc.lag_sample_period_s, lc.lag_window)
+        self.manager = ModuleManager(modules, self._context, lc.transition_timeout_s)
+        self.config_path = config_path
+        self.handle_signals = handle_signals
+        self.ready = asyncio.Event()
+        self._shutdown = asyncio.Event()
+        self._shutdown_reason = ""
+        self._started_s = self.clock.now()
+        self.bus.subscribe(ConfigApplied, self._on_config_applied, module=self.MODULE)
+
+    @property
+    def config(self) -> NavdConfig:
+        """The config in force."""
+        return self.config_service.current
+
+    def request_shutdown(self, reason: str) -> None:
+        """Ask the daemon to stop; ``run`` returns once every module has stopped."""
+        if not self._shutdown.is_set():
+            self._shutdown_reason = reason
+            _log.info("shutdown_requested", reason=reason)
+            self._shutdown.set()
+
+    def reload_config(self) -> bool:
+        """Reload ``config_path`` through the same validation as runtime changes."""
+        if self.config_path is None:
+            _log.warning("reload_ignored", reason="the daemon was started without a config file")
+            return False
+        return self.config_service.reload(self.config_path, request_id="sighup")
+
+    def status(self) -> DaemonStatus:
+        """A snapshot of the daemon's health."""
+        now = self.clock.now()
+        p50, p99, worst = self.lag.snapshot_ms()
+        faulted = self.supervisor.faulted()
+        modules = tuple(
+            ModuleHealth(
+                name=m.name,
+                state=self.manager.states[m.name].value,
+                handler_failures=self.supervisor.record(m.name).failures,
+                slow_handlers=self.supervisor.record(m.name).slow_handlers,
+                faulted=m.name in faulted,
+            )
+            for m in self.manager.modules
+        )
+        reasons = tuple(
+            f"module {name!r} faulted: {rec.last_error}" for name, rec in faulted.items()
+        )
+        return DaemonStatus(
+            stamp=now,
+            received=now,
+            uptime_s=now - self._started_s,
+            loop_lag_p50_ms=p50,
+            loop_lag_p99_ms=p99,
+            loop_lag_max_ms=worst,
+            modules=modules,
+            workers=self.workers.stats(),
+            safe_stop_reasons=reasons,
+            messages_dispatched=self.bus.dispatched,
+        )
+
+    async def run(self) -> None:
+        """Start, run until shutdown is requested, and stop cleanly.
+
+        Raises:
+            ModuleTimeoutError: a module hung while starting (the others were stopped).
+            Exception: whatever a module raised while starting.
+        """
+        loop = asyncio.get_running_loop()
+        self._install_signals(loop)
+        self._started_s = self.clock.now()
+        probes = [
+            loop.create_task(self.lag.run(), name="lag-probe"),
+            loop.create_task(self._status_loop(), name="status"),
+        ]
+        _log.info(
+            "starting",
+            version=__version__,
+            modules=[m.name for m in self.manager.modules],
+            config=self.config.model_dump(mode="json"),
+        )
+        try:
+            await self.manager.start()
+            self.ready.set()
+            _log.info("ready", modules=[m.name for m in self.manager.modules])
+            await self._shutdown.wait()
+        finally:
+            self._stop_robot(self._shutdown_reason or "start-up failed")
+            errors = await self.manager.stop()
+            for task in probes:
+                task.cancel()
+            await asyncio.gather(*probes, return_exceptions=True)
+            self.workers.close()
+            self._remove_signals(loop)
+            _log.info("stopped", reason=self._shutdown_reason, stop_errors=len(errors))
+
+    def _context(self, name: str) -> ModuleContext:
+        return ModuleContext(
+            name,
+            bus=self.bus,
+            clock=self.clock,
+            workers=self.workers,
+            config=lambda: self.config_service.current,
+        )
+
+    def _stop_robot(self, reason: str) -> None:
+        now = self.clock.now()
+        _log.info("zero_velocity", reason=reason)
+        self.bus.publish(
+            VelocityCommand(
+                stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source=self.MODULE
+            )
+        )
+
+    async def _status_loop(self) -> None:
+        last_logged = self.clock.now()
+        while True:
+            await self.clock.sleep(1.0 / self.config.lifecycle.status_rate_hz)
+            now = self.clock.now()
+            for name in self.supervisor.clear_recovered(now):
+                _log.info("module_recovered", module=name)
+            status = self.status()
+            self.bus.publish(status)
+            period = self.config.logging.status_log_period_s
+            if period > 0 and now - last_logged >= period:
+                last_logged = now
+                _log.info(
+                    "status",
+                    uptime_s=round(status.uptime_s, 1),
+                    loop_lag_p99_ms=round(status.loop_lag_p99_ms, 3),
+                    messages=status.messages_dispatched,
+                    safe_stop=list(status.safe_stop_reasons),
+                )
+
+    def _on_config_applied(self, applied: ConfigApplied) -> None:
+        lc = applied.config.lifecycle
+        self.bus.handler_budget_s = lc.handler_budget_ms / 1e3
+        self.bus.max_cascade = lc.max_dispatch_cascade
+        self.supervisor.max_failures = lc.max_handler_failures
+        self.supervisor.window_s = lc.failure_window_s
+        self.lag.period_s = lc.lag_sample_period_s
+        self.manager.timeout_s = lc.transition_timeout_s
+
+    def _install_signals(self, loop: asyncio.AbstractEventLoop) -> None:
+        if not self.handle_signals:
+            return
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            loop.add_signal_handler(sig, self.request_shutdown, f"signal {sig.name}")
+        loop.add_signal_handler(signal.SIGHUP, self.reload_config)
+
+    def _remove_signals(self, loop: asyncio.AbstractEventLoop) -> None:
+        if not self.handle_signals:
+            return
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+            with contextlib.suppress(ValueError, RuntimeError):
+                loop.remove_signal_handler(sig)

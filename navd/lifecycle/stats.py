@@ -1,0 +1,45 @@
+"""A fixed-size window of recent samples with percentiles, for lag and timing figures."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["RollingWindow"]
+
+
+class RollingWindow:
+    """The last ``capacity`` samples of one quantity, in a ring buffer.
+
+    Args:
+        capacity: how many samples are kept (memory is fixed).
+    """
+
+    def __init__(self, capacity: int) -> None:
+        if capacity <= 0:
+            raise ValueError(f"capacity must be > 0, got {capacity}")
+        self._values = np.zeros(capacity, dtype=np.float64)
+        self._count = 0
+
+    def add(self, value: float) -> None:
+        self._values[self._count % self._values.size] = value
+        self._count += 1
+
+    def __len__(self) -> int:
+        return min(self._count, self._values.size)
+
+    @property
+    def total(self) -> int:
+        """How many samples were ever added."""
+        return self._count
+
+    def percentile(self, q: float) -> float:
+        """The q-th percentile (0..100) of the kept samples; 0.0 when empty."""
+        n = len(self)
+        if n == 0:
+            return 0.0
+        return float(np.percentile(self._values[:n], q))
+
+    def max(self) -> float:
+        """The largest kept sample; 0.0 when empty."""
+        n = len(self)
+        return float(self._values[:n].max()) if n else 0.0

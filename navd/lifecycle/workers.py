@@ -1,0 +1,124 @@
+"""A worker pool for heavy jobs, with one "latest wins" slot per kind of job.
+
+Each slot runs at most one job at a time and holds at most one waiting job: a newer job of the
+same kind replaces the waiting one, and the replaced job is counted as dropped, so no queue
+grows without bound and the worker always works on the freshest input. A job returns a
+Message (published on the bus when it completes, on the event loop) or None. A job that
+raises is reported to the bus's supervision as a failure of its module.
+
+Jobs run in threads: their heavy parts should be numba kernels compiled with ``nogil=True``
+or library calls that release the GIL, so the event loop keeps running.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+
+from navd.lifecycle.bus import Bus
+from navd.lifecycle.errors import LifecycleError
+from navd.lifecycle.messages import Message, WorkerStats
+
+__all__ = ["Job", "WorkerPool"]
+
+Job = Callable[[], Message | None]
+
+
+@dataclass
+class _Slot:
+    module: str
+    running: bool = False
+    waiting: Job | None = None
+    submitted: int = 0
+    completed: int = 0
+    dropped: int = 0
+    failed: int = 0
+
+
+class WorkerPool:
+    """Threads for heavy jobs, fed through latest-wins slots. Use from the event loop only.
+
+    Args:
+        bus: where results are published and failures reported.
+        threads: number of worker threads.
+    """
+
+    def __init__(self, bus: Bus, threads: int) -> None:
+        self._bus = bus
+        self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
+        self._slots: dict[str, _Slot] = {}
+        self._closed = False
+        self._loop: asyncio.AbstractEventLoop | None = None
+
+    def submit(self, slot: str, job: Job, *, module: str) -> None:
+        """Run ``job`` in a worker; if the slot is busy, it waits, replacing any waiting job.
+
+        Args:
+            slot: the kind of job ("scan_match", "global_plan"...); one runs at a time.
+            job: a function of no arguments returning a Message or None.
+            module: the module that owns the slot (failures count against it).
+
+        Raises:
+            LifecycleError: the pool is closed, or the slot belongs to another module.
+        """
+        if self._closed:
+            raise LifecycleError(f"worker pool is closed; cannot run a {slot!r} job")
+        state = self._slots.setdefault(slot, _Slot(module))
+        if state.module != module:
+            raise LifecycleError(
+                f"worker slot {slot!r} belongs to module {state.module!r}, not {module!r}"
+            )
+        state.submitted += 1
+        if state.running:
+            if state.waiting is not None:
+                state.dropped += 1
+            state.waiting = job
+            return
+        self._start(slot, state, job)
+
+    def stats(self) -> tuple[WorkerStats, ...]:
+        """Counters of every slot, by first use."""
+        return tuple(
+            WorkerStats(name, s.submitted, s.completed, s.dropped, s.failed)
+            for name, s in self._slots.items()
+        )
+
+    def busy(self) -> bool:
+        """True while any job is running or waiting."""
+        return any(s.running or s.waiting is not None for s in self._slots.values())
+
+    def close(self) -> None:
+        """Stop accepting jobs, drop waiting ones and let running ones finish unobserved."""
+        self._closed = True
+        for state in self._slots.values():
+            if state.waiting is not None:
+                state.dropped += 1
+                state.waiting = None
+        self._executor.shutdown(wait=False, cancel_futures=True)
+
+    def _start(self, slot: str, state: _Slot, job: Job) -> None:
+        loop = asyncio.get_running_loop()
+        state.running = True
+        future = self._executor.submit(job)
+        future.add_done_callback(
+            lambda done: loop.call_soon_threadsafe(self._finished, slot, state, done)
+        )
+
+    def _finished(self, slot: str, state: _Slot, future: Future[Message | None]) -> None:
+        state.running = False
+        if self._closed:
+            return
+        error = future.exception()
+        if error is not None:
+            state.failed += 1
+            self._bus.report_failure(state.module, {"worker_slot": slot}, error)
+        else:
+            state.completed += 1
+            result = future.result()
+            if result is not None:
+                self._bus.publish(result)
+        if state.waiting is not None:
+            job, state.waiting = state.waiting, None
+            self._start(slot, state, job)
