@@ -23,7 +23,11 @@ from navd.config.model import NavdConfig, restart_required
 __all__ = [
     "apply_changes",
     "changed_keys",
-    "check_runtime_changeable", "dump_toml", "load_config", "parse_config"]
+    "check_runtime_changeable",
+    "dump_toml",
+    "load_config",
+    "parse_config",
+]
 
 
 def load_config(path: str | Path) -> NavdConfig:
@@ -220,6 +224,9 @@ def _describe(err: ValidationError) -> list[str]:
             parent = _model_at(loc[:-1])
             options = list(parent.model_fields) if parent is not None else []
             problems.append(f"{key}: unknown key{_did_you_mean(str(loc[-1]), options)}")
+            continue
+        if kind in ("model_type", "model_attributes_type", "dict_type"):
+            problems.append(f"{key}: must be a table ([{key}] section), got {error.get('input')!r}")
             continue
         message = str(error["msg"]).removeprefix("Value error, ")
         if kind == "value_error":

@@ -11,6 +11,7 @@ localization, matching, sensor, stuck and metrics parameters.
 from __future__ import annotations
 
 import ipaddress
+import itertools
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
@@ -85,13 +86,18 @@ class LifecycleConfig(Section):
         1.0, gt=0, le=1000, description="[ms] a handler taking longer is counted as slow"
     )
     max_handler_failures: int = Field(
-        5, ge=1, le=10_000, description="[count] failures within failure_window_s that fault a module"
+        5,
+        ge=1,
+        le=10_000,
+        description="[count] failures within failure_window_s that fault a module",
     )
     failure_window_s: float = Field(
         10.0, gt=0, le=3600, description="[s] window over which handler failures are counted"
     )
     max_dispatch_cascade: int = Field(
-        10_000, ge=100, le=1_000_000,
+        10_000,
+        ge=100,
+        le=1_000_000,
         description="[messages] most messages queued by handlers in one dispatch cascade",
     )
 
@@ -128,9 +134,7 @@ class RobotConfig(Section):
     max_reverse_speed_mps: float = Field(
         0.2, ge=0, le=10, description="[m/s] top backward speed (0 forbids reversing)"
     )
-    max_angular_speed_radps: float = Field(
-        1.5, gt=0, le=20, description="[rad/s] top yaw rate"
-    )
+    max_angular_speed_radps: float = Field(1.5, gt=0, le=20, description="[rad/s] top yaw rate")
     max_linear_accel_mps2: float = Field(
         0.5, gt=0, le=20, description="[m/s^2] top linear acceleration"
     )
@@ -229,8 +233,12 @@ class TcpConfig(Section):
     lidar_timeout_s: float = Field(
         0.5, gt=0, le=60, description="[s] a lidar silent this long is stale"
     )
-    imu_timeout_s: float = Field(0.2, gt=0, le=60, description="[s] an IMU silent this long is stale")
-    gps_timeout_s: float = Field(2.0, gt=0, le=600, description="[s] a GPS silent this long is stale")
+    imu_timeout_s: float = Field(
+        0.2, gt=0, le=60, description="[s] an IMU silent this long is stale"
+    )
+    gps_timeout_s: float = Field(
+        2.0, gt=0, le=600, description="[s] a GPS silent this long is stale"
+    )
     compass_timeout_s: float = Field(
         1.0, gt=0, le=600, description="[s] a compass silent this long is stale"
     )
@@ -516,7 +524,7 @@ def _check_table(table: tuple[Point2, ...]) -> None:
     if len(table) < 1:
         raise ValueError("planning.angular_limit_table needs at least one [speed, yaw_rate] row")
     speeds = [row[0] for row in table]
-    if speeds[0] < 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
+    if speeds[0] < 0 or any(b <= a for a, b in itertools.pairwise(speeds)):
         raise ValueError(
             f"planning.angular_limit_table speeds must start >= 0 and strictly increase, "
             f"got {speeds}"

@@ -42,8 +42,9 @@ class Bus:
         clock: the daemon clock (stamps of the safety messages the bus publishes).
         supervisor: failure bookkeeping.
         handler_budget_s: [s] a handler taking longer is counted as slow and logged.
-        max_cascade: most messages queued while one dispatch runs; beyond it publishing raises
-            DispatchError (a handler publishing in a loop).
+        max_cascade: most messages handlers may publish while one dispatch runs; beyond it
+            publishing raises DispatchError (a handler publishing in a loop), so every cascade
+            ends and the queue stays bounded.
     """
 
     def __init__(
@@ -63,6 +64,7 @@ class Bus:
         self._routes: dict[type[Message], list[tuple[str, Callable[[Any], None]]]] = {}
         self._pending: deque[Message] = deque()
         self._dispatching = False
+        self._cascade = 0
 
     def subscribe(self, message_type: type[M], handler: Handler[M], *, module: str) -> None:
         """Call ``handler`` for every published message of ``message_type`` (or a subclass).
@@ -85,14 +87,17 @@ class Bus:
         """Deliver ``message`` to its handlers, after the messages already queued.
 
         Raises:
-            DispatchError: the cascade bound was exceeded (only ever inside a handler, where
-                the bus counts it as that handler's failure).
+            DispatchError: handlers published more than ``max_cascade`` messages in this
+                cascade (only ever inside a handler, where the bus counts it as that handler's
+                failure).
         """
-        if len(self._pending) >= self.max_cascade:
-            raise DispatchError(
-                f"dispatch cascade exceeded {self.max_cascade} queued messages while publishing "
-                f"{type(message).__name__}: a handler is publishing in a loop"
-            )
+        if self._dispatching:
+            self._cascade += 1
+            if self._cascade > self.max_cascade:
+                raise DispatchError(
+                    f"dispatch cascade exceeded {self.max_cascade} messages published by handlers "
+                    f"while publishing {type(message).__name__}: a handler is publishing in a loop"
+                )
         self._enqueue(message)
 
     def _enqueue(self, message: Message) -> None:
@@ -101,6 +106,7 @@ class Bus:
         if self._dispatching:
             return
         self._dispatching = True
+        self._cascade = 0
         try:
             while self._pending:
                 self._deliver(self._pending.popleft())
@@ -139,7 +145,7 @@ class Bus:
         if route is None:
             route = []
             for cls in reversed(message_type.__mro__):
-                route.extend(self._subscriptions.get(cls, ()))  # type: ignore[arg-type]
+                route.extend(self._subscriptions.get(cls, ()))
             self._routes[message_type] = route
         return route
 

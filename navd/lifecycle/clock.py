@@ -70,13 +70,17 @@ class SimClock:
         return sum(1 for _, _, future in self._sleepers if not future.done())
 
     def advance(self, seconds: float) -> None:
-        """Move time forward by ``seconds`` [s] and wake every sleeper whose deadline passed."""
+        """Jump time forward by ``seconds`` [s]; every sleeper whose deadline passed wakes.
+
+        The woken tasks run after the jump, so they see the new time. Use ``run_to`` when each
+        sleeper must run at its own deadline (a simulation in lockstep).
+        """
         if seconds < 0.0:
             raise LifecycleError(f"simulated time cannot go backwards (advance by {seconds} s)")
         self.advance_to(self._now + seconds)
 
     def advance_to(self, time_s: float) -> None:
-        """Move time forward to ``time_s`` [s]; wakes sleepers in deadline order."""
+        """Jump time forward to ``time_s`` [s]; wakes sleepers in deadline order."""
         if time_s < self._now:
             raise LifecycleError(
                 f"simulated time cannot go backwards (from {self._now} s to {time_s} s)"
@@ -86,6 +90,28 @@ class SimClock:
             self._now = deadline
             if not future.done():
                 future.set_result(None)
+        self._now = time_s
+
+    async def run_to(self, time_s: float, settle_steps: int = 10) -> None:
+        """Step time forward to ``time_s`` [s], one deadline at a time.
+
+        At each deadline the sleepers due are woken and the loop is let run (``settle_steps``
+        yields) before time moves on, so each task sees its own deadline and a periodic task
+        fires once per period, in order, deterministically.
+        """
+        if time_s < self._now:
+            raise LifecycleError(
+                f"simulated time cannot go backwards (from {self._now} s to {time_s} s)"
+            )
+        while self._sleepers and self._sleepers[0][0] <= time_s:
+            deadline = self._sleepers[0][0]
+            self._now = max(self._now, deadline)
+            while self._sleepers and self._sleepers[0][0] <= deadline:
+                _, _, future = heapq.heappop(self._sleepers)
+                if not future.done():
+                    future.set_result(None)
+            for _ in range(settle_steps):
+                await asyncio.sleep(0)
         self._now = time_s
 
 

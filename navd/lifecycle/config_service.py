@@ -82,10 +82,10 @@ class ConfigService:
         )
 
     def _reject(self, request_id: str, source: str, err: ConfigError) -> None:
-        _log.warning("config_rejected", request_id=request_id, source=source,
-                     problems=list(err.problems))
+        _log.warning(
+            "config_rejected", request_id=request_id, source=source, problems=list(err.problems)
+        )
         now = self._clock.now()
         self._bus.publish(
             ConfigRejected(stamp=now, received=now, request_id=request_id, reason=str(err))
         )
-

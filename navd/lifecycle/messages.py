@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import Enum, StrEnum
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
@@ -79,7 +79,7 @@ class Vector3(NamedTuple):
     z: float
 
 
-class DeviceKind(str, Enum):
+class DeviceKind(StrEnum):
     """What a connected peripheral is."""
 
     LIDAR = "lidar"
@@ -154,7 +154,7 @@ class LaserScan(Message):
     @property
     def angles(self) -> FloatArray:
         """[rad] the angle of every ray, in the sensor frame."""
-        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+        return self.angle_min + self.angle_increment * np.arange(self.ranges.size, dtype=np.float64)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -431,9 +431,7 @@ class MapUpdate(Message):
         Message.__post_init__(self)
         if not self.resolution_m > 0.0:
             raise MessageError(f"resolution_m must be > 0, got {self.resolution_m}")
-        object.__setattr__(
-            self, "occupancy", _read_only("occupancy", self.occupancy, np.int8, 2)
-        )
+        object.__setattr__(self, "occupancy", _read_only("occupancy", self.occupancy, np.int8, 2))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

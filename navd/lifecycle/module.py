@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Awaitable, Callable, Coroutine, Sequence
-from enum import Enum
+from enum import StrEnum
 from typing import Any, TypeVar
 
 from structlog.typing import FilteringBoundLogger
@@ -31,7 +31,7 @@ M = TypeVar("M", bound=Message)
 _log = get_logger("lifecycle.modules")
 
 
-class ModuleState(str, Enum):
+class ModuleState(StrEnum):
     """Where a module is in its lifecycle (the Nav2 lifecycle states)."""
 
     UNCONFIGURED = "unconfigured"
@@ -171,11 +171,21 @@ class ModuleManager:
             for module in self.modules:
                 ctx = self._make_context(module.name)
                 self.contexts[module.name] = ctx
-                await self._transition(module, "configure", module.on_configure(ctx),
-                                       ModuleState.UNCONFIGURED, ModuleState.INACTIVE)
+                await self._transition(
+                    module,
+                    "configure",
+                    module.on_configure(ctx),
+                    ModuleState.UNCONFIGURED,
+                    ModuleState.INACTIVE,
+                )
             for module in self.modules:
-                await self._transition(module, "activate", module.on_activate(),
-                                       ModuleState.INACTIVE, ModuleState.ACTIVE)
+                await self._transition(
+                    module,
+                    "activate",
+                    module.on_activate(),
+                    ModuleState.INACTIVE,
+                    ModuleState.ACTIVE,
+                )
         except BaseException:
             await self.stop()
             raise
@@ -192,15 +202,17 @@ class ModuleManager:
         errors: list[Exception] = []
         for module in reversed(self.modules):
             if self.states[module.name] is ModuleState.ACTIVE:
-                await self._stop_step(module, "deactivate", module.on_deactivate(),
-                                      ModuleState.INACTIVE, errors)
+                await self._stop_step(
+                    module, "deactivate", module.on_deactivate(), ModuleState.INACTIVE, errors
+                )
                 ctx = self.contexts[module.name]
                 ctx.bus.unsubscribe_module(module.name)
                 await ctx.cancel_tasks(self.timeout_s)
         for module in reversed(self.modules):
             if self.states[module.name] is ModuleState.INACTIVE:
-                await self._stop_step(module, "cleanup", module.on_cleanup(),
-                                      ModuleState.FINALIZED, errors)
+                await self._stop_step(
+                    module, "cleanup", module.on_cleanup(), ModuleState.FINALIZED, errors
+                )
         return errors
 
     async def _stop_step(
@@ -214,8 +226,9 @@ class ModuleManager:
         try:
             await self._transition(module, transition, hook, self.states[module.name], target)
         except Exception as err:  # keep stopping the others; the error is returned
-            _log.error("module_stop_failed", module=module.name, transition=transition,
-                       error=str(err))
+            _log.error(
+                "module_stop_failed", module=module.name, transition=transition, error=str(err)
+            )
             errors.append(err)
 
     async def _transition(
@@ -242,5 +255,6 @@ class ModuleManager:
             self.states[module.name] = ModuleState.ERROR
             raise
         self.states[module.name] = target
-        _log.debug("module_transition", module=module.name, transition=transition,
-                   state=target.value)
+        _log.debug(
+            "module_transition", module=module.name, transition=transition, state=target.value
+        )

@@ -1,0 +1,40 @@
+"""Shared test helpers: a bus on simulated time and message factories."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+from navd.lifecycle.bus import Bus
+from navd.lifecycle.clock import SimClock
+from navd.lifecycle.messages import Message, VelocityCommand
+from navd.lifecycle.supervision import Supervisor
+
+
+def velocity(linear: float = 0.1, angular: float = 0.0, t: float = 0.0) -> VelocityCommand:
+    """A VelocityCommand stamped at ``t``."""
+    return VelocityCommand(
+        stamp=t, received=t, linear_mps=linear, angular_radps=angular, source="test"
+    )
+
+
+@pytest.fixture
+def clock() -> SimClock:
+    return SimClock(start_s=100.0)
+
+
+@pytest.fixture
+def bus(clock: SimClock) -> Bus:
+    return Bus(
+        clock, Supervisor(max_failures=3, window_s=10.0), handler_budget_s=10.0, max_cascade=100
+    )
+
+
+@pytest.fixture
+def recorder() -> Callable[[list[Any]], Callable[[Message], None]]:
+    def make(into: list[Any]) -> Callable[[Message], None]:
+        return into.append
+
+    return make

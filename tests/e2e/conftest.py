@@ -1,0 +1,80 @@
+"""Helpers to run the real navd process and read its JSON log lines."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from queue import Empty, Queue
+from typing import Any
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+class DaemonProcess:
+    """The real ``navd run`` process, with its JSON log lines collected by a thread."""
+
+    def __init__(self, args: list[str]) -> None:
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "navd", *args],
+            cwd=REPO,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.lines: Queue[dict[str, Any]] = Queue()
+        self.seen: list[dict[str, Any]] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.proc.stderr is not None
+        for raw in self.proc.stderr:
+            try:
+                self.lines.put(json.loads(raw))
+            except json.JSONDecodeError:
+                self.lines.put({"event": "non-json", "raw": raw})
+
+    def wait_for(self, event: str, timeout_s: float) -> dict[str, Any]:
+        """The first log line whose event is ``event``, waiting up to ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise AssertionError(f"no {event!r} log line within {timeout_s} s; saw {self.seen}")
+            try:
+                line = self.lines.get(timeout=remaining)
+            except Empty:
+                continue
+            self.seen.append(line)
+            if line.get("event") == event:
+                return line
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(5)
+
+
+@pytest.fixture
+def spawn_daemon() -> Iterator[Any]:
+    started: list[DaemonProcess] = []
+
+    def spawn(*args: str) -> DaemonProcess:
+        daemon = DaemonProcess(list(args))
+        started.append(daemon)
+        return daemon
+
+    yield spawn
+    for daemon in started:
+        daemon.stop()

@@ -1,0 +1,75 @@
+"""The real daemon process: start-up, idling without sensors, clean exit on signals."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from typing import Any
+
+import pytest
+
+from tests.e2e.conftest import REPO
+
+pytestmark = pytest.mark.e2e
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_daemon_gets_ready_idles_and_exits_0_on_signal(spawn_daemon: Any, sig: int) -> None:
+    daemon = spawn_daemon("run", "--config", "config/navd.toml")
+    started = time.monotonic()
+    ready = daemon.wait_for("ready", timeout_s=3.0)
+    assert ready["component"] == "lifecycle" and ready["level"] == "info"
+    assert time.monotonic() - started <= 3.0
+    time.sleep(1.0)  # no sensors attached: it keeps running
+    assert daemon.proc.poll() is None
+    daemon.proc.send_signal(sig)
+    signalled = time.monotonic()
+    assert daemon.proc.wait(timeout=2.0) == 0
+    assert time.monotonic() - signalled <= 2.0
+    zero = daemon.wait_for("zero_velocity", timeout_s=1.0)
+    assert zero["reason"] == f"signal {signal.Signals(sig).name}"
+    daemon.wait_for("stopped", timeout_s=1.0)
+
+
+def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any) -> None:
+    daemon = spawn_daemon("run")
+    starting = daemon.wait_for("starting", timeout_s=3.0)
+    assert starting["config"]["safety"]["reaction_timeout_s"] == 0.5
+    daemon.wait_for("ready", timeout_s=3.0)
+    daemon.proc.send_signal(signal.SIGTERM)
+    assert daemon.proc.wait(timeout=2.0) == 0
+
+
+def test_sighup_reloads_and_rejects_on_the_real_process(spawn_daemon: Any, tmp_path: Any) -> None:
+    path = tmp_path / "navd.toml"
+    path.write_text("[safety]\nreaction_timeout_s = 0.5\n")
+    daemon = spawn_daemon("run", "--config", str(path))
+    daemon.wait_for("ready", timeout_s=3.0)
+    path.write_text("[safety]\nreaction_timeout_s = 0.3\n")
+    daemon.proc.send_signal(signal.SIGHUP)
+    applied = daemon.wait_for("config_applied", timeout_s=2.0)
+    assert applied["changed"] == ["safety.reaction_timeout_s"]
+    path.write_text("[safety]\nreaction_timeout_s = 'later'\n")
+    daemon.proc.send_signal(signal.SIGHUP)
+    rejected = daemon.wait_for("config_rejected", timeout_s=2.0)
+    assert any("safety.reaction_timeout_s" in p for p in rejected["problems"])
+    assert daemon.proc.poll() is None
+    daemon.proc.send_signal(signal.SIGTERM)
+    assert daemon.proc.wait(timeout=2.0) == 0
+
+
+def test_config_check_command_names_the_bad_key(tmp_path: Any) -> None:
+    path = tmp_path / "navd.toml"
+    path.write_text("[chassis]\nbaudrate = 115201\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "navd", "config", "check", str(path)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "chassis.baudrate 115201 is not a standard rate" in result.stderr

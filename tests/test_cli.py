@@ -1,0 +1,86 @@
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from navd import __version__
+from navd.cli import main
+
+DEFAULT_FILE = Path(__file__).resolve().parents[1] / "config" / "navd.toml"
+
+
+def _broken_copy(tmp_path: Path, old: str, new: str) -> Path:
+    text = DEFAULT_FILE.read_text()
+    assert old in text
+    path = tmp_path / "navd.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def test_check_accepts_the_default_file(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["config", "check", str(DEFAULT_FILE)]) == 0
+    assert capsys.readouterr().out.strip().endswith("navd.toml: ok")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "named"),
+    [
+        (
+            "max_linear_speed_mps = 0.5",
+            "max_linear_sped_mps = 0.5",
+            "robot.max_linear_sped_mps: unknown key (did you mean 'max_linear_speed_mps'?)",
+        ),
+        (
+            "max_linear_speed_mps = 0.5",
+            "max_linear_speed_mps = -0.5",
+            "robot.max_linear_speed_mps = -0.5: Input should be greater than 0",
+        ),
+        (
+            "radius_m = 0.2",
+            'radius_m = "0.2"',
+            "robot.radius_m = '0.2': Input should be a valid number",
+        ),
+    ],
+)
+def test_check_rejects_a_bad_copy_naming_the_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str, named: str
+) -> None:
+    assert main(["config", "check", str(_broken_copy(tmp_path, old, new))]) == 2
+    assert named in capsys.readouterr().err
+
+
+def test_dump_fills_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "navd.toml"
+    path.write_text("[safety]\nreaction_timeout_s = 0.3\n")
+    assert main(["config", "dump", "--config", str(path)]) == 0
+    dumped = tomllib.loads(capsys.readouterr().out)
+    assert dumped["safety"]["reaction_timeout_s"] == 0.3
+    assert dumped["robot"]["max_linear_speed_mps"] == 0.5
+
+
+def test_dump_with_comments_is_the_default_file(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["config", "dump", "--comments"]) == 0
+    assert capsys.readouterr().out == DEFAULT_FILE.read_text()
+
+
+def test_run_with_a_bad_config_exits_2_before_starting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "navd.toml"
+    path.write_text("[tcp]\nport = 'http'\n")
+    assert main(["run", "--config", str(path)]) == 2
+    assert "tcp.port = 'http'" in capsys.readouterr().err
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"navd {__version__}"
+
+
+def test_no_command_prints_help_and_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([]) == 2
+    assert "usage: navd" in capsys.readouterr().err
