@@ -19,8 +19,8 @@ demo: $(STAMP)
 	$(BIN)/navd run --config config/navd.toml
 
 test: $(STAMP)
-	$(BIN)/ruff check navd tests bench
-	$(BIN)/ruff format --check navd tests bench
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 	$(BIN)/pytest
 
