@@ -133,7 +133,15 @@ class Bus:
             )
             _log.error("module_faulted", module=module, reason=reason)
             # Safety messages bypass the cascade bound: they must never be refused.
-            self._enqueue(SafeStop(stamp=now, received=now, reason=reason, source="supervisor"))
+            self._enqueue(
+                SafeStop(
+                    stamp=now,
+                    received=now,
+                    reason=reason,
+                    source="supervisor",
+                    key=f"fault:{module}",
+                )
+            )
             self._enqueue(
                 VelocityCommand(
                     stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source="supervisor"

@@ -24,6 +24,7 @@ from navd.lifecycle.messages import (
     ConfigApplied,
     DaemonStatus,
     ModuleHealth,
+    SafeStopCleared,
     VelocityCommand,
 )
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager
@@ -189,6 +190,11 @@ class Daemon:
             now = self.clock.now()
             for name in self.supervisor.clear_recovered(now):
                 _log.info("module_recovered", module=name)
+                self.bus.publish(
+                    SafeStopCleared(
+                        stamp=now, received=now, key=f"fault:{name}", source="supervisor"
+                    )
+                )
             status = self.status()
             self.bus.publish(status)
             period = self.config.logging.status_log_period_s

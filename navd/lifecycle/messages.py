@@ -35,10 +35,15 @@ __all__ = [
     "DeviceConnected",
     "DeviceKind",
     "DeviceLost",
+    "DeviceResumed",
+    "DeviceStale",
+    "DriveCommand",
     "GeoGoal",
     "Goal",
+    "GoalStatus",
     "GpsFix",
     "Imu",
+    "InitialPose",
     "LaserScan",
     "MapUpdate",
     "Message",
@@ -46,6 +51,9 @@ __all__ = [
     "Path",
     "PoseEstimate",
     "SafeStop",
+    "SafeStopCleared",
+    "SafetyState",
+    "SaveMapRequest",
     "Vector3",
     "VelocityCommand",
     "WheelOdometry",
@@ -253,11 +261,28 @@ class DeviceConnected(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class DeviceLost(Message):
-    """A peripheral disconnected or went stale; ``reason`` says which and why."""
+    """A peripheral disconnected; ``reason`` says why."""
 
     device_id: str
     kind: DeviceKind
     reason: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class DeviceStale(Message):
+    """A connected peripheral sent nothing for ``silent_s`` [s], longer than its timeout."""
+
+    device_id: str
+    kind: DeviceKind
+    silent_s: float
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class DeviceResumed(Message):
+    """A stale peripheral is sending again."""
+
+    device_id: str
+    kind: DeviceKind
 
 
 # --- control ----------------------------------------------------------------------------
@@ -295,6 +320,50 @@ class GeoGoal(Message):
     latitude_deg: float
     longitude_deg: float
     yaw_rad: float | None = None
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class InitialPose(Message):
+    """Where the robot is, told by a person: re-seeds localization.
+
+    Attributes:
+        x_m, y_m: [m] map position.
+        yaw_rad: [rad] heading, counter-clockwise from +x.
+        std_xy_m: [m] 1-sigma position uncertainty.
+        std_yaw_rad: [rad] 1-sigma heading uncertainty.
+    """
+
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    std_xy_m: float = 0.5
+    std_yaw_rad: float = 0.3
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SaveMapRequest(Message):
+    """Save the map now under ``name`` (the configured name when empty)."""
+
+    name: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class GoalStatus(Message):
+    """Progress towards a goal, published by the planner.
+
+    Attributes:
+        goal_id: the goal.
+        state: "active", "reached", "canceled" or "failed".
+        distance_remaining_m: [m] along the path, NaN when unknown.
+        eta_s: [s] estimated time to arrival, NaN when unknown.
+        reason: why it failed or was canceled; empty otherwise.
+    """
+
+    goal_id: str
+    state: str
+    distance_remaining_m: float = math.nan
+    eta_s: float = math.nan
+    reason: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -373,10 +442,52 @@ class VelocityCommand(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class DriveCommand(Message):
+    """The body velocity the chassis must execute: the safety gate's output, nothing else's.
+
+    Attributes:
+        linear_mps: [m/s] forward velocity.
+        angular_radps: [rad/s] yaw rate, counter-clockwise positive.
+        reason: why the gate changed the requested command ("" when passed through).
+    """
+
+    linear_mps: float
+    angular_radps: float
+    reason: str = ""
+
+    @property
+    def is_stop(self) -> bool:
+        """True for the zero command."""
+        return self.linear_mps == 0.0 and self.angular_radps == 0.0
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafetyState(Message):
+    """Why the safety gate holds the robot still; empty ``reasons`` means it may move."""
+
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SafeStop(Message):
-    """The robot must stand still; ``reason`` says why, ``source`` who decided."""
+    """The robot must stand still until a SafeStopCleared with the same ``key``.
+
+    Attributes:
+        reason: why, for people.
+        source: who decided ("supervisor", "collision_guard"...).
+        key: names this hold ("fault:planner"); a SafeStopCleared with it releases it.
+    """
 
     reason: str
+    source: str
+    key: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafeStopCleared(Message):
+    """The hold named ``key`` no longer applies."""
+
+    key: str
     source: str
 
 

@@ -48,7 +48,7 @@ def test_subscribing_to_base_class_receives_every_message(bus: Bus) -> None:
     only_stops: list[Message] = []
     bus.subscribe(Message, everything.append, module="recorder")
     bus.subscribe(SafeStop, only_stops.append, module="safety")
-    stop = SafeStop(stamp=0.0, received=0.0, reason="test", source="t")
+    stop = SafeStop(stamp=0.0, received=0.0, reason="test", source="t", key="t")
     bus.publish(velocity())
     bus.publish(stop)
     assert [type(m) for m in everything] == [VelocityCommand, SafeStop]

@@ -1,0 +1,106 @@
+"""The safety gate: the one place every wheel command passes, and the planner cannot bypass.
+
+Modules request motion with VelocityCommand; only the gate publishes DriveCommand, the only
+message the chassis obeys. The gate holds the robot still (zero DriveCommand) while any
+reason holds: a lidar that is stale or disconnected after having been seen, or a SafeStop
+(a faulted module, later a close obstacle or lost localization) not yet cleared by its key. It clamps what it passes
+to the robot's speed limits. The chassis driver adds the last guard: with no fresh
+DriveCommand for ``safety.reaction_timeout_s`` it writes zero on its own.
+"""
+
+from __future__ import annotations
+
+from navd.lifecycle.messages import (
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DeviceResumed,
+    DeviceStale,
+    DriveCommand,
+    SafeStop,
+    SafeStopCleared,
+    SafetyState,
+    VelocityCommand,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["SafetyGate"]
+
+
+class SafetyGate(Module):
+    """Turns requested VelocityCommands into DriveCommands, or zero while unsafe."""
+
+    def __init__(self) -> None:
+        super().__init__("safety")
+        self._reasons: dict[str, str] = {}
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        ctx.subscribe(VelocityCommand, self._on_velocity)
+        ctx.subscribe(DeviceStale, self._on_stale)
+        ctx.subscribe(DeviceLost, self._on_lost)
+        ctx.subscribe(DeviceResumed, self._on_back)
+        ctx.subscribe(DeviceConnected, self._on_back)
+        ctx.subscribe(SafeStop, self._on_safe_stop)
+        ctx.subscribe(SafeStopCleared, self._on_cleared)
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Why the robot is held still, in the order the reasons arose."""
+        return tuple(self._reasons.values())
+
+    def _on_velocity(self, cmd: VelocityCommand) -> None:
+        if self._reasons:
+            self._drive(0.0, 0.0, "; ".join(self._reasons.values()))
+            return
+        robot = self.ctx.config.robot
+        linear = min(max(cmd.linear_mps, -robot.max_reverse_speed_mps), robot.max_linear_speed_mps)
+        limit = robot.max_angular_speed_radps
+        angular = min(max(cmd.angular_radps, -limit), limit)
+        clamped = (linear, angular) != (cmd.linear_mps, cmd.angular_radps)
+        self._drive(linear, angular, "clamped to robot limits" if clamped else "")
+
+    def _on_stale(self, msg: DeviceStale) -> None:
+        if msg.kind is DeviceKind.LIDAR:
+            self._hold(
+                f"lidar:{msg.device_id}", f"lidar {msg.device_id!r} silent {msg.silent_s:.2f} s"
+            )
+
+    def _on_lost(self, msg: DeviceLost) -> None:
+        if msg.kind is DeviceKind.LIDAR:
+            self._hold(f"lidar:{msg.device_id}", f"lidar {msg.device_id!r} lost: {msg.reason}")
+
+    def _on_back(self, msg: DeviceResumed | DeviceConnected) -> None:
+        if msg.kind is DeviceKind.LIDAR:
+            self._release(f"lidar:{msg.device_id}")
+
+    def _on_safe_stop(self, msg: SafeStop) -> None:
+        self._hold(msg.key, msg.reason)
+
+    def _on_cleared(self, msg: SafeStopCleared) -> None:
+        self._release(msg.key)
+
+    def _hold(self, key: str, text: str) -> None:
+        fresh = key not in self._reasons
+        self._reasons[key] = text
+        if fresh:
+            self.ctx.log.warning("safety_hold", reason=text)
+            self._drive(0.0, 0.0, text)
+            self._publish_state()
+
+    def _release(self, key: str) -> None:
+        if self._reasons.pop(key, None) is not None:
+            self.ctx.log.info("safety_release", reason=key, remaining=self.reasons)
+            self._publish_state()
+
+    def _drive(self, linear: float, angular: float, reason: str) -> None:
+        now = self.ctx.clock.now()
+        self.ctx.publish(
+            DriveCommand(
+                stamp=now, received=now, linear_mps=linear, angular_radps=angular, reason=reason
+            )
+        )
+
+    def _publish_state(self) -> None:
+        now = self.ctx.clock.now()
+        self.ctx.publish(SafetyState(stamp=now, received=now, reasons=self.reasons))
