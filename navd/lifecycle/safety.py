@@ -4,8 +4,8 @@ Modules request motion with VelocityCommand; only the gate publishes DriveComman
 message the chassis obeys. The gate holds the robot still (zero DriveCommand) while any
 reason holds: a lidar that is stale or disconnected after having been seen, or a SafeStop
 (a faulted module, later a close obstacle or lost localization) not yet cleared by its key.
-It clamps what it passes to the robot's speed limits. The chassis driver adds the last guard: with no fresh
-DriveCommand for ``safety.reaction_timeout_s`` it writes zero on its own.
+It clamps what it passes to the robot's speed limits. The chassis driver adds the last
+guard: with no fresh DriveCommand for ``safety.reaction_timeout_s`` it writes zero itself.
 """
 
 from __future__ import annotations
