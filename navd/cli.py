@@ -8,9 +8,13 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import json
+import math
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from navd import __version__
 from navd.config import ConfigError, NavdConfig, dump_toml, load_config
@@ -58,7 +62,43 @@ def _parser() -> argparse.ArgumentParser:
         "--comments", action="store_true", help="describe every key (as in config/navd.toml)"
     )
     dump.set_defaults(handler=_cmd_config_dump)
+
+    goal = commands.add_parser("goal", help="send a goal in the map frame")
+    goal.add_argument("x", type=float, help="[m] map x")
+    goal.add_argument("y", type=float, help="[m] map y")
+    goal.add_argument("--yaw", type=float, help="[rad] final heading (default: any)")
+    goal.add_argument("--id", dest="goal_id", help="goal id (default: chosen by navd)")
+    _connection_options(goal)
+    goal.set_defaults(handler=_cmd_goal)
+
+    cancel = commands.add_parser("cancel", help="cancel the active goal")
+    cancel.add_argument("--id", dest="goal_id", help="cancel only this goal")
+    _connection_options(cancel)
+    cancel.set_defaults(handler=_cmd_cancel)
+
+    status = commands.add_parser("status", help="watch the daemon's status")
+    status.add_argument("--rate", type=float, default=2.0, help="[Hz] updates per second")
+    status.add_argument("--once", action="store_true", help="print one status and exit")
+    status.add_argument("--json", action="store_true", help="print raw status frames")
+    _connection_options(status)
+    status.set_defaults(handler=_cmd_status)
     return parser
+
+
+def _connection_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", type=Path, help="take host, port and token from this file")
+    parser.add_argument("--host", help="navd address (default: tcp.host, 127.0.0.1)")
+    parser.add_argument("--port", type=int, help="navd port (default: tcp.port, 7420)")
+    parser.add_argument("--token", help="shared secret (default: tcp.token or $NAVD_TOKEN)")
+
+
+def _connect(args: argparse.Namespace) -> Any:
+    from navd.drivers.client import Client  # noqa: PLC0415 - only the client commands need it
+
+    tcp = _load(args.config).tcp
+    host = args.host or ("127.0.0.1" if tcp.host in ("0.0.0.0", "::") else tcp.host)
+    token = args.token or tcp.token or os.environ.get("NAVD_TOKEN")
+    return Client(host, args.port or tcp.port, device_id=f"cli-{os.getpid()}", token=token)
 
 
 def _load(path: Path | None) -> NavdConfig:
@@ -92,12 +132,91 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(err, file=sys.stderr)
         return EXIT_USAGE
     configure_logging(config.logging.level, config.logging.format)
-    from navd.lifecycle import Daemon  # noqa: PLC0415 - keep `navd config` fast to start
+    from navd.app import build_modules  # noqa: PLC0415 - keep `navd config` fast to start
+    from navd.lifecycle import Daemon  # noqa: PLC0415
 
-    daemon = Daemon(config, config_path=args.config)
+    daemon = Daemon(config, build_modules(config), config_path=args.config)
     try:
         asyncio.run(daemon.run())
     except NavdError as err:
         get_logger("cli").error("daemon_failed", error=str(err))
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _client_command(args: argparse.Namespace, frame: dict[str, Any]) -> int:
+    from navd.drivers.client import ClientError  # noqa: PLC0415
+
+    try:
+        with _connect(args) as client:
+            ack = client.request(frame)
+    except (ClientError, ConfigError) as err:
+        print(f"navd {frame['type']}: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(json.dumps(ack))
+    return EXIT_OK
+
+
+def _cmd_goal(args: argparse.Namespace) -> int:
+    frame: dict[str, Any] = {"type": "goal", "x": args.x, "y": args.y}
+    if args.yaw is not None:
+        frame["yaw"] = args.yaw
+    if args.goal_id is not None:
+        frame["goal_id"] = args.goal_id
+    return _client_command(args, frame)
+
+
+def _cmd_cancel(args: argparse.Namespace) -> int:
+    frame: dict[str, Any] = {"type": "cancel"}
+    if args.goal_id is not None:
+        frame["goal_id"] = args.goal_id
+    return _client_command(args, frame)
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    from navd.drivers.client import ClientError  # noqa: PLC0415
+
+    try:
+        with _connect(args) as client:
+            client.request({"type": "subscribe", "rate_hz": args.rate})
+            while True:
+                frame = client.receive()
+                if frame.get("type") != "status":
+                    continue
+                print(json.dumps(frame) if args.json else format_status(frame), flush=True)
+                if args.once:
+                    return EXIT_OK
+    except (ClientError, ConfigError) as err:
+        print(f"navd status: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        return EXIT_OK
+
+
+def format_status(frame: dict[str, Any]) -> str:
+    """One readable line for a status frame."""
+    pose = frame.get("pose")
+    where = (
+        f"pose ({pose['x']:.2f}, {pose['y']:.2f}) m {math.degrees(pose['yaw']):.0f} deg"
+        if pose
+        else "pose unknown"
+    )
+    vel = frame.get("velocity")
+    moving = f"v {vel['linear']:.2f} m/s w {vel['angular']:.2f} rad/s" if vel else "v -"
+    goal = frame.get("goal")
+    target = f"goal {goal['goal_id']} {goal['state']}" if goal else "no goal"
+    devices = (
+        ", ".join(
+            f"{d['device_id']}({d['kind']}{', STALE' if d['stale'] else ''})"
+            for d in frame.get("devices", [])
+        )
+        or "none"
+    )
+    diag = frame.get("diagnostics", {})
+    lag = diag.get("loop_lag_p99_ms")
+    safety = "; ".join(diag.get("safety", [])) or "ok"
+    lag_text = f"{lag:.2f} ms" if lag is not None else "-"
+    return (
+        f"[{frame.get('mode', '?')}] {where} | {moving} | {target} | devices: {devices} | "
+        f"lag p99 {lag_text} | safety: {safety}"
+    )

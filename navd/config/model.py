@@ -186,8 +186,10 @@ class ChassisConfig(Section):
     reconnect_max_s: float = Field(
         5.0, gt=0, le=600, description="[s] longest wait between reopening attempts"
     )
-    feedback: Literal["off", "log"] = Field(
-        "log", description="what to do with lines the STM32 sends back"
+    feedback: Literal["off", "log", "encoders"] = Field(
+        "log",
+        description='lines the STM32 sends back: ignore, log, or parse "%d %d" as measured '
+        "wheel speeds in command units into wheel odometry",
     )
 
     @model_validator(mode="after")

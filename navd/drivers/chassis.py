@@ -1,0 +1,255 @@
+"""The STM32 chassis on a UART: one "%d %d" line of wheel commands per period.
+
+The driver obeys only DriveCommand (the safety gate's output). At a fixed rate it writes the
+latest command, or "0 0" when none came for ``safety.reaction_timeout_s``. It writes "0 0"
+when it starts, when it stops, at once on a SafeStop, and first thing after reopening a lost
+port; a command received before the loss is never replayed. A lost port (USB unplugged, pty
+closed) is reported as DeviceLost and reopened with exponential backoff. Lines the STM32
+sends back are logged or, if configured, parsed as measured wheel speeds into WheelOdometry.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from typing import Any
+
+import serial
+
+from navd.drivers.errors import SerialPortError
+from navd.drivers.kinematics import (
+    WheelCalibration,
+    body_velocity,
+    format_command,
+    wheel_command,
+    wheel_speeds,
+)
+from navd.lifecycle.clock import ticks
+from navd.lifecycle.messages import (
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DriveCommand,
+    SafeStop,
+    WheelOdometry,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["ChassisDriver"]
+
+LINE_ENDINGS = {"lf": "\n", "crlf": "\r\n"}
+MAX_FEEDBACK_LINE = 256
+
+
+class ChassisDriver(Module):
+    """The chassis module ("chassis")."""
+
+    def __init__(self) -> None:
+        super().__init__("chassis")
+        self._port: Any = None
+        self._latest: DriveCommand | None = None
+        self._latest_rx_s = 0.0
+        self._timed_out = True
+        self._lost_reason = ""
+        self._rx = bytearray()
+        self.lines_written = 0
+        self.writes_stalled = 0
+        self.reconnects = 0
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        ctx.subscribe(DriveCommand, self._on_drive)
+        ctx.subscribe(SafeStop, self._on_safe_stop)
+
+    async def on_activate(self) -> None:
+        self.ctx.spawn(self._run(), name="serial")
+
+    async def on_deactivate(self) -> None:
+        if self._port is not None:
+            with contextlib.suppress(SerialPortError):
+                self._write(0, 0)
+            self._close()
+
+    # --- bus ----------------------------------------------------------------------------
+
+    def _on_drive(self, cmd: DriveCommand) -> None:
+        self._latest = cmd
+        self._latest_rx_s = self.ctx.clock.now()
+        if cmd.is_stop and self._port is not None:
+            self._write_safely(0, 0)  # stopping never waits for the next tick
+
+    def _on_safe_stop(self, stop: SafeStop) -> None:
+        self._latest = None
+        if self._port is not None:
+            self._write_safely(0, 0)
+
+    # --- the serial loop ----------------------------------------------------------------
+
+    async def _run(self) -> None:
+        chassis = self.ctx.config.chassis
+        backoff = chassis.reconnect_initial_s
+        reported_down = False
+        while True:
+            try:
+                await self._open()
+            except SerialPortError as err:
+                if not reported_down:
+                    self.ctx.log.error(
+                        "chassis_unavailable", port=chassis.port, error=str(err), retry_s=backoff
+                    )
+                    self._publish_lost(str(err))
+                    reported_down = True
+                await self.ctx.clock.sleep(backoff)
+                backoff = min(backoff * 2.0, self.ctx.config.chassis.reconnect_max_s)
+                continue
+            backoff = chassis.reconnect_initial_s
+            reported_down = False
+            try:
+                await self._drive_loop()
+            except SerialPortError as err:
+                self.ctx.log.error("chassis_lost", port=chassis.port, error=str(err))
+                self._close()
+                self._publish_lost(str(err))
+                reported_down = True
+                self.reconnects += 1
+
+    async def _open(self) -> None:
+        chassis = self.ctx.config.chassis
+        try:
+            port = await asyncio.to_thread(
+                serial.Serial,
+                port=chassis.port,
+                baudrate=chassis.baudrate,
+                timeout=0,
+                write_timeout=0,
+            )
+        except (serial.SerialException, OSError, ValueError) as err:
+            raise SerialPortError(f"cannot open {chassis.port}: {err}") from err
+        self._port = port
+        self._lost_reason = ""
+        self._latest = None  # never replay a command from before the port was (re)opened
+        self._rx.clear()
+        self._write(0, 0)
+        if self.ctx.config.chassis.feedback != "off":
+            asyncio.get_running_loop().add_reader(port.fileno(), self._readable)
+        self.ctx.log.info("chassis_open", port=chassis.port, baudrate=chassis.baudrate)
+        now = self.ctx.clock.now()
+        self.ctx.publish(
+            DeviceConnected(
+                stamp=now, received=now, device_id=chassis.port, kind=DeviceKind.CHASSIS
+            )
+        )
+
+    async def _drive_loop(self) -> None:
+        async for _ in ticks(self.ctx.clock, 1.0 / self.ctx.config.chassis.command_rate_hz):
+            if self._lost_reason:
+                raise SerialPortError(self._lost_reason)
+            self._write(*self._command_now())
+
+    def _command_now(self) -> tuple[int, int]:
+        cmd = self._latest
+        now = self.ctx.clock.now()
+        timeout = self.ctx.config.safety.reaction_timeout_s
+        if cmd is None or now - self._latest_rx_s > timeout:
+            if not self._timed_out and cmd is not None:
+                self.ctx.log.warning(
+                    "reaction_timeout",
+                    silent_s=round(now - self._latest_rx_s, 3),
+                    timeout_s=timeout,
+                )
+            self._timed_out = True
+            return 0, 0
+        self._timed_out = False
+        config = self.ctx.config
+        left, right = wheel_speeds(cmd.linear_mps, cmd.angular_radps, config.robot.track_width_m)
+        return wheel_command(left, right, WheelCalibration.from_config(config.chassis))
+
+    # --- port I/O -----------------------------------------------------------------------
+
+    def _write(self, left: int, right: int) -> None:
+        line = format_command(left, right, LINE_ENDINGS[self.ctx.config.chassis.line_ending])
+        try:
+            self._port.write(line)
+        except serial.SerialTimeoutException:
+            self.writes_stalled += 1  # nobody reads the UART: drop this line, not the port
+            return
+        except (serial.SerialException, OSError) as err:
+            self._lost_reason = f"write failed: {err}"
+            raise SerialPortError(self._lost_reason) from err
+        self.lines_written += 1
+
+    def _write_safely(self, left: int, right: int) -> None:
+        """A write from a bus handler: a failure is left to the serial loop to handle."""
+        with contextlib.suppress(SerialPortError):
+            self._write(left, right)
+
+    def _readable(self) -> None:
+        try:
+            data = self._port.read(4096)
+        except (serial.SerialException, OSError) as err:
+            self._lost_reason = f"read failed: {err}"
+            self._stop_reading()
+            return
+        self._rx += data
+        while (end := self._rx.find(b"\n")) >= 0:
+            line = bytes(self._rx[:end]).strip()
+            del self._rx[: end + 1]
+            if line:
+                self._feedback(line)
+        if len(self._rx) > MAX_FEEDBACK_LINE:
+            self.ctx.log.warning("chassis_feedback_garbled", bytes=len(self._rx))
+            self._rx.clear()
+
+    def _feedback(self, line: bytes) -> None:
+        config = self.ctx.config
+        if config.chassis.feedback == "log":
+            self.ctx.log.info("chassis_feedback", line=line.decode(errors="replace"))
+            return
+        try:
+            left_units, right_units = (int(v) for v in line.split())
+        except ValueError:
+            self.ctx.log.warning(
+                "chassis_feedback_unparsed",
+                line=line.decode(errors="replace"),
+                expected="two integers '%d %d'",
+            )
+            return
+        cal = WheelCalibration.from_config(config.chassis)
+        left = (-left_units if cal.invert_left else left_units) / cal.scale_per_mps
+        right = (-right_units if cal.invert_right else right_units) / cal.scale_per_mps
+        linear, angular = body_velocity(left, right, config.robot.track_width_m)
+        now = self.ctx.clock.now()
+        self.ctx.publish(
+            WheelOdometry(
+                stamp=now,
+                received=now,
+                device_id="chassis",
+                linear_mps=linear,
+                angular_radps=angular,
+            )
+        )
+
+    def _stop_reading(self) -> None:
+        if self._port is not None:
+            with contextlib.suppress(ValueError, OSError, RuntimeError):
+                asyncio.get_running_loop().remove_reader(self._port.fileno())
+
+    def _close(self) -> None:
+        if self._port is None:
+            return
+        self._stop_reading()
+        with contextlib.suppress(serial.SerialException, OSError):
+            self._port.close()
+        self._port = None
+
+    def _publish_lost(self, reason: str) -> None:
+        now = self.ctx.clock.now()
+        self.ctx.publish(
+            DeviceLost(
+                stamp=now,
+                received=now,
+                device_id=self.ctx.config.chassis.port,
+                kind=DeviceKind.CHASSIS,
+                reason=reason,
+            )
+        )

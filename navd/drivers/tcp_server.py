@@ -1,0 +1,482 @@
+"""The TCP peripheral server: sensor and control clients that come and go while navd runs.
+
+Every connection starts with a ``hello`` naming its role and device id. Sensor frames become
+typed messages on the bus, stamped on the daemon clock; control frames become goals,
+cancels, config changes, initial poses and map saves, each acknowledged; a control client
+may subscribe to a status stream. Hot-plug is published as DeviceConnected / DeviceLost, and
+a device silent for longer than its configured timeout as DeviceStale (DeviceResumed when
+it speaks again). The same device id connecting again replaces the old session. Every
+rejected line is answered with an ``error`` frame naming the field; the connection and the
+other clients carry on.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from navd import __version__
+from navd.drivers.errors import WireError
+from navd.drivers.tcp_connection import Connection
+from navd.drivers.timesync import StampMapper
+from navd.drivers.wire import (
+    PROTOCOL_VERSION,
+    SENSOR_ROLES,
+    PingFrame,
+    SubscribeFrame,
+    UnsubscribeFrame,
+    control_message,
+    decode_control,
+    decode_hello,
+    decode_sensor,
+    sensor_message,
+)
+from navd.lifecycle.errors import MessageError
+from navd.lifecycle.messages import (
+    ConfigApplied,
+    ConfigChange,
+    ConfigRejected,
+    DaemonStatus,
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DeviceResumed,
+    DeviceStale,
+    DriveCommand,
+    Goal,
+    GoalStatus,
+    PoseEstimate,
+    SafetyState,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["TcpServer"]
+
+STALE_CHECK_PERIOD_S = 0.02
+STATUS_FRAME_BYTES = 4096
+
+
+@dataclass
+class Session:
+    """A client that completed its handshake."""
+
+    device_id: str
+    kind: DeviceKind
+    conn: Connection
+    connected_s: float
+    last_rx_s: float
+    stamps: StampMapper = field(default_factory=StampMapper)
+    accepted: int = 0
+    rejected: int = 0
+    stale: bool = False
+    replaced: bool = False
+    requests: int = 0
+    status_task: asyncio.Task[None] | None = None
+
+
+class TcpServer(Module):
+    """The TCP server module ("tcp")."""
+
+    def __init__(self) -> None:
+        super().__init__("tcp")
+        self.sessions: dict[str, Session] = {}
+        self.connections: set[Connection] = set()
+        self._server: asyncio.Server | None = None
+        self._pose: PoseEstimate | None = None
+        self._drive: DriveCommand | None = None
+        self._goal: GoalStatus | None = None
+        self._daemon: DaemonStatus | None = None
+        self._safety: tuple[str, ...] = ()
+        self._config_requests: dict[str, Session] = {}
+
+    # --- lifecycle --------------------------------------------------------------------
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        ctx.subscribe(PoseEstimate, self._keep_pose)
+        ctx.subscribe(DriveCommand, self._keep_drive)
+        ctx.subscribe(DaemonStatus, self._keep_daemon)
+        ctx.subscribe(SafetyState, self._keep_safety)
+        ctx.subscribe(Goal, self._on_goal)
+        ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(ConfigApplied, self._on_config_answer)
+        ctx.subscribe(ConfigRejected, self._on_config_answer)
+
+    async def on_activate(self) -> None:
+        tcp = self.ctx.config.tcp
+        loop = asyncio.get_running_loop()
+        self._server = await loop.create_server(
+            self._new_connection, host=tcp.host, port=tcp.port, reuse_address=True
+        )
+        address = self._server.sockets[0].getsockname()
+        self.ctx.log.info(
+            "listening", host=address[0], port=address[1], token_required=tcp.token is not None
+        )
+        self.ctx.spawn(self._watch_staleness(), name="staleness")
+
+    async def on_deactivate(self) -> None:
+        if self._server is not None:
+            self._server.close()
+        for conn in list(self.connections):
+            conn.close(
+                "daemon stopping",
+                {"type": "error", "field": "", "reason": "daemon stopping", "fatal": True},
+            )
+        if self._server is not None:
+            await self._server.wait_closed()
+            self._server = None
+
+    @property
+    def port(self) -> int:
+        """The bound port (useful when the config asked for port 0 in tests)."""
+        assert self._server is not None, "server not active"
+        port: int = self._server.sockets[0].getsockname()[1]
+        return port
+
+    # --- connections --------------------------------------------------------------------
+
+    def _new_connection(self) -> Connection:
+        tcp = self.ctx.config.tcp
+        return Connection(
+            self,
+            max_line_bytes=tcp.max_line_bytes,
+            handshake_timeout_s=tcp.handshake_timeout_s,
+            write_high_bytes=tcp.status_queue * STATUS_FRAME_BYTES,
+        )
+
+    def on_open(self, conn: Connection) -> bool:
+        limit = self.ctx.config.tcp.max_clients
+        if len(self.connections) >= limit:
+            conn.close(
+                "too many clients",
+                {
+                    "type": "error",
+                    "field": "",
+                    "fatal": True,
+                    "reason": f"server full: {limit} clients connected (tcp.max_clients)",
+                },
+            )
+            self.ctx.log.warning("client_refused", peer=conn.peer, reason="server full")
+            return False
+        self.connections.add(conn)
+        return True
+
+    def on_line(self, conn: Connection, line: bytes) -> None:
+        if not line.strip():
+            return  # blank lines are allowed (keep-alives, a person pressing enter in nc)
+        session = conn.session
+        try:
+            if session is None:
+                self._handshake(conn, line)
+            else:
+                assert isinstance(session, Session)
+                self._frame(session, line)
+        except (WireError, MessageError) as err:
+            field_name = err.field if isinstance(err, WireError) else ""
+            reason = err.reason if isinstance(err, WireError) else str(err)
+            if isinstance(session, Session):
+                session.rejected += 1
+            conn.send({"type": "error", "field": field_name, "reason": reason})
+        except Exception as err:  # the connection's supervised boundary
+            self.ctx.bus.report_failure(self.name, {"peer": conn.peer, "line": line[:200]}, err)
+            conn.send({"type": "error", "field": "", "reason": "internal error on this frame"})
+
+    def on_close(self, conn: Connection, reason: str) -> None:
+        self.connections.discard(conn)
+        session = conn.session
+        if not isinstance(session, Session):
+            return
+        if session.status_task is not None:
+            session.status_task.cancel()
+        if session.replaced or self.sessions.get(session.device_id) is not session:
+            return
+        del self.sessions[session.device_id]
+        now = self.ctx.clock.now()
+        self.ctx.log.info(
+            "device_lost", device_id=session.device_id, kind=session.kind.value, reason=reason
+        )
+        self.ctx.publish(
+            DeviceLost(
+                stamp=now,
+                received=now,
+                device_id=session.device_id,
+                kind=session.kind,
+                reason=reason,
+            )
+        )
+
+    # --- handshake ----------------------------------------------------------------------
+
+    def _handshake(self, conn: Connection, line: bytes) -> None:
+        try:
+            hello = decode_hello(line)
+        except WireError as err:
+            conn.close(
+                "bad hello",
+                {"type": "error", "field": err.field, "reason": err.reason, "fatal": True},
+            )
+            return
+        token = self.ctx.config.tcp.token
+        if token is not None and not hmac.compare_digest(
+            (hello.token or "").encode(), token.encode()
+        ):
+            conn.close(
+                "bad token",
+                {
+                    "type": "error",
+                    "field": "token",
+                    "fatal": True,
+                    "reason": "missing or wrong token",
+                },
+            )
+            self.ctx.log.warning("client_refused", peer=conn.peer, reason="bad token")
+            return
+        now = self.ctx.clock.now()
+        old = self.sessions.get(hello.device_id)
+        if old is not None:
+            old.replaced = True
+            old.conn.close(
+                "replaced",
+                {
+                    "type": "error",
+                    "field": "device_id",
+                    "fatal": True,
+                    "reason": "replaced by a new connection with this id",
+                },
+            )
+            self.ctx.publish(
+                DeviceLost(
+                    stamp=now,
+                    received=now,
+                    device_id=old.device_id,
+                    kind=old.kind,
+                    reason="replaced by a new connection",
+                )
+            )
+        session = Session(hello.device_id, hello.kind, conn, connected_s=now, last_rx_s=now)
+        self.sessions[hello.device_id] = session
+        conn.session = session
+        conn.handshake_done()
+        conn.send(
+            {
+                "type": "welcome",
+                "protocol": PROTOCOL_VERSION,
+                "daemon": f"navd {__version__}",
+                "device_id": hello.device_id,
+                "role": hello.role,
+                "max_line_bytes": self.ctx.config.tcp.max_line_bytes,
+            }
+        )
+        self.ctx.log.info(
+            "device_connected",
+            device_id=hello.device_id,
+            kind=hello.role,
+            peer=conn.peer,
+            replaced=old is not None,
+        )
+        self.ctx.publish(
+            DeviceConnected(stamp=now, received=now, device_id=hello.device_id, kind=hello.kind)
+        )
+
+    # --- frames -------------------------------------------------------------------------
+
+    def _frame(self, session: Session, line: bytes) -> None:
+        now = self.ctx.clock.now()
+        session.last_rx_s = now
+        if session.stale:
+            session.stale = False
+            self.ctx.publish(
+                DeviceResumed(
+                    stamp=now, received=now, device_id=session.device_id, kind=session.kind
+                )
+            )
+        if session.kind in SENSOR_ROLES:
+            frame = decode_sensor(session.kind, line)
+            if isinstance(frame, PingFrame):
+                session.conn.send({"type": "pong", "id": frame.id})
+                return
+            stamp = session.stamps.to_daemon(frame.stamp, now)
+            message = sensor_message(frame, session.device_id, stamp, now)
+            session.accepted += 1
+            if message is not None:
+                self.ctx.publish(message)
+            return
+        self._control(session, decode_control(line), now)
+
+    def _control(self, session: Session, frame: Any, now: float) -> None:
+        session.accepted += 1
+        session.requests += 1
+        if isinstance(frame, PingFrame):
+            session.conn.send({"type": "pong", "id": frame.id})
+        elif isinstance(frame, SubscribeFrame):
+            if session.status_task is not None:
+                session.status_task.cancel()
+            session.status_task = asyncio.get_running_loop().create_task(
+                self._stream_status(session, frame.rate_hz)
+            )
+            session.conn.send({"type": "ack", "request": "subscribe", "rate_hz": frame.rate_hz})
+        elif isinstance(frame, UnsubscribeFrame):
+            if session.status_task is not None:
+                session.status_task.cancel()
+                session.status_task = None
+            session.conn.send({"type": "ack", "request": "unsubscribe"})
+        else:
+            message = control_message(frame, session.device_id, now, session.requests)
+            assert message is not None
+            ack: dict[str, object] = {"type": "ack", "request": frame.type}
+            if hasattr(message, "goal_id"):
+                ack["goal_id"] = message.goal_id
+            if isinstance(message, ConfigChange):
+                ack["request_id"] = message.request_id
+                self._config_requests[message.request_id] = session
+            session.conn.send(ack)
+            self.ctx.publish(message)
+
+    # --- outgoing -----------------------------------------------------------------------
+
+    def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
+        session = self._config_requests.pop(answer.request_id, None)
+        if session is None:
+            return
+        if isinstance(answer, ConfigApplied):
+            session.conn.send(
+                {
+                    "type": "config_applied",
+                    "request_id": answer.request_id,
+                    "changed": list(answer.changed_keys),
+                }
+            )
+        else:
+            session.conn.send(
+                {
+                    "type": "config_rejected",
+                    "request_id": answer.request_id,
+                    "reason": answer.reason,
+                }
+            )
+
+    def _on_goal(self, goal: Goal) -> None:
+        if self._goal is None or self._goal.goal_id != goal.goal_id:
+            self._goal = GoalStatus(
+                stamp=goal.stamp, received=goal.received, goal_id=goal.goal_id, state="pending"
+            )
+
+    def _on_goal_status(self, status: GoalStatus) -> None:
+        self._goal = status
+        frame = {"type": "goal_status", **_goal_dict(status)}
+        for session in self.sessions.values():
+            if session.kind is DeviceKind.CONTROL:
+                session.conn.send(frame)
+
+    def _keep_pose(self, pose: PoseEstimate) -> None:
+        self._pose = pose
+
+    def _keep_drive(self, drive: DriveCommand) -> None:
+        self._drive = drive
+
+    def _keep_daemon(self, status: DaemonStatus) -> None:
+        self._daemon = status
+
+    def _keep_safety(self, state: SafetyState) -> None:
+        self._safety = state.reasons
+
+    def status_frame(self) -> dict[str, object]:
+        """The status a subscribed control client receives."""
+        now = self.ctx.clock.now()
+        goal_active = self._goal is not None and self._goal.state in ("pending", "active")
+        mode = "stopped" if self._safety else "navigating" if goal_active else "idle"
+        daemon = self._daemon
+        return {
+            "type": "status",
+            "stamp": now,
+            "mode": mode,
+            "pose": None
+            if self._pose is None
+            else {
+                "x": self._pose.x_m,
+                "y": self._pose.y_m,
+                "yaw": self._pose.yaw_rad,
+                "std_xy": math.sqrt(max(self._pose.covariance[0, 0], self._pose.covariance[1, 1])),
+            },
+            "velocity": None
+            if self._drive is None
+            else {
+                "linear": self._drive.linear_mps,
+                "angular": self._drive.angular_radps,
+            },
+            "goal": None if self._goal is None else _goal_dict(self._goal),
+            "devices": [
+                {
+                    "device_id": s.device_id,
+                    "kind": s.kind.value,
+                    "connected_s": round(now - s.connected_s, 3),
+                    "silent_s": round(now - s.last_rx_s, 3),
+                    "stale": s.stale,
+                    "accepted": s.accepted,
+                    "rejected": s.rejected,
+                }
+                for s in self.sessions.values()
+            ],
+            "diagnostics": {
+                "safety": list(self._safety),
+                "loop_lag_p50_ms": None if daemon is None else round(daemon.loop_lag_p50_ms, 3),
+                "loop_lag_p99_ms": None if daemon is None else round(daemon.loop_lag_p99_ms, 3),
+                "loop_lag_max_ms": None if daemon is None else round(daemon.loop_lag_max_ms, 3),
+                "uptime_s": None if daemon is None else round(daemon.uptime_s, 3),
+                "messages": None if daemon is None else daemon.messages_dispatched,
+                "modules": [] if daemon is None else [m._asdict() for m in daemon.modules],
+                "workers": [] if daemon is None else [w._asdict() for w in daemon.workers],
+            },
+        }
+
+    async def _stream_status(self, session: Session, rate_hz: float) -> None:
+        while session.conn.open:
+            session.conn.send(self.status_frame(), droppable=True)
+            await self.ctx.clock.sleep(1.0 / rate_hz)
+
+    async def _watch_staleness(self) -> None:
+        while True:
+            await self.ctx.clock.sleep(STALE_CHECK_PERIOD_S)
+            now = self.ctx.clock.now()
+            tcp = self.ctx.config.tcp
+            timeouts = {
+                DeviceKind.LIDAR: tcp.lidar_timeout_s,
+                DeviceKind.IMU: tcp.imu_timeout_s,
+                DeviceKind.GPS: tcp.gps_timeout_s,
+                DeviceKind.COMPASS: tcp.compass_timeout_s,
+                DeviceKind.WHEEL_ODOMETRY: tcp.wheel_odometry_timeout_s,
+            }
+            for session in self.sessions.values():
+                timeout = timeouts.get(session.kind)
+                silent = now - session.last_rx_s
+                if timeout is None or session.stale or silent <= timeout:
+                    continue
+                session.stale = True
+                self.ctx.log.warning(
+                    "device_stale",
+                    device_id=session.device_id,
+                    kind=session.kind.value,
+                    silent_s=round(silent, 3),
+                )
+                self.ctx.publish(
+                    DeviceStale(
+                        stamp=now,
+                        received=now,
+                        device_id=session.device_id,
+                        kind=session.kind,
+                        silent_s=silent,
+                    )
+                )
+
+
+def _goal_dict(status: GoalStatus) -> dict[str, object]:
+    return {
+        "goal_id": status.goal_id,
+        "state": status.state,
+        "distance_remaining": status.distance_remaining_m,
+        "eta_s": status.eta_s,
+        "reason": status.reason,
+    }
