@@ -215,7 +215,7 @@ class TcpConfig(Section):
     """The TCP server that sensor and control clients connect to."""
 
     host: str = Field("127.0.0.1", min_length=1, **restart("address to listen on"))
-    port: int = Field(7420, ge=1, le=65535, **restart("TCP port to listen on"))
+    port: int = Field(7420, ge=0, le=65535, **restart("TCP port to listen on; 0 picks a free one"))
     token: str | None = Field(
         None,
         min_length=16,
