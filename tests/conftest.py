@@ -38,3 +38,13 @@ def recorder() -> Callable[[list[Any]], Callable[[Message], None]]:
         return into.append
 
     return make
+
+
+@pytest.fixture(autouse=True)
+def _quiet_logs() -> None:
+    """In-process daemons log only warnings and errors during tests."""
+    import sys
+
+    from navd.logs import configure_logging
+
+    configure_logging("warning", "console", stream=sys.stderr)

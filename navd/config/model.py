@@ -566,4 +566,11 @@ class NavdConfig(BaseModel):
                 f"planner periods ({two_periods_s:.3g} s at planning.control_rate_hz = "
                 f"{self.planning.control_rate_hz}): the robot would stop between commands"
             )
+        chassis_period_s = 1.0 / self.chassis.command_rate_hz
+        if chassis_period_s > self.safety.reaction_timeout_s / 2.0:
+            raise ValueError(
+                f"chassis.command_rate_hz ({self.chassis.command_rate_hz}) is too slow for "
+                f"safety.reaction_timeout_s ({self.safety.reaction_timeout_s}): a command would be "
+                f"stale before it is written; need a period of at most half the timeout"
+            )
         return self

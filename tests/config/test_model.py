@@ -132,6 +132,10 @@ def test_field_rules_name_the_key(data: dict[str, object], match: str) -> None:
             r"angular_limit_table allows 3\.0 rad/s, above robot\.max_angular_speed_radps \(1\.5\)",
         ),
         (
+            {"chassis": {"command_rate_hz": 2.0}},
+            r"chassis\.command_rate_hz \(2\.0\) is too slow for safety\.reaction_timeout_s",
+        ),
+        (
             {"safety": {"reaction_timeout_s": 0.05}},
             r"safety\.reaction_timeout_s \(0\.05\) is shorter than two planner periods",
         ),

@@ -1,0 +1,217 @@
+"""The chassis driver against a real pseudo-terminal standing in for the STM32's UART."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from navd.lifecycle.messages import (
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    SafeStop,
+    VelocityCommand,
+    WheelOdometry,
+)
+from tests.drivers.conftest import record, running_daemon, until
+
+PERIOD_S = 0.02  # chassis.command_rate_hz = 50
+REACTION_S = 0.2
+# the event loop may start a tick a little late on a busy machine
+SCHEDULING_ALLOWANCE_S = 0.03
+
+
+class FakeStm32:
+    """The far side of a pty: reads the lines navd writes, timestamps them, can talk back."""
+
+    def __init__(self, link: Path) -> None:
+        self.link = link
+        self.lines: list[tuple[float, bytes]] = []
+        self._partial = b""
+        self.master = -1
+        self.plug()
+
+    def plug(self) -> None:
+        """A new pty appears at the link path (like a USB adapter plugged back in)."""
+        master, slave = os.openpty()
+        os.set_blocking(master, False)
+        tmp = self.link.with_suffix(".new")
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(os.ttyname(slave))
+        tmp.replace(self.link)
+        os.close(slave)
+        self.master = master
+        asyncio.get_running_loop().add_reader(master, self._readable)
+
+    def unplug(self) -> None:
+        asyncio.get_running_loop().remove_reader(self.master)
+        os.close(self.master)
+        self.link.unlink(missing_ok=True)
+
+    def _readable(self) -> None:
+        try:
+            data = os.read(self.master, 4096)
+        except OSError:
+            return
+        now = asyncio.get_running_loop().time()
+        self._partial += data
+        *complete, self._partial = self._partial.split(b"\n")
+        self.lines.extend((now, line + b"\n") for line in complete)
+
+    def say(self, data: bytes) -> None:
+        os.write(self.master, data)
+
+    def since(self, t: float) -> list[bytes]:
+        return [line for stamp, line in self.lines if stamp >= t]
+
+
+@asynccontextmanager
+async def chassis_daemon(
+    tmp_path: Path, reaction_s: float = REACTION_S, **chassis: Any
+) -> AsyncIterator[tuple[Any, FakeStm32]]:
+    stm32 = FakeStm32(tmp_path / "ttyNAVD")
+    settings = {
+        "enabled": True,
+        "port": str(stm32.link),
+        "command_rate_hz": 1 / PERIOD_S,
+        "reconnect_initial_s": 0.05,
+        "reconnect_max_s": 0.2,
+        **chassis,
+    }
+    async with running_daemon(
+        chassis=settings, safety={"reaction_timeout_s": reaction_s}, robot={"track_width_m": 0.3}
+    ) as (daemon, _):
+        try:
+            await until(lambda: len(stm32.lines) >= 1)  # the port is open: "0 0" came first
+            assert stm32.lines[0][1] == b"0 0\n"
+            yield daemon, stm32
+        finally:
+            if stm32.master >= 0 and stm32.link.exists():
+                stm32.unplug()
+
+
+def drive(daemon: Any, v: float, w: float) -> None:
+    now = daemon.clock.now()
+    daemon.bus.publish(
+        VelocityCommand(stamp=now, received=now, linear_mps=v, angular_radps=w, source="planner")
+    )
+
+
+async def test_zero_first_then_exact_bytes_for_known_commands(tmp_path: Path) -> None:
+    async with chassis_daemon(tmp_path) as (daemon, stm32):
+        loop = asyncio.get_running_loop()
+        # (v, w) -> wheels (v -+ w*0.3/2) * 1000 units per m/s
+        for v, w, expected in [
+            (0.2, 0.5, b"125 275\n"),
+            (-0.1, 0.0, b"-100 -100\n"),
+            (0.0, -1.0, b"150 -150\n"),
+        ]:
+            start = loop.time()
+            drive(daemon, v, w)
+            await until(lambda e=expected, s=start: e in stm32.since(s))  # type: ignore[misc]
+
+
+async def test_zero_within_reaction_timeout_after_commands_stop(tmp_path: Path) -> None:
+    async with chassis_daemon(tmp_path) as (daemon, stm32):
+        loop = asyncio.get_running_loop()
+        for _ in range(10):  # a planner at 20 Hz
+            drive(daemon, 0.3, 0.0)
+            await asyncio.sleep(0.05)
+        last_command = loop.time()
+        await asyncio.sleep(REACTION_S + 5 * PERIOD_S)
+        after = [(t, line) for t, line in stm32.lines if t >= last_command]
+        first_zero = next(t for t, line in after if line == b"0 0\n")
+        assert b"300 300\n" in [line for _, line in after]  # it was driving until then
+        assert first_zero - last_command <= REACTION_S + PERIOD_S + SCHEDULING_ALLOWANCE_S
+        assert all(line == b"0 0\n" for t, line in after if t > first_zero)
+
+
+async def test_safe_stop_writes_zero_at_once(tmp_path: Path) -> None:
+    async with chassis_daemon(tmp_path, reaction_s=2.0, command_rate_hz=2.0) as (daemon, stm32):
+        loop = asyncio.get_running_loop()
+        drive(daemon, 0.3, 0.0)
+        await until(lambda: any(line == b"300 300\n" for _, line in stm32.lines), 2.0)
+        stopped = loop.time()
+        now = daemon.clock.now()
+        daemon.bus.publish(SafeStop(stamp=now, received=now, reason="test", source="t", key="t"))
+        await until(lambda: b"0 0\n" in stm32.since(stopped), 0.2)  # the next tick is 0.5 s away
+
+
+async def test_lost_port_is_reported_reopened_with_zero_first_and_never_replayed(
+    tmp_path: Path,
+) -> None:
+    async with chassis_daemon(tmp_path) as (daemon, stm32):
+        lost = record(daemon, DeviceLost)
+        connected = record(daemon, DeviceConnected)
+        drive(daemon, 0.3, 0.0)
+        await until(lambda: any(line == b"300 300\n" for _, line in stm32.lines))
+        stm32.unplug()
+        await until(lambda: len(lost) == 1)
+        assert lost[0].kind is DeviceKind.CHASSIS and lost[0].device_id == str(stm32.link)
+        drive(daemon, 0.4, 0.0)  # commanded while the port is gone: must not be replayed
+        await asyncio.sleep(0.1)
+        stm32.lines.clear()
+        stm32.plug()
+        await until(lambda: len(connected) == 1 and len(stm32.lines) >= 3)
+        assert stm32.lines[0][1] == b"0 0\n"
+        assert all(line == b"0 0\n" for _, line in stm32.lines)
+        drive(daemon, 0.1, 0.0)  # a fresh command after reconnection is obeyed
+        await until(lambda: any(line == b"100 100\n" for _, line in stm32.lines))
+
+
+async def test_missing_port_at_start_does_not_stop_the_daemon(tmp_path: Path) -> None:
+    link = tmp_path / "ttyNAVD"
+    async with running_daemon(
+        chassis={
+            "enabled": True,
+            "port": str(link),
+            "reconnect_initial_s": 0.05,
+            "reconnect_max_s": 0.1,
+        }
+    ) as (daemon, _):
+        connected = record(daemon, DeviceConnected)
+        lost = record(daemon, DeviceLost)
+        await asyncio.sleep(0.3)  # several failed attempts: reported once, the daemon runs on
+        assert daemon.manager.states["chassis"].value == "active"
+        assert lost == []  # the first failure was reported before we listened; no repeats
+        stm32 = FakeStm32(link)
+        await until(lambda: len(stm32.lines) >= 1)
+        assert stm32.lines[0][1] == b"0 0\n"
+        await until(lambda: len(connected) == 1)
+        assert connected[0].kind is DeviceKind.CHASSIS
+        stm32.unplug()
+
+
+async def test_shutdown_writes_zero_last(tmp_path: Path) -> None:
+    stm32_box: list[FakeStm32] = []
+    async with chassis_daemon(tmp_path) as (daemon, stm32):
+        stm32_box.append(stm32)
+        drive(daemon, 0.3, 0.0)
+        await until(lambda: any(line == b"300 300\n" for _, line in stm32.lines))
+        daemon.request_shutdown("test")
+        await until(lambda: daemon.manager.states["chassis"].value == "finalized")
+        await asyncio.sleep(0.02)
+    assert stm32_box[0].lines[-1][1] == b"0 0\n"
+
+
+@pytest.mark.parametrize(("invert_left", "expected_w"), [(False, 0.0), (True, 200 / 0.3 / 1000)])
+async def test_encoder_feedback_becomes_wheel_odometry(
+    tmp_path: Path, invert_left: bool, expected_w: float
+) -> None:
+    async with chassis_daemon(tmp_path, feedback="encoders", invert_left=invert_left) as (
+        daemon,
+        stm32,
+    ):
+        odometry = record(daemon, WheelOdometry)
+        stm32.say(b"100 100\r\n")
+        stm32.say(b"garbage\n")
+        await until(lambda: len(odometry) == 1)
+        expected_v = 0.0 if invert_left else 0.1
+        assert odometry[0].linear_mps == pytest.approx(expected_v)
+        assert odometry[0].angular_radps == pytest.approx(expected_w)
