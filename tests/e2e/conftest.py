@@ -78,3 +78,28 @@ def spawn_daemon() -> Iterator[Any]:
     yield spawn
     for daemon in started:
         daemon.stop()
+
+
+def free_port() -> int:
+    """A TCP port nobody listens on right now."""
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+@pytest.fixture
+def daemon_on_port(spawn_daemon: Any, tmp_path: Path) -> Any:
+    """Start the real daemon with extra TOML; returns (process, port) once it is ready."""
+
+    def start(extra_toml: str = "") -> tuple[DaemonProcess, int]:
+        port = free_port()
+        path = tmp_path / "navd.toml"
+        path.write_text(f"[tcp]\nport = {port}\n{extra_toml}")
+        daemon: DaemonProcess = spawn_daemon("run", "--config", str(path))
+        daemon.wait_for("ready", timeout_s=10.0)
+        return daemon, port
+
+    return start

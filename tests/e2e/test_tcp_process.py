@@ -1,0 +1,147 @@
+"""Sensors and control clients against the real daemon process, on real sockets."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from typing import Any
+
+import pytest
+
+from navd.drivers.client import Client
+
+pytestmark = pytest.mark.e2e
+
+IMU = {"type": "imu", "angular_velocity": [0.0, 0.0, 0.1], "linear_acceleration": [0, 0, 9.81]}
+SCAN = {
+    "type": "scan",
+    "angle_min": -1.57,
+    "angle_increment": 0.01,
+    "range_min": 0.1,
+    "range_max": 10.0,
+    "ranges": [2.0] * 315,
+}
+
+
+class Streamer(threading.Thread):
+    """A sensor client streaming one frame kind at a rate until stopped; counts replies."""
+
+    def __init__(
+        self, port: int, role: str, device_id: str, frame: dict[str, Any], rate_hz: float
+    ) -> None:
+        super().__init__(daemon=True)
+        self.client = Client("127.0.0.1", port, role=role, device_id=device_id)
+        self.client.sock.settimeout(None)  # a good client may hear nothing for a long time
+        self.frame = frame
+        self.period_s = 1.0 / rate_hz
+        self.sent = 0
+        self.replies: list[dict[str, Any]] = []
+        self._stop_event = threading.Event()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+
+    def run(self) -> None:
+        self._reader.start()
+        start = time.monotonic()
+        while not self._stop_event.is_set():
+            self.client.send({**self.frame, "stamp": time.monotonic()})
+            self.sent += 1
+            time.sleep(max(0.0, start + self.sent * self.period_s - time.monotonic()))
+
+    def _read(self) -> None:
+        while True:
+            try:
+                frame = self.client.receive()
+            except Exception:
+                return
+            self.replies.append(frame)
+
+    def finish(self) -> None:
+        """Stop streaming and wait until the daemon has answered everything sent."""
+        self._stop_event.set()
+        self.join()
+        self.client.send({"type": "ping", "id": "done"})
+        deadline = time.monotonic() + 5.0
+        while {"type": "pong", "id": "done"} not in self.replies:
+            assert time.monotonic() < deadline, "no pong"
+            time.sleep(0.01)
+        self.replies.remove({"type": "pong", "id": "done"})
+
+
+def devices(port: int) -> dict[str, dict[str, Any]]:
+    with Client("127.0.0.1", port, device_id="probe") as control:
+        control.request({"type": "subscribe", "rate_hz": 10})
+        while True:
+            frame = control.receive()
+            if frame["type"] == "status":
+                return {d["device_id"]: d for d in frame["devices"] if d["device_id"] != "probe"}
+
+
+def test_reconnecting_sensor_while_another_streams(daemon_on_port: Any) -> None:
+    daemon, port = daemon_on_port()
+    imu = Streamer(port, "imu", "imu0", IMU, rate_hz=200)
+    imu.start()
+    lidar = Client("127.0.0.1", port, role="lidar", device_id="lidar0")
+    for _ in range(5):
+        lidar.send(SCAN)
+    time.sleep(0.2)
+    assert set(devices(port)) == {"imu0", "lidar0"}
+    lidar.close()
+    time.sleep(0.2)
+    assert set(devices(port)) == {"imu0"}
+    lidar = Client("127.0.0.1", port, role="lidar", device_id="lidar0")
+    lidar.send(SCAN)
+    time.sleep(0.2)
+    listed = devices(port)
+    assert set(listed) == {"imu0", "lidar0"}
+    assert listed["lidar0"]["accepted"] == 1  # a new session
+    imu.finish()
+    assert imu.replies == []
+    assert devices(port)["imu0"]["accepted"] == imu.sent
+    lidar.close()
+    daemon.wait_for("device_lost", timeout_s=2.0)
+    assert daemon.proc.poll() is None
+
+
+def test_status_command_shows_devices(daemon_on_port: Any) -> None:
+    import subprocess
+    import sys
+
+    from tests.e2e.conftest import REPO
+
+    _, port = daemon_on_port()
+    with Client("127.0.0.1", port, role="compass", device_id="compass0") as compass:
+        compass.send({"type": "heading", "bearing_deg": 90.0, "accuracy_deg": 2.0})
+        result = subprocess.run(
+            [sys.executable, "-m", "navd", "status", "--once", "--port", str(port)],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=False,
+        )
+    assert result.returncode == 0, result.stderr
+    assert "compass0(compass)" in result.stdout and "[idle]" in result.stdout
+    goal = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "navd",
+            "goal",
+            "1.5",
+            "2",
+            "--yaw",
+            "0.3",
+            "--id",
+            "g7",
+            "--port",
+            str(port),
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert goal.returncode == 0, goal.stderr
+    assert json.loads(goal.stdout) == {"type": "ack", "request": "goal", "goal_id": "g7"}
