@@ -82,6 +82,20 @@ def _parser() -> argparse.ArgumentParser:
     status.add_argument("--json", action="store_true", help="print raw status frames")
     _connection_options(status)
     status.set_defaults(handler=_cmd_status)
+
+    bench = commands.add_parser("bench", help="run a benchmark and print its figures")
+    bench_commands = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
+    ingest = bench_commands.add_parser(
+        "ingest", help="daemon CPU, loop lag and drops under full sensor load over TCP"
+    )
+    ingest.add_argument("--seconds", type=float, default=10.0, help="[s] streaming time")
+    ingest.add_argument("--rays", type=int, default=1440, help="lidar rays per scan")
+    ingest.add_argument("--binary", action="store_true", help="lidar ranges as base64 float32")
+    ingest.add_argument(
+        "--imu-batch", type=int, default=1, help="IMU lines per write (1: one per sample)"
+    )
+    ingest.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    ingest.set_defaults(handler=_cmd_bench_ingest)
     return parser
 
 
@@ -137,7 +151,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     daemon = Daemon(config, build_modules(config), config_path=args.config)
     try:
-        asyncio.run(daemon.run())
+        if config.lifecycle.event_loop == "uvloop":
+            import uvloop  # noqa: PLC0415
+
+            uvloop.run(daemon.run())
+        else:
+            asyncio.run(daemon.run())
     except NavdError as err:
         get_logger("cli").error("daemon_failed", error=str(err))
         return EXIT_FAILED
@@ -220,3 +239,17 @@ def format_status(frame: dict[str, Any]) -> str:
         f"[{frame.get('mode', '?')}] {where} | {moving} | {target} | devices: {devices} | "
         f"lag p99 {lag_text} | safety: {safety}"
     )
+
+
+def _cmd_bench_ingest(args: argparse.Namespace) -> int:
+    from navd.bench.ingest import run  # noqa: PLC0415
+
+    figures = run(
+        seconds=args.seconds, rays=args.rays, binary=args.binary, imu_batch=args.imu_batch
+    )
+    if args.json:
+        print(json.dumps(figures, indent=2))
+    else:
+        for key, value in figures.items():
+            print(f"{key:>26}: {value}")
+    return EXIT_OK

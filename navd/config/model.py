@@ -67,6 +67,12 @@ class Section(BaseModel):
 class LifecycleConfig(Section):
     """The event loop, dispatch, workers and supervision."""
 
+    event_loop: Literal["uvloop", "asyncio"] = Field(
+        "uvloop",
+        **restart(
+            "uvloop (libuv; about 3x less CPU per socket wakeup here) or the standard asyncio loop"
+        ),
+    )
     worker_threads: int = Field(
         2, ge=1, le=16, **restart("[threads] worker threads for heavy jobs (scan matching, A*)")
     )
@@ -228,6 +234,14 @@ class TcpConfig(Section):
     )
     handshake_timeout_s: float = Field(
         5.0, gt=0, le=60, description="[s] time a new client has to send hello"
+    )
+    read_coalesce_ms: float = Field(
+        5.0,
+        ge=0,
+        le=50,
+        description="[ms] after reading a sensor connection, wait this long before the next "
+        "read, so fast streams are handled several lines per wakeup; adds at most this "
+        "latency, only to streams faster than 1/this; 0 reads every line at once",
     )
     status_queue: int = Field(
         8, ge=1, le=1024, description="[messages] status messages buffered per slow subscriber"

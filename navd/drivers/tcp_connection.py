@@ -10,7 +10,7 @@ client that lets even its replies pile up past a hard cap is disconnected.
 from __future__ import annotations
 
 import asyncio
-from typing import Protocol
+from typing import Protocol, cast
 
 from navd.drivers.wire import encode
 
@@ -60,6 +60,8 @@ class Connection(asyncio.Protocol):
         self.peer = "?"
         self.dropped_frames = 0
         self.session: object = None  # the server's session, once the handshake is done
+        self.coalesce_s = 0.0  # [s] pause after each read (set for sensor sessions)
+        self._resume: asyncio.TimerHandle | None = None
         self._buffer = bytearray()
         self._discarding = False
         self._transport: asyncio.Transport | None = None
@@ -69,8 +71,8 @@ class Connection(asyncio.Protocol):
     # --- asyncio.Protocol -------------------------------------------------------------
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self._transport = transport
+        # uvloop's transports implement the asyncio.Transport interface without subclassing it
+        self._transport = cast(asyncio.Transport, transport)
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         if not self.sink.on_open(self):
@@ -101,10 +103,23 @@ class Connection(asyncio.Protocol):
                 self._too_long()
             self._discarding = True
             buffer.clear()
+        if self.coalesce_s > 0.0 and self._resume is None and self.open:
+            # let lines gather in the kernel: the next read takes all of them in one wakeup
+            assert self._transport is not None
+            self._transport.pause_reading()
+            self._resume = asyncio.get_running_loop().call_later(self.coalesce_s, self._read_again)
+
+    def _read_again(self) -> None:
+        self._resume = None
+        if self.open:
+            assert self._transport is not None
+            self._transport.resume_reading()
 
     def connection_lost(self, exc: Exception | None) -> None:
         if self._handshake_timer is not None:
             self._handshake_timer.cancel()
+        if self._resume is not None:
+            self._resume.cancel()
         reason = self._close_reason if exc is None else f"connection error: {exc}"
         self._transport = None
         self.sink.on_close(self, reason)

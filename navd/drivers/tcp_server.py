@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from navd import __version__
-from navd.drivers.errors import WireError
+from navd.drivers.errors import DriverError, WireError
 from navd.drivers.tcp_connection import Connection
 from navd.drivers.timesync import StampMapper
 from navd.drivers.wire import (
@@ -108,9 +108,15 @@ class TcpServer(Module):
     async def on_activate(self) -> None:
         tcp = self.ctx.config.tcp
         loop = asyncio.get_running_loop()
-        self._server = await loop.create_server(
-            self._new_connection, host=tcp.host, port=tcp.port, reuse_address=True
-        )
+        try:
+            self._server = await loop.create_server(
+                self._new_connection, host=tcp.host, port=tcp.port, reuse_address=True
+            )
+        except OSError as err:
+            raise DriverError(
+                f"tcp: cannot listen on {tcp.host}:{tcp.port}: {err.strerror or err}; is another "
+                f"navd running? (change tcp.port or tcp.host)"
+            ) from err
         address = self._server.sockets[0].getsockname()
         self.ctx.log.info(
             "listening", host=address[0], port=address[1], token_required=tcp.token is not None
@@ -165,7 +171,7 @@ class TcpServer(Module):
         return True
 
     def on_line(self, conn: Connection, line: bytes) -> None:
-        if not line.strip():
+        if not line or line.isspace():
             return  # blank lines are allowed (keep-alives, a person pressing enter in nc)
         session = conn.session
         try:
@@ -260,6 +266,8 @@ class TcpServer(Module):
         self.sessions[hello.device_id] = session
         conn.session = session
         conn.handshake_done()
+        if hello.kind in SENSOR_ROLES:
+            conn.coalesce_s = self.ctx.config.tcp.read_coalesce_ms / 1e3
         conn.send(
             {
                 "type": "welcome",

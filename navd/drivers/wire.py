@@ -364,64 +364,84 @@ _TAGS = {
 }
 
 
+def _scan(frame: ScanFrame, device_id: str, stamp: float, received: float) -> Message:
+    return LaserScan(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        angle_min=frame.angle_min,
+        angle_increment=frame.angle_increment,
+        ranges=frame.ranges_array(),
+        range_min=frame.range_min,
+        range_max=frame.range_max,
+        time_increment=frame.time_increment,
+    )
+
+
+def _imu(frame: ImuFrame, device_id: str, stamp: float, received: float) -> Message:
+    mag = frame.magnetic_field
+    return Imu(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        gyro_radps=Vector3(*frame.angular_velocity),
+        accel_mps2=Vector3(*frame.linear_acceleration),
+        mag_ut=None if mag is None else Vector3(*(c * TESLA_TO_MICROTESLA for c in mag)),
+    )
+
+
+def _fix(frame: FixFrame, device_id: str, stamp: float, received: float) -> Message | None:
+    if frame.status < 0:
+        return None  # the receiver says it has no fix: nothing to use, nothing wrong
+    return GpsFix(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        latitude_deg=frame.latitude,
+        longitude_deg=frame.longitude,
+        altitude_m=frame.altitude,
+        horizontal_accuracy_m=frame.horizontal_accuracy,
+    )
+
+
+def _heading(frame: HeadingFrame, device_id: str, stamp: float, received: float) -> Message:
+    return CompassHeading(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        bearing_deg=frame.bearing_deg,
+        accuracy_deg=frame.accuracy_deg,
+        true_north=frame.true_north,
+    )
+
+
+def _odom(frame: OdomFrame, device_id: str, stamp: float, received: float) -> Message:
+    return WheelOdometry(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        linear_mps=frame.linear_x,
+        angular_radps=frame.angular_z,
+    )
+
+
+_CONVERTERS: dict[type[_Frame], Any] = {
+    ScanFrame: _scan,
+    ImuFrame: _imu,
+    FixFrame: _fix,
+    HeadingFrame: _heading,
+    OdomFrame: _odom,
+}
+
+
 def sensor_message(frame: Any, device_id: str, stamp: float, received: float) -> Message | None:
     """Turn a validated sensor frame into its typed message; None for frames that carry none.
 
     Raises:
         WireError: a field that only the conversion can check (bad base64 ranges).
     """
-    if isinstance(frame, ScanFrame):
-        return LaserScan(
-            stamp=stamp,
-            received=received,
-            device_id=device_id,
-            angle_min=frame.angle_min,
-            angle_increment=frame.angle_increment,
-            ranges=frame.ranges_array(),
-            range_min=frame.range_min,
-            range_max=frame.range_max,
-            time_increment=frame.time_increment,
-        )
-    if isinstance(frame, ImuFrame):
-        mag = frame.magnetic_field
-        return Imu(
-            stamp=stamp,
-            received=received,
-            device_id=device_id,
-            gyro_radps=Vector3(*frame.angular_velocity),
-            accel_mps2=Vector3(*frame.linear_acceleration),
-            mag_ut=None if mag is None else Vector3(*(c * TESLA_TO_MICROTESLA for c in mag)),
-        )
-    if isinstance(frame, FixFrame):
-        if frame.status < 0:
-            return None
-        return GpsFix(
-            stamp=stamp,
-            received=received,
-            device_id=device_id,
-            latitude_deg=frame.latitude,
-            longitude_deg=frame.longitude,
-            altitude_m=frame.altitude,
-            horizontal_accuracy_m=frame.horizontal_accuracy,
-        )
-    if isinstance(frame, HeadingFrame):
-        return CompassHeading(
-            stamp=stamp,
-            received=received,
-            device_id=device_id,
-            bearing_deg=frame.bearing_deg,
-            accuracy_deg=frame.accuracy_deg,
-            true_north=frame.true_north,
-        )
-    if isinstance(frame, OdomFrame):
-        return WheelOdometry(
-            stamp=stamp,
-            received=received,
-            device_id=device_id,
-            linear_mps=frame.linear_x,
-            angular_radps=frame.angular_z,
-        )
-    return None
+    convert = _CONVERTERS.get(type(frame))
+    return None if convert is None else convert(frame, device_id, stamp, received)
 
 
 def control_message(frame: Any, client_id: str, now: float, serial: int) -> Message | None:

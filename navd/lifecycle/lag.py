@@ -7,6 +7,7 @@ asked it woke. High lag means something blocked the loop: a handler doing heavy 
 from __future__ import annotations
 
 import asyncio
+import time
 
 from navd.lifecycle.stats import RollingWindow
 
@@ -27,13 +28,13 @@ class LoopLagMonitor:
 
     async def run(self) -> None:
         """Probe forever (until cancelled)."""
-        loop = asyncio.get_running_loop()
+        # perf_counter, not loop.time(): uvloop's loop clock only has millisecond resolution
         while True:
-            asked = loop.time() + self.period_s
+            asked = time.perf_counter() + self.period_s
             await asyncio.sleep(self.period_s)
-            self.samples.add(max(0.0, loop.time() - asked))
+            self.samples.add(max(0.0, time.perf_counter() - asked))
 
     def snapshot_ms(self) -> tuple[float, float, float]:
         """[ms] (p50, p99, max) of the recent lag samples."""
-        s = self.samples
-        return s.percentile(50) * 1e3, s.percentile(99) * 1e3, s.max() * 1e3
+        p50, p99, worst = self.samples.percentiles((50.0, 99.0, 100.0))
+        return p50 * 1e3, p99 * 1e3, worst * 1e3

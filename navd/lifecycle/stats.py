@@ -34,10 +34,22 @@ class RollingWindow:
 
     def percentile(self, q: float) -> float:
         """The q-th percentile (0..100) of the kept samples; 0.0 when empty."""
+        return self.percentiles((q,))[0]
+
+    def percentiles(self, qs: tuple[float, ...]) -> tuple[float, ...]:
+        """Several percentiles (0..100) with one sort, linearly interpolated between ranks
+        (numpy's default method); zeros when empty."""
         n = len(self)
         if n == 0:
-            return 0.0
-        return float(np.percentile(self._values[:n], q))
+            return tuple(0.0 for _ in qs)
+        ordered = np.sort(self._values[:n])
+        out = []
+        for q in qs:
+            rank = q / 100.0 * (n - 1)
+            low = int(rank)
+            high = min(low + 1, n - 1)
+            out.append(float(ordered[low] + (ordered[high] - ordered[low]) * (rank - low)))
+        return tuple(out)
 
     def max(self) -> float:
         """The largest kept sample; 0.0 when empty."""

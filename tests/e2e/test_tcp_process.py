@@ -145,3 +145,27 @@ def test_status_command_shows_devices(daemon_on_port: Any) -> None:
     )
     assert goal.returncode == 0, goal.stderr
     assert json.loads(goal.stdout) == {"type": "ack", "request": "goal", "goal_id": "g7"}
+
+
+def test_busy_port_is_a_clear_error_and_exit_1(daemon_on_port: Any, tmp_path: Any) -> None:
+    import subprocess
+    import sys
+
+    from tests.e2e.conftest import REPO
+
+    first, port = daemon_on_port()
+    config = tmp_path / "second.toml"
+    config.write_text(f"[tcp]\nport = {port}\n")
+    second = subprocess.run(
+        [sys.executable, "-m", "navd", "run", "--config", str(config)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert second.returncode == 1
+    failure = [json.loads(line) for line in second.stderr.splitlines() if '"daemon_failed"' in line]
+    assert failure and f"cannot listen on 127.0.0.1:{port}" in failure[0]["error"]
+    assert "Traceback" not in second.stderr
+    assert first.proc.poll() is None  # the first daemon is unaffected

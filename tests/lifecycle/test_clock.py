@@ -122,3 +122,14 @@ def test_rolling_window_keeps_only_recent_samples() -> None:
     assert len(window) == 4 and window.total == 5
     assert window.max() == 4.0  # the 100 was overwritten
     assert window.percentile(50) == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize("q", [0.0, 12.5, 50.0, 90.0, 99.0, 100.0])
+def test_percentiles_match_numpy(q: float) -> None:
+    import numpy as np
+
+    values = np.random.default_rng(3).exponential(size=257)
+    window = RollingWindow(300)
+    for value in values:
+        window.add(float(value))
+    assert window.percentile(q) == pytest.approx(float(np.percentile(values, q)))

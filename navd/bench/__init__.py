@@ -1,0 +1,1 @@
+"""Benchmarks behind ``navd bench``: each prints the figures an issue asks for."""

@@ -1,0 +1,142 @@
+"""Ingest benchmark: the real daemon under full sensor load from separate client processes.
+
+IMU at 1 kHz, lidar at 10 Hz with 1440 rays, GPS at 5 Hz and compass at 10 Hz stream for a
+few seconds. Printed: the daemon's CPU use over the streaming window (% of one core, from
+/proc), event-loop lag p50/p99/max over the same window (from its status), and messages
+dropped (sent by the clients minus accepted by the daemon).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from navd.drivers.client import Client
+
+STREAMS = (("imu", 1000.0), ("lidar", 10.0), ("gps", 5.0), ("compass", 10.0))
+LAG_PROBE_S = 0.05  # the daemon's default probe period
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _status(port: int) -> dict[str, Any]:
+    with Client("127.0.0.1", port, device_id="bench-probe") as control:
+        control.request({"type": "subscribe", "rate_hz": 10})
+        while True:
+            frame = control.receive()
+            if frame["type"] == "status":
+                return frame
+
+
+def run(
+    seconds: float = 10.0, rays: int = 1440, binary: bool = False, imu_batch: int = 1
+) -> dict[str, Any]:
+    """Run the benchmark and return its figures."""
+    port = _free_port()
+    window = int(seconds / LAG_PROBE_S)
+    with tempfile.TemporaryDirectory() as tmp:
+        config = Path(tmp) / "navd.toml"
+        config.write_text(
+            f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
+            f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
+            f'status_rate_hz = 10.0\n[logging]\nlevel = "warning"\n'
+        )
+        daemon = subprocess.Popen(
+            [sys.executable, "-m", "navd", "run", "--config", str(config)],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        clients: list[subprocess.Popen[str]] = []
+        try:
+            _wait_listening(port, daemon)
+            cpu_start, wall_start = _cpu_seconds(daemon.pid), time.monotonic()
+            for role, rate in STREAMS:
+                command = [
+                    sys.executable,
+                    "-m",
+                    "navd.bench.sensor_client",
+                    "--role",
+                    role,
+                    "--rate",
+                    str(rate),
+                    "--seconds",
+                    str(seconds),
+                    "--port",
+                    str(port),
+                    "--rays",
+                    str(rays),
+                ]
+                if binary:
+                    command.append("--binary")
+                if role == "imu":
+                    command += ["--batch", str(imu_batch)]
+                clients.append(
+                    subprocess.Popen(
+                        command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+                    )
+                )
+            sent = {}
+            for (role, _), client in zip(STREAMS, clients, strict=True):
+                assert client.stdout is not None
+                sent[role] = json.loads(client.stdout.readline())["sent"]
+            cpu_end, wall_end = _cpu_seconds(daemon.pid), time.monotonic()
+            status = _status(port)
+        finally:
+            for client in clients:
+                if client.stdin is not None:
+                    client.stdin.close()
+                client.wait(10)
+            daemon.terminate()
+            daemon.wait(10)
+    accepted = {d["kind"]: d["accepted"] for d in status["devices"]}
+    diag = status["diagnostics"]
+    return {
+        "seconds": round(wall_end - wall_start, 2),
+        "lidar_rays": rays,
+        "lidar_encoding": "base64 float32" if binary else "json",
+        "imu_lines_per_write": imu_batch,
+        "cpu_percent_of_one_core": round(
+            100.0 * (cpu_end - cpu_start) / (wall_end - wall_start), 2
+        ),
+        "loop_lag_p50_ms": diag["loop_lag_p50_ms"],
+        "loop_lag_p99_ms": diag["loop_lag_p99_ms"],
+        "loop_lag_max_ms": diag["loop_lag_max_ms"],
+        "messages": {
+            role: {"sent": sent[role], "accepted": accepted.get(role, 0)} for role, _ in STREAMS
+        },
+        "dropped": sum(sent[role] - accepted.get(role, 0) for role, _ in STREAMS),
+    }
+
+
+def _wait_listening(port: int, daemon: subprocess.Popen[str]) -> None:
+    deadline = time.monotonic() + 15.0
+    while time.monotonic() < deadline:
+        if daemon.poll() is not None:
+            raise RuntimeError(
+                f"navd exited during start-up: {daemon.stderr.read() if daemon.stderr else ''}"
+            )
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=0.2):
+                return
+        except OSError:
+            time.sleep(0.05)
+    raise RuntimeError("navd did not start listening within 15 s")

@@ -1,0 +1,101 @@
+"""A synthetic sensor program for benchmarks: streams one kind of frame at a fixed rate.
+
+Run as ``python -m navd.bench.sensor_client --role imu --rate 1000 --seconds 10 --port P``.
+When done it waits until navd has processed everything (ping/pong), prints
+``{"sent": N}`` and then holds the connection open until its standard input closes, so the
+caller can read the daemon's counters while the device is still listed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from navd.drivers.client import Client
+
+
+def frames(role: str, rays: int, binary: bool) -> dict[str, object]:
+    """A representative frame for ``role`` (the stamp is filled in when sent)."""
+    if role == "imu":
+        return {
+            "type": "imu",
+            "angular_velocity": [0.001, -0.002, 0.05],
+            "linear_acceleration": [0.12, -0.03, 9.807],
+        }
+    if role == "gps":
+        return {
+            "type": "fix",
+            "latitude": 52.520008,
+            "longitude": 13.404954,
+            "altitude": 34.0,
+            "horizontal_accuracy": 1.5,
+        }
+    if role == "compass":
+        return {"type": "heading", "bearing_deg": 123.4, "accuracy_deg": 2.0}
+    if role == "lidar":
+        ranges = np.random.default_rng(7).uniform(0.2, 11.5, rays).astype("<f4")
+        scan: dict[str, object] = {
+            "type": "scan",
+            "angle_min": -math.pi,
+            "angle_increment": 2 * math.pi / rays,
+            "range_min": 0.1,
+            "range_max": 12.0,
+        }
+        if binary:
+            scan["ranges_f32"] = base64.b64encode(ranges.tobytes()).decode()
+        else:
+            scan["ranges"] = [round(float(r), 3) for r in ranges]
+        return scan
+    raise SystemExit(f"unknown role {role!r}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--role", required=True)
+    parser.add_argument("--rate", type=float, required=True, help="[Hz]")
+    parser.add_argument("--seconds", type=float, required=True)
+    parser.add_argument("--port", type=int, required=True)
+    parser.add_argument("--rays", type=int, default=1440)
+    parser.add_argument("--binary", action="store_true", help="lidar ranges as base64 float32")
+    parser.add_argument(
+        "--batch",
+        type=int,
+        default=1,
+        help="frames written per send (a sensor reading a FIFO in bursts)",
+    )
+    args = parser.parse_args()
+    client = Client("127.0.0.1", args.port, role=args.role, device_id=f"bench-{args.role}")
+    client.sock.settimeout(None)
+    body = json.dumps(frames(args.role, args.rays, args.binary), separators=(",", ":"))[1:]
+    period = 1.0 / args.rate
+    start = time.monotonic()
+    sent = 0
+    tail = body.encode() + b"\n"
+    while (now := time.monotonic()) - start < args.seconds:
+        # stamps are the sender's own clock, one sample period apart, as a sensor stamps them
+        burst = b"".join(
+            b'{"stamp":%.6f,' % (now - (args.batch - 1 - i) * period) + tail
+            for i in range(args.batch)
+        )
+        client.sock.sendall(burst)
+        sent += args.batch
+        time.sleep(max(0.0, start + sent * period - time.monotonic()))
+    client.send({"type": "ping", "id": "end"})
+    while True:
+        frame = client.receive()
+        if frame.get("type") == "pong":
+            break
+        print(json.dumps({"unexpected": frame}), file=sys.stderr)
+    print(json.dumps({"sent": sent}), flush=True)
+    sys.stdin.read()
+    client.close()
+
+
+if __name__ == "__main__":
+    main()
