@@ -260,3 +260,10 @@ def test_encode_writes_nan_as_null_on_one_line() -> None:
     data = encode({"type": "status", "eta": math.nan, "nested": [1.5, math.inf]})
     assert data.endswith(b"\n") and data.count(b"\n") == 1
     assert json.loads(data) == {"type": "status", "eta": None, "nested": [1.5, None]}
+
+
+def test_crlf_line_endings_are_accepted() -> None:
+    frame = decode_sensor(
+        DeviceKind.COMPASS, b'{"type":"heading","bearing_deg":1,"accuracy_deg":1}\r'
+    )
+    assert frame.bearing_deg == 1.0
