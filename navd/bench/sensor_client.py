@@ -1,9 +1,11 @@
 """A synthetic sensor program for benchmarks: streams one kind of frame at a fixed rate.
 
 Run as ``python -m navd.bench.sensor_client --role imu --rate 1000 --seconds 10 --port P``.
-When done it waits until navd has processed everything (ping/pong), prints
-``{"sent": N}`` and then holds the connection open until its standard input closes, so the
-caller can read the daemon's counters while the device is still listed.
+It connects, prints ``{"ready": true}``, and starts streaming when a line arrives on its
+standard input, so several clients start together after their start-up. When done it waits
+until navd has processed everything (ping/pong), prints ``{"sent": N}`` and then holds the
+connection open until its standard input closes, so the caller can read the daemon's
+counters while the device is still listed.
 """
 
 from __future__ import annotations
@@ -73,6 +75,8 @@ def main() -> None:
     client = Client("127.0.0.1", args.port, role=args.role, device_id=f"bench-{args.role}")
     client.sock.settimeout(None)
     body = json.dumps(frames(args.role, args.rays, args.binary), separators=(",", ":"))[1:]
+    print(json.dumps({"ready": True}), flush=True)
+    sys.stdin.readline()  # start together with the other clients
     period = 1.0 / args.rate
     start = time.monotonic()
     sent = 0

@@ -236,7 +236,7 @@ class TcpConfig(Section):
         5.0, gt=0, le=60, description="[s] time a new client has to send hello"
     )
     read_coalesce_ms: float = Field(
-        5.0,
+        10.0,
         ge=0,
         le=50,
         description="[ms] after reading a sensor connection, wait this long before the next "

@@ -55,7 +55,7 @@ from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["TcpServer"]
 
-STALE_CHECK_PERIOD_S = 0.02
+STALE_CHECK_PERIOD_S = 0.1  # adds at most this to a timeout; each wakeup costs CPU
 STATUS_FRAME_BYTES = 4096
 
 
