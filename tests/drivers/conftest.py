@@ -103,3 +103,10 @@ async def until(predicate: Any, timeout_s: float = 3.0) -> None:
             await asyncio.sleep(0.005)
 
     await asyncio.wait_for(wait(), timeout_s)
+
+
+def pytest_asyncio_loop_factories(config: Any, item: Any) -> dict[str, Any]:
+    """Driver tests run on both event loops navd supports (lifecycle.event_loop)."""
+    import uvloop
+
+    return {"asyncio": asyncio.new_event_loop, "uvloop": uvloop.new_event_loop}

@@ -179,7 +179,9 @@ async def test_missing_port_at_start_does_not_stop_the_daemon(tmp_path: Path) ->
         lost = record(daemon, DeviceLost)
         await asyncio.sleep(0.3)  # several failed attempts: reported once, the daemon runs on
         assert daemon.manager.states["chassis"].value == "active"
-        assert lost == []  # the first failure was reported before we listened; no repeats
+        # several attempts failed by now; the loss is reported once (before or after we began
+        # listening), never once per retry
+        assert len(lost) <= 1
         stm32 = FakeStm32(link)
         await until(lambda: len(stm32.lines) >= 1)
         assert stm32.lines[0][1] == b"0 0\n"
