@@ -1,8 +1,9 @@
 """One TCP connection: newline framing with a size limit, a handshake deadline, bounded output.
 
 The connection knows nothing of roles or messages: it cuts the byte stream into lines and
-hands each to its ``LineSink`` (the server). A line longer than the limit is answered with
-an error and discarded up to its newline; the connection stays usable. Output is bounded:
+hands the lines of each read, in order, to its ``LineSink`` (the server). A line longer than
+the limit is answered with an error and discarded up to its newline; the connection stays
+usable. Output is bounded:
 droppable frames (status) are dropped when the client does not read fast enough, and a
 client that lets even its replies pile up past a hard cap is disconnected.
 """
@@ -26,8 +27,8 @@ class LineSink(Protocol):
         """A client connected; False refuses it (the sink has sent the reason)."""
         ...
 
-    def on_line(self, conn: Connection, line: bytes) -> None:
-        """One complete line, without its newline."""
+    def on_lines(self, conn: Connection, lines: list[bytes]) -> None:
+        """Complete lines that arrived together, in order, without their newlines."""
         ...
 
     def on_close(self, conn: Connection, reason: str) -> None:
@@ -86,18 +87,22 @@ class Connection(asyncio.Protocol):
         buffer = self._buffer
         buffer += data
         start = 0
-        while self._transport is not None and not self._transport.is_closing():
+        lines: list[bytes] = []
+        while True:
             end = buffer.find(b"\n", start)
             if end < 0:
                 break
             if self._discarding:
                 self._discarding = False
             elif end - start > self.max_line_bytes:
+                self._deliver(lines)  # keep answers in the order of the lines
+                lines = []
                 self._too_long()
             else:
-                self.sink.on_line(self, bytes(buffer[start:end]))
+                lines.append(bytes(buffer[start:end]))
             start = end + 1
         del buffer[:start]
+        self._deliver(lines)
         if len(buffer) > self.max_line_bytes:
             if not self._discarding:
                 self._too_long()
@@ -108,6 +113,10 @@ class Connection(asyncio.Protocol):
             assert self._transport is not None
             self._transport.pause_reading()
             self._resume = asyncio.get_running_loop().call_later(self.coalesce_s, self._read_again)
+
+    def _deliver(self, lines: list[bytes]) -> None:
+        if lines and self.open:
+            self.sink.on_lines(self, lines)
 
     def _read_again(self) -> None:
         self._resume = None

@@ -170,23 +170,35 @@ class TcpServer(Module):
         self.connections.add(conn)
         return True
 
-    def on_line(self, conn: Connection, line: bytes) -> None:
-        if not line or line.isspace():
-            return  # blank lines are allowed (keep-alives, a person pressing enter in nc)
+    def on_lines(self, conn: Connection, lines: list[bytes]) -> None:
+        for index, line in enumerate(lines):
+            if not conn.open:
+                return
+            session = conn.session
+            if isinstance(session, Session) and session.kind in SENSOR_ROLES:
+                self._sensor_lines(session, lines[index:])  # the fast path for data
+                return
+            if not line or line.isspace():
+                continue  # blank lines are allowed (keep-alives, a person pressing enter)
+            try:
+                if session is None:
+                    self._handshake(conn, line)
+                else:
+                    assert isinstance(session, Session)
+                    self._control(session, decode_control(line), self.ctx.clock.now())
+            except Exception as err:
+                self._reject(conn, line, err)
+
+    def _reject(self, conn: Connection, line: bytes, err: Exception) -> None:
+        """Answer a line that could not be used; the one supervised boundary per line."""
         session = conn.session
-        try:
-            if session is None:
-                self._handshake(conn, line)
-            else:
-                assert isinstance(session, Session)
-                self._frame(session, line)
-        except (WireError, MessageError) as err:
-            field_name = err.field if isinstance(err, WireError) else ""
-            reason = err.reason if isinstance(err, WireError) else str(err)
-            if isinstance(session, Session):
-                session.rejected += 1
-            conn.send({"type": "error", "field": field_name, "reason": reason})
-        except Exception as err:  # the connection's supervised boundary
+        if isinstance(session, Session):
+            session.rejected += 1
+        if isinstance(err, WireError):
+            conn.send({"type": "error", "field": err.field, "reason": err.reason})
+        elif isinstance(err, MessageError):
+            conn.send({"type": "error", "field": "", "reason": str(err)})
+        else:  # a bug, not bad input: counted against this module, the client is told
             self.ctx.bus.report_failure(self.name, {"peer": conn.peer, "line": line[:200]}, err)
             conn.send({"type": "error", "field": "", "reason": "internal error on this frame"})
 
@@ -291,7 +303,8 @@ class TcpServer(Module):
 
     # --- frames -------------------------------------------------------------------------
 
-    def _frame(self, session: Session, line: bytes) -> None:
+    def _sensor_lines(self, session: Session, lines: list[bytes]) -> None:
+        """Lines from a sensor that arrived together: one arrival time, one staleness check."""
         now = self.ctx.clock.now()
         session.last_rx_s = now
         if session.stale:
@@ -301,18 +314,28 @@ class TcpServer(Module):
                     stamp=now, received=now, device_id=session.device_id, kind=session.kind
                 )
             )
-        if session.kind in SENSOR_ROLES:
-            frame = decode_sensor(session.kind, line)
-            if isinstance(frame, PingFrame):
-                session.conn.send({"type": "pong", "id": frame.id})
-                return
-            stamp = session.stamps.to_daemon(frame.stamp, now)
-            message = sensor_message(frame, session.device_id, stamp, now)
+        conn, kind, device_id, stamps = (
+            session.conn,
+            session.kind,
+            session.device_id,
+            session.stamps,
+        )
+        publish = self.ctx.publish
+        for line in lines:
+            if not line or line.isspace():
+                continue
+            try:
+                frame = decode_sensor(kind, line)
+                if type(frame) is PingFrame:
+                    conn.send({"type": "pong", "id": frame.id})
+                    continue
+                message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
+            except Exception as err:
+                self._reject(conn, line, err)
+                continue
             session.accepted += 1
             if message is not None:
-                self.ctx.publish(message)
-            return
-        self._control(session, decode_control(line), now)
+                publish(message)
 
     def _control(self, session: Session, frame: Any, now: float) -> None:
         session.accepted += 1
@@ -322,8 +345,8 @@ class TcpServer(Module):
         elif isinstance(frame, SubscribeFrame):
             if session.status_task is not None:
                 session.status_task.cancel()
-            session.status_task = asyncio.get_running_loop().create_task(
-                self._stream_status(session, frame.rate_hz)
+            session.status_task = self.ctx.spawn(
+                self._stream_status(session, frame.rate_hz), name=f"status:{session.device_id}"
             )
             session.conn.send({"type": "ack", "request": "subscribe", "rate_hz": frame.rate_hz})
         elif isinstance(frame, UnsubscribeFrame):

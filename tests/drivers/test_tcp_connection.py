@@ -37,13 +37,15 @@ class FakeTransport(asyncio.Transport):
 class Sink:
     def __init__(self) -> None:
         self.lines: list[bytes] = []
+        self.batches: list[int] = []
         self.closed: list[str] = []
 
     def on_open(self, conn: Connection) -> bool:
         return True
 
-    def on_line(self, conn: Connection, line: bytes) -> None:
-        self.lines.append(line)
+    def on_lines(self, conn: Connection, lines: list[bytes]) -> None:
+        self.lines.extend(lines)
+        self.batches.append(len(lines))
 
     def on_close(self, conn: Connection, reason: str) -> None:
         self.closed.append(reason)
@@ -64,6 +66,7 @@ async def test_lines_are_reassembled_across_chunks(wired: Any) -> None:
     for chunk in (b"ab", b"c\nde", b"f\n\ng", b"h\n"):
         conn.data_received(chunk)
     assert sink.lines == [b"abc", b"def", b"", b"gh"]
+    assert sink.batches == [1, 2, 1]  # the lines of one read are handed over together
 
 
 async def test_overlong_line_is_discarded_up_to_its_newline(wired: Any) -> None:
@@ -76,11 +79,13 @@ async def test_overlong_line_is_discarded_up_to_its_newline(wired: Any) -> None:
     assert len(errors) == 1 and "longer than the limit of 16 bytes" in errors[0]["reason"]
 
 
-async def test_overlong_complete_line_in_one_chunk(wired: Any) -> None:
+async def test_overlong_complete_line_in_one_chunk_keeps_the_order(wired: Any) -> None:
     conn, transport, sink = wired
-    conn.data_received(b"x" * 40 + b"\nfine\n")
-    assert sink.lines == [b"fine"]
-    assert transport.written.count(b"\n") == 1
+    order: list[str] = []
+    sink.on_lines = lambda c, lines: order.extend(x.decode() for x in lines)  # type: ignore[method-assign]
+    transport.write = lambda data: order.append("error")  # type: ignore[method-assign]
+    conn.data_received(b"before\n" + b"x" * 40 + b"\nafter\n")
+    assert order == ["before", "error", "after"]
 
 
 async def test_slow_reader_loses_droppable_frames_only(wired: Any) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import json
 
 import pytest
 
@@ -212,3 +213,32 @@ async def test_shutdown_tells_clients_and_closes() -> None:
         assert goodbye["fatal"] and goodbye["reason"] == "daemon stopping"
         await asyncio.sleep(0)
         await imu.close()
+
+
+async def test_good_and_bad_lines_in_one_write_are_answered_one_by_one() -> None:
+    async with running_daemon() as (daemon, port):
+        scans = record(daemon, LaserScan)
+        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
+        halves = [
+            b'{"type":"scan","angle_min":0,"angle_increment":0.1',
+            b'"range_min":0,"range_max":5,"ranges":[1]}',
+        ]
+        lidar.writer.write(
+            b"\n".join(
+                [
+                    json.dumps({**SCAN, "stamp": 1.0}).encode(),
+                    halves[0],  # two halves of a frame are two bad lines, never one good frame
+                    halves[1],
+                    json.dumps({**SCAN, "ranges": ["x"]}).encode(),
+                    json.dumps({**SCAN, "stamp": 1.1}).encode(),
+                    b'{"type":"ping","id":1}',
+                ]
+            )
+            + b"\n"
+        )
+        answers = [await lidar.recv() for _ in range(4)]
+        assert [a["type"] for a in answers] == ["error", "error", "error", "pong"]
+        assert answers[2]["field"] == "ranges.0"
+        await until(lambda: len(scans) == 2)
+        assert [s.ranges.size for s in scans] == [3, 3]
+        await lidar.close()
