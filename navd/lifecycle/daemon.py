@@ -28,6 +28,7 @@ from navd.lifecycle.messages import (
     VelocityCommand,
 )
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager
+from navd.lifecycle.sdnotify import SystemdNotifier
 from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.workers import WorkerPool
 from navd.logs import get_logger
@@ -46,6 +47,8 @@ class Daemon:
         clock: the time source; real monotonic time by default.
         config_path: the file SIGHUP reloads; None disables reloading.
         handle_signals: install SIGTERM/SIGINT/SIGHUP handlers (off in tests that share a loop).
+        notifier: systemd notifications; by default from the environment (inactive without
+            NOTIFY_SOCKET).
     """
 
     MODULE = "lifecycle"
@@ -58,6 +61,7 @@ class Daemon:
         clock: Clock | None = None,
         config_path: Path | None = None,
         handle_signals: bool = True,
+        notifier: SystemdNotifier | None = None,
     ) -> None:
         lc = config.lifecycle
         self.clock: Clock = clock if clock is not None else MonotonicClock()
@@ -78,6 +82,7 @@ class Daemon:
         self._shutdown = asyncio.Event()
         self._shutdown_reason = ""
         self._started_s = self.clock.now()
+        self.notifier = notifier if notifier is not None else SystemdNotifier()
         self.bus.subscribe(ConfigApplied, self._on_config_applied, module=self.MODULE)
 
     @property
@@ -90,6 +95,7 @@ class Daemon:
         if not self._shutdown.is_set():
             self._shutdown_reason = reason
             _log.info("shutdown_requested", reason=reason)
+            self.notifier.notify("STOPPING=1", f"STATUS=stopping: {reason}")
             self._shutdown.set()
 
     def reload_config(self) -> bool:
@@ -97,7 +103,12 @@ class Daemon:
         if self.config_path is None:
             _log.warning("reload_ignored", reason="the daemon was started without a config file")
             return False
-        return self.config_service.reload(self.config_path, request_id="sighup")
+        self.notifier.notify("RELOADING=1")
+        applied = self.config_service.reload(self.config_path, request_id="sighup")
+        self.notifier.notify(
+            "READY=1", f"STATUS=config reload {'applied' if applied else 'rejected'}"
+        )
+        return applied
 
     def status(self) -> DaemonStatus:
         """A snapshot of the daemon's health."""
@@ -154,6 +165,9 @@ class Daemon:
             await self.manager.start()
             self.ready.set()
             _log.info("ready", modules=[m.name for m in self.manager.modules])
+            self.notifier.notify("READY=1", "STATUS=running")
+            if self.notifier.watchdog_period_s is not None:  # armed once we are up
+                probes.append(loop.create_task(self._watchdog(), name="watchdog"))
             await self._shutdown.wait()
         finally:
             self._stop_robot(self._shutdown_reason or "start-up failed")
@@ -163,6 +177,7 @@ class Daemon:
             await asyncio.gather(*probes, return_exceptions=True)
             self.workers.close()
             self._remove_signals(loop)
+            self.notifier.close()
             _log.info("stopped", reason=self._shutdown_reason, stop_errors=len(errors))
 
     def _context(self, name: str) -> ModuleContext:
@@ -197,6 +212,7 @@ class Daemon:
                 )
             status = self.status()
             self.bus.publish(status)
+            self.notifier.notify(_status_line(status))
             period = self.config.logging.status_log_period_s
             if period > 0 and now - last_logged >= period:
                 last_logged = now
@@ -207,6 +223,18 @@ class Daemon:
                     messages=status.messages_dispatched,
                     safe_stop=list(status.safe_stop_reasons),
                 )
+
+    async def _watchdog(self) -> None:
+        """Ping systemd's watchdog from the event loop: a stalled loop stops the pings.
+
+        Uses real time on purpose: the watchdog guards the real process, whatever clock
+        the daemon runs on.
+        """
+        assert self.notifier.watchdog_period_s is not None
+        period = self.notifier.watchdog_period_s / 2.0
+        while True:
+            self.notifier.notify("WATCHDOG=1")
+            await asyncio.sleep(period)
 
     def _on_config_applied(self, applied: ConfigApplied) -> None:
         lc = applied.config.lifecycle
@@ -230,3 +258,12 @@ class Daemon:
         for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
             with contextlib.suppress(ValueError, RuntimeError):
                 loop.remove_signal_handler(sig)
+
+
+def _status_line(status: DaemonStatus) -> str:
+    """The one-line STATUS= that ``systemctl status navd`` shows."""
+    safety = "; ".join(status.safe_stop_reasons) or "ok"
+    return (
+        f"STATUS=running {status.uptime_s:.0f} s, loop lag p99 {status.loop_lag_p99_ms:.1f} ms, "
+        f"{status.messages_dispatched} messages, safety: {safety}"
+    )

@@ -73,3 +73,26 @@ def test_config_check_command_names_the_bad_key(tmp_path: Any) -> None:
     )
     assert result.returncode == 2
     assert "chassis.baudrate 115201 is not a standard rate" in result.stderr
+
+
+def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypatch: Any) -> None:
+    from tests.lifecycle.test_sdnotify import NotifyListener
+
+    listener = NotifyListener(tmp_path / "notify")
+    monkeypatch.setenv("NOTIFY_SOCKET", str(listener.path))
+    monkeypatch.setenv("WATCHDOG_USEC", "200000")
+    try:
+        daemon = spawn_daemon("run", "--config", "config/navd.toml")
+        daemon.wait_for("ready", timeout_s=3.0)
+        time.sleep(1.0)
+        daemon.proc.send_signal(signal.SIGTERM)
+        assert daemon.proc.wait(timeout=2.0) == 0
+        time.sleep(0.1)
+    finally:
+        listener.close()
+    lines = listener.lines()
+    assert lines[0] == "READY=1\nSTATUS=running"
+    assert lines.count("WATCHDOG=1") >= 8  # every 0.1 s for a second
+    assert any(line.startswith("STATUS=running") and "loop lag p99" in line for line in lines)
+    stopping = [i for i, line in enumerate(lines) if line.startswith("STOPPING=1")]
+    assert len(stopping) == 1 and stopping[0] > lines.index("READY=1\nSTATUS=running")
