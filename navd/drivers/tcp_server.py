@@ -91,6 +91,9 @@ class TcpServer(Module):
         self._daemon: DaemonStatus | None = None
         self._safety: tuple[str, ...] = ()
         self._config_requests: dict[str, Session] = {}
+        self._config_revision = 0
+        self._config_applied: dict[str, object] | None = None
+        self._config_rejected: dict[str, object] | None = None
 
     # --- lifecycle --------------------------------------------------------------------
 
@@ -369,6 +372,19 @@ class TcpServer(Module):
     # --- outgoing -----------------------------------------------------------------------
 
     def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
+        if isinstance(answer, ConfigApplied):
+            self._config_revision += 1
+            self._config_applied = {
+                "request_id": answer.request_id,
+                "stamp": answer.stamp,
+                "changed": list(answer.changed_keys),
+            }
+        else:
+            self._config_rejected = {
+                "request_id": answer.request_id,
+                "stamp": answer.stamp,
+                "reason": answer.reason,
+            }
         session = self._config_requests.pop(answer.request_id, None)
         if session is None:
             return
@@ -460,6 +476,11 @@ class TcpServer(Module):
                 "messages": None if daemon is None else daemon.messages_dispatched,
                 "modules": [] if daemon is None else [m._asdict() for m in daemon.modules],
                 "workers": [] if daemon is None else [w._asdict() for w in daemon.workers],
+                "config": {
+                    "revision": self._config_revision,
+                    "last_applied": self._config_applied,
+                    "last_rejected": self._config_rejected,
+                },
             },
         }
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -42,19 +43,42 @@ def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any) -> None:
     assert daemon.proc.wait(timeout=2.0) == 0
 
 
+def _config_status(port: int) -> dict[str, Any]:
+    result = subprocess.run(
+        [sys.executable, "-m", "navd", "status", "--once", "--json", "--port", str(port)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=True,
+    )
+    config: dict[str, Any] = json.loads(result.stdout)["diagnostics"]["config"]
+    return config
+
+
 def test_sighup_reloads_and_rejects_on_the_real_process(spawn_daemon: Any, tmp_path: Any) -> None:
+    from tests.e2e.conftest import free_port
+
+    port = free_port()
     path = tmp_path / "navd.toml"
-    path.write_text("[safety]\nreaction_timeout_s = 0.5\n")
+    path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 0.5\n")
     daemon = spawn_daemon("run", "--config", str(path))
     daemon.wait_for("ready", timeout_s=3.0)
-    path.write_text("[safety]\nreaction_timeout_s = 0.3\n")
+    assert _config_status(port)["revision"] == 0
+    path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 0.3\n")
     daemon.proc.send_signal(signal.SIGHUP)
     applied = daemon.wait_for("config_applied", timeout_s=2.0)
     assert applied["changed"] == ["safety.reaction_timeout_s"]
-    path.write_text("[safety]\nreaction_timeout_s = 'later'\n")
+    status = _config_status(port)
+    assert status["revision"] == 1
+    assert status["last_applied"]["changed"] == ["safety.reaction_timeout_s"]
+    path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 'later'\n")
     daemon.proc.send_signal(signal.SIGHUP)
     rejected = daemon.wait_for("config_rejected", timeout_s=2.0)
     assert any("safety.reaction_timeout_s" in p for p in rejected["problems"])
+    status = _config_status(port)
+    assert status["revision"] == 1  # the running config was not touched
+    assert "safety.reaction_timeout_s = 'later'" in status["last_rejected"]["reason"]
     assert daemon.proc.poll() is None
     daemon.proc.send_signal(signal.SIGTERM)
     assert daemon.proc.wait(timeout=2.0) == 0
