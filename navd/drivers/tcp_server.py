@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import asyncio
 import hmac
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from navd import __version__
 from navd.drivers.errors import DriverError, WireError
+from navd.drivers.status_board import StatusBoard, goal_dict
 from navd.drivers.tcp_connection import Connection
 from navd.drivers.timesync import StampMapper
 from navd.drivers.wire import (
@@ -39,17 +39,12 @@ from navd.lifecycle.messages import (
     ConfigApplied,
     ConfigChange,
     ConfigRejected,
-    DaemonStatus,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
     DeviceResumed,
     DeviceStale,
-    DriveCommand,
-    Goal,
     GoalStatus,
-    PoseEstimate,
-    SafetyState,
 )
 from navd.lifecycle.module import Module, ModuleContext
 
@@ -85,25 +80,14 @@ class TcpServer(Module):
         self.sessions: dict[str, Session] = {}
         self.connections: set[Connection] = set()
         self._server: asyncio.Server | None = None
-        self._pose: PoseEstimate | None = None
-        self._drive: DriveCommand | None = None
-        self._goal: GoalStatus | None = None
-        self._daemon: DaemonStatus | None = None
-        self._safety: tuple[str, ...] = ()
         self._config_requests: dict[str, Session] = {}
-        self._config_revision = 0
-        self._config_applied: dict[str, object] | None = None
-        self._config_rejected: dict[str, object] | None = None
+        self.board = StatusBoard()
 
     # --- lifecycle --------------------------------------------------------------------
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        ctx.subscribe(PoseEstimate, self._keep_pose)
-        ctx.subscribe(DriveCommand, self._keep_drive)
-        ctx.subscribe(DaemonStatus, self._keep_daemon)
-        ctx.subscribe(SafetyState, self._keep_safety)
-        ctx.subscribe(Goal, self._on_goal)
+        self.board.subscribe(ctx)
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(ConfigApplied, self._on_config_answer)
         ctx.subscribe(ConfigRejected, self._on_config_answer)
@@ -372,19 +356,6 @@ class TcpServer(Module):
     # --- outgoing -----------------------------------------------------------------------
 
     def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
-        if isinstance(answer, ConfigApplied):
-            self._config_revision += 1
-            self._config_applied = {
-                "request_id": answer.request_id,
-                "stamp": answer.stamp,
-                "changed": list(answer.changed_keys),
-            }
-        else:
-            self._config_rejected = {
-                "request_id": answer.request_id,
-                "stamp": answer.stamp,
-                "reason": answer.reason,
-            }
         session = self._config_requests.pop(answer.request_id, None)
         if session is None:
             return
@@ -405,84 +376,28 @@ class TcpServer(Module):
                 }
             )
 
-    def _on_goal(self, goal: Goal) -> None:
-        if self._goal is None or self._goal.goal_id != goal.goal_id:
-            self._goal = GoalStatus(
-                stamp=goal.stamp, received=goal.received, goal_id=goal.goal_id, state="pending"
-            )
-
     def _on_goal_status(self, status: GoalStatus) -> None:
-        self._goal = status
-        frame = {"type": "goal_status", **_goal_dict(status)}
+        frame = {"type": "goal_status", **goal_dict(status)}
         for session in self.sessions.values():
             if session.kind is DeviceKind.CONTROL:
                 session.conn.send(frame)
 
-    def _keep_pose(self, pose: PoseEstimate) -> None:
-        self._pose = pose
-
-    def _keep_drive(self, drive: DriveCommand) -> None:
-        self._drive = drive
-
-    def _keep_daemon(self, status: DaemonStatus) -> None:
-        self._daemon = status
-
-    def _keep_safety(self, state: SafetyState) -> None:
-        self._safety = state.reasons
-
     def status_frame(self) -> dict[str, object]:
         """The status a subscribed control client receives."""
         now = self.ctx.clock.now()
-        goal_active = self._goal is not None and self._goal.state in ("pending", "active")
-        mode = "stopped" if self._safety else "navigating" if goal_active else "idle"
-        daemon = self._daemon
-        return {
-            "type": "status",
-            "stamp": now,
-            "mode": mode,
-            "pose": None
-            if self._pose is None
-            else {
-                "x": self._pose.x_m,
-                "y": self._pose.y_m,
-                "yaw": self._pose.yaw_rad,
-                "std_xy": math.sqrt(max(self._pose.covariance[0, 0], self._pose.covariance[1, 1])),
-            },
-            "velocity": None
-            if self._drive is None
-            else {
-                "linear": self._drive.linear_mps,
-                "angular": self._drive.angular_radps,
-            },
-            "goal": None if self._goal is None else _goal_dict(self._goal),
-            "devices": [
-                {
-                    "device_id": s.device_id,
-                    "kind": s.kind.value,
-                    "connected_s": round(now - s.connected_s, 3),
-                    "silent_s": round(now - s.last_rx_s, 3),
-                    "stale": s.stale,
-                    "accepted": s.accepted,
-                    "rejected": s.rejected,
-                }
-                for s in self.sessions.values()
-            ],
-            "diagnostics": {
-                "safety": list(self._safety),
-                "loop_lag_p50_ms": None if daemon is None else round(daemon.loop_lag_p50_ms, 3),
-                "loop_lag_p99_ms": None if daemon is None else round(daemon.loop_lag_p99_ms, 3),
-                "loop_lag_max_ms": None if daemon is None else round(daemon.loop_lag_max_ms, 3),
-                "uptime_s": None if daemon is None else round(daemon.uptime_s, 3),
-                "messages": None if daemon is None else daemon.messages_dispatched,
-                "modules": [] if daemon is None else [m._asdict() for m in daemon.modules],
-                "workers": [] if daemon is None else [w._asdict() for w in daemon.workers],
-                "config": {
-                    "revision": self._config_revision,
-                    "last_applied": self._config_applied,
-                    "last_rejected": self._config_rejected,
-                },
-            },
-        }
+        devices: list[dict[str, object]] = [
+            {
+                "device_id": s.device_id,
+                "kind": s.kind.value,
+                "connected_s": round(now - s.connected_s, 3),
+                "silent_s": round(now - s.last_rx_s, 3),
+                "stale": s.stale,
+                "accepted": s.accepted,
+                "rejected": s.rejected,
+            }
+            for s in self.sessions.values()
+        ]
+        return self.board.frame(now, devices)
 
     async def _stream_status(self, session: Session, rate_hz: float) -> None:
         while session.conn.open:
@@ -522,13 +437,3 @@ class TcpServer(Module):
                         silent_s=silent,
                     )
                 )
-
-
-def _goal_dict(status: GoalStatus) -> dict[str, object]:
-    return {
-        "goal_id": status.goal_id,
-        "state": status.state,
-        "distance_remaining": status.distance_remaining_m,
-        "eta_s": status.eta_s,
-        "reason": status.reason,
-    }
