@@ -108,10 +108,18 @@ class ChassisDriver(Module):
                 await self._drive_loop()
             except SerialPortError as err:
                 self.ctx.log.error("chassis_lost", port=chassis.port, error=str(err))
-                self._close()
                 self._publish_lost(str(err))
-                reported_down = True
-                self.reconnects += 1
+            except Exception as err:  # the serial task's supervised boundary: never go silent
+                # a dead loop would leave the STM32 executing its last command: report, stop
+                # the wheels if the port still works, and start over
+                self.ctx.bus.report_failure(self.name, {"task": "serial loop"}, err)
+                with contextlib.suppress(Exception):
+                    self._write(0, 0)
+                self._publish_lost(f"driver error: {type(err).__name__}: {err}")
+                await self.ctx.clock.sleep(backoff)
+            self._close()
+            reported_down = True
+            self.reconnects += 1
 
     async def _open(self) -> None:
         chassis = self.ctx.config.chassis
@@ -172,6 +180,12 @@ class ChassisDriver(Module):
             self._port.write(line)
         except serial.SerialTimeoutException:
             self.writes_stalled += 1  # nobody reads the UART: drop this line, not the port
+            if self.writes_stalled == 1 or self.writes_stalled % 100 == 0:
+                self.ctx.log.warning(
+                    "chassis_write_stalled",
+                    port=self.ctx.config.chassis.port,
+                    stalled_lines=self.writes_stalled,
+                )
             return
         except (serial.SerialException, OSError) as err:
             self._lost_reason = f"write failed: {err}"

@@ -217,3 +217,28 @@ async def test_encoder_feedback_becomes_wheel_odometry(
         expected_v = 0.0 if invert_left else 0.1
         assert odometry[0].linear_mps == pytest.approx(expected_v)
         assert odometry[0].angular_radps == pytest.approx(expected_w)
+
+
+async def test_a_bug_in_the_serial_loop_stops_the_wheels_and_recovers(tmp_path: Path) -> None:
+    from navd.drivers.chassis import ChassisDriver
+
+    async with chassis_daemon(tmp_path) as (daemon, stm32):
+        driver = next(m for m in daemon.manager.modules if isinstance(m, ChassisDriver))
+        drive(daemon, 0.3, 0.0)
+        await until(lambda: any(line == b"300 300\n" for _, line in stm32.lines))
+        original = driver._command_now
+
+        def broken_once() -> tuple[int, int]:
+            driver._command_now = original  # type: ignore[method-assign]
+            raise ZeroDivisionError("bad calibration math")
+
+        reopened = record(daemon, DeviceConnected)
+        driver._command_now = broken_once  # type: ignore[method-assign]
+        loop = asyncio.get_running_loop()
+        broke = loop.time()
+        await until(lambda: daemon.supervisor.record("chassis").failures == 1)
+        assert "bad calibration math" in daemon.supervisor.record("chassis").last_error
+        await until(lambda: b"0 0\n" in stm32.since(broke))
+        await until(lambda: len(reopened) == 1)
+        drive(daemon, 0.1, 0.0)  # the driver reopened and obeys fresh commands again
+        await until(lambda: b"100 100\n" in stm32.since(broke))
