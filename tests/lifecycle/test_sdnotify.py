@@ -39,6 +39,16 @@ class NotifyListener:
     def lines(self) -> list[str]:
         return [text for _, text in self.received]
 
+    def wait_for(self, prefix: str, timeout_s: float = 3.0) -> str:
+        """The first datagram starting with ``prefix``, waiting for it to arrive."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            for text in self.lines():
+                if text.startswith(prefix):
+                    return text
+            time.sleep(0.01)
+        raise AssertionError(f"no {prefix!r} datagram within {timeout_s} s: {self.lines()}")
+
     def close(self) -> None:
         self._stop.set()
         self._thread.join()
@@ -76,9 +86,7 @@ def test_watchdog_period(env: dict[str, str], period: float | None) -> None:
 def test_sends_lines_in_one_datagram(listener: NotifyListener) -> None:
     notifier = SystemdNotifier({"NOTIFY_SOCKET": str(listener.path)})
     assert notifier.notify("READY=1", "STATUS=running")
-    deadline = time.monotonic() + 2.0
-    while not listener.received and time.monotonic() < deadline:
-        time.sleep(0.01)
+    listener.wait_for("READY=1")
     assert listener.lines() == ["READY=1\nSTATUS=running"]
     notifier.close()
 
@@ -107,6 +115,7 @@ async def test_watchdog_pings_stop_while_the_loop_is_stalled(listener: NotifyLis
     await asyncio.sleep(0.3)
     daemon.request_shutdown("test over")
     await task
+    listener.wait_for("STOPPING=1")
     pings = [t for t, text in listener.received if text == "WATCHDOG=1"]
     assert "READY=1\nSTATUS=running" in listener.lines()
     before = [t for t in pings if t < stall_start]
