@@ -49,6 +49,16 @@ def install(root: Path, wheel: Path, *extra: str) -> subprocess.CompletedProcess
     )
 
 
+def uninstall(root: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        ["bash", str(INSTALL), "--destdir", str(root), "--uninstall"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+
 def snapshot(root: Path) -> dict[str, str]:
     """Every path under root; files outside the virtual environment with their hash."""
     out = {}
@@ -107,13 +117,7 @@ def test_uninstall_removes_what_it_installed_and_nothing_else(tmp_path: Path, wh
     (root / "var/lib/navd/maps/office.yaml").write_text("image: office.pgm\n")
     config = root / "etc/navd/navd.toml"
     config.write_text(config.read_text() + "# my robot\n")
-    result = subprocess.run(
-        ["bash", str(INSTALL), "--destdir", str(root), "--uninstall"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    result = uninstall(root)
     assert result.returncode == 0, result.stderr
     assert "kept your edited /etc/navd/navd.toml" in result.stdout
     assert not (root / "opt/navd").exists()
@@ -126,13 +130,7 @@ def test_uninstall_removes_what_it_installed_and_nothing_else(tmp_path: Path, wh
 def test_uninstall_of_an_unedited_install_leaves_no_trace(tmp_path: Path, wheel: Path) -> None:
     root = tmp_path / "root"
     assert install(root, wheel).returncode == 0
-    result = subprocess.run(
-        ["bash", str(INSTALL), "--destdir", str(root), "--uninstall"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    result = uninstall(root)
     assert result.returncode == 0, result.stderr
     leftovers = [str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()]
     assert leftovers == []
