@@ -50,7 +50,9 @@ class StatusBoard:
 
     def frame(self, now: float, devices: list[dict[str, object]]) -> dict[str, object]:
         """The status frame at ``now`` [s], with the server's device list."""
-        goal_active = self.goal is not None and self.goal.state in ("pending", "active")
+        # navigating only while the planner reports the goal active: an accepted goal that
+        # nothing pursues yet is shown under "goal" as pending, not as motion
+        goal_active = self.goal is not None and self.goal.state == "active"
         mode = "stopped" if self.safety else "navigating" if goal_active else "idle"
         pose, drive, daemon = self.pose, self.drive, self.daemon
         return {

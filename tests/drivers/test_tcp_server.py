@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+from typing import Any
 
 import pytest
 
@@ -242,3 +243,42 @@ async def test_good_and_bad_lines_in_one_write_are_answered_one_by_one() -> None
         await until(lambda: len(scans) == 2)
         assert [s.ranges.size for s in scans] == [3, 3]
         await lidar.close()
+
+
+async def test_status_mode_follows_safety_and_goal_progress() -> None:
+    from navd.lifecycle.messages import SafetyState
+
+    async def status_where(client: AsyncClient, predicate: Any) -> dict[str, Any]:
+        """The first status frame meeting ``predicate`` (frames already in flight are older)."""
+        while True:
+            status = await client.recv_type("status")
+            if predicate(status):
+                return status
+
+    async with running_daemon() as (daemon, port):
+        ui, _ = await AsyncClient.hello(port, "control", "ui")
+        await ui.send({"type": "goal", "x": 1.0, "y": 1.0, "goal_id": "g1"})
+        await ui.recv_type("ack")
+        await ui.send({"type": "subscribe", "rate_hz": 50})
+        await ui.recv_type("ack")
+        status = await ui.recv_type("status")
+        assert (status["mode"], status["goal"]["state"]) == ("idle", "pending")
+        now = daemon.clock.now()
+        daemon.bus.publish(
+            GoalStatus(
+                stamp=now,
+                received=now,
+                goal_id="g1",
+                state="active",
+                distance_remaining_m=1.4,
+                eta_s=3.0,
+            )
+        )
+        status = await asyncio.wait_for(
+            status_where(ui, lambda s: s["goal"]["state"] == "active"), 3.0
+        )
+        assert (status["mode"], status["goal"]["distance_remaining"]) == ("navigating", 1.4)
+        daemon.bus.publish(SafetyState(stamp=now, received=now, reasons=("lidar gone",)))
+        status = await asyncio.wait_for(status_where(ui, lambda s: s["diagnostics"]["safety"]), 3.0)
+        assert status["mode"] == "stopped" and status["diagnostics"]["safety"] == ["lidar gone"]
+        await ui.close()
