@@ -52,9 +52,7 @@ class ChassisDriver(Module):
         self._timed_out = True
         self._lost_reason = ""
         self._rx = bytearray()
-        self.lines_written = 0
         self.writes_stalled = 0
-        self.reconnects = 0
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -119,7 +117,6 @@ class ChassisDriver(Module):
                 await self.ctx.clock.sleep(backoff)
             self._close()
             reported_down = True
-            self.reconnects += 1
 
     async def _open(self) -> None:
         chassis = self.ctx.config.chassis
@@ -190,7 +187,6 @@ class ChassisDriver(Module):
         except (serial.SerialException, OSError) as err:
             self._lost_reason = f"write failed: {err}"
             raise SerialPortError(self._lost_reason) from err
-        self.lines_written += 1
 
     def _write_safely(self, left: int, right: int) -> None:
         """A write from a bus handler: a failure is left to the serial loop to handle."""

@@ -50,7 +50,6 @@ class WorkerPool:
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
         self._slots: dict[str, _Slot] = {}
         self._closed = False
-        self._loop: asyncio.AbstractEventLoop | None = None
 
     def submit(self, slot: str, job: Job, *, module: str) -> None:
         """Run ``job`` in a worker; if the slot is busy, it waits, replacing any waiting job.
