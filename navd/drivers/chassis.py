@@ -183,7 +183,6 @@ class ChassisDriver(Module):
                     port=self.ctx.config.chassis.port,
                     stalled_lines=self.writes_stalled,
                 )
-            return
         except (serial.SerialException, OSError) as err:
             self._lost_reason = f"write failed: {err}"
             raise SerialPortError(self._lost_reason) from err
