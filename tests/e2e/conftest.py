@@ -18,6 +18,18 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
+def run_navd(*args: str, timeout_s: float = 30.0) -> subprocess.CompletedProcess[str]:
+    """Run one ``navd`` command to completion (the real CLI, as a user types it)."""
+    return subprocess.run(
+        [sys.executable, "-m", "navd", *args],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+    )
+
+
 class DaemonProcess:
     """The real ``navd run`` process, with its JSON log lines collected by a thread."""
 

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import json
 import signal
-import subprocess
-import sys
 import time
 from typing import Any
 
 import pytest
 
-from tests.e2e.conftest import REPO
+from tests.e2e.conftest import run_navd
 
 pytestmark = pytest.mark.e2e
 
@@ -44,14 +42,8 @@ def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any) -> None:
 
 
 def _config_status(port: int) -> dict[str, Any]:
-    result = subprocess.run(
-        [sys.executable, "-m", "navd", "status", "--once", "--json", "--port", str(port)],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=30,
-        check=True,
-    )
+    result = run_navd("status", "--once", "--json", "--port", str(port))
+    assert result.returncode == 0, result.stderr
     config: dict[str, Any] = json.loads(result.stdout)["diagnostics"]["config"]
     return config
 
@@ -87,14 +79,7 @@ def test_sighup_reloads_and_rejects_on_the_real_process(spawn_daemon: Any, tmp_p
 def test_config_check_command_names_the_bad_key(tmp_path: Any) -> None:
     path = tmp_path / "navd.toml"
     path.write_text("[chassis]\nbaudrate = 115201\n")
-    result = subprocess.run(
-        [sys.executable, "-m", "navd", "config", "check", str(path)],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=30,
-        check=False,
-    )
+    result = run_navd("config", "check", str(path))
     assert result.returncode == 2
     assert "chassis.baudrate 115201 is not a standard rate" in result.stderr
 

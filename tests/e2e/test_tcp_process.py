@@ -10,6 +10,7 @@ from typing import Any
 import pytest
 
 from navd.drivers.client import Client
+from tests.e2e.conftest import run_navd
 
 pytestmark = pytest.mark.e2e
 
@@ -104,66 +105,22 @@ def test_reconnecting_sensor_while_another_streams(daemon_on_port: Any) -> None:
 
 
 def test_status_command_shows_devices(daemon_on_port: Any) -> None:
-    import subprocess
-    import sys
-
-    from tests.e2e.conftest import REPO
-
     _, port = daemon_on_port()
     with Client("127.0.0.1", port, role="compass", device_id="compass0") as compass:
         compass.send({"type": "heading", "bearing_deg": 90.0, "accuracy_deg": 2.0})
-        result = subprocess.run(
-            [sys.executable, "-m", "navd", "status", "--once", "--port", str(port)],
-            cwd=REPO,
-            capture_output=True,
-            text=True,
-            timeout=30,
-            check=False,
-        )
+        result = run_navd("status", "--once", "--port", str(port))
     assert result.returncode == 0, result.stderr
     assert "compass0(compass)" in result.stdout and "[idle]" in result.stdout
-    goal = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "navd",
-            "goal",
-            "1.5",
-            "2",
-            "--yaw",
-            "0.3",
-            "--id",
-            "g7",
-            "--port",
-            str(port),
-        ],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=30,
-        check=False,
-    )
+    goal = run_navd("goal", "1.5", "2", "--yaw", "0.3", "--id", "g7", "--port", str(port))
     assert goal.returncode == 0, goal.stderr
     assert json.loads(goal.stdout) == {"type": "ack", "request": "goal", "goal_id": "g7"}
 
 
 def test_busy_port_is_a_clear_error_and_exit_1(daemon_on_port: Any, tmp_path: Any) -> None:
-    import subprocess
-    import sys
-
-    from tests.e2e.conftest import REPO
-
     first, port = daemon_on_port()
     config = tmp_path / "second.toml"
     config.write_text(f"[tcp]\nport = {port}\n")
-    second = subprocess.run(
-        [sys.executable, "-m", "navd", "run", "--config", str(config)],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=30,
-        check=False,
-    )
+    second = run_navd("run", "--config", str(config))
     assert second.returncode == 1
     failure = [json.loads(line) for line in second.stderr.splitlines() if '"daemon_failed"' in line]
     assert failure and f"cannot listen on 127.0.0.1:{port}" in failure[0]["error"]
