@@ -366,6 +366,48 @@ class EstimationConfig(Section):
     madgwick_beta: float = Field(
         0.1, ge=0, le=10, description="[rad/s] Madgwick gain (gyro error the accel corrects)"
     )
+    accel_reject_mps2: float = Field(
+        2.0,
+        gt=0,
+        le=50,
+        description="[m/s^2] skip the accelerometer correction while |accel| is off g by more",
+    )
+    gyro_bias_gain_per_s: float = Field(
+        0.2, ge=0, le=10, description="[1/s] how fast gyro bias is learned while still (0: off)"
+    )
+    still_gyro_radps: float = Field(
+        0.03, gt=0, le=1, description="[rad/s] gyro rate below which the IMU may be still"
+    )
+    still_time_s: float = Field(
+        1.0, ge=0, le=60, description="[s] stillness needed before gyro bias is learned"
+    )
+    imu_max_gap_s: float = Field(
+        0.1, gt=0, le=5, description="[s] longer gaps between IMU samples are integrated as this"
+    )
+    imu_window_s: float = Field(
+        0.05,
+        gt=0,
+        le=1,
+        description="[s] IMU samples averaged into each position event (yaw rate, acceleration)",
+    )
+    imu_yaw_rate_std_radps: float = Field(
+        0.02, gt=0, le=10, description="[rad/s] noise of the averaged IMU yaw rate"
+    )
+    imu_accel_std_mps2: float = Field(
+        0.3, gt=0, le=100, description="[m/s^2] noise of the averaged IMU acceleration"
+    )
+    nonholonomic_std_mps: float | None = Field(
+        0.05,
+        gt=0,
+        le=10,
+        description="[m/s] sideways velocity noise of a differential drive; unset: no constraint",
+    )
+    wheel_linear_std_mps: float = Field(
+        0.05, gt=0, le=10, description="[m/s] noise of wheel odometry forward velocity"
+    )
+    wheel_angular_std_radps: float = Field(
+        0.05, gt=0, le=10, description="[rad/s] noise of wheel odometry yaw rate"
+    )
     ukf_alpha: float = Field(0.1, gt=0, le=1, description="[1] Merwe sigma point spread alpha")
     ukf_beta: float = Field(2.0, ge=0, le=10, description="[1] Merwe prior knowledge beta")
     ukf_kappa: float = Field(
@@ -386,8 +428,23 @@ class EstimationConfig(Section):
     compass_gate_chi2: float = Field(
         10.8, gt=0, le=1e6, description="[chi2] Mahalanobis gate of compass yaw (1 dof)"
     )
+    wheel_gate_chi2: float = Field(
+        13.8, gt=0, le=1e6, description="[chi2] Mahalanobis gate of wheel odometry (2 dof)"
+    )
     history_horizon_s: float = Field(
         1.0, gt=0, le=30, description="[s] late measurements older than this are dropped"
+    )
+    max_events: int = Field(
+        5000, ge=10, le=1_000_000, description="[events] most events kept for late corrections"
+    )
+    reset_inflation: float = Field(
+        10.0, ge=1, le=1e6, description="[ratio] covariance scale after a numerical reset"
+    )
+    initial_velocity_std_mps: float = Field(
+        0.5, gt=0, le=100, description="[m/s] velocity uncertainty when the filter starts"
+    )
+    datum_max_accuracy_m: float = Field(
+        5.0, gt=0, le=1000, description="[m] worst fix accuracy accepted to set the GPS datum"
     )
     degraded_position_std_m: float = Field(
         0.3, gt=0, le=100, description="[m] position std above which localization is degraded"
@@ -396,7 +453,10 @@ class EstimationConfig(Section):
         1.0, gt=0, le=1000, description="[m] position std above which localization is lost"
     )
     publish_rate_hz: float = Field(
-        20.0, gt=0, le=1000, description="[Hz] how often the fused pose is published"
+        20.0, gt=0, le=1000, **restart("[Hz] how often the fused pose is published")
+    )
+    imu_history_s: float = Field(
+        2.0, gt=0, le=60, **restart("[s] IMU samples kept for late position events")
     )
 
     @model_validator(mode="after")
@@ -405,6 +465,12 @@ class EstimationConfig(Section):
             raise ValueError(
                 f"estimation.degraded_position_std_m ({self.degraded_position_std_m}) must be "
                 f"below estimation.lost_position_std_m ({self.lost_position_std_m})"
+            )
+        if self.imu_history_s < self.history_horizon_s + self.imu_window_s:
+            raise ValueError(
+                f"estimation.imu_history_s ({self.imu_history_s}) must cover "
+                f"estimation.history_horizon_s + estimation.imu_window_s "
+                f"({self.history_horizon_s + self.imu_window_s}) so late events find IMU data"
             )
         return self
 
@@ -416,7 +482,7 @@ class WorldConfig(Section):
         None, ge=1, le=60, examples=[33], description="[zone] fixed UTM zone; unset: automatic"
     )
     utm_threshold_m: float = Field(
-        10_000.0, gt=0, le=1e6, description="[m] distance from the datum that forces a zone check"
+        10_000.0, gt=0, le=1e6, description="[m] fixes farther than this from the datum are refused"
     )
     map_rotation_rad: float = Field(
         0.0, ge=-3.1416, le=3.1416, description="[rad] map +x measured counter-clockwise from east"

@@ -45,11 +45,14 @@ __all__ = [
     "Imu",
     "InitialPose",
     "LaserScan",
+    "LocalizationState",
     "MapUpdate",
     "Message",
     "ModuleHealth",
+    "Orientation",
     "Path",
     "PoseEstimate",
+    "PoseMeasurement",
     "SafeStop",
     "SafeStopCleared",
     "SafetyState",
@@ -519,6 +522,66 @@ class PoseEstimate(Message):
         if cov.shape != (3, 3):
             raise MessageError(f"covariance must be 3x3, got shape {cov.shape}")
         object.__setattr__(self, "covariance", cov)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class PoseMeasurement(Message):
+    """A measured pose of base_link in the map frame (scan matching), for the estimator.
+
+    Attributes:
+        source: what measured it ("lidar").
+        x_m, y_m: [m] position.
+        yaw_rad: [rad] heading, counter-clockwise from +x.
+        covariance: 3x3 covariance of (x [m], y [m], yaw [rad]) (read-only).
+    """
+
+    source: str
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    covariance: FloatArray
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        for name in ("x_m", "y_m", "yaw_rad"):
+            _require_finite(name, getattr(self, name))
+        cov = _read_only("covariance", self.covariance, np.float64, 2)
+        if cov.shape != (3, 3):
+            raise MessageError(f"covariance must be 3x3, got shape {cov.shape}")
+        if not (np.all(np.isfinite(cov)) and np.all(np.diag(cov) > 0.0)):
+            raise MessageError("covariance must be finite with positive variances")
+        object.__setattr__(self, "covariance", cov)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class LocalizationState(Message):
+    """How well the robot knows where it is; published when the state changes.
+
+    Attributes:
+        state: "uninitialized" (no position source yet), "ok", "degraded" or "lost".
+        position_std_m: [m] standard deviation of the position along its worst axis.
+        yaw_std_rad: [rad] standard deviation of the yaw.
+    """
+
+    state: str
+    position_std_m: float
+    yaw_std_rad: float
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Orientation(Message):
+    """The IMU's orientation from Madgwick's filter, for scan deskewing and levelling.
+
+    Attributes:
+        device_id: the IMU.
+        quaternion_wxyz: rotation of the IMU frame into the earth frame (z up; x magnetic
+            north with a magnetometer, else the heading at start-up).
+        gyro_bias_radps: [rad/s] the gyro bias learned so far.
+    """
+
+    device_id: str
+    quaternion_wxyz: tuple[float, float, float, float]
+    gyro_bias_radps: Vector3
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -1,0 +1,347 @@
+"""The state estimator: sensors in, fused pose out. Plain computation, driven by its node.
+
+Madgwick's filter takes every IMU sample; position sources (scan-matched lidar poses, GPS
+fixes, compass headings, wheel odometry) become time-stamped events for the UKF, each
+carrying the IMU's mean yaw rate and acceleration over the window before it and, for a
+differential drive, the constraint that the robot does not slide sideways. The filter starts
+at the first absolute position (a lidar pose, a GPS fix once the datum exists, or an initial
+pose from a client); until then nothing is estimated.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.config import NavdConfig
+from navd.estimation.angles import bearing_to_yaw, wrap_angle
+from navd.estimation.errors import GeoError
+from navd.estimation.geo import GeoFrame
+from navd.estimation.history import Event, EventHistory, Insert
+from navd.estimation.madgwick import MadgwickFilter
+from navd.estimation.motion_model import (
+    STATE_SIZE,
+    TH,
+    VTH,
+    VX,
+    VY,
+    ProcessNoise,
+    Row,
+    X,
+    Y,
+    transition_matrix,
+)
+from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf
+from navd.lifecycle.messages import (
+    CompassHeading,
+    GpsFix,
+    Imu,
+    InitialPose,
+    PoseEstimate,
+    PoseMeasurement,
+    WheelOdometry,
+)
+
+__all__ = ["Localization", "StateEstimator"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class Localization:
+    """Names of the localization states."""
+
+    UNINITIALIZED = "uninitialized"
+    OK = "ok"
+    DEGRADED = "degraded"
+    LOST = "lost"
+
+
+@dataclass
+class _Counts:
+    ignored: dict[str, int] = field(default_factory=dict)
+
+    def ignore(self, reason: str) -> None:
+        self.ignored[reason] = self.ignored.get(reason, 0) + 1
+
+
+class StateEstimator:
+    """Fuses IMU, lidar poses, GPS, compass and wheel odometry into one pose.
+
+    Args:
+        config: the whole config (estimation and world sections are used).
+    """
+
+    def __init__(self, config: NavdConfig) -> None:
+        self.madgwick = MadgwickFilter(config.estimation)
+        self._counts = _Counts()
+        self.geo: GeoFrame | None = None
+        self._last_compass_yaw: tuple[float, float, float] | None = None  # stamp, yaw, std
+        self.configure(config)
+        self.history = self._new_history()
+
+    # --- configuration --------------------------------------------------------------------
+
+    def configure(self, config: NavdConfig) -> None:
+        """Take a new config; the filter state is kept (Merwe parameters apply on restart)."""
+        self.config = config
+        est = config.estimation
+        self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
+        self.madgwick.configure(est)
+        world = config.world
+        if self.geo is None and world.datum_latitude_deg is not None:
+            assert world.datum_longitude_deg is not None  # the model requires the pair
+            self.geo = self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
+        if hasattr(self, "history"):
+            self.history.horizon_s = est.history_horizon_s
+            self.history.max_events = est.max_events
+            self.history.reset_inflation = est.reset_inflation
+
+    def _new_history(self) -> EventHistory:
+        est = self.config.estimation
+        ukf = PoseUkf(
+            alpha=est.ukf_alpha,
+            beta=est.ukf_beta,
+            kappa=est.ukf_kappa,
+            linear_jerk_psd=est.accel_noise_mps2**2,
+            angular_jerk_psd=est.angular_accel_noise_radps2**2,
+        )
+        return EventHistory(
+            ukf,
+            horizon_s=est.history_horizon_s,
+            max_events=est.max_events,
+            reset_inflation=est.reset_inflation,
+        )
+
+    def _geo_frame(
+        self, latitude_deg: float, longitude_deg: float, at_xy: tuple[float, float] = (0.0, 0.0)
+    ) -> GeoFrame:
+        world = self.config.world
+        return GeoFrame(
+            latitude_deg,
+            longitude_deg,
+            map_rotation_rad=world.map_rotation_rad,
+            zone=world.utm_zone,
+            datum_map_xy_m=at_xy,
+            max_distance_m=world.utm_threshold_m,
+        )
+
+    # --- inputs ---------------------------------------------------------------------------
+
+    def add_imu(self, imu: Imu) -> bool:
+        """Feed one IMU sample to Madgwick's filter; False if it was out of order."""
+        return self.madgwick.update(imu)
+
+    def add_pose(self, pose: PoseMeasurement, now: float) -> Insert | None:
+        """A scan-matched pose; starts the filter if nothing has yet."""
+        cov = pose.covariance
+        if not self.history.initialized:
+            self._start(pose.stamp, pose.x_m, pose.y_m, pose.yaw_rad, cov)
+            return None
+        measurement = self._measurement(
+            (Row.X, Row.Y, Row.YAW),
+            [pose.x_m, pose.y_m, wrap_angle(pose.yaw_rad)],
+            cov,
+            pose.stamp,
+        )
+        gate = self.config.estimation.lidar_gate_chi2
+        return self._insert(Event(pose.stamp, pose.source, measurement, gate), now)
+
+    def add_gps(self, fix: GpsFix, now: float) -> Insert | None:
+        """A GNSS fix: ignored if stale, before a datum exists, or off the map."""
+        world = self.config.world
+        if now - fix.stamp > world.coords_lifetime_s:
+            self._counts.ignore("gps_stale")
+            return None
+        if self.geo is None and not self._take_datum(fix):
+            return None
+        assert self.geo is not None
+        try:
+            x, y = self.geo.to_map(fix.latitude_deg, fix.longitude_deg)
+        except GeoError:
+            self._counts.ignore("gps_off_map")
+            return None
+        variance = fix.horizontal_accuracy_m**2
+        if not self.history.initialized:
+            if self._last_compass_yaw is not None and now - self._last_compass_yaw[0] < 1.0:
+                yaw, yaw_std = self._last_compass_yaw[1], self._last_compass_yaw[2]
+            else:
+                yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
+            self._start(fix.stamp, x, y, yaw, np.diag([variance, variance, yaw_std**2]))
+            return None
+        measurement = self._measurement(
+            (Row.X, Row.Y), [x, y], np.diag([variance, variance]), fix.stamp
+        )
+        gate = self.config.estimation.gps_gate_chi2
+        return self._insert(Event(fix.stamp, "gps", measurement, gate), now)
+
+    def _take_datum(self, fix: GpsFix) -> bool:
+        """Anchor the map to ``fix`` if it is good enough; the robot keeps its map position."""
+        if fix.horizontal_accuracy_m > self.config.estimation.datum_max_accuracy_m:
+            self._counts.ignore("gps_before_datum")
+            return False
+        at_xy = (0.0, 0.0)
+        if self.history.initialized:
+            estimate = self._predict(self.history.latest.x, fix.stamp)
+            at_xy = (float(estimate[X]), float(estimate[Y]))
+        try:
+            self.geo = self._geo_frame(fix.latitude_deg, fix.longitude_deg, at_xy)
+        except GeoError:
+            self._counts.ignore("gps_off_map")
+            return False
+        return True
+
+    def add_compass(self, heading: CompassHeading, now: float) -> Insert | None:
+        """A compass bearing, converted to map yaw (never used as a yaw unconverted)."""
+        world = self.config.world
+        yaw = bearing_to_yaw(
+            heading.bearing_deg,
+            declination_deg=world.magnetic_declination_deg,
+            magnetic=not heading.true_north,
+            grid_convergence_rad=self.geo.grid_convergence_rad if self.geo else 0.0,
+            map_rotation_rad=world.map_rotation_rad,
+        )
+        std = math.radians(heading.accuracy_deg)
+        self._last_compass_yaw = (heading.stamp, yaw, std)
+        if not self.history.initialized:
+            return None
+        measurement = self._measurement((Row.YAW,), [yaw], np.array([[std * std]]), heading.stamp)
+        gate = self.config.estimation.compass_gate_chi2
+        return self._insert(Event(heading.stamp, "compass", measurement, gate), now)
+
+    def add_wheel_odometry(self, odom: WheelOdometry, now: float) -> Insert | None:
+        """Wheel encoder velocities (only once the filter runs; they carry no position)."""
+        if not self.history.initialized:
+            return None
+        est = self.config.estimation
+        r = np.diag([est.wheel_linear_std_mps**2, est.wheel_angular_std_radps**2])
+        measurement = self._measurement(
+            (Row.VELOCITY_FORWARD, Row.YAW_RATE),
+            [odom.linear_mps, odom.angular_radps],
+            r,
+            odom.stamp,
+        )
+        event = Event(odom.stamp, "wheel", measurement, est.wheel_gate_chi2)
+        return self._insert(event, now)
+
+    def set_pose(self, pose: InitialPose) -> None:
+        """Restart the filter at a pose given by a person (forgets the events)."""
+        var_xy = pose.std_xy_m**2
+        cov = np.diag([var_xy, var_xy, pose.std_yaw_rad**2])
+        self._start(pose.stamp, pose.x_m, pose.y_m, pose.yaw_rad, cov)
+
+    def advance(self, now: float) -> int:
+        """Apply events that were stamped in the future and whose time has come."""
+        if not self.history.initialized:
+            return 0
+        return self.history.advance(now)
+
+    # --- outputs --------------------------------------------------------------------------
+
+    def estimate(self, now: float) -> PoseEstimate | None:
+        """The pose predicted to ``now`` [s] from the newest state, or None before the start."""
+        if not self.history.initialized:
+            return None
+        latest = self.history.latest
+        dt = max(now - latest.stamp, 0.0)
+        f = transition_matrix(dt)
+        x = f @ latest.x
+        p = f @ latest.p @ f.T + self._noise(dt)
+        yaw = wrap_angle(float(x[TH]))
+        cov = p[np.ix_((X, Y, TH), (X, Y, TH))]
+        forward = math.cos(yaw) * x[VX] + math.sin(yaw) * x[VY]
+        return PoseEstimate(
+            stamp=now,
+            received=now,
+            x_m=float(x[X]),
+            y_m=float(x[Y]),
+            yaw_rad=yaw,
+            covariance=cov,
+            linear_mps=float(forward),
+            angular_radps=float(x[VTH]),
+        )
+
+    def localization(self, estimate: PoseEstimate | None) -> tuple[str, float, float]:
+        """(state, position std [m], yaw std [rad]) of ``estimate``."""
+        if estimate is None:
+            return Localization.UNINITIALIZED, math.inf, math.inf
+        cov = estimate.covariance
+        position_std = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2])[-1]), 0.0))
+        yaw_std = math.sqrt(max(float(cov[2, 2]), 0.0))
+        est = self.config.estimation
+        if position_std > est.lost_position_std_m:
+            return Localization.LOST, position_std, yaw_std
+        if position_std > est.degraded_position_std_m:
+            return Localization.DEGRADED, position_std, yaw_std
+        return Localization.OK, position_std, yaw_std
+
+    @property
+    def counters(self) -> dict[str, object]:
+        """Everything counted so far, for status and logs."""
+        c = self.history.counters
+        return {
+            "events_applied": c.applied,
+            "late_events": c.replayed,
+            "events_reapplied": c.reapplied,
+            "deferred": c.deferred,
+            "too_old": c.too_old,
+            "overflow": c.overflow,
+            "resets": c.resets,
+            "rejected": dict(c.rejected),
+            "ignored": dict(self._counts.ignored),
+            **self.madgwick.counters,
+        }
+
+    # --- helpers --------------------------------------------------------------------------
+
+    def _insert(self, event: Event, now: float) -> Insert:
+        return self.history.insert(event, now)
+
+    def _start(self, stamp: float, x: float, y: float, yaw: float, cov3: FloatArray) -> None:
+        est = self.config.estimation
+        state = np.zeros(STATE_SIZE)
+        state[X], state[Y], state[TH] = x, y, wrap_angle(yaw)
+        variances = np.full(STATE_SIZE, est.initial_velocity_std_mps**2)
+        variances[[4, 5]] = est.accel_noise_mps2**2
+        variances[[VTH]] = 0.5**2
+        variances[[8]] = est.angular_accel_noise_radps2**2
+        p = np.diag(variances)
+        p[np.ix_((X, Y, TH), (X, Y, TH))] = cov3
+        p[TH, TH] = min(p[TH, TH], MAX_YAW_STD_RAD**2)
+        self.history.initialize(stamp, state, p)
+
+    def _predict(self, x: FloatArray, stamp: float) -> FloatArray:
+        dt = max(stamp - self.history.latest.stamp, 0.0)
+        predicted: FloatArray = transition_matrix(dt) @ x
+        return predicted
+
+    def _measurement(
+        self, rows: tuple[Row, ...], z: list[float], r: FloatArray, stamp: float
+    ) -> Measurement:
+        """The sensor's rows followed by the IMU window and the no-sliding constraint."""
+        est = self.config.estimation
+        all_rows = list(rows)
+        values = list(z)
+        noise = [r]
+        window = self.madgwick.window_mean(stamp, est.imu_window_s)
+        if window is not None:
+            all_rows += [Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT]
+            values += [window.yaw_rate_radps, window.accel_forward_mps2, window.accel_left_mps2]
+            # The configured noise is that of the window mean (vibration and bias included).
+            rate_var = est.imu_yaw_rate_std_radps**2
+            accel_var = est.imu_accel_std_mps2**2
+            noise.append(np.diag([rate_var, accel_var, accel_var]))
+        if est.nonholonomic_std_mps is not None:
+            all_rows.append(Row.VELOCITY_LEFT)
+            values.append(0.0)
+            noise.append(np.array([[est.nonholonomic_std_mps**2]]))
+        size = len(all_rows)
+        full = np.zeros((size, size))
+        offset = 0
+        for block in noise:
+            n = block.shape[0]
+            full[offset : offset + n, offset : offset + n] = block
+            offset += n
+        return Measurement(rows=tuple(all_rows), z=np.array(values), r=full, gated_rows=len(rows))
