@@ -3,14 +3,14 @@
 The robot drives a figure-eight (a lemniscate of Gerono) as a differential drive would:
 its heading is always its direction of travel. Sensors are sampled from the truth with
 seeded noise: IMU (gyro bias and noise, accelerometer noise), scan-matched lidar poses,
-GPS fixes around a datum, and compass bearings. Each message gets a measurement stamp and
-an arrival time, so delivery can be delayed per sensor.
+GPS fixes around a datum, compass bearings and wheel odometry. Each message gets a
+measurement stamp and an arrival time, so delivery can be delayed per sensor.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +27,7 @@ from navd.lifecycle.messages import (
     PoseEstimate,
     PoseMeasurement,
     Vector3,
+    WheelOdometry,
 )
 
 __all__ = ["FigureEight", "SensorSuite", "TruthPose", "drive", "replay"]
@@ -88,6 +89,9 @@ class SensorSuite:
     gps_std_m: float = 1.5
     compass_hz: float = 0.0
     compass_std_deg: float = 3.0
+    wheel_hz: float = 0.0
+    wheel_linear_std_mps: float = 0.02
+    wheel_angular_std_radps: float = 0.02
     datum: tuple[float, float] = (52.52, 13.405)
     seed: int = 7
 
@@ -105,8 +109,8 @@ def drive(
     suite: SensorSuite,
     duration_s: float,
     *,
-    lidar_window: tuple[float, float] | None = None,
-    gps_window: tuple[float, float] | None = None,
+    lidar_windows: Sequence[tuple[float, float]] | None = None,
+    gps_windows: Sequence[tuple[float, float]] | None = None,
 ) -> list[Message]:
     """Sensor messages of a drive, in arrival order.
 
@@ -114,7 +118,8 @@ def drive(
         path: the true motion.
         suite: sensors and noise.
         duration_s: [s] length of the drive.
-        lidar_window, gps_window: [s] (start, end) when that sensor reports; None: always.
+        lidar_windows, gps_windows: [s] (start, end) spans when that sensor reports;
+            None: always.
     """
     rng = np.random.default_rng(suite.seed)
     geo = GeoFrame(
@@ -122,8 +127,8 @@ def drive(
     )
     messages: list[Message] = []
 
-    def inside(window: tuple[float, float] | None, t: float) -> bool:
-        return window is None or window[0] <= t < window[1]
+    def inside(windows: Sequence[tuple[float, float]] | None, t: float) -> bool:
+        return windows is None or any(start <= t < end for start, end in windows)
 
     for t in _times(suite.imu_hz, duration_s, 0.0):
         truth = path.at(t)
@@ -143,7 +148,7 @@ def drive(
             )
         )
     for t in _times(suite.lidar_hz, duration_s, 0.05):
-        if not inside(lidar_window, t):
+        if not inside(lidar_windows, t):
             continue
         truth = path.at(t)
         nx, ny = rng.normal(0, suite.lidar_xy_std_m, 2)
@@ -161,7 +166,7 @@ def drive(
             )
         )
     for t in _times(suite.gps_hz, duration_s, 0.02):
-        if not inside(gps_window, t):
+        if not inside(gps_windows, t):
             continue
         truth = path.at(t)
         nx, ny = rng.normal(0, suite.gps_std_m, 2)
@@ -191,6 +196,18 @@ def drive(
                 bearing_deg=bearing,
                 accuracy_deg=suite.compass_std_deg,
                 true_north=True,
+            )
+        )
+    for t in _times(suite.wheel_hz, duration_s, 0.01):
+        truth = path.at(t)
+        messages.append(
+            WheelOdometry(
+                stamp=t,
+                received=t,
+                device_id="wheels",
+                linear_mps=math.hypot(truth.vx, truth.vy)
+                + rng.normal(0, suite.wheel_linear_std_mps),
+                angular_radps=truth.yaw_rate + rng.normal(0, suite.wheel_angular_std_radps),
             )
         )
     messages.sort(key=lambda m: (m.received, m.stamp))
@@ -224,4 +241,6 @@ def replay(
             estimator.add_gps(message, now)
         elif isinstance(message, CompassHeading):
             estimator.add_compass(message, now)
+        elif isinstance(message, WheelOdometry):
+            estimator.add_wheel_odometry(message, now)
     return estimates

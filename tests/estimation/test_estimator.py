@@ -1,0 +1,186 @@
+"""The estimator on synthetic drives with known truth (seeded noise), and its GPS/datum rules."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from navd.bench.motion_scenario import FigureEight, SensorSuite, drive, replay
+from navd.config import NavdConfig
+from navd.config.loader import apply_changes
+from navd.estimation.estimator import Localization, StateEstimator
+from navd.lifecycle.messages import (
+    CompassHeading,
+    GpsFix,
+    InitialPose,
+    PoseEstimate,
+    PoseMeasurement,
+)
+
+PATH = FigureEight()
+DATUM = {"world.datum_latitude_deg": 52.52, "world.datum_longitude_deg": 13.405}
+
+
+def _config(**changes: object) -> NavdConfig:
+    config, _ = apply_changes(NavdConfig(), changes)
+    return config
+
+
+def _position_rmse(estimates: list[PoseEstimate], after_s: float = 5.0) -> float:
+    errors = [
+        (e.x_m - PATH.at(e.stamp).x) ** 2 + (e.y_m - PATH.at(e.stamp).y) ** 2
+        for e in estimates
+        if e.stamp >= after_s
+    ]
+    return math.sqrt(float(np.mean(errors)))
+
+
+def test_lidar_and_imu_track_a_figure_eight_within_3_cm() -> None:
+    estimator = StateEstimator(NavdConfig())
+    estimates = replay(estimator, drive(PATH, SensorSuite(), 60.0))
+    assert _position_rmse(estimates) <= 0.03
+    assert estimator.counters["resets"] == 0
+
+
+def test_gps_imu_and_compass_beat_the_raw_gps_by_far() -> None:
+    messages = drive(PATH, SensorSuite(lidar_hz=0, gps_hz=5, compass_hz=10), 60.0)
+    estimator = StateEstimator(_config(**DATUM))
+    estimates = replay(estimator, messages)
+    assert estimator.geo is not None
+    raw = [
+        estimator.geo.to_map(m.latitude_deg, m.longitude_deg)
+        for m in messages
+        if isinstance(m, GpsFix) and m.stamp >= 5.0
+    ]
+    truth = [PATH.at(m.stamp) for m in messages if isinstance(m, GpsFix) and m.stamp >= 5.0]
+    raw_rmse = math.sqrt(
+        float(
+            np.mean([(x - t.x) ** 2 + (y - t.y) ** 2 for (x, y), t in zip(raw, truth, strict=True)])
+        )
+    )
+    fused = _position_rmse(estimates)
+    assert fused <= 0.8
+    assert fused <= 0.5 * raw_rmse
+
+
+def test_outdoor_indoor_outdoor_switches_without_jumps_beyond_3_sigma() -> None:
+    suite = SensorSuite(gps_hz=5, compass_hz=10)
+    messages = drive(
+        PATH,
+        suite,
+        60.0,
+        gps_windows=[(0.0, 20.0), (40.0, 60.0)],
+        lidar_windows=[(20.0, 40.0)],
+    )
+    estimates = replay(StateEstimator(_config(**DATUM)), messages)
+    jumps = []
+    for before, after in itertools.pairwise(estimates):
+        if before.stamp < 1.0:
+            continue
+        t0, t1 = PATH.at(before.stamp), PATH.at(after.stamp)
+        moved = np.array([after.x_m - before.x_m, after.y_m - before.y_m])
+        jump = float(np.linalg.norm(moved - [t1.x - t0.x, t1.y - t0.y]))
+        sigma = math.sqrt(float(np.linalg.eigvalsh(before.covariance[:2, :2])[-1]))
+        jumps.append(jump / sigma)
+    assert max(jumps) <= 3.0
+    indoors = [e for e in estimates if 25.0 <= e.stamp < 40.0]
+    assert _position_rmse(indoors, after_s=25.0) <= 0.05
+
+
+def test_lidar_poses_80_ms_late_give_the_in_order_result() -> None:
+    on_time = StateEstimator(NavdConfig())
+    late = StateEstimator(NavdConfig())
+    replay(on_time, drive(PATH, SensorSuite(wheel_hz=50), 20.0))
+    replay(late, drive(PATH, SensorSuite(wheel_hz=50, lidar_delay_s=0.08), 20.0))
+    a, b = on_time.history.latest, late.history.latest
+    assert a.stamp == b.stamp
+    assert math.hypot(a.x[0] - b.x[0], a.x[1] - b.x[1]) < 1e-3
+    assert abs(a.x[6] - b.x[6]) < math.radians(0.1)
+    assert late.counters["late_events"] > 150
+
+
+def _fix(t: float, lat: float, lon: float, accuracy: float = 1.0) -> GpsFix:
+    return GpsFix(
+        stamp=t,
+        received=t,
+        device_id="gps",
+        latitude_deg=lat,
+        longitude_deg=lon,
+        altitude_m=0.0,
+        horizontal_accuracy_m=accuracy,
+    )
+
+
+def _pose(t: float, x: float, y: float, yaw: float = 0.0) -> PoseMeasurement:
+    return PoseMeasurement(
+        stamp=t,
+        received=t,
+        source="lidar",
+        x_m=x,
+        y_m=y,
+        yaw_rad=yaw,
+        covariance=np.diag([1e-4, 1e-4, 1e-4]),
+    )
+
+
+def test_no_fix_is_used_before_a_good_fix_sets_the_datum() -> None:
+    estimator = StateEstimator(NavdConfig())
+    assert estimator.add_gps(_fix(0.0, 52.52, 13.405, accuracy=20.0), 0.0) is None
+    assert estimator.geo is None
+    assert estimator.estimate(0.0) is None
+    assert estimator.counters["ignored"] == {"gps_before_datum": 1}
+    estimator.add_gps(_fix(0.2, 52.52, 13.405, accuracy=2.0), 0.2)
+    assert estimator.geo is not None
+    estimate = estimator.estimate(0.2)
+    assert estimate is not None
+    assert (estimate.x_m, estimate.y_m) == pytest.approx((0.0, 0.0))
+
+
+def test_a_datum_taken_while_localized_keeps_the_robot_where_it_is() -> None:
+    estimator = StateEstimator(NavdConfig())
+    estimator.add_pose(_pose(0.0, 3.0, 4.0), 0.0)
+    estimator.add_gps(_fix(0.1, 48.1, 11.5), 0.1)
+    estimate = estimator.estimate(0.1)
+    assert estimate is not None
+    assert (estimate.x_m, estimate.y_m) == pytest.approx((3.0, 4.0), abs=1e-3)
+    assert estimator.geo is not None
+    assert estimator.geo.to_map(48.1, 11.5) == pytest.approx((3.0, 4.0), abs=1e-6)
+
+
+def test_stale_and_far_fixes_are_ignored_and_counted() -> None:
+    estimator = StateEstimator(_config(**DATUM))
+    estimator.add_pose(_pose(0.0, 0.0, 0.0), 0.0)
+    assert estimator.add_gps(_fix(0.0, 52.52, 13.405), 5.0) is None
+    assert estimator.add_gps(_fix(5.0, 53.0, 13.405), 5.0) is None
+    assert estimator.counters["ignored"] == {"gps_stale": 1, "gps_off_map": 1}
+
+
+def test_compass_before_the_first_fix_sets_the_starting_yaw() -> None:
+    estimator = StateEstimator(_config(**DATUM))
+    compass = CompassHeading(
+        stamp=0.0, received=0.0, device_id="c", bearing_deg=0.0, accuracy_deg=2.0, true_north=True
+    )
+    estimator.add_compass(compass, 0.0)
+    estimator.add_gps(_fix(0.1, 52.52, 13.405), 0.1)
+    estimate = estimator.estimate(0.1)
+    assert estimate is not None
+    assert estimator.geo is not None
+    # Facing true north: map yaw is pi/2 less the grid convergence.
+    assert estimate.yaw_rad == pytest.approx(math.pi / 2 - estimator.geo.grid_convergence_rad)
+
+
+def test_localization_degrades_then_is_lost_without_position_updates() -> None:
+    estimator = StateEstimator(NavdConfig())
+    assert estimator.localization(estimator.estimate(0.0))[0] == Localization.UNINITIALIZED
+    estimator.set_pose(
+        InitialPose(stamp=0.0, received=0.0, x_m=1.0, y_m=2.0, yaw_rad=0.5, std_xy_m=0.05)
+    )
+    sweep = [estimator.localization(estimator.estimate(0.05 * i)) for i in range(100)]
+    states = [state for state, _, _ in sweep]
+    changes = [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]]
+    assert changes == [Localization.OK, Localization.DEGRADED, Localization.LOST]
+    stds = [std for _, std, _ in sweep]
+    assert stds == sorted(stds)  # predict-only: the position only gets less certain
