@@ -1,4 +1,4 @@
-"""The pose UKF: the model is exact, yaw wraps, outliers are gated, numerical failure is reported."""
+"""The pose UKF: exact model, yaw on the circle, gated outliers, numerical failure reported."""
 
 from __future__ import annotations
 
