@@ -5,6 +5,7 @@ from __future__ import annotations
 from navd.config import NavdConfig
 from navd.drivers.chassis import ChassisDriver
 from navd.drivers.tcp_server import TcpServer
+from navd.estimation.node import EstimationNode
 from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate
 
@@ -17,7 +18,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
     The safety gate starts first and stops last, so every command passes it; the chassis
     starts last and stops first, writing "0 0" before anything else goes away.
     """
-    modules: list[Module] = [SafetyGate(), TcpServer()]
+    modules: list[Module] = [SafetyGate(), EstimationNode(), TcpServer()]
     if config.chassis.enabled:
         modules.append(ChassisDriver())
     return modules

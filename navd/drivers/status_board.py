@@ -16,6 +16,7 @@ from navd.lifecycle.messages import (
     DriveCommand,
     Goal,
     GoalStatus,
+    LocalizationState,
     PoseEstimate,
     SafetyState,
 )
@@ -29,6 +30,7 @@ class StatusBoard:
 
     def __init__(self) -> None:
         self.pose: PoseEstimate | None = None
+        self.localization: LocalizationState | None = None
         self.drive: DriveCommand | None = None
         self.goal: GoalStatus | None = None
         self.daemon: DaemonStatus | None = None
@@ -40,6 +42,7 @@ class StatusBoard:
     def subscribe(self, ctx: ModuleContext) -> None:
         """Keep up to date from the bus (handlers attributed to ``ctx``'s module)."""
         ctx.subscribe(PoseEstimate, self._pose)
+        ctx.subscribe(LocalizationState, self._localization)
         ctx.subscribe(DriveCommand, self._drive)
         ctx.subscribe(DaemonStatus, self._daemon)
         ctx.subscribe(SafetyState, self._safety)
@@ -77,6 +80,7 @@ class StatusBoard:
             "devices": devices,
             "diagnostics": {
                 "safety": list(self.safety),
+                "localization": _localization_dict(self.localization),
                 "loop_lag_p50_ms": None if daemon is None else round(daemon.loop_lag_p50_ms, 3),
                 "loop_lag_p99_ms": None if daemon is None else round(daemon.loop_lag_p99_ms, 3),
                 "loop_lag_max_ms": None if daemon is None else round(daemon.loop_lag_max_ms, 3),
@@ -94,6 +98,9 @@ class StatusBoard:
 
     def _pose(self, pose: PoseEstimate) -> None:
         self.pose = pose
+
+    def _localization(self, state: LocalizationState) -> None:
+        self.localization = state
 
     def _drive(self, drive: DriveCommand) -> None:
         self.drive = drive
@@ -137,4 +144,16 @@ def goal_dict(status: GoalStatus) -> dict[str, object]:
         "distance_remaining": status.distance_remaining_m,
         "eta_s": status.eta_s,
         "reason": status.reason,
+    }
+
+
+def _localization_dict(state: LocalizationState | None) -> dict[str, object] | None:
+    if state is None:
+        return None
+    finite = math.isfinite(state.position_std_m)
+    return {
+        "state": state.state,
+        "position_std_m": round(state.position_std_m, 4) if finite else None,
+        "yaw_std_rad": round(state.yaw_std_rad, 4) if finite else None,
+        "counters": dict(state.counters),
     }

@@ -555,17 +555,19 @@ class PoseMeasurement(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class LocalizationState(Message):
-    """How well the robot knows where it is; published when the state changes.
+    """How well the robot knows where it is: on every change, and once a second.
 
     Attributes:
         state: "uninitialized" (no position source yet), "ok", "degraded" or "lost".
         position_std_m: [m] standard deviation of the position along its worst axis.
         yaw_std_rad: [rad] standard deviation of the yaw.
+        counters: the estimator's counts (late, rejected, ignored events, resets...).
     """
 
     state: str
     position_std_m: float
     yaw_std_rad: float
+    counters: Mapping[str, object] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

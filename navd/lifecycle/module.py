@@ -19,7 +19,7 @@ from structlog.typing import FilteringBoundLogger
 
 from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus, Handler
-from navd.lifecycle.clock import Clock
+from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
 from navd.lifecycle.messages import Message
 from navd.lifecycle.workers import Job, WorkerPool
@@ -91,6 +91,19 @@ class ModuleContext:
         self._tasks.add(task)
         task.add_done_callback(self._task_done)
         return task
+
+    def every(self, period_s: float, callback: Callable[[float], None], *, name: str) -> None:
+        """Call the cheap ``callback(now)`` every ``period_s`` [s] until deactivation.
+
+        Deadlines do not drift; ticks missed while the loop was busy are skipped. A callback
+        that raises is reported to supervision and the ticks stop.
+        """
+
+        async def run() -> None:
+            async for _ in ticks(self.clock, period_s):
+                callback(self.clock.now())
+
+        self.spawn(run(), name=name)
 
     async def cancel_tasks(self, timeout_s: float) -> None:
         """Cancel the module's background tasks and wait up to ``timeout_s`` [s] for them."""

@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from navd.drivers.tcp_server import TcpServer
 from navd.lifecycle.messages import (
     CancelGoal,
     DeviceConnected,
@@ -98,7 +99,8 @@ async def test_same_device_id_replaces_the_old_session() -> None:
         await new.send(SCAN)
         await until(lambda: len(scans) == 1)
         assert [m.reason for m in lost] == ["replaced by a new connection"]
-        assert list(daemon.manager.modules[1].sessions) == ["lidar0"]  # type: ignore[attr-defined]
+        (server,) = [m for m in daemon.manager.modules if isinstance(m, TcpServer)]
+        assert list(server.sessions) == ["lidar0"]
         await new.close()
 
 

@@ -162,3 +162,30 @@ async def test_spawned_task_failure_is_supervised_and_tasks_end_on_deactivate(
     assert bus.supervisor.record("driver").last_error == "ConnectionError: port vanished"
     await manager.stop()
     assert module.forever.cancelled()
+
+
+async def test_every_calls_back_on_time_until_deactivated_and_reports_a_crash(
+    bus: Bus, clock: SimClock
+) -> None:
+    calls: list[float] = []
+
+    class Ticker(Module):
+        async def on_configure(self, ctx: ModuleContext) -> None:
+            self.ctx = ctx
+
+        async def on_activate(self) -> None:
+            self.ctx.every(0.1, calls.append, name="tick")
+            self.ctx.every(0.25, self._crash, name="crash")
+
+        def _crash(self, now: float) -> None:
+            raise ValueError(f"bad tick at {now:.2f}")
+
+    manager = _manager(bus, [Ticker("ticker")])
+    start = clock.now()
+    await manager.start()
+    await clock.run_to(start + 0.35)
+    assert [t - start for t in calls] == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    assert bus.supervisor.record("ticker").last_error == f"ValueError: bad tick at {start:.2f}"
+    await manager.stop()
+    await clock.run_to(clock.now() + 1.0)
+    assert len(calls) == 4

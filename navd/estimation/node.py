@@ -1,0 +1,134 @@
+"""The estimation module: wires ``StateEstimator`` to the bus.
+
+Sensor messages go in as they arrive (each handler is one cheap filter step); at
+``estimation.publish_rate_hz`` the module publishes the fused pose predicted to now, the IMU
+orientation, and the localization state when it changes (and once a second). Losing
+localization after having had it is a safety stop until it is regained.
+"""
+
+from __future__ import annotations
+
+import math
+
+from navd.estimation.estimator import Localization, StateEstimator
+from navd.lifecycle.messages import (
+    CompassHeading,
+    ConfigApplied,
+    GpsFix,
+    Imu,
+    InitialPose,
+    LocalizationState,
+    Orientation,
+    PoseMeasurement,
+    SafeStop,
+    SafeStopCleared,
+    WheelOdometry,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["EstimationNode"]
+
+SAFE_STOP_KEY = "localization"
+_STATE_REFRESH_S = 1.0
+
+
+class EstimationNode(Module):
+    """Fuses sensor messages into PoseEstimate, Orientation and LocalizationState."""
+
+    def __init__(self) -> None:
+        super().__init__("estimation")
+        self._state = Localization.UNINITIALIZED
+        self._state_published_at = -math.inf
+        self._imu_device = ""
+        self._stopped = False
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        self.estimator = StateEstimator(ctx.config)
+        ctx.subscribe(Imu, self._on_imu)
+        ctx.subscribe(PoseMeasurement, self._on_pose)
+        ctx.subscribe(GpsFix, self._on_gps)
+        ctx.subscribe(CompassHeading, self._on_compass)
+        ctx.subscribe(WheelOdometry, self._on_wheels)
+        ctx.subscribe(InitialPose, self._on_initial_pose)
+        ctx.subscribe(ConfigApplied, self._on_config)
+
+    async def on_activate(self) -> None:
+        period = 1.0 / self.ctx.config.estimation.publish_rate_hz
+        self.ctx.every(period, self._publish, name="publish")
+
+    def _on_imu(self, imu: Imu) -> None:
+        self._imu_device = imu.device_id
+        self.estimator.add_imu(imu)
+
+    def _on_pose(self, pose: PoseMeasurement) -> None:
+        self.estimator.add_pose(pose, self.ctx.clock.now())
+
+    def _on_gps(self, fix: GpsFix) -> None:
+        self.estimator.add_gps(fix, self.ctx.clock.now())
+
+    def _on_compass(self, heading: CompassHeading) -> None:
+        self.estimator.add_compass(heading, self.ctx.clock.now())
+
+    def _on_wheels(self, odom: WheelOdometry) -> None:
+        self.estimator.add_wheel_odometry(odom, self.ctx.clock.now())
+
+    def _on_initial_pose(self, pose: InitialPose) -> None:
+        self.ctx.log.info("initial_pose", x=pose.x_m, y=pose.y_m, yaw=pose.yaw_rad)
+        self.estimator.set_pose(pose)
+
+    def _on_config(self, applied: ConfigApplied) -> None:
+        self.estimator.configure(applied.config)
+
+    def _publish(self, now: float) -> None:
+        estimator = self.estimator
+        estimator.advance(now)
+        estimate = estimator.estimate(now)
+        if estimate is not None:
+            self.ctx.publish(estimate)
+        if estimator.madgwick.initialized:
+            self.ctx.publish(
+                Orientation(
+                    stamp=estimator.madgwick.last_stamp,
+                    received=now,
+                    device_id=self._imu_device,
+                    quaternion_wxyz=estimator.madgwick.quaternion,
+                    gyro_bias_radps=estimator.madgwick.gyro_bias_radps,
+                )
+            )
+        state, position_std, yaw_std = estimator.localization(estimate)
+        changed = state != self._state
+        if changed or now - self._state_published_at >= _STATE_REFRESH_S:
+            self._state_published_at = now
+            self.ctx.publish(
+                LocalizationState(
+                    stamp=now,
+                    received=now,
+                    state=state,
+                    position_std_m=position_std,
+                    yaw_std_rad=yaw_std,
+                    counters=estimator.counters,
+                )
+            )
+        if changed:
+            self.ctx.log.info(
+                "localization", state=state, previous=self._state, position_std_m=position_std
+            )
+            self._state = state
+            self._guard(state, position_std, now)
+
+    def _guard(self, state: str, position_std: float, now: float) -> None:
+        """Hold the robot while localization is lost; release when it is back."""
+        if state == Localization.LOST and not self._stopped:
+            self._stopped = True
+            reason = f"localization lost: position std {position_std:.2f} m"
+            self.ctx.publish(
+                SafeStop(
+                    stamp=now, received=now, reason=reason, source=self.name, key=SAFE_STOP_KEY
+                )
+            )
+        elif state in (Localization.OK, Localization.DEGRADED) and self._stopped:
+            self._stopped = False
+            self.ctx.publish(
+                SafeStopCleared(stamp=now, received=now, key=SAFE_STOP_KEY, source=self.name)
+            )
