@@ -96,6 +96,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     ingest.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     ingest.set_defaults(handler=_cmd_bench_ingest)
+    estimation = bench_commands.add_parser(
+        "estimation", help="Madgwick per sample, UKF per event, cost of a late event"
+    )
+    estimation.add_argument("--seconds", type=float, default=60.0, help="[s] synthetic drive")
+    estimation.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    estimation.set_defaults(handler=_cmd_bench_estimation)
     return parser
 
 
@@ -241,15 +247,26 @@ def format_status(frame: dict[str, Any]) -> str:
     )
 
 
+def _print_figures(figures: dict[str, object], as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(figures, indent=2))
+    else:
+        for key, value in figures.items():
+            print(f"{key:>34}: {value}")
+
+
+def _cmd_bench_estimation(args: argparse.Namespace) -> int:
+    from navd.bench.estimation import run  # noqa: PLC0415
+
+    _print_figures(run(seconds=args.seconds), args.json)
+    return EXIT_OK
+
+
 def _cmd_bench_ingest(args: argparse.Namespace) -> int:
     from navd.bench.ingest import run  # noqa: PLC0415
 
     figures = run(
         seconds=args.seconds, rays=args.rays, binary=args.binary, imu_batch=args.imu_batch
     )
-    if args.json:
-        print(json.dumps(figures, indent=2))
-    else:
-        for key, value in figures.items():
-            print(f"{key:>26}: {value}")
+    _print_figures(figures, args.json)
     return EXIT_OK

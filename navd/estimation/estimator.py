@@ -50,6 +50,9 @@ __all__ = ["Localization", "StateEstimator"]
 FloatArray = npt.NDArray[np.float64]
 
 
+_IMU_ROWS = (Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT)
+
+
 class Localization:
     """Names of the localization states."""
 
@@ -322,26 +325,25 @@ class StateEstimator:
     ) -> Measurement:
         """The sensor's rows followed by the IMU window and the no-sliding constraint."""
         est = self.config.estimation
-        all_rows = list(rows)
-        values = list(z)
-        noise = [r]
         window = self.madgwick.window_mean(stamp, est.imu_window_s)
+        tail_rows: tuple[Row, ...] = ()
+        tail_values: tuple[float, ...] = ()
+        tail_variances: tuple[float, ...] = ()
         if window is not None:
-            all_rows += [Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT]
-            values += [window.yaw_rate_radps, window.accel_forward_mps2, window.accel_left_mps2]
             # The configured noise is that of the window mean (vibration and bias included).
-            rate_var = est.imu_yaw_rate_std_radps**2
             accel_var = est.imu_accel_std_mps2**2
-            noise.append(np.diag([rate_var, accel_var, accel_var]))
+            tail_rows = _IMU_ROWS
+            tail_values = window[:3]
+            tail_variances = (est.imu_yaw_rate_std_radps**2, accel_var, accel_var)
         if est.nonholonomic_std_mps is not None:
-            all_rows.append(Row.VELOCITY_LEFT)
-            values.append(0.0)
-            noise.append(np.array([[est.nonholonomic_std_mps**2]]))
-        size = len(all_rows)
+            tail_rows += (Row.VELOCITY_LEFT,)
+            tail_values += (0.0,)
+            tail_variances += (est.nonholonomic_std_mps**2,)
+        k = len(rows)
+        size = k + len(tail_rows)
         full = np.zeros((size, size))
-        offset = 0
-        for block in noise:
-            n = block.shape[0]
-            full[offset : offset + n, offset : offset + n] = block
-            offset += n
-        return Measurement(rows=tuple(all_rows), z=np.array(values), r=full, gated_rows=len(rows))
+        full[:k, :k] = r
+        full[range(k, size), range(k, size)] = tail_variances
+        return Measurement(
+            rows=rows + tail_rows, z=np.array([*z, *tail_values]), r=full, gated_rows=k
+        )

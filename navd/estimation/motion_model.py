@@ -73,17 +73,18 @@ class ProcessNoise:
 
     def __init__(self, linear_jerk_psd: float, angular_jerk_psd: float) -> None:
         psds = (linear_jerk_psd, linear_jerk_psd, angular_jerk_psd)
-        self._coefficients = np.zeros((5, STATE_SIZE, STATE_SIZE))
+        coefficients = np.zeros((5, STATE_SIZE, STATE_SIZE))
         for power, entries in self._BLOCK_BY_POWER.items():
             for chain, psd in zip(_CHAINS, psds, strict=True):
                 for i, j, factor in entries:
-                    self._coefficients[5 - power, chain[i], chain[j]] = psd * factor
+                    coefficients[5 - power, chain[i], chain[j]] = psd * factor
+        self._coefficients = coefficients.reshape(5, STATE_SIZE * STATE_SIZE)
 
     def __call__(self, dt_s: float) -> FloatArray:
         """Q for a step of ``dt_s`` [s]."""
         t = dt_s
         powers = np.array([t**5, t**4, t**3, t**2, t])
-        q: FloatArray = np.tensordot(powers, self._coefficients, axes=1)
+        q: FloatArray = (powers @ self._coefficients).reshape(STATE_SIZE, STATE_SIZE)
         return q
 
 

@@ -153,6 +153,9 @@ class _MeasurementFunctions:
         return d
 
 
+_FUNCTIONS: dict[tuple[Row, ...], _MeasurementFunctions] = {}
+
+
 class _ArraySigmaPoints(MerweScaledSigmaPoints):  # type: ignore[misc]
     """filterpy's Merwe points, built without its per-dimension loop.
 
@@ -301,7 +304,9 @@ class PoseUkf:
 
     def _update(self, measurement: Measurement) -> None:
         ukf = self._ukf
-        functions = _MeasurementFunctions(measurement.rows)
+        functions = _FUNCTIONS.get(measurement.rows)
+        if functions is None:
+            functions = _FUNCTIONS[measurement.rows] = _MeasurementFunctions(measurement.rows)
         ukf.z_mean = functions.mean
         ukf.residual_z = functions.residual
         # All sigma points through the measurement rows at once; filterpy asks point by point.
