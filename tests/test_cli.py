@@ -84,3 +84,16 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 def test_no_command_prints_help_and_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert main([]) == 2
     assert "usage: navd" in capsys.readouterr().err
+
+
+def test_bench_estimation_reports_a_clean_run(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert main(["bench", "estimation", "--seconds", "3", "--json"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    assert figures["ukf_resets"] == 0
+    assert figures["ukf_steps"] == 29  # 10 Hz for 3 s; the first pose starts the filter
+    # Every lidar pose is 100 ms late, behind about five 50 Hz wheel events.
+    assert figures["late_events"] == 29
+    assert 3.0 <= figures["events_reapplied_per_late_event"] <= 6.0
+    assert figures["madgwick_us_per_sample"] > 0.0
