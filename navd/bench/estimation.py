@@ -63,6 +63,10 @@ class _TimedUkf:
     def p(self) -> FloatArray:
         return self.ukf.p
 
+    @property
+    def last_mahalanobis_sq(self) -> float:
+        return self.ukf.last_mahalanobis_sq
+
     def step(self, dt_s: float, measurement: Measurement | None, gate_chi2: float) -> StepOutcome:
         start = time.perf_counter()
         outcome = self.ukf.step(dt_s, measurement, gate_chi2)

@@ -44,12 +44,14 @@ from navd.lifecycle.messages import (
     PoseMeasurement,
     WheelOdometry,
 )
+from navd.logs import get_logger
 
 __all__ = ["Localization", "StateEstimator"]
 
 FloatArray = npt.NDArray[np.float64]
 
 
+_log = get_logger("estimation")
 _IMU_ROWS = (Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT)
 
 
@@ -300,7 +302,27 @@ class StateEstimator:
     # --- helpers --------------------------------------------------------------------------
 
     def _insert(self, event: Event, now: float) -> Insert:
-        return self.history.insert(event, now)
+        counters = self.history.counters
+        resets = counters.resets
+        rejected = counters.rejected.get(event.source, 0)
+        outcome = self.history.insert(event, now)
+        if counters.resets > resets:
+            # The filter reset itself from the last good state (a failed factorization).
+            _log.warning(
+                "ukf_reset", source=event.source, stamp=event.stamp, resets=counters.resets
+            )
+        if counters.rejected.get(event.source, 0) > rejected:
+            _log.debug(
+                "measurement_rejected",
+                source=event.source,
+                stamp=event.stamp,
+                mahalanobis_sq=round(self.history.ukf.last_mahalanobis_sq, 2),
+            )
+        if outcome is Insert.TOO_OLD:
+            _log.debug(
+                "measurement_too_old", source=event.source, age_s=round(now - event.stamp, 3)
+            )
+        return outcome
 
     def _start(self, stamp: float, x: float, y: float, yaw: float, cov3: FloatArray) -> None:
         est = self.config.estimation
