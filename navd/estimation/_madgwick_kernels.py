@@ -236,7 +236,6 @@ def madgwick_batch(
 @nb.njit(cache=True, nogil=True)
 def madgwick_ingest(
     state: FloatArray,
-    params: FloatArray,
     ring: FloatArray,
     stamp: float,
     gx: float,
@@ -251,13 +250,17 @@ def madgwick_ingest(
 ) -> bool:
     """Take one sample stamped ``stamp`` [s]: step the filter and append to ``ring``.
 
+    ``state`` here holds the params after its STATE_SIZE slots (one array: a call per IMU
+    sample costs mostly argument checks, and each array argument adds to them).
+
     The step length is the time since the previous sample. A sample not newer than the
-    previous one is counted and skipped; a gap longer than ``params[5]`` is counted and
-    integrated as ``params[5]``. The first sample only sets the orientation.
+    previous one is counted and skipped; a gap longer than the last param is counted and
+    integrated as that. The first sample only sets the orientation.
 
     Returns:
         True if the sample was used.
     """
+    params = state[STATE_SIZE:]
     last = state[LAST_STAMP]
     if math.isnan(last):
         dt = 0.0

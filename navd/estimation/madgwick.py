@@ -51,21 +51,14 @@ class MadgwickFilter:
     """
 
     def __init__(self, config: EstimationConfig) -> None:
-        self._params = np.array(
-            [
-                config.madgwick_beta,
-                config.accel_reject_mps2,
-                config.gyro_bias_gain_per_s,
-                config.still_gyro_radps,
-                config.still_time_s,
-                config.imu_max_gap_s,
-            ],
-            dtype=np.float64,
-        )
         capacity = max(16, math.ceil(config.imu_history_s * _RING_RATE_HZ))
         self._ring = np.zeros((capacity, k.RING_COLUMNS), dtype=np.float64)
-        self._state = np.zeros(k.STATE_SIZE, dtype=np.float64)
+        # The filter state, then its params, in one array (see madgwick_ingest).
+        self._state_and_params = np.zeros(k.STATE_SIZE + k.PARAM_SIZE, dtype=np.float64)
+        self._state = self._state_and_params[: k.STATE_SIZE]
+        self._params = self._state_and_params[k.STATE_SIZE :]
         self._mean = np.zeros(3, dtype=np.float64)
+        self.configure(config)
         self.reset()
 
     def reset(self) -> None:
@@ -76,14 +69,14 @@ class MadgwickFilter:
 
     def configure(self, config: EstimationConfig) -> None:
         """Apply changed gains without losing the orientation."""
-        self._params[:5] = (
+        self._params[:] = (
             config.madgwick_beta,
             config.accel_reject_mps2,
             config.gyro_bias_gain_per_s,
             config.still_gyro_radps,
             config.still_time_s,
+            config.imu_max_gap_s,
         )
-        self._params[5] = config.imu_max_gap_s
 
     def update(self, imu: Imu) -> bool:
         """Take one sample; returns False if it was not newer than the previous one."""
@@ -92,8 +85,7 @@ class MadgwickFilter:
         m = imu.mag_ut or _NO_MAG
         return bool(
             k.madgwick_ingest(
-                self._state,
-                self._params,
+                self._state_and_params,
                 self._ring,
                 imu.stamp,
                 g[0],
