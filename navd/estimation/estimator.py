@@ -316,7 +316,7 @@ class StateEstimator:
                 "measurement_rejected",
                 source=event.source,
                 stamp=event.stamp,
-                mahalanobis_sq=round(self.history.ukf.last_mahalanobis_sq, 2),
+                mahalanobis_sq=round(self.history.last_rejected_mahalanobis_sq, 2),
             )
         if outcome is Insert.TOO_OLD:
             _log.debug(

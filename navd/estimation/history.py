@@ -11,6 +11,7 @@ bounded by the horizon and by ``max_events``.
 from __future__ import annotations
 
 import bisect
+import math
 import heapq
 import itertools
 from dataclasses import dataclass, field
@@ -110,6 +111,7 @@ class EventHistory:
         self.reset_inflation = reset_inflation
         self.counters = Counters()
         self.last_outcome: StepOutcome | None = None
+        self.last_rejected_mahalanobis_sq = math.nan
         self._base: Snapshot | None = None
         self._events: list[Event] = []
         self._stamps: list[float] = []
@@ -221,6 +223,7 @@ class EventHistory:
         if outcome is StepOutcome.REJECTED and first:
             rejected = self.counters.rejected
             rejected[event.source] = rejected.get(event.source, 0) + 1
+            self.last_rejected_mahalanobis_sq = self.ukf.last_mahalanobis_sq
         return Snapshot.of(event.stamp, self.ukf.x, self.ukf.p)
 
     def _prune(self, now: float) -> None:
