@@ -35,6 +35,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
+    # Until `run` applies the config's logging section: warnings and errors, on stderr, so
+    # that what a command prints on stdout (JSON figures, status) stays clean.
+    configure_logging("warning", "auto")
     handler = args.handler
     code: int = handler(args)
     return code

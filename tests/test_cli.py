@@ -97,3 +97,17 @@ def test_bench_estimation_reports_a_clean_run(capsys: pytest.CaptureFixture[str]
     assert figures["late_events"] == 29
     assert 3.0 <= figures["events_reapplied_per_late_event"] <= 6.0
     assert figures["madgwick_us_per_sample"] > 0.0
+
+
+def test_bench_output_on_stdout_is_pure_json_even_when_the_estimator_logs(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import json
+
+    from navd.logs import get_logger
+
+    assert main(["bench", "estimation", "--seconds", "2", "--json"]) == 0
+    get_logger("test").warning("after the figures")  # lands on stderr, not in the JSON
+    captured = capsys.readouterr()
+    json.loads(captured.out)
+    assert "after the figures" in captured.err

@@ -11,9 +11,9 @@ bounded by the horizon and by ``max_events``.
 from __future__ import annotations
 
 import bisect
-import math
 import heapq
 import itertools
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 
