@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import json
 import math
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -105,7 +106,33 @@ def _parser() -> argparse.ArgumentParser:
     estimation.add_argument("--seconds", type=float, default=60.0, help="[s] synthetic drive")
     estimation.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     estimation.set_defaults(handler=_cmd_bench_estimation)
+    _slam_commands(commands)
     return parser
+
+
+def _slam_commands(commands: Any) -> None:
+    replay = commands.add_parser("replay", help="run SLAM over a laser log, as fast as possible")
+    replay.add_argument("log", type=Path, help="<name>_scans.txt[.gz] dump or CARMEN .clf[.gz]")
+    replay.add_argument("--out", type=Path, required=True, help="folder for the results")
+    replay.add_argument("--config", type=Path, help="TOML config (its slam section is used)")
+    replay.add_argument("--laser-x", type=float, help="[m] lidar x on the robot (slam.laser_x_m)")
+    replay.add_argument("--laser-y", type=float, help="[m] lidar y on the robot (slam.laser_y_m)")
+    replay.add_argument(
+        "--laser-yaw", type=float, help="[rad] lidar yaw on the robot (slam.laser_yaw_rad)"
+    )
+    replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
+    replay.add_argument("--quiet", action="store_true", help="no progress line")
+    replay.set_defaults(handler=_cmd_replay)
+
+    evaluate = commands.add_parser("eval", help="score results against ground truth")
+    eval_commands = evaluate.add_subparsers(dest="eval_command", metavar="METRIC", required=True)
+    relations = eval_commands.add_parser(
+        "relations", help="Kümmerle et al. 2009 relation errors of a TUM trajectory"
+    )
+    relations.add_argument("trajectory", type=Path, help="TUM file (stamp x y z qx qy qz qw)")
+    relations.add_argument("relations", type=Path, help=".relations file (t1 t2 x y z r p y)")
+    relations.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    relations.set_defaults(handler=_cmd_eval_relations)
 
 
 def _connection_options(parser: argparse.ArgumentParser) -> None:
@@ -250,12 +277,85 @@ def format_status(frame: dict[str, Any]) -> str:
     )
 
 
-def _print_figures(figures: dict[str, object], as_json: bool) -> None:
+def _print_figures(figures: Mapping[str, object], as_json: bool) -> None:
     if as_json:
         print(json.dumps(figures, indent=2))
     else:
         for key, value in figures.items():
             print(f"{key:>34}: {value}")
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from navd.slam.errors import SlamError  # noqa: PLC0415 - only replay needs SLAM
+    from navd.slam.logfiles import count_scans, open_log  # noqa: PLC0415
+    from navd.slam.mapper import mapper_settings  # noqa: PLC0415
+    from navd.slam.pose import Pose2  # noqa: PLC0415
+    from navd.slam.replay import replay  # noqa: PLC0415
+
+    slam = _load(args.config).slam
+    settings = mapper_settings(slam)
+    if args.max_range is not None:
+        settings = dataclasses.replace(settings, max_range_m=args.max_range)
+    mount = Pose2(
+        slam.laser_x_m if args.laser_x is None else args.laser_x,
+        slam.laser_y_m if args.laser_y is None else args.laser_y,
+        slam.laser_yaw_rad if args.laser_yaw is None else args.laser_yaw,
+    )
+    try:
+        total = count_scans(args.log)
+        progress = None if args.quiet else _progress_line(total)
+        result = replay(
+            open_log(args.log),
+            args.out,
+            settings,
+            mount=mount,
+            min_range_m=slam.min_range_m,
+            progress=progress,
+        )
+    except SlamError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if not args.quiet:
+        print(file=sys.stderr)
+    print(json.dumps(result.summary, indent=2))
+    return EXIT_OK
+
+
+def _progress_line(total: int) -> Callable[[int, float], None]:
+    step = max(1, total // 200)
+
+    def show(done: int, seconds: float) -> None:
+        if done % step and done != total:
+            return
+        width = 30
+        filled = width * done // max(total, 1)
+        rate = seconds / max(done, 1) * 1e3
+        sys.stderr.write(
+            f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} scans, {rate:.1f} ms/scan"
+        )
+        sys.stderr.flush()
+
+    return show
+
+
+def _cmd_eval_relations(args: argparse.Namespace) -> int:
+    from navd.slam.errors import SlamError  # noqa: PLC0415
+    from navd.slam.relations import evaluate, read_relations, read_tum  # noqa: PLC0415
+
+    try:
+        stamps, poses = read_tum(args.trajectory)
+        errors = evaluate(stamps, poses, read_relations(args.relations))
+    except SlamError as err:
+        print(f"navd eval relations: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as err:
+        print(f"navd eval relations: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    _print_figures(errors.as_dict(), args.json)
+    return EXIT_OK if errors.used else EXIT_FAILED
 
 
 def _cmd_bench_estimation(args: argparse.Namespace) -> int:

@@ -335,6 +335,12 @@ class SlamConfig(Section):
     blur_sigma_m: float = Field(
         0.05, gt=0, le=1, description="[m] Gaussian blur of the correlation grid"
     )
+    min_match_score: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="[ratio] scans matching worse than this keep the odometry pose, unmapped",
+    )
     keyframe_distance_m: float = Field(
         0.3, gt=0, le=10, description="[m] travel that makes a new keyframe"
     )

@@ -1,0 +1,211 @@
+"""Numba kernels of the occupancy grid and the correlative scan matcher.
+
+Grids are indexed [row, col] = [y, x] in cells. Every kernel has a NumPy twin in
+tests/slam/grid_reference.py.
+
+- ``ray_update``: log-odds update along each ray (Bresenham): every cell the ray crosses
+  gets ``l_free``, the end cell of a ray that hit something gets ``l_occ``; values are
+  clamped to [l_min, l_max].
+- ``smear``: the correlation grid of seed Appendix A: every occupied cell stamps a Gaussian
+  kernel, keeping the maximum where stamps overlap.
+- ``sliding_max``: M[v, u] = max of the field over [v, v+f) x [u, u+f): an upper bound of the
+  field over a block of f x f translations (the coarse level of the matcher).
+- ``coarse_scores`` / ``fine_scores``: the summed field under the scan points, rotated and
+  moved; the coarse level bounds whole f x f blocks of translations for branch and bound.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["coarse_scores", "fine_scores", "ray_update", "sliding_max", "smear"]
+
+FloatArray = npt.NDArray[np.float32]
+F64 = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@nb.njit(cache=True, nogil=True)
+def ray_update(
+    logodds: FloatArray,
+    x0: int,
+    y0: int,
+    ends_x: IntArray,
+    ends_y: IntArray,
+    hits: npt.NDArray[np.bool_],
+    l_free: float,
+    l_occ: float,
+    l_min: float,
+    l_max: float,
+) -> None:
+    """Free the cells from (x0, y0) to each end (exclusive); mark hit ends occupied."""
+    rows, cols = logodds.shape
+    for k in range(ends_x.size):
+        x1, y1 = ends_x[k], ends_y[k]
+        dx = abs(x1 - x0)
+        dy = -abs(y1 - y0)
+        sx = 1 if x0 < x1 else -1
+        sy = 1 if y0 < y1 else -1
+        err = dx + dy
+        x, y = x0, y0
+        while x != x1 or y != y1:
+            if 0 <= x < cols and 0 <= y < rows:
+                v = logodds[y, x] + l_free
+                logodds[y, x] = max(v, l_min)
+            e2 = 2 * err
+            if e2 >= dy:
+                err += dy
+                x += sx
+            if e2 <= dx:
+                err += dx
+                y += sy
+        if hits[k] and 0 <= x1 < cols and 0 <= y1 < rows:
+            v = logodds[y1, x1] + l_occ
+            logodds[y1, x1] = min(v, l_max)
+
+
+@nb.njit(cache=True, nogil=True)
+def smear(
+    logodds: FloatArray,
+    threshold: float,
+    row0: int,
+    col0: int,
+    kernel: FloatArray,
+    field: FloatArray,
+) -> None:
+    """Stamp ``kernel`` (odd square) into ``field`` around every cell above ``threshold``.
+
+    ``field`` covers the grid window starting at (row0, col0) with its own shape; cells of
+    the grid outside the window stamp nothing. ``field`` must be zeroed by the caller.
+    """
+    rows, cols = field.shape
+    g_rows, g_cols = logodds.shape
+    r = kernel.shape[0] // 2
+    for fy in range(rows):
+        gy = fy + row0
+        if gy < 0 or gy >= g_rows:
+            continue
+        for fx in range(cols):
+            gx = fx + col0
+            if gx < 0 or gx >= g_cols or logodds[gy, gx] <= threshold:
+                continue
+            for ky in range(-r, r + 1):
+                y = fy + ky
+                if y < 0 or y >= rows:
+                    continue
+                for kx in range(-r, r + 1):
+                    x = fx + kx
+                    if 0 <= x < cols:
+                        w = kernel[ky + r, kx + r]
+                        field[y, x] = max(field[y, x], w)
+
+
+@nb.njit(cache=True, nogil=True)
+def sliding_max(field: FloatArray, f: int) -> FloatArray:
+    """M[v, u] = max(field[v:v+f, u:u+f]) (clipped at the border)."""
+    rows, cols = field.shape
+    horizontal = np.empty_like(field)
+    for v in range(rows):
+        for u in range(cols):
+            m = field[v, u]
+            for i in range(1, f):
+                if u + i < cols and field[v, u + i] > m:
+                    m = field[v, u + i]
+            horizontal[v, u] = m
+    out = np.empty_like(field)
+    for v in range(rows):
+        for u in range(cols):
+            m = horizontal[v, u]
+            for j in range(1, f):
+                if v + j < rows and horizontal[v + j, u] > m:
+                    m = horizontal[v + j, u]
+            out[v, u] = m
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _project(px: F64, py: F64, c: float, s: float, tx: float, ty: float, k: int) -> tuple[int, int]:
+    """Cell of point k rotated by (c, s) and moved by (tx, ty); all in cell units."""
+    x = c * px[k] - s * py[k] + tx
+    y = s * px[k] + c * py[k] + ty
+    return int(np.floor(x + 0.5)), int(np.floor(y + 0.5))
+
+
+@nb.njit(cache=True, nogil=True)
+def coarse_scores(
+    bound: FloatArray,
+    px: F64,
+    py: F64,
+    cosines: F64,
+    sines: F64,
+    tx: float,
+    ty: float,
+    starts: IntArray,
+    f: int,
+) -> FloatArray:
+    """Upper bounds of the score of every (rotation, translation block).
+
+    Args:
+        bound: ``sliding_max(field, f)``.
+        px, py: scan points in the robot frame, in cell units.
+        cosines, sines: the rotations tried.
+        tx, ty: the prior position in cells of the field.
+        starts: block starts (n x 2: dx, dy in cells); a block covers [d, d + f) per axis.
+
+    Returns:
+        float32[n_rotations, n_blocks]: summed bound under the points.
+    """
+    n_rows, n_cols = bound.shape
+    out = np.zeros((cosines.size, starts.shape[0]), dtype=np.float32)
+    cols = np.empty(px.size, dtype=np.int64)
+    rows = np.empty(px.size, dtype=np.int64)
+    for a in range(cosines.size):
+        for k in range(px.size):
+            cols[k], rows[k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
+        for b in range(starts.shape[0]):
+            dx, dy = starts[b, 0], starts[b, 1]
+            total = 0.0
+            for k in range(px.size):
+                x, y = cols[k] + dx, rows[k] + dy
+                if 0 <= x < n_cols and 0 <= y < n_rows:
+                    total += bound[y, x]
+            out[a, b] = total
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def fine_scores(
+    field: FloatArray,
+    px: F64,
+    py: F64,
+    c: float,
+    s: float,
+    tx: float,
+    ty: float,
+    dx0: int,
+    dy0: int,
+    nx: int,
+    ny: int,
+) -> FloatArray:
+    """Exact scores of translations dx0..dx0+nx-1, dy0..dy0+ny-1 for one rotation.
+
+    Returns:
+        float32[ny, nx]: summed field under the points, indexed [dy - dy0, dx - dx0].
+    """
+    n_rows, n_cols = field.shape
+    cols = np.empty(px.size, dtype=np.int64)
+    rows = np.empty(px.size, dtype=np.int64)
+    for k in range(px.size):
+        cols[k], rows[k] = _project(px, py, c, s, tx, ty, k)
+    out = np.zeros((ny, nx), dtype=np.float32)
+    for j in range(ny):
+        for i in range(nx):
+            total = 0.0
+            for k in range(px.size):
+                x, y = cols[k] + dx0 + i, rows[k] + dy0 + j
+                if 0 <= x < n_cols and 0 <= y < n_rows:
+                    total += field[y, x]
+            out[j, i] = total
+    return out

@@ -1,0 +1,236 @@
+"""Map files: the ROS map_server format (.pgm + .yaml) and navd's lossless state beside it.
+
+A save writes ``<name>.<revision>.pgm`` (trinary: occupied 0, free 254, unknown 205, top row
+first) and ``<name>.<revision>.npz`` (the float32 log-odds grid, origin, resolution, and
+the keyframe poses), then replaces ``<name>.yaml`` atomically: the YAML is the commit point.
+A crash before it leaves the old YAML pointing at the old, complete files; a crash after it
+leaves the new ones. Files of older revisions are removed once the YAML points elsewhere.
+Every file is written to a temporary name, flushed to disk, then renamed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.slam.errors import MapFileError
+from navd.slam.occupancy import OccupancyGrid
+
+__all__ = ["MapYaml", "load_map", "read_map_yaml", "read_pgm", "save_map"]
+
+OCCUPIED_THRESH = 0.65
+FREE_THRESH = 0.196
+PIXEL_OCCUPIED, PIXEL_FREE, PIXEL_UNKNOWN = 0, 254, 205
+
+
+@dataclass(frozen=True, slots=True)
+class MapYaml:
+    """The keys of a map_server YAML file."""
+
+    image: str
+    resolution: float
+    origin: tuple[float, float, float]
+    negate: int = 0
+    occupied_thresh: float = OCCUPIED_THRESH
+    free_thresh: float = FREE_THRESH
+    mode: str = "trinary"
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that readers see the old file or the new, never part."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        # mkstemp makes the file private; a map is for everyone who may read the folder.
+        os.fchmod(fd, 0o644)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+    dir_fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+
+
+def _pgm_bytes(pixels: npt.NDArray[np.uint8]) -> bytes:
+    rows, cols = pixels.shape
+    return f"P5\n{cols} {rows}\n255\n".encode("ascii") + pixels.tobytes()
+
+
+def read_pgm(path: Path) -> npt.NDArray[np.uint8]:
+    """A binary (P5) 8-bit PGM image, top row first.
+
+    Raises:
+        MapFileError: not a P5 PGM with maxval 255, or truncated.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise MapFileError(f"{path}: cannot read the map image: {err}") from err
+    header = re.match(rb"P5\s+(?:#[^\n]*\s+)*(\d+)\s+(?:#[^\n]*\s+)*(\d+)\s+(\d+)\s", data)
+    if header is None or int(header.group(3)) != 255:
+        raise MapFileError(f"{path}: not a binary 8-bit PGM (P5, maxval 255)")
+    cols, rows = int(header.group(1)), int(header.group(2))
+    body = data[header.end() :]
+    if len(body) < rows * cols:
+        raise MapFileError(f"{path}: truncated: {len(body)} of {rows * cols} pixel bytes")
+    return np.frombuffer(body[: rows * cols], dtype=np.uint8).reshape(rows, cols).copy()
+
+
+def _yaml_text(meta: MapYaml) -> str:
+    x, y, yaw = meta.origin
+    return (
+        f"image: {meta.image}\n"
+        f"mode: {meta.mode}\n"
+        f"resolution: {meta.resolution!r}\n"
+        f"origin: [{x!r}, {y!r}, {yaw!r}]\n"
+        f"negate: {meta.negate}\n"
+        f"occupied_thresh: {meta.occupied_thresh!r}\n"
+        f"free_thresh: {meta.free_thresh!r}\n"
+    )
+
+
+def read_map_yaml(path: Path) -> MapYaml:
+    """The flat ``key: value`` YAML of map_server (comments and quotes allowed).
+
+    Raises:
+        MapFileError: a missing file, a missing or malformed key (named).
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise MapFileError(f"{path}: cannot read the map YAML: {err}") from err
+    values: dict[str, str] = {}
+    for raw in text.splitlines():
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        key, sep, value = line.partition(":")
+        if not sep:
+            raise MapFileError(f"{path}: expected 'key: value', got {line!r}")
+        values[key.strip()] = value.strip().strip("'\"")
+    try:
+        origin = tuple(float(v) for v in values["origin"].strip("[]").split(","))
+        if len(origin) != 3:
+            raise ValueError("origin must have 3 numbers")
+        meta = MapYaml(
+            image=values["image"],
+            resolution=float(values["resolution"]),
+            origin=(origin[0], origin[1], origin[2]),
+            negate=int(values.get("negate", "0")),
+            occupied_thresh=float(values.get("occupied_thresh", str(OCCUPIED_THRESH))),
+            free_thresh=float(values.get("free_thresh", str(FREE_THRESH))),
+            mode=values.get("mode", "trinary"),
+        )
+    except KeyError as err:
+        raise MapFileError(f"{path}: missing key {err.args[0]!r}") from err
+    except ValueError as err:
+        raise MapFileError(f"{path}: malformed value: {err}") from err
+    if not meta.resolution > 0.0:
+        raise MapFileError(f"{path}: resolution must be > 0, got {meta.resolution}")
+    return meta
+
+
+def save_map(
+    grid: OccupancyGrid,
+    directory: Path,
+    name: str,
+    keyframe_poses: npt.NDArray[np.float64] | None = None,
+    image_stem: str | None = None,
+) -> Path:
+    """Save ``grid`` as ``directory/name.yaml`` with its image and lossless state.
+
+    Args:
+        image_stem: fixed file stem for the image and state ("map" gives map.pgm and
+            map.npz) for one-off outputs; None (the default for live saves) numbers them by
+            revision so that the set stays consistent through a crash.
+
+    Returns:
+        The YAML's path.
+    """
+    directory.mkdir(parents=True, exist_ok=True)
+    yaml_path = directory / f"{name}.yaml"
+    stem = image_stem or f"{name}.{_next_revision(directory, name)}"
+    occupancy = grid.occupancy_percent()
+    pixels = np.full(occupancy.shape, PIXEL_UNKNOWN, dtype=np.uint8)
+    pixels[(occupancy >= 0) & (occupancy < FREE_THRESH * 100)] = PIXEL_FREE
+    pixels[occupancy > OCCUPIED_THRESH * 100] = PIXEL_OCCUPIED
+    _write_atomic(directory / f"{stem}.pgm", _pgm_bytes(pixels[::-1]))
+    state = _npz_bytes(grid, keyframe_poses)
+    _write_atomic(directory / f"{stem}.npz", state)
+    meta = MapYaml(f"{stem}.pgm", grid.resolution, (grid.origin_x, grid.origin_y, 0.0))
+    _write_atomic(yaml_path, _yaml_text(meta).encode("utf-8"))
+    _remove_old(directory, name, keep=stem)
+    return yaml_path
+
+
+def _npz_bytes(grid: OccupancyGrid, keyframe_poses: npt.NDArray[np.float64] | None) -> bytes:
+    import io  # noqa: PLC0415
+
+    buffer = io.BytesIO()
+    np.savez(
+        buffer,
+        logodds=grid.logodds,
+        origin=np.array([grid.origin_x, grid.origin_y]),
+        resolution=np.array(grid.resolution),
+        keyframe_poses=np.zeros((0, 3)) if keyframe_poses is None else keyframe_poses,
+    )
+    return buffer.getvalue()
+
+
+def _next_revision(directory: Path, name: str) -> int:
+    pattern = re.compile(rf"^{re.escape(name)}\.(\d+)\.(?:pgm|npz)$")
+    found = [int(m.group(1)) for p in directory.iterdir() if (m := pattern.match(p.name))]
+    return max(found, default=0) + 1
+
+
+def _remove_old(directory: Path, name: str, keep: str) -> None:
+    pattern = re.compile(rf"^{re.escape(name)}\.(\d+)\.(?:pgm|npz)$")
+    for p in directory.iterdir():
+        if pattern.match(p.name) and not p.name.startswith(f"{keep}."):
+            with contextlib.suppress(FileNotFoundError):
+                p.unlink()
+
+
+def load_map(yaml_path: Path) -> OccupancyGrid:
+    """A map saved by navd (exact, from its state file) or by any map_server tool (from the image).
+
+    Raises:
+        MapFileError: missing or malformed files, named.
+    """
+    meta = read_map_yaml(yaml_path)
+    image = yaml_path.parent / meta.image
+    state = image.with_suffix(".npz")
+    if state.exists():
+        try:
+            with np.load(state) as data:
+                return OccupancyGrid.from_array(
+                    data["logodds"],
+                    float(data["origin"][0]),
+                    float(data["origin"][1]),
+                    float(data["resolution"]),
+                )
+        except (OSError, KeyError, ValueError) as err:
+            raise MapFileError(f"{state}: unreadable navd map state: {err}") from err
+    if not math.isclose(meta.origin[2], 0.0, abs_tol=1e-9):
+        raise MapFileError(f"{yaml_path}: rotated map origins (yaw != 0) are not supported")
+    pixels = read_pgm(image)[::-1].astype(np.float64)
+    occ = pixels / 255.0 if meta.negate else (255.0 - pixels) / 255.0
+    logodds = np.zeros(occ.shape, dtype=np.float32)
+    logodds[occ > meta.occupied_thresh] = 2.0
+    logodds[occ < meta.free_thresh] = -2.0
+    return OccupancyGrid.from_array(logodds, meta.origin[0], meta.origin[1], meta.resolution)

@@ -1,0 +1,168 @@
+"""The occupancy grid: log-odds by ray casting, growing as the robot explores.
+
+Cell (col, row) covers x in [origin_x + col * res, origin_x + (col + 1) * res) and likewise
+for y. A log-odds of exactly 0 means the cell was never observed (unknown).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.slam import _grid_kernels as k
+from navd.slam.pose import Pose2
+from navd.slam.scan import ScanPoints
+
+__all__ = ["LikelihoodField", "OccupancyGrid"]
+
+F32 = npt.NDArray[np.float32]
+
+L_FREE = -0.4  # log-odds added to a cell a ray passes through
+L_OCC = 0.85  # log-odds added to the cell a ray ends in
+L_MIN, L_MAX = -2.0, 3.5  # clamps: the map stays able to change its mind
+OCCUPIED_LOGODDS = 0.0  # above this a cell counts as occupied when matching
+
+
+@dataclass
+class LikelihoodField:
+    """Where scan points are likely to fall: a blurred image of the occupied cells.
+
+    Attributes:
+        values: float32 [rows, cols] in [0, 1].
+        origin_x, origin_y: [m] corner of cell (0, 0).
+        resolution: [m] cell size.
+    """
+
+    values: F32
+    origin_x: float
+    origin_y: float
+    resolution: float
+    _bounds: dict[int, F32] = field(default_factory=dict)
+
+    def bound(self, block: int) -> F32:
+        """The sliding maximum over ``block`` x ``block`` cells (cached)."""
+        cached = self._bounds.get(block)
+        if cached is None:
+            cached = self._bounds[block] = k.sliding_max(self.values, block)
+        return cached
+
+
+def gaussian_kernel(sigma_m: float, resolution: float) -> F32:
+    """exp(-d² / (2 sigma²)) over a square of half-width ceil(2 sigma / res) cells."""
+    r = max(1, math.ceil(2.0 * sigma_m / resolution))
+    d = np.arange(-r, r + 1) * resolution
+    d2 = d[:, None] ** 2 + d[None, :] ** 2
+    return np.exp(-0.5 * d2 / sigma_m**2).astype(np.float32)
+
+
+class OccupancyGrid:
+    """A log-odds grid that grows in ``chunk_m`` steps to hold what the robot sees.
+
+    Args:
+        resolution: [m] cell size.
+        chunk_m: [m] how much the grid grows at a time.
+    """
+
+    def __init__(self, resolution: float, chunk_m: float = 10.0) -> None:
+        self.resolution = resolution
+        self.chunk_m = chunk_m
+        self.logodds: F32 = np.zeros((0, 0), dtype=np.float32)
+        self.origin_x = 0.0
+        self.origin_y = 0.0
+        self.revision = 0
+
+    @classmethod
+    def from_array(
+        cls, logodds: F32, origin_x: float, origin_y: float, resolution: float
+    ) -> OccupancyGrid:
+        """A grid holding ``logodds`` (copied) with that origin and resolution."""
+        grid = cls(resolution)
+        grid.logodds = np.array(logodds, dtype=np.float32)
+        grid.origin_x, grid.origin_y = origin_x, origin_y
+        return grid
+
+    @property
+    def empty(self) -> bool:
+        """True before the first scan was inserted."""
+        return self.logodds.size == 0
+
+    def cells(self, points: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
+        """Integer (col, row) of world points (N x 2) [m]."""
+        origin = np.array([self.origin_x, self.origin_y])
+        cells: npt.NDArray[np.int64] = np.floor((points - origin) / self.resolution).astype(
+            np.int64
+        )
+        return cells
+
+    def insert(self, pose: Pose2, scan: ScanPoints) -> None:
+        """Ray-cast one scan taken at ``pose`` into the grid."""
+        hits = pose.transform(scan.hits)
+        misses = pose.transform(scan.misses)
+        ends = np.vstack([hits, misses]) if misses.size else hits
+        self._cover(np.vstack([ends, [[pose.x, pose.y]]]))
+        cells = self.cells(ends)
+        start = self.cells(np.array([[pose.x, pose.y]]))[0]
+        flags = np.zeros(ends.shape[0], dtype=np.bool_)
+        flags[: hits.shape[0]] = True
+        k.ray_update(
+            self.logodds,
+            int(start[0]),
+            int(start[1]),
+            cells[:, 0].copy(),
+            cells[:, 1].copy(),
+            flags,
+            L_FREE,
+            L_OCC,
+            L_MIN,
+            L_MAX,
+        )
+        self.revision += 1
+
+    def _cover(self, points: npt.NDArray[np.float64]) -> None:
+        """Grow the grid (by whole chunks) until it holds ``points``."""
+        lo = points.min(axis=0)
+        hi = points.max(axis=0)
+        res = self.resolution
+        if self.empty:
+            new_lo = np.floor((lo - self.chunk_m / 2) / res) * res
+            new_hi = np.ceil((hi + self.chunk_m / 2) / res) * res
+        else:
+            rows, cols = self.logodds.shape
+            old_lo = np.array([self.origin_x, self.origin_y])
+            old_hi = old_lo + np.array([cols, rows]) * res
+            if np.all(lo >= old_lo) and np.all(hi < old_hi):
+                return
+            grow_lo = np.where(lo < old_lo, self.chunk_m, 0.0)
+            grow_hi = np.where(hi >= old_hi, self.chunk_m, 0.0)
+            new_lo = old_lo - np.ceil(np.maximum(old_lo - lo, 0) / self.chunk_m) * grow_lo
+            new_hi = old_hi + np.ceil(np.maximum(hi - old_hi + res, 0) / self.chunk_m) * grow_hi
+        cols = round((new_hi[0] - new_lo[0]) / res)
+        rows = round((new_hi[1] - new_lo[1]) / res)
+        grown = np.zeros((rows, cols), dtype=np.float32)
+        if not self.empty:
+            off_c = round((self.origin_x - new_lo[0]) / res)
+            off_r = round((self.origin_y - new_lo[1]) / res)
+            h, w = self.logodds.shape
+            grown[off_r : off_r + h, off_c : off_c + w] = self.logodds
+        self.logodds = grown
+        self.origin_x, self.origin_y = float(new_lo[0]), float(new_lo[1])
+
+    def likelihood_field(self, center: Pose2, radius_m: float, sigma_m: float) -> LikelihoodField:
+        """The blurred occupied cells within ``radius_m`` of ``center`` (a square window)."""
+        res = self.resolution
+        half = math.ceil(radius_m / res)
+        col, row = self.cells(np.array([[center.x, center.y]]))[0]
+        col0, row0 = int(col) - half, int(row) - half
+        values = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.float32)
+        k.smear(self.logodds, OCCUPIED_LOGODDS, row0, col0, gaussian_kernel(sigma_m, res), values)
+        return LikelihoodField(values, self.origin_x + col0 * res, self.origin_y + row0 * res, res)
+
+    def occupancy_percent(self) -> npt.NDArray[np.int8]:
+        """ROS OccupancyGrid values: -1 unknown, else 0..100 probability of occupied."""
+        p = 1.0 - 1.0 / (1.0 + np.exp(self.logodds.astype(np.float64)))
+        out = np.round(p * 100.0).astype(np.int8)
+        out[self.logodds == 0.0] = -1
+        return out

@@ -1,0 +1,63 @@
+"""A PNG picture of a map with a trajectory drawn on it (zlib only, no imaging library)."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose import Pose2
+
+__all__ = ["encode_png", "map_picture"]
+
+TRAJECTORY_RGB = (220, 30, 30)
+
+
+def encode_png(rgb: npt.NDArray[np.uint8]) -> bytes:
+    """An 8-bit RGB PNG of ``rgb`` (rows x cols x 3, top row first)."""
+    rows, cols, _ = rgb.shape
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        crc = zlib.crc32(kind + data) & 0xFFFFFFFF
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    # Each row starts with filter type 0 (none).
+    raw = np.hstack([np.zeros((rows, 1), dtype=np.uint8), rgb.reshape(rows, cols * 3)])
+    header = struct.pack(">IIBBBBB", cols, rows, 8, 2, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+        + chunk(b"IEND", b"")
+    )
+
+
+def map_picture(grid: OccupancyGrid, trajectory: list[Pose2], path: Path) -> None:
+    """Write the map (white free, black occupied, grey unknown) with the trajectory in red."""
+    occupancy = grid.occupancy_percent().astype(np.int16)
+    gray = np.where(occupancy < 0, 205, 255 - occupancy * 255 // 100).astype(np.uint8)
+    rgb = np.repeat(gray[:, :, None], 3, axis=2)
+    if len(trajectory) > 1:
+        xy = np.array([(p.x, p.y) for p in trajectory])
+        # Sample the path every half cell so the drawn line has no gaps.
+        steps = np.maximum(
+            1, np.ceil(np.linalg.norm(np.diff(xy, axis=0), axis=1) / (grid.resolution / 2))
+        ).astype(int)
+        dense = np.vstack(
+            [
+                np.linspace(a, b, n, endpoint=False)
+                for a, b, n in zip(xy[:-1], xy[1:], steps, strict=True)
+            ]
+            + [xy[-1:]]
+        )
+        cells = grid.cells(dense)
+        rows, cols = gray.shape
+        inside = (
+            (cells[:, 0] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] >= 0) & (cells[:, 1] < rows)
+        )
+        rgb[cells[inside, 1], cells[inside, 0]] = TRAJECTORY_RGB
+    path.write_bytes(encode_png(rgb[::-1].copy()))
