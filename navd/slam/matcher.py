@@ -173,7 +173,7 @@ class CorrelativeMatcher:
         # The optimum in world units: cell offsets, then the sub-step vertex.
         x = (tx + 0.5 + dx + sx) * res + field.origin_x
         y = (ty + 0.5 + dy + sy) * res + field.origin_y
-        pose = Pose2(x, y, math.remainder(yaw + sa * step, 2.0 * math.pi))
+        pose = Pose2(float(x), float(y), math.remainder(yaw + sa * step, 2.0 * math.pi))
         gain = self.response_gain
 
         def variance(curvature: float, unit: float, floor: float, ceiling: float) -> float:

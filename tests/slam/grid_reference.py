@@ -1,0 +1,57 @@
+"""NumPy twins of navd.slam._grid_kernels, written from the definitions, loops kept plain."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def line_cells(x0: int, y0: int, x1: int, y1: int) -> list[tuple[int, int]]:
+    """Cells from (x0, y0) to (x1, y1), end excluded: a digital line by sampling."""
+    n = max(abs(x1 - x0), abs(y1 - y0))
+    cells = []
+    for i in range(n):
+        t = i / n
+        cells.append((round(x0 + t * (x1 - x0)), round(y0 + t * (y1 - y0))))
+    return cells
+
+
+def ray_update(logodds, x0, y0, ends_x, ends_y, hits, l_free, l_occ, l_min, l_max):  # type: ignore[no-untyped-def]
+    rows, cols = logodds.shape
+    for x1, y1, hit in zip(ends_x, ends_y, hits, strict=True):
+        for x, y in line_cells(x0, y0, int(x1), int(y1)):
+            if 0 <= x < cols and 0 <= y < rows:
+                logodds[y, x] = max(logodds[y, x] + l_free, l_min)
+        if hit and 0 <= x1 < cols and 0 <= y1 < rows:
+            logodds[y1, x1] = min(logodds[y1, x1] + l_occ, l_max)
+
+
+def smear(logodds, threshold, row0, col0, kernel, shape):  # type: ignore[no-untyped-def]
+    field = np.zeros(shape, dtype=np.float32)
+    r = kernel.shape[0] // 2
+    for fy in range(shape[0]):
+        for fx in range(shape[1]):
+            gy, gx = fy + row0, fx + col0
+            if not (0 <= gy < logodds.shape[0] and 0 <= gx < logodds.shape[1]):
+                continue
+            if logodds[gy, gx] <= threshold:
+                continue
+            ys = slice(max(fy - r, 0), min(fy + r + 1, shape[0]))
+            xs = slice(max(fx - r, 0), min(fx + r + 1, shape[1]))
+            k = kernel[ys.start - fy + r : ys.stop - fy + r, xs.start - fx + r : xs.stop - fx + r]
+            field[ys, xs] = np.maximum(field[ys, xs], k)
+    return field
+
+
+def sliding_max(field, f):  # type: ignore[no-untyped-def]
+    out = np.empty_like(field)
+    for v in range(field.shape[0]):
+        for u in range(field.shape[1]):
+            out[v, u] = field[v : v + f, u : u + f].max()
+    return out
+
+
+def score(field, px, py, c, s, tx, ty, dx, dy):  # type: ignore[no-untyped-def]
+    cols = np.floor(c * px - s * py + tx + 0.5).astype(int) + dx
+    rows = np.floor(s * px + c * py + ty + 0.5).astype(int) + dy
+    inside = (cols >= 0) & (cols < field.shape[1]) & (rows >= 0) & (rows < field.shape[0])
+    return float(field[rows[inside], cols[inside]].sum())

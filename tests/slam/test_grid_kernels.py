@@ -1,0 +1,74 @@
+"""Every grid kernel against its NumPy twin (tests/slam/grid_reference.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from navd.slam import _grid_kernels as k
+from navd.slam.occupancy import gaussian_kernel
+from tests.slam import grid_reference as ref
+
+
+def _tie_free(x0: int, y0: int, x1: int, y1: int) -> bool:
+    """True if the ideal line never passes exactly half-way between two cells."""
+    n = max(abs(x1 - x0), abs(y1 - y0))
+    minor = abs(y1 - y0) if abs(x1 - x0) >= abs(y1 - y0) else abs(x1 - x0)
+    return all((2 * i * minor) % (2 * n) != n for i in range(n))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_ray_update_matches_the_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rays = []
+    while len(rays) < 60:
+        x1, y1 = (int(v) for v in rng.integers(-5, 45, 2))
+        if (x1, y1) != (20, 20) and _tie_free(20, 20, x1, y1):
+            rays.append((x1, y1))
+    ends = np.array(rays, dtype=np.int64)
+    hits = rng.random(len(rays)) < 0.7
+    got = np.zeros((40, 40), dtype=np.float32)
+    want = np.zeros((40, 40), dtype=np.float32)
+    k.ray_update(got, 20, 20, ends[:, 0].copy(), ends[:, 1].copy(), hits, -0.4, 0.85, -2.0, 3.5)
+    ref.ray_update(want, 20, 20, ends[:, 0], ends[:, 1], hits, -0.4, 0.85, -2.0, 3.5)
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    assert got.min() >= -2.0 and got.max() <= 3.5
+
+
+def test_smear_matches_the_reference_including_window_edges() -> None:
+    rng = np.random.default_rng(4)
+    grid = np.where(rng.random((50, 60)) < 0.05, 1.0, -1.0).astype(np.float32)
+    kernel = gaussian_kernel(0.05, 0.05)
+    field = np.zeros((30, 35), dtype=np.float32)
+    k.smear(grid, 0.0, 25, -5, kernel, field)  # window hangs over the grid's left edge
+    np.testing.assert_allclose(field, ref.smear(grid, 0.0, 25, -5, kernel, (30, 35)))
+
+
+@pytest.mark.parametrize("f", [1, 2, 4, 5])
+def test_sliding_max_matches_the_reference(f: int) -> None:
+    field = np.random.default_rng(f).random((23, 31)).astype(np.float32)
+    np.testing.assert_array_equal(k.sliding_max(field, f), ref.sliding_max(field, f))
+
+
+def test_scores_match_the_reference_and_blocks_bound_their_translations() -> None:
+    rng = np.random.default_rng(5)
+    field = rng.random((80, 80)).astype(np.float32)
+    px = rng.uniform(-20, 20, 50)
+    py = rng.uniform(-20, 20, 50)
+    angles = np.array([-0.1, 0.0, 0.07])
+    tx, ty, f = 40.3, 38.8, 4
+    fine = k.fine_scores(field, px, py, np.cos(0.07), np.sin(0.07), tx, ty, -3, -2, 5, 4)
+    for j in range(4):
+        for i in range(5):
+            want = ref.score(field, px, py, np.cos(0.07), np.sin(0.07), tx, ty, -3 + i, -2 + j)
+            assert fine[j, i] == pytest.approx(want, rel=1e-5)
+    starts = np.array([(dx, dy) for dy in (-8, -4, 0, 4) for dx in (-8, -4, 0, 4)])
+    bounds = k.coarse_scores(
+        k.sliding_max(field, f), px, py, np.cos(angles), np.sin(angles), tx, ty, starts, f
+    )
+    for a, angle in enumerate(angles):
+        for b, (dx0, dy0) in enumerate(starts):
+            block = k.fine_scores(
+                field, px, py, np.cos(angle), np.sin(angle), tx, ty, dx0, dy0, f, f
+            )
+            assert bounds[a, b] >= block.max() - 1e-3

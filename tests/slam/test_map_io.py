@@ -1,0 +1,135 @@
+"""Map files: bit-exact reload, map_server conventions read back independently, crash safety."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from navd.slam.errors import MapFileError
+from navd.slam.map_io import load_map, read_map_yaml, save_map
+from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose import Pose2
+from navd.slam.scan import scan_points
+from tests.slam.room import cast
+
+
+def _grid() -> OccupancyGrid:
+    grid = OccupancyGrid(0.05)
+    for pose in (Pose2(0, 0, 0), Pose2(2, 1, 1.0)):
+        a0, inc, r = cast(pose)
+        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    return grid
+
+
+def test_a_saved_map_reloads_bit_exact(tmp_path: Path) -> None:
+    grid = _grid()
+    path = save_map(grid, tmp_path, "office")
+    loaded = load_map(path)
+    assert loaded.logodds.dtype == np.float32
+    np.testing.assert_array_equal(loaded.logodds, grid.logodds)
+    assert (loaded.origin_x, loaded.origin_y, loaded.resolution) == (
+        grid.origin_x,
+        grid.origin_y,
+        grid.resolution,
+    )
+
+
+def test_yaml_and_pgm_follow_map_server_conventions(tmp_path: Path) -> None:
+    grid = _grid()
+    path = save_map(grid, tmp_path, "office")
+    meta = yaml.safe_load(path.read_text())
+    assert set(meta) == {
+        "image",
+        "mode",
+        "resolution",
+        "origin",
+        "negate",
+        "occupied_thresh",
+        "free_thresh",
+    }
+    assert meta["resolution"] == 0.05 and meta["negate"] == 0
+    assert meta["origin"] == [grid.origin_x, grid.origin_y, 0.0]
+    image = np.asarray(Image.open(tmp_path / meta["image"]))
+    assert image.shape == grid.logodds.shape
+    # map_server: p = (255 - pixel) / 255; occupied above occupied_thresh, free below free_thresh.
+    p = (255.0 - image) / 255.0
+    logodds = grid.logodds[::-1]  # image row 0 is the top (largest y)
+    probability = 1.0 - 1.0 / (1.0 + np.exp(logodds.astype(np.float64)))
+    occupied = probability > meta["occupied_thresh"]
+    free = (probability < meta["free_thresh"]) & (logodds != 0.0)
+    assert occupied.any() and free.any()
+    assert np.all(p[occupied] > meta["occupied_thresh"])
+    assert np.all(p[free] < meta["free_thresh"])
+    between = p[~occupied & ~free]  # never seen, or not sure: unknown for map_server
+    assert np.all((between >= meta["free_thresh"]) & (between <= meta["occupied_thresh"]))
+
+
+def test_a_foreign_map_loads_from_its_image(tmp_path: Path) -> None:
+    pixels = np.full((4, 6), 205, dtype=np.uint8)
+    pixels[0, :] = 0  # the top row is a wall
+    pixels[1:, 1:5] = 254
+    Image.fromarray(pixels).save(tmp_path / "lab.pgm")
+    (tmp_path / "lab.yaml").write_text(
+        "image: lab.pgm  # made elsewhere\nresolution: 0.1\norigin: [-1.0, 2.0, 0.0]\n"
+        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
+    grid = load_map(tmp_path / "lab.yaml")
+    assert (grid.origin_x, grid.origin_y, grid.resolution) == (-1.0, 2.0, 0.1)
+    assert np.all(grid.logodds[3, :] > 0)  # top image row = highest grid row
+    assert np.all(grid.logodds[0:3, 1:5] < 0)
+    assert grid.logodds[0, 0] == 0.0
+
+
+def test_a_crash_before_the_yaml_is_replaced_leaves_the_old_map(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    first = _grid()
+    save_map(first, tmp_path, "office")
+    second = _grid()
+    a0, inc, r = cast(Pose2(-3, -1, 2.0))
+    second.insert(Pose2(-3, -1, 2.0), scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    real_replace = os.replace
+
+    def crash_on_yaml(src: str, dst: str) -> None:
+        if str(dst).endswith(".yaml"):
+            raise OSError("power lost")
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", crash_on_yaml)
+    with pytest.raises(OSError, match="power lost"):
+        save_map(second, tmp_path, "office")
+    monkeypatch.undo()
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, first.logodds)
+    assert not list(tmp_path.glob(".*.tmp"))  # no temporary file left behind
+    save_map(second, tmp_path, "office")  # the next save succeeds and tidies up
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, second.logodds)
+    assert sorted(p.suffix for p in tmp_path.iterdir()) == [".npz", ".pgm", ".yaml"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("image: a.pgm\norigin: [0, 0, 0]\n", "missing key 'resolution'"),
+        ("image: a.pgm\nresolution: -1\norigin: [0, 0, 0]\n", "resolution must be > 0"),
+        ("image: a.pgm\nresolution: 0.05\norigin: [0, 0]\n", "origin must have 3 numbers"),
+        ("image a.pgm\n", "expected 'key: value'"),
+    ],
+)
+def test_malformed_yaml_is_named(tmp_path: Path, text: str, message: str) -> None:
+    (tmp_path / "m.yaml").write_text(text)
+    with pytest.raises(MapFileError, match=message):
+        read_map_yaml(tmp_path / "m.yaml")
+
+
+def test_a_missing_or_truncated_image_is_named(tmp_path: Path) -> None:
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(MapFileError, match="cannot read the map image"):
+        load_map(tmp_path / "m.yaml")
+    (tmp_path / "m.pgm").write_bytes(b"P5\n4 4\n255\n" + b"\x00" * 5)
+    with pytest.raises(MapFileError, match="truncated: 5 of 16"):
+        load_map(tmp_path / "m.yaml")
