@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gzip
+import itertools
 import json
 import math
 from pathlib import Path
@@ -27,7 +28,7 @@ def _write_dump(folder: Path, poses: list[Pose2], drift: bool = False) -> Path:
     With ``drift``, odometry overestimates every step by 8% and turns 0.3 deg too far.
     """
     odometry = [poses[0]]
-    for a, b in zip(poses, poses[1:], strict=False):
+    for a, b in itertools.pairwise(poses):
         step = a.between(b)
         wrong = Pose2(1.08 * step.x, 1.08 * step.y, step.yaw + (math.radians(0.3) if drift else 0))
         odometry.append(odometry[-1].compose(wrong if drift else step))
