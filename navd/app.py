@@ -8,6 +8,7 @@ from navd.drivers.tcp_server import TcpServer
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate
+from navd.slam.node import SlamNode
 
 __all__ = ["build_modules"]
 
@@ -18,7 +19,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
     The safety gate starts first and stops last, so every command passes it; the chassis
     starts last and stops first, writing "0 0" before anything else goes away.
     """
-    modules: list[Module] = [SafetyGate(), EstimationNode(), TcpServer()]
+    modules: list[Module] = [SafetyGate(), EstimationNode(), SlamNode(), TcpServer()]
     if config.chassis.enabled:
         modules.append(ChassisDriver())
     return modules

@@ -315,7 +315,7 @@ class SlamConfig(Section):
     """Scan matching and the occupancy grid (the seed's IcpSlamConfig and MatchingParams)."""
 
     updating_map: bool = Field(True, description="add scans to the map (off: localize only)")
-    resolution_m: float = Field(0.05, ge=0.01, le=1, description="[m] occupancy grid cell size")
+    resolution_m: float = Field(0.05, ge=0.01, le=1, **restart("[m] occupancy grid cell size"))
     voxel_size_m: float = Field(
         0.1, ge=0.01, le=2, description="[m] voxel size for scan downsampling and ICP"
     )

@@ -23,7 +23,7 @@ from navd.lifecycle.messages import Message, WorkerStats
 
 __all__ = ["Job", "WorkerPool"]
 
-Job = Callable[[], Message | None]
+Job = Callable[[], Message | tuple[Message, ...] | None]
 
 
 @dataclass
@@ -56,7 +56,7 @@ class WorkerPool:
 
         Args:
             slot: the kind of job ("scan_match", "global_plan"...); one runs at a time.
-            job: a function of no arguments returning a Message or None.
+            job: a function of no arguments returning a Message, a tuple of them, or None.
             module: the module that owns the slot (failures count against it).
 
         Raises:
@@ -105,7 +105,9 @@ class WorkerPool:
             lambda done: loop.call_soon_threadsafe(self._finished, slot, state, done)
         )
 
-    def _finished(self, slot: str, state: _Slot, future: Future[Message | None]) -> None:
+    def _finished(
+        self, slot: str, state: _Slot, future: Future[Message | tuple[Message, ...] | None]
+    ) -> None:
         state.running = False
         if self._closed:
             return
@@ -116,8 +118,9 @@ class WorkerPool:
         else:
             state.completed += 1
             result = future.result()
-            if result is not None:
-                self._bus.publish(result)
+            for message in result if isinstance(result, tuple) else (result,):
+                if message is not None:
+                    self._bus.publish(message)
         if state.waiting is not None:
             job, state.waiting = state.waiting, None
             self._start(slot, state, job)

@@ -115,6 +115,16 @@ class ScanMapper:
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
 
+    def configure(self, settings: MapperSettings) -> None:
+        """Take new settings (the search window, thresholds, updating_map) at once."""
+        self.settings = settings
+        self.matcher = CorrelativeMatcher(
+            search_xy_m=settings.search_xy_m,
+            search_yaw_rad=settings.search_yaw_rad,
+            reach_m=settings.max_range_m / 2,
+        )
+        self._field = None
+
     def predict(self, odom: Pose2 | None) -> Pose2:
         """The pose now: the last pose moved by the odometry since then."""
         if self.pose is None:

@@ -1,0 +1,156 @@
+"""The SLAM module: scans in, scan-matched poses and map snapshots out.
+
+Each LaserScan becomes a job in the ``scan_match`` worker slot (latest wins: when matching
+falls behind, older scans are dropped and counted, never queued). The job matches the scan
+onto the map around the pose predicted by wheel odometry (integrated here), inserts it at
+keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
+``MAP_PERIOD_S`` after the map changed, a ``MapUpdate``. Maps are saved on request (a
+control client's save_map) and at shutdown if ``slam.save_on_shutdown``; ``slam.load_map``
+starts from a saved map. ``slam.updating_map`` can be switched at runtime (off: localize on
+the map without changing it).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from navd.errors import NavdError
+from navd.lifecycle.messages import (
+    ConfigApplied,
+    InitialPose,
+    LaserScan,
+    MapUpdate,
+    Message,
+    PoseMeasurement,
+    SaveMapRequest,
+    WheelOdometry,
+)
+from navd.lifecycle.module import Module, ModuleContext
+from navd.slam.errors import MapFileError
+from navd.slam.map_io import load_map, save_map
+from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.pose import Pose2
+from navd.slam.scan import scan_points
+
+__all__ = ["SlamNode"]
+
+MAP_PERIOD_S = 1.0
+_SLOT = "scan_match"
+
+
+class SlamNode(Module):
+    """Runs the ScanMapper on live scans in a worker thread."""
+
+    def __init__(self) -> None:
+        super().__init__("slam")
+        self._lock = threading.Lock()  # the mapper is used from worker threads
+        self._odom = Pose2(0.0, 0.0, 0.0)
+        self._odom_stamp: float | None = None
+        self._has_odometry = False
+        self._map_published_at = -math.inf
+        self._map_revision = -1
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        slam = ctx.config.slam
+        self.mapper = ScanMapper(mapper_settings(slam))
+        if slam.load_map is not None:
+            try:
+                self.mapper.grid = load_map(Path(slam.load_map))
+            except MapFileError as err:
+                raise NavdError(f"slam.load_map: {err}") from err
+            ctx.log.info("map_loaded", path=slam.load_map, cells=self.mapper.grid.logodds.shape)
+        ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(WheelOdometry, self._on_wheels)
+        ctx.subscribe(InitialPose, self._on_initial_pose)
+        ctx.subscribe(SaveMapRequest, self._on_save)
+        ctx.subscribe(ConfigApplied, self._on_config)
+
+    async def on_deactivate(self) -> None:
+        if self.ctx.config.slam.save_on_shutdown and not self.mapper.grid.empty:
+            self._save(self.ctx.config.slam.map_name)
+
+    def _on_wheels(self, odom: WheelOdometry) -> None:
+        """Dead-reckon the odometry pose: the motion prior of the next scan."""
+        if self._odom_stamp is not None:
+            dt = min(max(odom.stamp - self._odom_stamp, 0.0), 0.5)
+            step = Pose2(odom.linear_mps * dt, 0.0, odom.angular_radps * dt)
+            self._odom = self._odom.compose(step)
+        self._odom_stamp = odom.stamp
+        self._has_odometry = True
+
+    def _on_scan(self, scan: LaserScan) -> None:
+        odom = self._odom if self._has_odometry else None
+        self.ctx.submit(_SLOT, lambda: self._match(scan, odom))
+
+    def _match(self, scan: LaserScan, odom: Pose2 | None) -> tuple[Message, ...]:
+        slam = self.ctx.config.slam
+        points = scan_points(
+            scan.ranges,
+            scan.angle_min,
+            scan.angle_increment,
+            range_min=max(scan.range_min, slam.min_range_m),
+            range_max=scan.range_max,
+            mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
+            max_range=slam.max_range_m,
+        )
+        with self._lock:
+            result = self.mapper.add(scan.stamp, points, odom)
+            now = self.ctx.clock.now()
+            messages: list[Message] = [
+                PoseMeasurement(
+                    stamp=scan.stamp,
+                    received=now,
+                    source="lidar",
+                    x_m=result.pose.x,
+                    y_m=result.pose.y,
+                    yaw_rad=result.pose.yaw,
+                    covariance=result.covariance,
+                )
+            ]
+            grid = self.mapper.grid
+            if grid.revision != self._map_revision and now - self._map_published_at >= MAP_PERIOD_S:
+                self._map_revision = grid.revision
+                self._map_published_at = now
+                messages.append(
+                    MapUpdate(
+                        stamp=now,
+                        received=now,
+                        revision=grid.revision,
+                        resolution_m=grid.resolution,
+                        origin_x_m=grid.origin_x,
+                        origin_y_m=grid.origin_y,
+                        occupancy=grid.occupancy_percent(),
+                    )
+                )
+        return tuple(messages)
+
+    def _on_initial_pose(self, pose: InitialPose) -> None:
+        with self._lock:
+            self.mapper.set_pose(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
+
+    def _on_save(self, request: SaveMapRequest) -> None:
+        name = request.name or self.ctx.config.slam.map_name
+        self.ctx.submit("map_save", lambda: self._save(name))
+
+    def _save(self, name: str) -> None:
+        with self._lock:
+            grid = self.mapper.grid
+            if grid.empty:
+                self.ctx.log.warning("map_not_saved", reason="the map is empty", name=name)
+                return
+            snapshot = type(grid).from_array(
+                grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
+            )
+            poses = np.array([tuple(k.pose) for k in self.mapper.keyframes]).reshape(-1, 3)
+        path = save_map(snapshot, Path(self.ctx.config.slam.map_dir), name, keyframe_poses=poses)
+        self.ctx.log.info("map_saved", path=str(path))
+
+    def _on_config(self, applied: ConfigApplied) -> None:
+        settings = mapper_settings(applied.config.slam)
+        with self._lock:
+            self.mapper.configure(settings)

@@ -1,0 +1,55 @@
+"""The SLAM module in a running daemon: scans over TCP become poses, the map is saved on request."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from pathlib import Path
+
+from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement
+from navd.slam.map_io import load_map
+from navd.slam.pose import Pose2
+from tests.drivers.conftest import AsyncClient, record, running_daemon, until
+from tests.slam.room import cast
+
+
+def _frame(pose: Pose2, stamp: float) -> dict[str, object]:
+    a0, inc, r = cast(pose, beams=360)
+    ranges = [None if not math.isfinite(v) else round(float(v), 3) for v in r]
+    return {
+        "type": "scan",
+        "stamp": stamp,
+        "angle_min": a0,
+        "angle_increment": inc,
+        "range_min": 0.1,
+        "range_max": 30.0,
+        "ranges": ranges,
+    }
+
+
+async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
+    slam = {"map_dir": str(tmp_path), "max_range_m": 20.0}
+    async with running_daemon(slam=slam) as (daemon, port):
+        poses = record(daemon, PoseMeasurement)
+        maps = record(daemon, MapUpdate)
+        estimates = record(daemon, PoseEstimate)
+        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
+        control, _ = await AsyncClient.hello(port, "control", "ui")
+        path = [Pose2(0.04 * i, 0.02 * i, 0.01 * i) for i in range(15)]
+        for i, truth in enumerate(path):
+            await lidar.send(_frame(truth, 10.0 + 0.1 * i))
+            await until(lambda n=i: len(poses) > n, timeout_s=10.0)
+        # The first scan anchors the map at the origin; the rest are matched onto it.
+        for measured, truth in zip(poses, path, strict=True):
+            assert math.hypot(measured.x_m - truth.x, measured.y_m - truth.y) < 0.05
+            assert abs(measured.yaw_rad - truth.yaw) < math.radians(1.5)
+        assert maps and maps[0].occupancy.max() > 65
+        await until(lambda: bool(estimates))  # the estimator took the lidar poses
+        await control.send({"type": "save_map", "name": "lab"})
+        await control.recv_type("ack")
+        await until((tmp_path / "lab.yaml").exists, timeout_s=10.0)
+        grid = load_map(tmp_path / "lab.yaml")
+        assert grid.logodds.max() > 0
+        await lidar.close()
+        await control.close()
+        await asyncio.sleep(0)
