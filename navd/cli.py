@@ -87,6 +87,12 @@ def _parser() -> argparse.ArgumentParser:
     _connection_options(status)
     status.set_defaults(handler=_cmd_status)
 
+    _bench_commands(commands)
+    _slam_commands(commands)
+    return parser
+
+
+def _bench_commands(commands: Any) -> None:
     bench = commands.add_parser("bench", help="run a benchmark and print its figures")
     bench_commands = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
     ingest = bench_commands.add_parser(
@@ -106,8 +112,11 @@ def _parser() -> argparse.ArgumentParser:
     estimation.add_argument("--seconds", type=float, default=60.0, help="[s] synthetic drive")
     estimation.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     estimation.set_defaults(handler=_cmd_bench_estimation)
-    _slam_commands(commands)
-    return parser
+    scan = bench_commands.add_parser("scan", help="ms from a 720-ray scan to an updated pose")
+    scan.add_argument("--scans", type=int, default=400, help="scans in the drive")
+    scan.add_argument("--beams", type=int, default=720, help="rays per scan")
+    scan.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    scan.set_defaults(handler=_cmd_bench_scan)
 
 
 def _slam_commands(commands: Any) -> None:
@@ -356,6 +365,13 @@ def _cmd_eval_relations(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     _print_figures(errors.as_dict(), args.json)
     return EXIT_OK if errors.used else EXIT_FAILED
+
+
+def _cmd_bench_scan(args: argparse.Namespace) -> int:
+    from navd.bench.scan import run  # noqa: PLC0415
+
+    _print_figures(run(scans=args.scans, beams=args.beams), args.json)
+    return EXIT_OK
 
 
 def _cmd_bench_estimation(args: argparse.Namespace) -> int:

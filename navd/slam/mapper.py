@@ -10,6 +10,7 @@ grid changed or the robot left its window. Scans whose best match scores below
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +20,7 @@ from navd.config import SlamConfig
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose import Pose2
+from navd.slam.pose_graph import Edge, optimize
 from navd.slam.scan import ScanPoints, voxel_downsample
 
 __all__ = ["Keyframe", "MapperSettings", "ScanMapper", "ScanResult", "mapper_settings"]
@@ -40,6 +42,13 @@ class MapperSettings:
     keyframe_angle_rad: float = 0.3
     min_score: float = 0.3
     updating_map: bool = True
+    loop_closure: bool = True
+    loop_search_radius_m: float = 5.0
+    loop_search_xy_m: float = 1.5
+    loop_search_yaw_rad: float = 0.5
+    loop_min_score: float = 0.55
+    loop_min_gap: int = 40
+    loop_check_every: int = 3
 
 
 def mapper_settings(config: SlamConfig) -> MapperSettings:
@@ -93,6 +102,16 @@ class _Counts:
     weak_matches: int = 0
     keyframes: int = 0
     fields_built: int = 0
+    loop_checks: int = 0
+    loops_found: int = 0
+    optimizations: int = 0
+
+
+# Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
+EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
+# A loop closure that disagrees with the map by less than this does not re-solve the graph.
+LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
+LOOP_SUBMAP_KEYFRAMES = 10
 
 
 @dataclass
@@ -109,6 +128,12 @@ class ScanMapper:
         )
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
+        self.edges: list[Edge] = []
+        self.loop_matcher = CorrelativeMatcher(
+            search_xy_m=s.loop_search_xy_m,
+            search_yaw_rad=s.loop_search_yaw_rad,
+            reach_m=s.max_range_m / 2,
+        )
         self.counts = _Counts()
         self._last_odom: Pose2 | None = None
         self._field: LikelihoodField | None = None
@@ -173,9 +198,67 @@ class ScanMapper:
             ):
                 return False
         self.grid.insert(pose, scan)
+        if self.keyframes:
+            z = self.keyframes[-1].pose.between(pose)
+            self.edges.append(Edge(len(self.keyframes) - 1, len(self.keyframes), z, EDGE_WEIGHTS))
         self.keyframes.append(Keyframe(stamp, pose, scan))
         self.counts.keyframes += 1
+        k = len(self.keyframes) - 1
+        if s.loop_closure and k % s.loop_check_every == 0:
+            self._close_loop(k)
         return True
+
+    def _close_loop(self, k: int) -> None:
+        """Match keyframe ``k`` onto the map as it was near an old keyframe; re-solve if off."""
+        s = self.settings
+        current = self.keyframes[k]
+        old = self.keyframes[: k - s.loop_min_gap]
+        if not old:
+            return
+        xy = np.array([(f.pose.x, f.pose.y) for f in old])
+        distance = np.hypot(xy[:, 0] - current.pose.x, xy[:, 1] - current.pose.y)
+        j = int(np.argmin(distance))
+        if distance[j] > s.loop_search_radius_m:
+            return
+        self.counts.loop_checks += 1
+        submap = OccupancyGrid(s.resolution_m)
+        lo = max(0, j - LOOP_SUBMAP_KEYFRAMES)
+        for frame in self.keyframes[lo : min(j + LOOP_SUBMAP_KEYFRAMES + 1, k - s.loop_min_gap)]:
+            submap.insert(frame.pose, frame.scan)
+        field = submap.likelihood_field(
+            current.pose, s.max_range_m + s.loop_search_xy_m, s.blur_sigma_m
+        )
+        points = voxel_downsample(current.scan.hits, s.voxel_size_m)
+        match = self.loop_matcher.match(field, points, current.pose)
+        if match.score < s.loop_min_score:
+            return
+        self.counts.loops_found += 1
+        z = self.keyframes[j].pose.between(match.pose)
+        self.edges.append(Edge(j, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS))
+        off = current.pose.between(match.pose)
+        if math.hypot(off.x, off.y) < LOOP_SETTLED_M and abs(off.yaw) < LOOP_SETTLED_RAD:
+            return
+        self._solve()
+
+    def _solve(self) -> None:
+        """Re-solve the pose graph, move the keyframes and rebuild the map from them."""
+        self.counts.optimizations += 1
+        before = np.array([tuple(f.pose) for f in self.keyframes])
+        after = optimize(before, self.edges)
+        last_old = self.keyframes[-1].pose
+        self.keyframes = [
+            Keyframe(f.stamp, Pose2(*map(float, p)), f.scan)
+            for f, p in zip(self.keyframes, after, strict=True)
+        ]
+        grid = OccupancyGrid(self.settings.resolution_m)
+        for frame in self.keyframes:
+            grid.insert(frame.pose, frame.scan)
+        grid.revision = self.grid.revision + 1
+        self.grid = grid
+        self._field = None
+        if self.pose is not None:
+            # The robot moves with the newest keyframe.
+            self.pose = self.keyframes[-1].pose.compose(last_old.between(self.pose))
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""

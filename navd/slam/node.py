@@ -35,6 +35,7 @@ from navd.slam.map_io import load_map, save_map
 from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
+from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode"]
 
@@ -64,6 +65,7 @@ class SlamNode(Module):
             except MapFileError as err:
                 raise NavdError(f"slam.load_map: {err}") from err
             ctx.log.info("map_loaded", path=slam.load_map, cells=self.mapper.grid.logodds.shape)
+        warm_up()
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)

@@ -116,7 +116,11 @@ def bad_line(draw: st.DrawFn, role: str) -> bytes:
         )
     )
     if kind == "garbage":
-        text = draw(st.text(st.characters(exclude_characters="\n\r"), min_size=1, max_size=120))
+        text = draw(
+            st.text(
+                st.characters(codec="utf-8", exclude_characters="\n\r"), min_size=1, max_size=120
+            )
+        )
         data = text.encode()
         return data if _is_bad_json(data) else b"{" + data
     if kind == "bytes":

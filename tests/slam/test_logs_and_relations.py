@@ -17,9 +17,8 @@ from navd.slam.logfiles import open_log, read_carmen
 from navd.slam.pose import Pose2
 from navd.slam.relations import Relation, evaluate, read_relations, read_tum
 from navd.slam.replay import tum_line
+from tests.datasets import dataset
 from tests.slam.room import cast
-
-DATASETS = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "freiburg_slam_benchmark"
 
 
 def _write_dump(folder: Path, poses: list[Pose2], drift: bool = False) -> Path:
@@ -142,14 +141,12 @@ def test_carmen_flaser_lines_are_read_with_their_odometry(tmp_path: Path) -> Non
     assert scan.odom == Pose2(1.0, 2.0, 0.5)
 
 
-@pytest.mark.skipif(
-    not DATASETS.is_dir(), reason="needs ../shared/datasets/freiburg_slam_benchmark (CI has it)"
-)
 def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) -> None:
-    log = DATASETS / "derived_txt" / "intel_scans.txt.gz"
+    freiburg = dataset("freiburg_slam_benchmark")
+    log = freiburg / "derived_txt" / "intel_scans.txt.gz"
     assert main(["replay", str(log), "--out", str(tmp_path), "--quiet"]) == 0
     stamps, poses = read_tum(tmp_path / "trajectory.tum")
-    errors = evaluate(stamps, poses, read_relations(DATASETS / "relations" / "intel.relations"))
+    errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "intel.relations"))
     assert errors.used == 2984
     assert errors.translation_mean_m <= 0.07  # RBPF / GMapping: 0.070 m
     assert errors.rotation_mean_deg <= 1.0
