@@ -129,6 +129,9 @@ class ScanMapper:
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
+        # Every scan's pose relative to the newest keyframe at the time, so the whole
+        # trajectory follows the keyframes when the pose graph moves them.
+        self._anchors: list[tuple[int, Pose2]] = []
         self.loop_matcher = CorrelativeMatcher(
             search_xy_m=s.loop_search_xy_m,
             search_yaw_rad=s.loop_search_yaw_rad,
@@ -158,12 +161,31 @@ class ScanMapper:
             return self.pose
         return self.pose.compose(self._last_odom.between(odom))
 
+    def trajectory(self) -> list[Pose2]:
+        """Every scan's pose so far, as corrected by the latest pose-graph solution."""
+        out = []
+        for index, relative in self._anchors:
+            out.append(self.keyframes[index].pose.compose(relative) if index >= 0 else relative)
+        return out
+
+    def _anchor(self, pose: Pose2) -> None:
+        index = len(self.keyframes) - 1
+        if index < 0:
+            self._anchors.append((-1, pose))
+        else:
+            self._anchors.append((index, self.keyframes[index].pose.between(pose)))
+
     def set_pose(self, pose: Pose2) -> None:
         """Put the robot at ``pose`` (an initial pose from a person, or a global search)."""
         self.pose = pose
 
     def add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None = None) -> ScanResult:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
+        result = self._add(stamp, scan, odom)
+        self._anchor(result.pose if self.pose is None else self.pose)
+        return result
+
+    def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
         s = self.settings
         self.counts.scans += 1
         prior = self.predict(odom)

@@ -78,6 +78,8 @@ def replay(
         if progress is not None:
             progress(len(stamps), time.perf_counter() - start)
     wall = time.perf_counter() - start
+    # The trajectory as the final pose graph has it (loop closures correct the past too).
+    poses = mapper.trajectory()
     keyframes = np.array([tuple(k.pose) for k in mapper.keyframes]).reshape(-1, 3)
     save_map(mapper.grid, out_dir, "map", keyframe_poses=keyframes, image_stem="map")
     map_picture(mapper.grid, poses, out_dir / "map.png")
@@ -96,6 +98,9 @@ def replay(
         "matched": counts.matched,
         "weak_matches": counts.weak_matches,
         "keyframes": counts.keyframes,
+        "loop_checks": counts.loop_checks,
+        "loops_found": counts.loops_found,
+        "graph_optimizations": counts.optimizations,
         "map_cells": list(mapper.grid.logodds.shape),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")
