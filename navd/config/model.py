@@ -341,6 +341,19 @@ class SlamConfig(Section):
         le=1,
         description="[ratio] scans matching worse than this keep the odometry pose, unmapped",
     )
+    loop_closure: bool = Field(
+        False,
+        description="experimental: match keyframes onto old places and re-solve the pose graph",
+    )
+    loop_search_radius_m: float = Field(
+        5.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
+    )
+    loop_search_xy_m: float = Field(
+        1.5, gt=0, le=20, description="[m] half-width of the loop closure search window"
+    )
+    loop_min_score: float = Field(
+        0.65, gt=0, le=1, description="[ratio] match score a loop closure must reach"
+    )
     keyframe_distance_m: float = Field(
         0.3, gt=0, le=10, description="[m] travel that makes a new keyframe"
     )

@@ -42,11 +42,11 @@ class MapperSettings:
     keyframe_angle_rad: float = 0.3
     min_score: float = 0.3
     updating_map: bool = True
-    loop_closure: bool = True
+    loop_closure: bool = False
     loop_search_radius_m: float = 5.0
     loop_search_xy_m: float = 1.5
     loop_search_yaw_rad: float = 0.5
-    loop_min_score: float = 0.55
+    loop_min_score: float = 0.65
     loop_min_gap: int = 40
     loop_check_every: int = 3
 
@@ -64,6 +64,10 @@ def mapper_settings(config: SlamConfig) -> MapperSettings:
         keyframe_angle_rad=config.keyframe_angle_rad,
         min_score=config.min_match_score,
         updating_map=config.updating_map,
+        loop_closure=config.loop_closure,
+        loop_search_radius_m=config.loop_search_radius_m,
+        loop_search_xy_m=config.loop_search_xy_m,
+        loop_min_score=config.loop_min_score,
     )
 
 
@@ -149,6 +153,11 @@ class ScanMapper:
         self.matcher = CorrelativeMatcher(
             search_xy_m=settings.search_xy_m,
             search_yaw_rad=settings.search_yaw_rad,
+            reach_m=settings.max_range_m / 2,
+        )
+        self.loop_matcher = CorrelativeMatcher(
+            search_xy_m=settings.loop_search_xy_m,
+            search_yaw_rad=settings.loop_search_yaw_rad,
             reach_m=settings.max_range_m / 2,
         )
         self._field = None

@@ -1,0 +1,91 @@
+"""The pose graph: a drifting loop is pulled back into shape by one loop closure."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.slam.pose import Pose2
+from navd.slam.pose_graph import Edge, optimize
+
+W = (20.0, 20.0, 50.0)
+
+
+def _square(n_side: int = 10, side: float = 5.0) -> list[Pose2]:
+    poses = []
+    for k in range(4):
+        for i in range(n_side):
+            heading = k * math.pi / 2
+            start = [(0, 0), (side, 0), (side, side), (0, side)][k]
+            step = side * i / n_side
+            poses.append(
+                Pose2(
+                    start[0] + step * math.cos(heading),
+                    start[1] + step * math.sin(heading),
+                    heading,
+                )
+            )
+    return poses
+
+
+def test_a_loop_closure_removes_accumulated_drift() -> None:
+    truth = _square()
+    # Odometry turns 1 degree too far at every step: the loop does not close by metres.
+    odometry = [truth[0]]
+    edges = []
+    for i in range(1, len(truth)):
+        step = truth[i - 1].between(truth[i])
+        wrong = Pose2(step.x, step.y, step.yaw + math.radians(1.0))
+        odometry.append(odometry[-1].compose(wrong))
+        edges.append(Edge(i - 1, i, tuple(wrong), W))  # type: ignore[arg-type]
+    last = len(truth) - 1
+    drift = math.hypot(odometry[last].x - truth[last].x, odometry[last].y - truth[last].y)
+    assert drift > 1.0
+    closing = truth[last].between(truth[0])
+    edges.append(Edge(last, 0, tuple(closing), (200.0, 200.0, 500.0)))  # type: ignore[arg-type]
+    solved = optimize(np.array([tuple(p) for p in odometry]), edges)
+    errors = [math.hypot(s[0] - t.x, s[1] - t.y) for s, t in zip(solved, truth, strict=True)]
+    assert max(errors) < 0.3 * drift
+    np.testing.assert_array_equal(solved[0], tuple(odometry[0]))  # the anchor does not move
+
+
+def test_consistent_edges_leave_the_poses_alone() -> None:
+    truth = _square(5)
+    poses = np.array([tuple(p) for p in truth])
+    edges = [
+        Edge(i, i + 1, tuple(truth[i].between(truth[i + 1])), W) for i in range(len(truth) - 1)
+    ]  # type: ignore[arg-type]
+    solved = optimize(poses, edges)
+    np.testing.assert_allclose(solved[:, :2], poses[:, :2], atol=1e-6)
+    yaw_error = np.remainder(solved[:, 2] - poses[:, 2] + np.pi, 2 * np.pi) - np.pi
+    np.testing.assert_allclose(yaw_error, 0.0, atol=1e-6)
+
+
+def test_the_mapper_finds_loops_when_asked() -> None:
+    from navd.slam.mapper import MapperSettings, ScanMapper
+    from navd.slam.scan import scan_points
+    from tests.slam.room import cast
+
+    settings = MapperSettings(
+        loop_closure=True, loop_min_gap=10, keyframe_distance_m=0.2, max_range_m=12.0
+    )
+    mapper = ScanMapper(settings)
+    truth = []
+    odom = Pose2(-4.0, -1.0, math.pi / 2)
+    for i in range(160):
+        angle = 2 * math.pi * i / 80  # twice around the loop
+        pose = Pose2(4.0 * math.cos(angle) - 0.5, 2.2 * math.sin(angle) - 0.5, angle + math.pi / 2)
+        if truth:
+            step = truth[-1].between(pose)
+            odom = odom.compose(Pose2(step.x, step.y, step.yaw + math.radians(0.5)))
+        truth.append(pose)
+        a0, inc, r = cast(pose)
+        mapper.add(0.1 * i, scan_points(r, a0, inc, range_min=0.1, range_max=30.0), odom)
+    assert mapper.counts.loops_found >= 1
+    final = mapper.trajectory()
+    errors = [
+        math.hypot(*truth[0].between(t).compose(final[0].between(p).inverse())[:2])
+        for p, t in zip(final, truth, strict=True)
+    ]
+    assert max(errors) < 0.1
