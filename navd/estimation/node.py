@@ -8,6 +8,7 @@ localization after having had it is a safety stop until it is regained.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from navd.estimation.estimator import Localization, StateEstimator
@@ -44,7 +45,9 @@ class EstimationNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.estimator = StateEstimator(ctx.config)
+        self.estimator: StateEstimator | None = None
+        self.before_ready = 0
+        self._pending_pose: InitialPose | None = None
         ctx.subscribe(Imu, self._on_imu)
         ctx.subscribe(PoseMeasurement, self._on_pose)
         ctx.subscribe(GpsFix, self._on_gps)
@@ -54,34 +57,62 @@ class EstimationNode(Module):
         ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
+        # Building the filter imports filterpy (and with it scipy.stats: about a second), so
+        # it happens in a worker after start-up; measurements that come before are counted
+        # and dropped (the robot has just started: localization is uninitialized anyway).
+        self.ctx.submit("estimation_setup", self._build)
         period = 1.0 / self.ctx.config.estimation.publish_rate_hz
         self.ctx.every(period, self._publish, name="publish")
 
+    def _build(self) -> None:
+        self.estimator = StateEstimator(self.ctx.config)
+        self.ctx.log.info("estimator_ready", dropped_before=self.before_ready)
+
+    def _ready(self) -> StateEstimator | None:
+        if self.estimator is None:
+            self.before_ready += 1
+        return self.estimator
+
     def _on_imu(self, imu: Imu) -> None:
         self._imu_device = imu.device_id
-        self.estimator.add_imu(imu)
+        if estimator := self._ready():
+            estimator.add_imu(imu)
 
     def _on_pose(self, pose: PoseMeasurement) -> None:
-        self.estimator.add_pose(pose, self.ctx.clock.now())
+        if estimator := self._ready():
+            estimator.add_pose(pose, self.ctx.clock.now())
 
     def _on_gps(self, fix: GpsFix) -> None:
-        self.estimator.add_gps(fix, self.ctx.clock.now())
+        if estimator := self._ready():
+            estimator.add_gps(fix, self.ctx.clock.now())
 
     def _on_compass(self, heading: CompassHeading) -> None:
-        self.estimator.add_compass(heading, self.ctx.clock.now())
+        if estimator := self._ready():
+            estimator.add_compass(heading, self.ctx.clock.now())
 
     def _on_wheels(self, odom: WheelOdometry) -> None:
-        self.estimator.add_wheel_odometry(odom, self.ctx.clock.now())
+        if estimator := self._ready():
+            estimator.add_wheel_odometry(odom, self.ctx.clock.now())
 
     def _on_initial_pose(self, pose: InitialPose) -> None:
         self.ctx.log.info("initial_pose", x=pose.x_m, y=pose.y_m, yaw=pose.yaw_rad)
-        self.estimator.set_pose(pose)
+        if self.estimator is None:
+            self._pending_pose = pose  # a person's word is kept until the filter exists
+        else:
+            self.estimator.set_pose(pose)
 
     def _on_config(self, applied: ConfigApplied) -> None:
-        self.estimator.configure(applied.config)
+        if self.estimator is not None:
+            self.estimator.configure(applied.config)
 
     def _publish(self, now: float) -> None:
         estimator = self.estimator
+        if estimator is None:
+            return
+        if self._pending_pose is not None:
+            # Given while the filter was being built: it means "the robot is here now".
+            estimator.set_pose(dataclasses.replace(self._pending_pose, stamp=now))
+            self._pending_pose = None
         estimator.advance(now)
         estimate = estimator.estimate(now)
         if estimate is not None:

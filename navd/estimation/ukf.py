@@ -11,6 +11,7 @@ good state.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -19,7 +20,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from navd.estimation.angles import wrap_angle, wrap_angles
 from navd.estimation.motion_model import (
@@ -156,46 +156,59 @@ class _MeasurementFunctions:
 _FUNCTIONS: dict[tuple[Row, ...], _MeasurementFunctions] = {}
 
 
-class _ArraySigmaPoints(MerweScaledSigmaPoints):  # type: ignore[misc]
-    """filterpy's Merwe points, built without its per-dimension loop.
+@functools.cache
+def _filter_classes() -> tuple[Any, Any]:
+    """filterpy's UKF and Merwe points with the array versions of their loops.
 
-    Same points: with U the upper Cholesky factor of (λ + n)P, the points are x, x + U[k] and
-    x - U[k] (yaw wrapped). The factorization raises LinAlgError when P is not positive
-    definite.
+    Imported on first use: filterpy's package pulls in scipy.stats (about a second), which
+    the daemon should not pay before it is ready.
     """
+    from filterpy.kalman import (  # noqa: PLC0415
+        MerweScaledSigmaPoints,
+        UnscentedKalmanFilter,
+    )
 
-    def sigma_points(self, x: FloatArray, P: FloatArray) -> FloatArray:  # noqa: N803
-        n = self.n
-        u = self.sqrt((self._lambda() + n) * P)
-        sigmas = np.empty((2 * n + 1, n))
-        sigmas[0] = x
-        sigmas[1 : n + 1] = x + u
-        sigmas[n + 1 :] = x - u
-        sigmas[:, TH] = wrap_angles(sigmas[:, TH])
-        return sigmas
+    class _ArraySigmaPoints(MerweScaledSigmaPoints):  # type: ignore[misc]
+        """filterpy's Merwe points, built without its per-dimension loop.
 
-    def _lambda(self) -> float:
-        return float(self.alpha**2 * (self.n + self.kappa) - self.n)
+        Same points: with U the upper Cholesky factor of (λ + n)P, the points are x, x + U[k] and
+        x - U[k] (yaw wrapped). The factorization raises LinAlgError when P is not positive
+        definite.
+        """
 
+        def sigma_points(self, x: FloatArray, P: FloatArray) -> FloatArray:  # noqa: N803
+            n = self.n
+            u = self.sqrt((self._lambda() + n) * P)
+            sigmas = np.empty((2 * n + 1, n))
+            sigmas[0] = x
+            sigmas[1 : n + 1] = x + u
+            sigmas[n + 1 :] = x - u
+            sigmas[:, TH] = wrap_angles(sigmas[:, TH])
+            return sigmas
 
-class _ArrayUkf(UnscentedKalmanFilter):  # type: ignore[misc]
-    """filterpy's UKF with its per-sigma-point loops done as array operations."""
+        def _lambda(self) -> float:
+            return float(self.alpha**2 * (self.n + self.kappa) - self.n)
 
-    transition: FloatArray
+    class _ArrayUkf(UnscentedKalmanFilter):  # type: ignore[misc]
+        """filterpy's UKF with its per-sigma-point loops done as array operations."""
 
-    def compute_process_sigmas(self, dt: float, fx: Any = None, **fx_args: Any) -> None:
-        sigmas = self.points_fn.sigma_points(self.x, self.P)
-        propagated = sigmas @ self.transition.T
-        propagated[:, TH] = wrap_angles(propagated[:, TH])
-        self.sigmas_f = propagated
+        transition: FloatArray
 
-    def cross_variance(
-        self, x: FloatArray, z: FloatArray, sigmas_f: FloatArray, sigmas_h: FloatArray
-    ) -> FloatArray:
-        dx = self.residual_x(sigmas_f, x)
-        dz = self.residual_z(sigmas_h, z)
-        result: FloatArray = (dx * self.Wc[:, None]).T @ dz
-        return result
+        def compute_process_sigmas(self, dt: float, fx: Any = None, **fx_args: Any) -> None:
+            sigmas = self.points_fn.sigma_points(self.x, self.P)
+            propagated = sigmas @ self.transition.T
+            propagated[:, TH] = wrap_angles(propagated[:, TH])
+            self.sigmas_f = propagated
+
+        def cross_variance(
+            self, x: FloatArray, z: FloatArray, sigmas_f: FloatArray, sigmas_h: FloatArray
+        ) -> FloatArray:
+            dx = self.residual_x(sigmas_f, x)
+            dz = self.residual_z(sigmas_h, z)
+            result: FloatArray = (dx * self.Wc[:, None]).T @ dz
+            return result
+
+    return _ArraySigmaPoints, _ArrayUkf
 
 
 def _unused_fx(x: FloatArray, dt: float) -> FloatArray:  # pragma: no cover - never called
@@ -236,7 +249,8 @@ class PoseUkf:
         linear_jerk_psd: float,
         angular_jerk_psd: float,
     ) -> None:
-        points = _ArraySigmaPoints(
+        sigma_points_class, ukf_class = _filter_classes()
+        points = sigma_points_class(
             STATE_SIZE,
             alpha=alpha,
             beta=beta,
@@ -244,7 +258,7 @@ class PoseUkf:
             sqrt_method=_upper_cholesky,
             subtract=_state_residual,
         )
-        self._ukf = _ArrayUkf(
+        self._ukf = ukf_class(
             dim_x=STATE_SIZE,
             dim_z=3,
             dt=0.0,

@@ -13,6 +13,7 @@ or library calls that release the GIL, so the event loop keeps running.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -101,9 +102,13 @@ class WorkerPool:
         loop = asyncio.get_running_loop()
         state.running = True
         future = self._executor.submit(job)
-        future.add_done_callback(
-            lambda done: loop.call_soon_threadsafe(self._finished, slot, state, done)
-        )
+
+        def finished(done: Future[Message | tuple[Message, ...] | None]) -> None:
+            # A job may outlive the loop (the daemon failed to start, or is stopping).
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(self._finished, slot, state, done)
+
+        future.add_done_callback(finished)
 
     def _finished(
         self, slot: str, state: _Slot, future: Future[Message | tuple[Message, ...] | None]

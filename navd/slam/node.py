@@ -65,12 +65,16 @@ class SlamNode(Module):
             except MapFileError as err:
                 raise NavdError(f"slam.load_map: {err}") from err
             ctx.log.info("map_loaded", path=slam.load_map, cells=self.mapper.grid.logodds.shape)
-        warm_up()
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(SaveMapRequest, self._on_save)
         ctx.subscribe(ConfigApplied, self._on_config)
+
+    async def on_activate(self) -> None:
+        # Compile (or load from the cache) the kernels before the first scan, in the scan
+        # slot: a scan arriving meanwhile waits for it (latest wins) instead of stalling.
+        self.ctx.submit(_SLOT, warm_up)
 
     async def on_deactivate(self) -> None:
         if self.ctx.config.slam.save_on_shutdown and not self.mapper.grid.empty:

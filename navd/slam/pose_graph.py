@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
 __all__ = ["Edge", "optimize"]
@@ -57,6 +56,9 @@ def _residuals(flat: FloatArray, graph: _Graph) -> FloatArray:
 
 def optimize(poses: FloatArray, edges: list[Edge], max_nfev: int = 50) -> FloatArray:
     """Poses (N x 3) that best satisfy ``edges``, pose 0 unchanged."""
+    # scipy.optimize costs most of a second to import: only when a graph is solved.
+    from scipy.optimize import least_squares  # noqa: PLC0415
+
     n = poses.shape[0]
     if n < 2 or not edges:
         return poses.copy()
