@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 
 from navd.estimation.estimator import Localization, StateEstimator
 from navd.lifecycle.messages import (
@@ -48,6 +49,7 @@ class EstimationNode(Module):
         self.estimator: StateEstimator | None = None
         self.before_ready = 0
         self._pending_pose: InitialPose | None = None
+        self._build_error: Exception | None = None
         ctx.subscribe(Imu, self._on_imu)
         ctx.subscribe(PoseMeasurement, self._on_pose)
         ctx.subscribe(GpsFix, self._on_gps)
@@ -58,14 +60,19 @@ class EstimationNode(Module):
 
     async def on_activate(self) -> None:
         # Building the filter imports filterpy (and with it scipy.stats: about a second), so
-        # it happens in a worker after start-up; measurements that come before are counted
-        # and dropped (the robot has just started: localization is uninitialized anyway).
-        self.ctx.submit("estimation_setup", self._build)
+        # it happens beside start-up, in a daemon thread that never holds up an exit;
+        # measurements that come before are counted and dropped (the robot has just
+        # started: localization is uninitialized anyway).
+        threading.Thread(target=self._build, name="estimation-setup", daemon=True).start()
         period = 1.0 / self.ctx.config.estimation.publish_rate_hz
         self.ctx.every(period, self._publish, name="publish")
 
     def _build(self) -> None:
-        self.estimator = StateEstimator(self.ctx.config)
+        try:
+            self.estimator = StateEstimator(self.ctx.config)
+        except Exception as err:
+            self._build_error = err
+            return
         self.ctx.log.info("estimator_ready", dropped_before=self.before_ready)
 
     def _ready(self) -> StateEstimator | None:
@@ -106,6 +113,9 @@ class EstimationNode(Module):
             self.estimator.configure(applied.config)
 
     def _publish(self, now: float) -> None:
+        if self._build_error is not None:
+            error, self._build_error = self._build_error, None
+            raise error  # reported by supervision as this module's failure
         estimator = self.estimator
         if estimator is None:
             return
