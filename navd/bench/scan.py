@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from navd.bench.room import cast
 from navd.config import NavdConfig
 from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
@@ -21,39 +22,6 @@ from navd.slam.scan import scan_points
 from navd.slam.warmup import warm_up
 
 __all__ = ["run"]
-
-# The room's walls: (x0, y0, x1, y1) [m].
-WALLS = np.array(
-    [
-        (-6, -4, 6, -4),
-        (6, -4, 6, 4),
-        (6, 4, -6, 4),
-        (-6, 4, -6, -4),
-        (-2, 1, 2, 1),
-        (2, 1, 2, 3),
-        (3, -2, 3.5, -2),
-        (3.5, -2, 3.5, -1.5),
-        (3.5, -1.5, 3, -1.5),
-        (3, -1.5, 3, -2),
-        (-4, -4, -4, -2.5),
-    ],
-    dtype=np.float64,
-)
-
-
-def cast(pose: Pose2, beams: int) -> np.ndarray:
-    """Ranges [m] of a full-circle scan at ``pose`` (inf where nothing is hit)."""
-    angles = pose.yaw - math.pi + 2 * math.pi / beams * np.arange(beams)
-    d = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    p, e = WALLS[:, :2], WALLS[:, 2:] - WALLS[:, :2]
-    w = p[None, :, :] - np.array([pose.x, pose.y])
-    denom = -d[:, None, 0] * e[None, :, 1] + d[:, None, 1] * e[None, :, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (-w[..., 0] * e[None, :, 1] + w[..., 1] * e[None, :, 0]) / denom
-        u = (d[:, None, 0] * w[..., 1] - d[:, None, 1] * w[..., 0]) / denom
-    hit = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
-    ranges: np.ndarray = np.where(hit, t, np.inf).min(axis=1)
-    return ranges
 
 
 def run(scans: int = 400, beams: int = 720) -> dict[str, object]:
@@ -67,10 +35,11 @@ def run(scans: int = 400, beams: int = 720) -> dict[str, object]:
         # A slow loop around the inner wall, 10 Hz, about 0.4 m/s.
         angle = 2 * math.pi * i / scans
         truth = Pose2(4.0 * math.cos(angle) - 0.5, 2.2 * math.sin(angle) - 0.5, angle + math.pi / 2)
-        ranges = cast(truth, beams) + rng.normal(0.0, 0.01, beams)
+        angle_min, increment, ranges = cast(truth, beams)
+        ranges = ranges + rng.normal(0.0, 0.01, beams)
         start = time.perf_counter()
         points = scan_points(
-            ranges, -math.pi, 2 * math.pi / beams, range_min=0.1, range_max=30.0, max_range=12.0
+            ranges, angle_min, increment, range_min=0.1, range_max=30.0, max_range=12.0
         )
         odom = Pose2(truth.x + 0.02 * i / scans, truth.y, truth.yaw)  # odometry drifting 2 cm
         result = mapper.add(0.1 * i, points, odom)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from navd.bench.room import cast
 from navd.cli import main
 from navd.slam.errors import LogFormatError
 from navd.slam.logfiles import open_log, read_carmen
@@ -18,7 +19,6 @@ from navd.slam.pose import Pose2
 from navd.slam.relations import Relation, evaluate, read_relations, read_tum
 from navd.slam.replay import tum_line
 from tests.datasets import dataset
-from tests.slam.room import cast
 
 
 def _write_dump(folder: Path, poses: list[Pose2], drift: bool = False) -> Path:

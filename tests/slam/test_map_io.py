@@ -10,12 +10,12 @@ import pytest
 import yaml
 from PIL import Image
 
+from navd.bench.room import cast
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import load_map, read_map_yaml, save_map
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
-from tests.slam.room import cast
 
 
 def _grid() -> OccupancyGrid:

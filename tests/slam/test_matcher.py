@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
+from navd.bench.room import cast
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points, voxel_downsample
-from tests.slam.room import cast
 
 
 def _room_grid() -> OccupancyGrid:

@@ -6,11 +6,11 @@ import asyncio
 import math
 from pathlib import Path
 
+from navd.bench.room import cast
 from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement
 from navd.slam.map_io import load_map
 from navd.slam.pose import Pose2
 from tests.drivers.conftest import AsyncClient, record, running_daemon, until
-from tests.slam.room import cast
 
 
 def _frame(pose: Pose2, stamp: float) -> dict[str, object]:
