@@ -184,6 +184,10 @@ class ScanMapper:
         else:
             self._anchors.append((index, self.keyframes[index].pose.between(pose)))
 
+    def forget_odometry(self) -> None:
+        """The next scan's prediction is the set pose, not the pose moved by odometry."""
+        self._last_odom = None
+
     def set_pose(self, pose: Pose2) -> None:
         """Put the robot at ``pose`` (an initial pose from a person, or a global search)."""
         self.pose = pose

@@ -6,8 +6,10 @@ onto the map around the pose predicted by wheel odometry (integrated here), inse
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
 ``MAP_PERIOD_S`` after the map changed, a ``MapUpdate``. Maps are saved on request (a
 control client's save_map) and at shutdown if ``slam.save_on_shutdown``; ``slam.load_map``
-starts from a saved map. ``slam.updating_map`` can be switched at runtime (off: localize on
-the map without changing it).
+starts from a saved map, and the first scan then finds the robot anywhere on it (global
+search); an initial pose from a control client makes the next scan search around it (±1 m,
+±30°). ``slam.updating_map`` can be switched at runtime (off: localize on the map without
+changing it).
 """
 
 from __future__ import annotations
@@ -31,15 +33,17 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.errors import MapFileError
+from navd.slam.global_search import relocalize
 from navd.slam.map_io import load_map, save_map
 from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
+from navd.slam.scan import scan_points, voxel_downsample
 from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode"]
 
 MAP_PERIOD_S = 1.0
+GLOBAL = "global"
 _SLOT = "scan_match"
 
 
@@ -54,6 +58,8 @@ class SlamNode(Module):
         self._has_odometry = False
         self._map_published_at = -math.inf
         self._map_revision = -1
+        # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
+        self._relocate: Pose2 | str | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -65,6 +71,7 @@ class SlamNode(Module):
             except MapFileError as err:
                 raise NavdError(f"slam.load_map: {err}") from err
             ctx.log.info("map_loaded", path=slam.load_map, cells=self.mapper.grid.logodds.shape)
+            self._relocate = GLOBAL  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
@@ -105,6 +112,23 @@ class SlamNode(Module):
             max_range=slam.max_range_m,
         )
         with self._lock:
+            if self._relocate is not None and not self.mapper.grid.empty:
+                guess = None if self._relocate == GLOBAL else self._relocate
+                assert guess is None or isinstance(guess, Pose2)
+                found = relocalize(
+                    self.mapper.grid, voxel_downsample(points.hits, slam.voxel_size_m), guess=guess
+                )
+                self.ctx.log.info(
+                    "relocalized",
+                    x=round(found.pose.x, 3),
+                    y=round(found.pose.y, 3),
+                    yaw=round(found.pose.yaw, 3),
+                    score=round(found.score, 3),
+                    guess=None if guess is None else tuple(round(v, 3) for v in guess),
+                )
+                self.mapper.set_pose(found.pose)
+                self.mapper.forget_odometry()
+                self._relocate = None
             result = self.mapper.add(scan.stamp, points, odom)
             now = self.ctx.clock.now()
             messages: list[Message] = [
@@ -136,8 +160,9 @@ class SlamNode(Module):
         return tuple(messages)
 
     def _on_initial_pose(self, pose: InitialPose) -> None:
+        # A person's guess: the next scan searches around it (±1 m, ±30°) on the map.
         with self._lock:
-            self.mapper.set_pose(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
+            self._relocate = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
 
     def _on_save(self, request: SaveMapRequest) -> None:
         name = request.name or self.ctx.config.slam.map_name

@@ -1,0 +1,115 @@
+"""Finding the robot on a map with no (or a poor) initial guess: multi-level branch and bound.
+
+Candidates are (rotation, block of 2^L x 2^L translations). A block's score is bounded from
+above by the sum, under the scan points, of the likelihood field's sliding maximum over
+2^L cells; the best bound is expanded first into four blocks of half the size, down to
+single translations whose score is exact. The first exact candidate taken off the queue is
+therefore the global optimum over the whole search space (Cartographer's fast correlative
+matcher follows the same idea). ``relocalize`` then refines it with the local matcher.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.slam import _grid_kernels as k
+from navd.slam.matcher import CorrelativeMatcher, Match
+from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.pose import Pose2
+
+__all__ = ["global_search", "relocalize"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def global_search(
+    field: LikelihoodField,
+    points: FloatArray,
+    *,
+    center: Pose2,
+    half_width_m: float,
+    yaw_window_rad: float = math.pi,
+    angle_step_rad: float = math.radians(1.0),
+    levels: int = 6,
+) -> tuple[Pose2, float, int]:
+    """The best pose within ``half_width_m`` and ``yaw_window_rad`` of ``center``.
+
+    Returns:
+        (pose, mean field value under the points, candidates expanded).
+    """
+    res = field.resolution
+    px = np.ascontiguousarray(points[:, 0] / res)
+    py = np.ascontiguousarray(points[:, 1] / res)
+    n_angles = max(1, round(2 * yaw_window_rad / angle_step_rad))
+    angles = center.yaw - yaw_window_rad + angle_step_rad * np.arange(n_angles)
+    cosines, sines = np.cos(angles), np.sin(angles)
+    tx = (center.x - field.origin_x) / res - 0.5
+    ty = (center.y - field.origin_y) / res - 0.5
+    limit = math.ceil(half_width_m / res)
+    top = 1 << levels
+    starts_1d = np.arange(-limit, limit + 1, top)
+    starts = np.array([(dx, dy) for dy in starts_1d for dx in starts_1d], dtype=np.int64)
+    bounds = {level: field.bound(1 << level) for level in range(levels + 1)}
+    scores = k.coarse_scores(bounds[levels], px, py, cosines, sines, tx, ty, starts, top)
+    queue: list[tuple[float, int, int, int, int]] = [
+        (-float(scores[a, b]), levels, a, int(starts[b, 0]), int(starts[b, 1]))
+        for a in range(n_angles)
+        for b in range(starts.shape[0])
+    ]
+    heapq.heapify(queue)
+    expanded = 0
+    while queue:
+        negative, level, a, dx, dy = heapq.heappop(queue)
+        if level == 0:
+            pose = Pose2(
+                (tx + 0.5 + dx) * res + field.origin_x,
+                (ty + 0.5 + dy) * res + field.origin_y,
+                math.remainder(float(angles[a]), 2 * math.pi),
+            )
+            return pose, -negative / max(points.shape[0], 1), expanded
+        expanded += 1
+        half = 1 << (level - 1)
+        children = np.array(
+            [(dx + i, dy + j) for j in (0, half) for i in (0, half)], dtype=np.int64
+        )
+        child = k.coarse_scores(
+            bounds[level - 1], px, py, cosines[a : a + 1], sines[a : a + 1], tx, ty, children, half
+        )
+        for c in range(4):
+            cx, cy = int(children[c, 0]), int(children[c, 1])
+            if abs(cx) <= limit and abs(cy) <= limit:
+                heapq.heappush(queue, (-float(child[0, c]), level - 1, a, cx, cy))
+    return center, 0.0, expanded
+
+
+def relocalize(
+    grid: OccupancyGrid,
+    points: FloatArray,
+    *,
+    guess: Pose2 | None = None,
+    search_xy_m: float = 1.0,
+    search_yaw_rad: float = math.radians(30.0),
+    blur_sigma_m: float = 0.05,
+) -> Match:
+    """Where ``points`` (robot frame) fit ``grid``: around ``guess``, or anywhere if None."""
+    if guess is None:
+        rows, cols = grid.logodds.shape
+        half = 0.5 * max(rows, cols) * grid.resolution
+        center = Pose2(
+            grid.origin_x + 0.5 * cols * grid.resolution,
+            grid.origin_y + 0.5 * rows * grid.resolution,
+            0.0,
+        )
+        field = grid.likelihood_field(center, half, blur_sigma_m)
+        coarse, _, _ = global_search(field, points, center=center, half_width_m=half)
+    else:
+        field = grid.likelihood_field(guess, 30.0 + search_xy_m, blur_sigma_m)
+        coarse, _, _ = global_search(
+            field, points, center=guess, half_width_m=search_xy_m, yaw_window_rad=search_yaw_rad
+        )
+    local = CorrelativeMatcher(search_xy_m=0.1, search_yaw_rad=math.radians(2.0))
+    return local.match(field, points, coarse)
