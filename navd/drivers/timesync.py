@@ -39,4 +39,5 @@ class StampMapper:
         candidates.append((arrival_s, offset))
         while candidates[0][0] < arrival_s - self.window_s:
             candidates.popleft()
-        return stamp + candidates[0][1]
+        # Never after arrival, even by the rounding of stamp + (arrival - stamp).
+        return min(stamp + candidates[0][1], arrival_s)

@@ -27,3 +27,11 @@ def test_window_follows_a_clock_jump() -> None:
 
 def test_missing_stamp_means_arrival_time() -> None:
     assert StampMapper().to_daemon(None, 7.25) == 7.25
+
+
+def test_a_mapped_stamp_is_never_after_arrival_even_by_rounding() -> None:
+    mapper = StampMapper()
+    arrival = 13547.962197234
+    for i in range(1000):
+        stamp = 5000.0 + 0.1 * i + 1e-7 * i
+        assert mapper.to_daemon(stamp, arrival + 1e-4 * i) <= arrival + 1e-4 * i
