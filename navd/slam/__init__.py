@@ -1,8 +1,21 @@
-"""SLAM: scans to points, ICP odometry, correlative scan matching, occupancy grid, map files.
+"""SLAM: scans to points, correlative scan matching, occupancy grid, loop closure, map files.
 
-No asyncio here: plain computation that the lifecycle layer runs in worker threads.
+No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads, and that
+``navd replay`` runs over log files.
 """
 
-from navd.slam.errors import SlamError
+from navd.slam.errors import LogFormatError, MapFileError, SlamError
+from navd.slam.mapper import MapperSettings, ScanMapper, mapper_settings
+from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose import Pose2
 
-__all__ = ["SlamError"]
+__all__ = [
+    "LogFormatError",
+    "MapFileError",
+    "MapperSettings",
+    "OccupancyGrid",
+    "Pose2",
+    "ScanMapper",
+    "SlamError",
+    "mapper_settings",
+]

@@ -112,6 +112,11 @@ class SlamNode(Module):
             max_range=slam.max_range_m,
         )
         with self._lock:
+            if isinstance(self._relocate, Pose2) and self.mapper.grid.empty:
+                # No map yet: the given pose is where the new map starts.
+                self.mapper.set_pose(self._relocate)
+                self.mapper.forget_odometry()
+                self._relocate = None
             if self._relocate is not None and not self.mapper.grid.empty:
                 guess = None if self._relocate == GLOBAL else self._relocate
                 assert guess is None or isinstance(guess, Pose2)

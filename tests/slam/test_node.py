@@ -66,3 +66,38 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         await lidar.close()
         await control.close()
         await asyncio.sleep(0)
+
+
+async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose(
+    tmp_path: Path,
+) -> None:
+    from navd.slam.map_io import save_map
+    from navd.slam.occupancy import OccupancyGrid
+    from navd.slam.scan import scan_points
+
+    grid = OccupancyGrid(0.05)
+    for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
+        a0, inc, r = cast(pose)
+        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    path = save_map(grid, tmp_path, "room")
+    slam = {"load_map": str(path), "updating_map": False, "map_dir": str(tmp_path)}
+    async with running_daemon(slam=slam) as (daemon, port):
+        poses = record(daemon, PoseMeasurement)
+        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
+        control, _ = await AsyncClient.hello(port, "control", "ui")
+        truth = Pose2(2.0, -2.5, 2.5)
+        await lidar.send(_frame(truth, 50.0))
+        await until(lambda: bool(poses), timeout_s=15.0)
+        assert math.hypot(poses[0].x_m - truth.x, poses[0].y_m - truth.y) < 0.05
+        # Kidnapped: the robot is elsewhere; a person says roughly where.
+        moved = Pose2(-4.5, 0.5, -1.0)
+        await control.send(
+            {"type": "initial_pose", "x": moved.x + 0.4, "y": moved.y - 0.3, "yaw": moved.yaw + 0.2}
+        )
+        await control.recv_type("ack")
+        await lidar.send(_frame(moved, 50.1))
+        await until(lambda: len(poses) > 1, timeout_s=15.0)
+        assert math.hypot(poses[1].x_m - moved.x, poses[1].y_m - moved.y) < 0.05
+        assert not list(tmp_path.glob("room.2.*"))  # localizing only: the map is not saved over
+        await lidar.close()
+        await control.close()
