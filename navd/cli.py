@@ -130,6 +130,12 @@ def _slam_commands(commands: Any) -> None:
         "--laser-yaw", type=float, help="[rad] lidar yaw on the robot (slam.laser_yaw_rad)"
     )
     replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
+    replay.add_argument(
+        "--odometry",
+        choices=("log", "scan", "none"),
+        default="log",
+        help="motion prior: the log's odometry (default), kiss-icp scan odometry, or none",
+    )
     replay.add_argument("--quiet", action="store_true", help="no progress line")
     replay.set_defaults(handler=_cmd_replay)
 
@@ -319,6 +325,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             settings,
             mount=mount,
             min_range_m=slam.min_range_m,
+            odometry=args.odometry,
             progress=progress,
         )
     except SlamError as err:

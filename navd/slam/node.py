@@ -2,7 +2,8 @@
 
 Each LaserScan becomes a job in the ``scan_match`` worker slot (latest wins: when matching
 falls behind, older scans are dropped and counted, never queued). The job matches the scan
-onto the map around the pose predicted by wheel odometry (integrated here), inserts it at
+onto the map around the pose predicted by wheel odometry (integrated here) or, without
+wheels, by scan odometry (kiss-icp), inserts it at
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
 ``MAP_PERIOD_S`` after the map changed, a ``MapUpdate``. Maps are saved on request (a
 control client's save_map) and at shutdown if ``slam.save_on_shutdown``; ``slam.load_map``
@@ -36,6 +37,7 @@ from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.map_io import load_map, save_map
 from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.odometry import ScanOdometry
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points, voxel_downsample
 from navd.slam.warmup import warm_up
@@ -60,6 +62,7 @@ class SlamNode(Module):
         self._map_revision = -1
         # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
         self._relocate: Pose2 | str | None = None
+        self._scan_odometry: ScanOdometry | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -111,6 +114,15 @@ class SlamNode(Module):
             mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
             max_range=slam.max_range_m,
         )
+        if odom is None:
+            # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
+            if self._scan_odometry is None:
+                self._scan_odometry = ScanOdometry(
+                    voxel_size_m=slam.voxel_size_m,
+                    max_range_m=slam.max_range_m,
+                    min_range_m=slam.min_range_m,
+                )
+            odom = self._scan_odometry.register(points.hits)
         with self._lock:
             if isinstance(self._relocate, Pose2) and self.mapper.grid.empty:
                 # No map yet: the given pose is where the new map starts.

@@ -20,6 +20,7 @@ import numpy as np
 from navd.slam.logfiles import LogScan
 from navd.slam.map_io import save_map
 from navd.slam.mapper import MapperSettings, ScanMapper
+from navd.slam.odometry import ScanOdometry
 from navd.slam.picture import map_picture
 from navd.slam.pose import Pose2
 from navd.slam.scan import IDENTITY, scan_points
@@ -51,11 +52,28 @@ def replay(
     *,
     mount: Pose2 = IDENTITY,
     min_range_m: float = 0.1,
+    odometry: str = "log",
     progress: Progress | None = None,
 ) -> ReplayResult:
-    """Run SLAM over ``scans`` and write the results into ``out_dir``."""
+    """Run SLAM over ``scans`` and write the results into ``out_dir``.
+
+    Args:
+        odometry: the motion prior: "log" (the log's odometry), "scan" (kiss-icp on the
+            scans themselves) or "none" (the last pose).
+    """
+    if odometry not in ("log", "scan", "none"):
+        raise ValueError(f"odometry must be log, scan or none, got {odometry!r}")
     out_dir.mkdir(parents=True, exist_ok=True)
     mapper = ScanMapper(settings)
+    scan_odometry = (
+        ScanOdometry(
+            voxel_size_m=settings.voxel_size_m,
+            max_range_m=settings.max_range_m,
+            min_range_m=min_range_m,
+        )
+        if odometry == "scan"
+        else None
+    )
     stamps: list[float] = []
     poses: list[Pose2] = []
     per_scan: list[float] = []
@@ -71,7 +89,11 @@ def replay(
             mount=mount,
             max_range=settings.max_range_m,
         )
-        result = mapper.add(scan.stamp, points, scan.odom)
+        if scan_odometry is not None:
+            odom: Pose2 | None = scan_odometry.register(points.hits)
+        else:
+            odom = scan.odom if odometry == "log" else None
+        result = mapper.add(scan.stamp, points, odom)
         per_scan.append(time.perf_counter() - t0)
         stamps.append(scan.stamp)
         poses.append(result.pose)

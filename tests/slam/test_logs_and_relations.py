@@ -174,3 +174,16 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
         for found in (relocalize(grid, points, guess=wrong), relocalize(grid, points)):
             assert math.hypot(found.pose.x - truth.x, found.pose.y - truth.y) < 0.15
             assert abs(math.remainder(found.pose.yaw - truth.yaw, 2 * math.pi)) < 0.05
+
+
+def test_replay_with_scan_odometry_needs_no_wheels(tmp_path: Path) -> None:
+    log = _write_dump(tmp_path, PATH, drift=True)  # the log's odometry is ignored
+    out = tmp_path / "out"
+    assert main(["replay", str(log), "--out", str(out), "--quiet", "--odometry", "scan"]) == 0
+    _, poses = read_tum(out / "trajectory.tum")
+    # kiss-icp's frame starts at the first scan: compare motions from there.
+    errors = [
+        math.hypot(*PATH[0].between(t).compose(poses[0].between(p).inverse())[:2])
+        for p, t in zip(poses, PATH, strict=True)
+    ]
+    assert max(errors) < 0.05
