@@ -343,7 +343,7 @@ class SlamConfig(Section):
     )
     loop_closure: bool = Field(
         False,
-        description="experimental: match keyframes onto old places and re-solve the pose graph",
+        **restart("experimental: match keyframes onto old places and re-solve the pose graph"),
     )
     loop_search_radius_m: float = Field(
         5.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"

@@ -49,6 +49,9 @@ class MapperSettings:
     loop_min_score: float = 0.65
     loop_min_gap: int = 40
     loop_check_every: int = 3
+    # Keep every scan's pose (relative to its keyframe) for ``trajectory()``: a replay wants
+    # it; a robot running for days does not (it grows with every scan).
+    keep_trajectory: bool = False
 
 
 def mapper_settings(config: SlamConfig) -> MapperSettings:
@@ -73,11 +76,15 @@ def mapper_settings(config: SlamConfig) -> MapperSettings:
 
 @dataclass(frozen=True, slots=True)
 class Keyframe:
-    """A scan inserted into the map, with the pose it was inserted at."""
+    """A scan inserted into the map, with the pose it was inserted at.
+
+    The scan is kept only with loop closure on (the map is rebuilt from keyframes after the
+    pose graph moves them); otherwise a keyframe is its pose, and memory stays small.
+    """
 
     stamp: float
     pose: Pose2
-    scan: ScanPoints
+    scan: ScanPoints | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,7 +178,10 @@ class ScanMapper:
         return self.pose.compose(self._last_odom.between(odom))
 
     def trajectory(self) -> list[Pose2]:
-        """Every scan's pose so far, as corrected by the latest pose-graph solution."""
+        """Every scan's pose so far, as corrected by the latest pose-graph solution.
+
+        Empty unless the settings say ``keep_trajectory``.
+        """
         out = []
         for index, relative in self._anchors:
             out.append(self.keyframes[index].pose.compose(relative) if index >= 0 else relative)
@@ -195,7 +205,8 @@ class ScanMapper:
     def add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None = None) -> ScanResult:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
         result = self._add(stamp, scan, odom)
-        self._anchor(result.pose if self.pose is None else self.pose)
+        if self.settings.keep_trajectory:
+            self._anchor(result.pose if self.pose is None else self.pose)
         return result
 
     def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
@@ -236,7 +247,7 @@ class ScanMapper:
         if self.keyframes:
             z = self.keyframes[-1].pose.between(pose)
             self.edges.append(Edge(len(self.keyframes) - 1, len(self.keyframes), z, EDGE_WEIGHTS))
-        self.keyframes.append(Keyframe(stamp, pose, scan))
+        self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None))
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
         if s.loop_closure and k % s.loop_check_every == 0:
@@ -248,7 +259,7 @@ class ScanMapper:
         s = self.settings
         current = self.keyframes[k]
         old = self.keyframes[: k - s.loop_min_gap]
-        if not old:
+        if not old or current.scan is None:
             return
         xy = np.array([(f.pose.x, f.pose.y) for f in old])
         distance = np.hypot(xy[:, 0] - current.pose.x, xy[:, 1] - current.pose.y)
@@ -259,7 +270,8 @@ class ScanMapper:
         submap = OccupancyGrid(s.resolution_m)
         lo = max(0, j - LOOP_SUBMAP_KEYFRAMES)
         for frame in self.keyframes[lo : min(j + LOOP_SUBMAP_KEYFRAMES + 1, k - s.loop_min_gap)]:
-            submap.insert(frame.pose, frame.scan)
+            if frame.scan is not None:
+                submap.insert(frame.pose, frame.scan)
         field = submap.likelihood_field(
             current.pose, s.max_range_m + s.loop_search_xy_m, s.blur_sigma_m
         )
@@ -287,7 +299,8 @@ class ScanMapper:
         ]
         grid = OccupancyGrid(self.settings.resolution_m)
         for frame in self.keyframes:
-            grid.insert(frame.pose, frame.scan)
+            if frame.scan is not None:
+                grid.insert(frame.pose, frame.scan)
         grid.revision = self.grid.revision + 1
         self.grid = grid
         self._field = None

@@ -7,6 +7,7 @@ qz qw per scan) and summary.json.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import statistics
@@ -64,7 +65,7 @@ def replay(
     if odometry not in ("log", "scan", "none"):
         raise ValueError(f"odometry must be log, scan or none, got {odometry!r}")
     out_dir.mkdir(parents=True, exist_ok=True)
-    mapper = ScanMapper(settings)
+    mapper = ScanMapper(dataclasses.replace(settings, keep_trajectory=True))
     scan_odometry = (
         ScanOdometry(
             voxel_size_m=settings.voxel_size_m,

@@ -68,7 +68,11 @@ def test_the_mapper_finds_loops_when_asked() -> None:
     from navd.slam.scan import scan_points
 
     settings = MapperSettings(
-        loop_closure=True, loop_min_gap=10, keyframe_distance_m=0.2, max_range_m=12.0
+        loop_closure=True,
+        loop_min_gap=10,
+        keyframe_distance_m=0.2,
+        max_range_m=12.0,
+        keep_trajectory=True,
     )
     mapper = ScanMapper(settings)
     truth = []
