@@ -84,8 +84,9 @@ class StateEstimator:
         self._counts = _Counts()
         self.geo: GeoFrame | None = None
         self._last_compass_yaw: tuple[float, float, float] | None = None  # stamp, yaw, std
-        self.configure(config)
+        self.config = config
         self.history = self._new_history()
+        self.configure(config)
 
     # --- configuration --------------------------------------------------------------------
 
@@ -99,10 +100,9 @@ class StateEstimator:
         if self.geo is None and world.datum_latitude_deg is not None:
             assert world.datum_longitude_deg is not None  # the model requires the pair
             self.geo = self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
-        if hasattr(self, "history"):
-            self.history.horizon_s = est.history_horizon_s
-            self.history.max_events = est.max_events
-            self.history.reset_inflation = est.reset_inflation
+        self.history.horizon_s = est.history_horizon_s
+        self.history.max_events = est.max_events
+        self.history.reset_inflation = est.reset_inflation
 
     def _new_history(self) -> EventHistory:
         est = self.config.estimation

@@ -110,7 +110,6 @@ class EventHistory:
         self.max_events = max_events
         self.reset_inflation = reset_inflation
         self.counters = Counters()
-        self.last_outcome: StepOutcome | None = None
         self.last_rejected_mahalanobis_sq = math.nan
         self._base: Snapshot | None = None
         self._events: list[Event] = []
@@ -209,7 +208,6 @@ class EventHistory:
         self.ukf.set_state(before.x, before.p)
         dt = max(event.stamp - before.stamp, 0.0)
         outcome = self.ukf.step(dt, event.measurement, event.gate_chi2)
-        self.last_outcome = outcome
         if outcome is StepOutcome.DIVERGED:
             self.counters.resets += first
             # Keep the last good mean; a diagonal, inflated covariance is certainly valid.

@@ -94,8 +94,13 @@ def relocalize(
     search_xy_m: float = 1.0,
     search_yaw_rad: float = math.radians(30.0),
     blur_sigma_m: float = 0.05,
+    reach_m: float = 12.0,
 ) -> Match:
-    """Where ``points`` (robot frame) fit ``grid``: around ``guess``, or anywhere if None."""
+    """Where ``points`` (robot frame) fit ``grid``: around ``guess``, or anywhere if None.
+
+    ``reach_m`` [m] is the longest range among the points (the field around a guess need not
+    be larger than that plus the search window).
+    """
     if guess is None:
         rows, cols = grid.logodds.shape
         half = 0.5 * max(rows, cols) * grid.resolution
@@ -107,7 +112,7 @@ def relocalize(
         field = grid.likelihood_field(center, half, blur_sigma_m)
         coarse, _, _ = global_search(field, points, center=center, half_width_m=half)
     else:
-        field = grid.likelihood_field(guess, 30.0 + search_xy_m, blur_sigma_m)
+        field = grid.likelihood_field(guess, reach_m + search_xy_m, blur_sigma_m)
         coarse, _, _ = global_search(
             field, points, center=guess, half_width_m=search_xy_m, yaw_window_rad=search_yaw_rad
         )

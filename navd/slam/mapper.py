@@ -10,8 +10,10 @@ grid changed or the robot left its window. Scans whose best match scores below
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -30,23 +32,24 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True, slots=True)
 class MapperSettings:
-    """Plain values the mapper runs on (built from the slam config section)."""
+    """Plain values the mapper runs on, built from the slam config section by
+    ``mapper_settings`` (the config holds the defaults; the last four are fixed here)."""
 
-    resolution_m: float = 0.05
-    voxel_size_m: float = 0.1
-    max_range_m: float = 12.0
-    search_xy_m: float = 0.3
-    search_yaw_rad: float = 0.35
-    blur_sigma_m: float = 0.05
-    keyframe_distance_m: float = 0.3
-    keyframe_angle_rad: float = 0.3
-    min_score: float = 0.3
-    updating_map: bool = True
-    loop_closure: bool = False
-    loop_search_radius_m: float = 5.0
-    loop_search_xy_m: float = 1.5
+    resolution_m: float
+    voxel_size_m: float
+    max_range_m: float
+    search_xy_m: float
+    search_yaw_rad: float
+    blur_sigma_m: float
+    keyframe_distance_m: float
+    keyframe_angle_rad: float
+    min_score: float
+    updating_map: bool
+    loop_closure: bool
+    loop_search_radius_m: float
+    loop_search_xy_m: float
+    loop_min_score: float
     loop_search_yaw_rad: float = 0.5
-    loop_min_score: float = 0.65
     loop_min_gap: int = 40
     loop_check_every: int = 3
     # Keep every scan's pose (relative to its keyframe) for ``trajectory()``: a replay wants
@@ -54,8 +57,16 @@ class MapperSettings:
     keep_trajectory: bool = False
 
 
-def mapper_settings(config: SlamConfig) -> MapperSettings:
-    """The mapper's plain values from the ``slam`` config section."""
+def mapper_settings(config: SlamConfig | None = None, **overrides: Any) -> MapperSettings:
+    """The mapper's plain values from the ``slam`` config section (default: the defaults).
+
+    ``overrides`` replace single values (tests, replays).
+    """
+    config = config or SlamConfig()
+    return dataclasses.replace(_from_config(config), **overrides)
+
+
+def _from_config(config: SlamConfig) -> MapperSettings:
     return MapperSettings(
         resolution_m=config.resolution_m,
         voxel_size_m=config.voxel_size_m,
@@ -129,7 +140,7 @@ LOOP_SUBMAP_KEYFRAMES = 10
 class ScanMapper:
     """Builds the map and tracks the robot on it, one scan at a time."""
 
-    settings: MapperSettings = field(default_factory=MapperSettings)
+    settings: MapperSettings = field(default_factory=mapper_settings)
 
     def __post_init__(self) -> None:
         s = self.settings

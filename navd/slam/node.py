@@ -133,7 +133,10 @@ class SlamNode(Module):
                 guess = None if self._relocate == GLOBAL else self._relocate
                 assert guess is None or isinstance(guess, Pose2)
                 found = relocalize(
-                    self.mapper.grid, voxel_downsample(points.hits, slam.voxel_size_m), guess=guess
+                    self.mapper.grid,
+                    voxel_downsample(points.hits, slam.voxel_size_m),
+                    guess=guess,
+                    reach_m=slam.max_range_m,
                 )
                 self.ctx.log.info(
                     "relocalized",

@@ -43,10 +43,24 @@ class LikelihoodField:
     _bounds: dict[int, F32] = field(default_factory=dict)
 
     def bound(self, block: int) -> F32:
-        """The sliding maximum over ``block`` x ``block`` cells (cached)."""
+        """The sliding maximum over ``block`` x ``block`` cells (cached).
+
+        An even block comes from the half-size one: the maximum over [u, u + 2h) is that of
+        [u, u + h) and [u + h, u + 2h), so a search over all powers of two costs one pass per
+        level instead of ``block`` per level.
+        """
         cached = self._bounds.get(block)
         if cached is None:
-            cached = self._bounds[block] = k.sliding_max(self.values, block)
+            if block % 2 == 0 and block > 2:
+                h = block // 2
+                half = self.bound(h)
+                cached = half.copy()
+                np.maximum(cached[:, :-h], half[:, h:], out=cached[:, :-h])
+                rows = cached.copy()
+                np.maximum(cached[:-h, :], rows[h:, :], out=cached[:-h, :])
+            else:
+                cached = k.sliding_max(self.values, block)
+            self._bounds[block] = cached
         return cached
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from navd.slam.mapper import MapperSettings, ScanMapper
+from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
 
@@ -18,7 +18,7 @@ def warm_up() -> None:
     angles = -math.pi + 2 * math.pi * np.arange(90) / 90
     # Distance to the walls of a 4 m square room seen from its centre.
     ranges = 2.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
-    mapper = ScanMapper(MapperSettings(loop_closure=False))
+    mapper = ScanMapper(mapper_settings(loop_closure=False))
     for shift in (0.0, 0.05):
         scan = scan_points(
             ranges - shift, -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=10.0

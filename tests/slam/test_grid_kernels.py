@@ -72,3 +72,12 @@ def test_scores_match_the_reference_and_blocks_bound_their_translations() -> Non
                 field, px, py, np.cos(angle), np.sin(angle), tx, ty, dx0, dy0, f, f
             )
             assert bounds[a, b] >= block.max() - 1e-3
+
+
+@pytest.mark.parametrize("block", [4, 8, 64])
+def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
+    from navd.slam.occupancy import LikelihoodField
+
+    values = np.random.default_rng(block).random((97, 130)).astype(np.float32)
+    field = LikelihoodField(values, 0.0, 0.0, 0.05)
+    np.testing.assert_array_equal(field.bound(block), k.sliding_max(values, block))

@@ -64,10 +64,10 @@ def test_consistent_edges_leave_the_poses_alone() -> None:
 
 def test_the_mapper_finds_loops_when_asked() -> None:
     from navd.bench.room import cast
-    from navd.slam.mapper import MapperSettings, ScanMapper
+    from navd.slam.mapper import ScanMapper, mapper_settings
     from navd.slam.scan import scan_points
 
-    settings = MapperSettings(
+    settings = mapper_settings(
         loop_closure=True,
         loop_min_gap=10,
         keyframe_distance_m=0.2,
