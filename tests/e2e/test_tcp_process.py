@@ -107,8 +107,22 @@ def test_reconnecting_sensor_while_another_streams(daemon_on_port: Any) -> None:
 def test_status_command_shows_devices(daemon_on_port: Any) -> None:
     _, port = daemon_on_port()
     with Client("127.0.0.1", port, role="compass", device_id="compass0") as compass:
-        compass.send({"type": "heading", "bearing_deg": 90.0, "accuracy_deg": 2.0})
-        result = run_navd("status", "--once", "--port", str(port))
+        # A compass streams (10 Hz); one heading alone would go stale before a slow CLI
+        # start-up has fetched the status.
+        done = threading.Event()
+
+        def stream() -> None:
+            while not done.is_set():
+                compass.send({"type": "heading", "bearing_deg": 90.0, "accuracy_deg": 2.0})
+                done.wait(0.1)
+
+        streamer = threading.Thread(target=stream)
+        streamer.start()
+        try:
+            result = run_navd("status", "--once", "--port", str(port))
+        finally:
+            done.set()
+            streamer.join()
     assert result.returncode == 0, result.stderr
     assert "compass0(compass)" in result.stdout and "[idle]" in result.stdout
     goal = run_navd("goal", "1.5", "2", "--yaw", "0.3", "--id", "g7", "--port", str(port))
