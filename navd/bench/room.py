@@ -34,13 +34,16 @@ WALLS = np.array(
 )
 
 
-def cast(pose: Pose2, beams: int = 360) -> tuple[float, float, npt.NDArray[np.float64]]:
-    """A full-circle scan at ``pose``: (angle_min, angle_increment, ranges; inf: no hit)."""
+def cast(
+    pose: Pose2, beams: int = 360, walls: npt.NDArray[np.float64] = WALLS
+) -> tuple[float, float, npt.NDArray[np.float64]]:
+    """A full-circle scan at ``pose`` in a world of ``walls`` (K x 4 segments x0 y0 x1 y1 [m]):
+    (angle_min, angle_increment, ranges; inf: no hit)."""
     angle_min = -math.pi
     increment = 2 * math.pi / beams
     angles = pose.yaw + angle_min + increment * np.arange(beams)
     d = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    p, e = WALLS[:, :2], WALLS[:, 2:] - WALLS[:, :2]
+    p, e = walls[:, :2], walls[:, 2:] - walls[:, :2]
     # Solve origin + t d = p + u e for every beam and wall.
     w = p[None, :, :] - np.array([pose.x, pose.y])
     denom = -d[:, None, 0] * e[None, :, 1] + d[:, None, 1] * e[None, :, 0]

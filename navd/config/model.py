@@ -594,6 +594,45 @@ class PlanningConfig(Section):
         (),
         description="[m] polygons in the map frame the robot must never enter",
     )
+    min_linear_speed_mps: float = Field(
+        0.05, ge=0, le=10, description="[m/s] slowest forward speed the velocity profile asks for"
+    )
+    acceleration_time_s: float = Field(
+        1.0, ge=0, le=60, description="[s] the start ramp reaches top speed after this long"
+    )
+    lookahead_m: float = Field(
+        1.0, gt=0, le=20, description="[m] DWA aims at the path point this far ahead"
+    )
+    sim_step_s: float = Field(
+        0.1, ge=0.01, le=1, description="[s] time step of the DWA rollouts"
+    )
+    occupied_threshold_pct: int = Field(
+        65, ge=1, le=100, description="[%] map cells at or above this occupancy are obstacles"
+    )
+    allow_unknown: bool = Field(True, description="routes may cross unknown (unmapped) cells")
+    unknown_cost: float = Field(
+        0.5, ge=0, le=1, description="[1] cost of an unknown cell, on the inflation scale 0..1"
+    )
+    cost_weight: float = Field(
+        3.0,
+        ge=0,
+        le=100,
+        description="[1] a step through a cell of cost c counts (1 + cost_weight * c) times its "
+        "length, so routes keep away from walls",
+    )
+    obstacle_persistence_s: float = Field(
+        2.0, ge=0, le=600, description="[s] a scan obstacle not seen again is forgotten after this"
+    )
+    smooth_path: bool = Field(True, description="shortcut the A* path where the line is clear")
+    stuck_rotation_tolerance_rad: float = Field(
+        0.5, gt=0, le=6.3, description="[rad] turning this far also counts as progress"
+    )
+    backup_distance_m: float = Field(
+        0.5, gt=0, le=10, description="[m] a forced backward move goes this far before replanning"
+    )
+    max_stuck_replans: int = Field(
+        3, ge=0, le=100, description="[count] replans after StuckDetected before the goal fails"
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> PlanningConfig:
@@ -613,6 +652,16 @@ class PlanningConfig(Section):
                 f"{self.max_stuck_time_s}"
             )
         _check_table(self.angular_limit_table)
+        if self.lookahead_m < self.goal_xy_tolerance_m:
+            raise ValueError(
+                f"planning.lookahead_m ({self.lookahead_m}) must be at least "
+                f"planning.goal_xy_tolerance_m ({self.goal_xy_tolerance_m})"
+            )
+        if self.sim_step_s > self.prediction_horizon_s:
+            raise ValueError(
+                f"planning.sim_step_s ({self.sim_step_s}) is longer than "
+                f"planning.prediction_horizon_s ({self.prediction_horizon_s})"
+            )
         for i, zone in enumerate(self.keep_out_zones):
             if len(zone) < 3:
                 raise ValueError(
@@ -657,6 +706,11 @@ class NavdConfig(BaseModel):
             raise ValueError(
                 f"planning.angular_limit_table allows {top_yaw} rad/s, above "
                 f"robot.max_angular_speed_radps ({self.robot.max_angular_speed_radps})"
+            )
+        if self.planning.min_linear_speed_mps > self.robot.max_linear_speed_mps:
+            raise ValueError(
+                f"planning.min_linear_speed_mps ({self.planning.min_linear_speed_mps}) is above "
+                f"robot.max_linear_speed_mps ({self.robot.max_linear_speed_mps})"
             )
         two_periods_s = 2.0 / self.planning.control_rate_hz
         if self.safety.reaction_timeout_s < two_periods_s:

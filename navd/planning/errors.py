@@ -4,8 +4,20 @@ from __future__ import annotations
 
 from navd.errors import NavdError
 
-__all__ = ["PlanningError"]
+__all__ = ["GoalUnreachable", "PlanningError", "StartBlocked"]
 
 
 class PlanningError(NavdError):
     """Base of the errors raised by navd.planning."""
+
+
+class GoalUnreachable(PlanningError):
+    """No route leads to the goal; ``reason`` says why: "off the map", "occupied", "no route"."""
+
+    def __init__(self, message: str, reason: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+class StartBlocked(PlanningError):
+    """The robot's own cell is off the map or too close to an obstacle to plan from."""

@@ -1,0 +1,265 @@
+"""Numba kernel of A* on an 8-connected costmap.
+
+The graph: every cell with a finite cost is a node; a cell joins its 8 neighbours, a diagonal
+step only when both cells it passes between are free too (no squeezing between two blocked
+cells that touch at a corner). A step of length L cells (1 or sqrt 2) from a to b costs
+
+    L * (1 + w * (c_a + c_b) / 2)
+
+with c the cell costs and w the cost weight, so a route pays for running close to walls. The
+heuristic is the octile distance (the exact length of the shortest 8-connected route with no
+costs): admissible and consistent, so the first time the goal is popped its cost is optimal.
+Ties in f go to the node nearer the goal (fewer expansions across open floor): the open list
+is ordered by g + h * (1 + 1e-9), which keeps the route within a relative 1e-9 of optimal.
+
+Working arrays are passed in and stamped with a generation number, so a planner reuses them
+between searches without clearing millions of cells each time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+__all__ = ["astar_search", "octile", "segment_max_cost", "shortcut", "trace_back"]
+
+SQRT2 = math.sqrt(2.0)
+
+FloatArray = npt.NDArray[np.float64]
+Int32Array = npt.NDArray[np.int32]
+
+# Neighbour offsets (row, col) and step lengths [cells].
+_DR = np.array([-1, 1, 0, 0, -1, -1, 1, 1], dtype=np.int64)
+_DC = np.array([0, 0, -1, 1, -1, 1, -1, 1], dtype=np.int64)
+TIE = 1.0 + 1e-9  # heuristic scale that breaks f ties towards the goal
+_LEN = np.array([1.0, 1.0, 1.0, 1.0, SQRT2, SQRT2, SQRT2, SQRT2])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def octile(dr: int, dc: int) -> float:
+    """Length [cells] of the shortest 8-connected route over (dr, dc) free cells."""
+    a = abs(dr)
+    b = abs(dc)
+    if a < b:
+        a, b = b, a
+    return (a - b) + SQRT2 * b
+
+
+# The open list is a 4-ary min-heap of (key, node) in two arrays: shallower than a binary
+# heap, and a node's four children share a cache line.
+@njit(cache=True, nogil=True)
+def _push(keys: FloatArray, nodes: Int32Array, size: int, key: float, node: int) -> None:
+    i = size
+    while i > 0:
+        up = (i - 1) >> 2
+        if keys[up] <= key:
+            break
+        keys[i] = keys[up]
+        nodes[i] = nodes[up]
+        i = up
+    keys[i] = key
+    nodes[i] = node
+
+
+@njit(cache=True, nogil=True)
+def _pop(keys: FloatArray, nodes: Int32Array, size: int) -> int:
+    """Remove the root of a heap of ``size`` entries; return its node."""
+    top = nodes[0]
+    last = size - 1
+    key = keys[last]
+    node = nodes[last]
+    i = 0
+    while True:
+        first = 4 * i + 1
+        if first >= last:
+            break
+        best = first
+        best_key = keys[first]
+        for child in range(first + 1, min(first + 4, last)):
+            if keys[child] < best_key:
+                best_key = keys[child]
+                best = child
+        if best_key >= key:
+            break
+        keys[i] = best_key
+        nodes[i] = nodes[best]
+        i = best
+    keys[i] = key
+    nodes[i] = node
+    return int(top)
+
+
+@njit(cache=True, nogil=True)
+def astar_search(  # noqa: PLR0913, PLR0912, PLR0915, C901
+    cost: npt.NDArray[np.float32],
+    start: int,
+    goal: int,
+    cost_weight: float,
+    g: FloatArray,
+    parent: Int32Array,
+    seen: Int32Array,
+    closed: Int32Array,
+    generation: int,
+) -> tuple[float, int]:
+    """A* from cell ``start`` to cell ``goal`` (flat indices row * cols + col).
+
+    Args:
+        cost: rows x cols cell costs, inf where blocked.
+        start, goal: flat cell indices, both with finite cost.
+        cost_weight: w in the step cost above.
+        g, parent, seen, closed: working arrays of rows * cols entries; ``g`` and ``parent``
+            are valid where ``seen == generation``; ``closed == generation`` marks expanded
+            cells. Read the path back through ``parent`` from ``goal``.
+        generation: a number not used by an earlier search with these arrays (> 0).
+
+    Returns:
+        (cost of the best route in cells of length, -1 if none; cells expanded).
+    """
+    rows, cols = cost.shape
+    flat = cost.ravel()
+    goal_r = goal // cols
+    goal_c = goal % cols
+    capacity = 1024
+    keys = np.empty(capacity)
+    nodes = np.empty(capacity, dtype=np.int32)
+    size = 0
+    g[start] = 0.0
+    parent[start] = -1
+    seen[start] = generation
+    h0 = octile(start // cols - goal_r, start % cols - goal_c)
+    _push(keys, nodes, size, h0 * TIE, start)
+    size += 1
+    expanded = 0
+    while size > 0:
+        node = _pop(keys, nodes, size)
+        size -= 1
+        if closed[node] == generation:
+            continue  # a stale duplicate: this cell was expanded at a lower cost already
+        closed[node] = generation
+        expanded += 1
+        if node == goal:
+            return g[node], expanded
+        r = node // cols
+        c = node % cols
+        c_here = flat[node]
+        g_here = g[node]
+        for k in range(8):
+            nr = r + _DR[k]
+            nc = c + _DC[k]
+            if nr < 0 or nr >= rows or nc < 0 or nc >= cols:
+                continue
+            nxt = nr * cols + nc
+            c_next = flat[nxt]
+            if not math.isfinite(c_next) or closed[nxt] == generation:
+                continue
+            if k >= 4 and not (
+                math.isfinite(flat[r * cols + nc]) and math.isfinite(flat[nr * cols + c])
+            ):
+                continue  # a diagonal between two blocked cells
+            g_next = g_here + _LEN[k] * (1.0 + cost_weight * 0.5 * (c_here + c_next))
+            if seen[nxt] == generation and g_next >= g[nxt]:
+                continue
+            seen[nxt] = generation
+            g[nxt] = g_next
+            parent[nxt] = node
+            h = octile(nr - goal_r, nc - goal_c)
+            if size == capacity:
+                capacity *= 2
+                keys = np.concatenate((keys, np.empty(capacity - size)))
+                nodes = np.concatenate((nodes, np.empty(capacity - size, dtype=np.int32)))
+            _push(keys, nodes, size, g_next + h * TIE, nxt)
+            size += 1
+    return -1.0, expanded
+
+
+@njit(cache=True, nogil=True)
+def trace_back(parent: Int32Array, goal: int, cols: int) -> npt.NDArray[np.int64]:
+    """The (row, col) cells from the start to ``goal`` following ``parent`` links."""
+    count = 0
+    node = goal
+    while node != -1:
+        count += 1
+        node = parent[node]
+    cells = np.empty((count, 2), dtype=np.int64)
+    node = goal
+    for i in range(count - 1, -1, -1):
+        cells[i, 0] = node // cols
+        cells[i, 1] = node % cols
+        node = parent[node]
+    return cells
+
+
+@njit(cache=True, nogil=True)
+def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c1: int) -> float:
+    """Highest cell cost on the straight segment between two cell centres (inf if blocked).
+
+    Walks every cell the segment passes through (Amanatides and Woo's traversal); where it
+    passes exactly through a cell corner, both cells beside the corner count too.
+    """
+    dr = r1 - r0
+    dc = c1 - c0
+    step_r = 1 if dr > 0 else -1
+    step_c = 1 if dc > 0 else -1
+    # Parameter t in [0, 1] along the segment; from a cell centre the first border is half a
+    # cell away.
+    t_dr = 1.0 / abs(dr) if dr != 0 else math.inf
+    t_dc = 1.0 / abs(dc) if dc != 0 else math.inf
+    next_r = 0.5 * t_dr
+    next_c = 0.5 * t_dc
+    r = r0
+    c = c0
+    worst = float(cost[r, c])
+    while r != r1 or c != c1:
+        if abs(next_r - next_c) < 1e-12:
+            # Through a corner: the two side cells touch the segment too.
+            for v in (cost[r + step_r, c], cost[r, c + step_c]):
+                worst = max(worst, v)
+            r += step_r
+            c += step_c
+            next_r += t_dr
+            next_c += t_dc
+        elif next_r < next_c:
+            r += step_r
+            next_r += t_dr
+        else:
+            c += step_c
+            next_c += t_dc
+        worst = max(worst, cost[r, c])
+        if not math.isfinite(worst):
+            return math.inf
+    return worst
+
+
+@njit(cache=True, nogil=True)
+def shortcut(
+    cost: npt.NDArray[np.float32], cells: npt.NDArray[np.int64], slack: float, reach: int
+) -> npt.NDArray[np.int64]:
+    """Indices of the cells kept when the path is straightened by line of sight.
+
+    From each kept cell the path jumps to the farthest later cell (at most ``reach`` ahead)
+    whose straight segment is free and never costlier than the path it replaces plus
+    ``slack``, so smoothing never takes the route closer to walls than A* did.
+    """
+    n = cells.shape[0]
+    keep = np.empty(n, dtype=np.int64)
+    count = 0
+    i = 0
+    while i < n - 1:
+        keep[count] = i
+        count += 1
+        best = i + 1
+        path_worst = max(cost[cells[i, 0], cells[i, 1]], cost[cells[i + 1, 0], cells[i + 1, 1]])
+        for j in range(i + 2, min(n, i + reach + 1)):
+            path_worst = max(path_worst, cost[cells[j, 0], cells[j, 1]])
+            line = segment_max_cost(cost, cells[i, 0], cells[i, 1], cells[j, 0], cells[j, 1])
+            if not math.isfinite(line):
+                break  # out of sight: farther cells are very rarely visible again
+            if line <= path_worst + slack:
+                best = j
+        i = best
+    keep[count] = n - 1
+    count += 1
+    return keep[:count]

@@ -1,0 +1,173 @@
+"""The global planner: A* over the costmap from the robot to the goal, optionally smoothed."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.planning._astar_kernels import astar_search, shortcut, trace_back
+from navd.planning.costmap import Costmap
+from navd.planning.errors import GoalUnreachable, StartBlocked
+
+__all__ = ["GlobalPlanner", "PlannedPath", "path_length"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# Smoothing may raise the route's cost by this much on the 0..1 scale, and jumps at most this
+# many cells at once.
+SMOOTH_SLACK = 0.05
+SMOOTH_REACH_CELLS = 200
+# A robot too close to an obstacle plans from the nearest free cell this near [m].
+START_ESCAPE_M = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedPath:
+    """A route found by A*.
+
+    Attributes:
+        points_m: [m] N x 2 map points from the robot to the goal.
+        cost: [m] A* route cost: length weighted by the cells' costs.
+        cells_expanded: how many cells the search expanded.
+    """
+
+    points_m: FloatArray
+    cost: float
+    cells_expanded: int
+
+    @property
+    def length_m(self) -> float:
+        """[m] length of the polyline."""
+        return path_length(self.points_m)
+
+
+def path_length(points_m: FloatArray) -> float:
+    """[m] length of an N x 2 polyline."""
+    if points_m.shape[0] < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(points_m, axis=0).T).sum())
+
+
+class GlobalPlanner:
+    """A* with reusable working memory.
+
+    Args:
+        cost_weight: w in the step cost L * (1 + w * mean cell cost).
+        smooth: straighten the route by line of sight.
+    """
+
+    def __init__(self, *, cost_weight: float, smooth: bool) -> None:
+        self.cost_weight = cost_weight
+        self.smooth = smooth
+        self._cells = 0
+        self._generation = 0
+        self._g: FloatArray = np.empty(0)
+        self._parent = np.empty(0, dtype=np.int32)
+        self._seen = np.empty(0, dtype=np.int32)
+        self._closed = np.empty(0, dtype=np.int32)
+
+    def plan(
+        self, costmap: Costmap, start_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
+    ) -> PlannedPath:
+        """The cheapest route from ``start_xy_m`` to ``goal_xy_m`` [m, map frame].
+
+        Raises:
+            StartBlocked: the start is off the map, or too close to obstacles with no free cell
+                within START_ESCAPE_M.
+            GoalUnreachable: the goal is off the map ("off the map"), unexplored while
+                unknown cells are forbidden ("unknown"), too close to an obstacle or in a
+                keep-out zone ("occupied"), or no route leads there ("no route").
+        """
+        frame = costmap.frame
+        start = frame.cell_of(*start_xy_m)
+        goal = frame.cell_of(*goal_xy_m)
+        if not frame.contains(*start):
+            raise StartBlocked(
+                f"the robot at ({start_xy_m[0]:.2f}, {start_xy_m[1]:.2f}) m is off the map"
+            )
+        robot_cell = start
+        start = self._free_start(costmap, start, start_xy_m)
+        where = f"goal ({goal_xy_m[0]:.2f}, {goal_xy_m[1]:.2f}) m"
+        if not frame.contains(*goal):
+            raise GoalUnreachable(
+                f"{where} is off the map (x {frame.origin_x_m:.2f}.."
+                f"{frame.origin_x_m + frame.cols * frame.resolution_m:.2f}, y "
+                f"{frame.origin_y_m:.2f}..{frame.origin_y_m + frame.rows * frame.resolution_m:.2f})",
+                "off the map",
+            )
+        if not math.isfinite(costmap.cost[goal]) and costmap.unknown[goal]:
+            raise GoalUnreachable(
+                f"{where} is in unexplored space and planning.allow_unknown is false",
+                "unknown",
+            )
+        if not math.isfinite(costmap.cost[goal]):
+            raise GoalUnreachable(
+                f"{where} is occupied: {costmap.clearance_m[goal]:.2f} m from an obstacle or a "
+                "keep-out zone, too close for the robot",
+                "occupied",
+            )
+        self._reserve(frame.rows * frame.cols)
+        cols = frame.cols
+        g_cells, expanded = astar_search(
+            costmap.cost,
+            start[0] * cols + start[1],
+            goal[0] * cols + goal[1],
+            self.cost_weight,
+            self._g,
+            self._parent,
+            self._seen,
+            self._closed,
+            self._generation,
+        )
+        if g_cells < 0.0:
+            raise GoalUnreachable(
+                f"no route to {where}: obstacles enclose it or the robot "
+                f"({expanded} cells searched)",
+                "no route",
+            )
+        cells = trace_back(self._parent, goal[0] * cols + goal[1], cols)
+        if self.smooth and cells.shape[0] > 2:
+            cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
+        points = frame.centers_of(cells)
+        if start == robot_cell:
+            points[0] = start_xy_m
+        else:
+            points = np.vstack([np.asarray(start_xy_m, dtype=np.float64), points])
+        points[-1] = goal_xy_m
+        return PlannedPath(points, g_cells * frame.resolution_m, expanded)
+
+    @staticmethod
+    def _free_start(
+        costmap: Costmap, start: tuple[int, int], start_xy_m: tuple[float, float]
+    ) -> tuple[int, int]:
+        """The robot's cell, or the nearest free cell within START_ESCAPE_M if the robot
+        stands too close to an obstacle (pushed there, or an obstacle came to it)."""
+        if math.isfinite(costmap.cost[start]):
+            return start
+        reach = max(int(math.ceil(START_ESCAPE_M / costmap.frame.resolution_m)), 1)
+        r0, c0 = max(start[0] - reach, 0), max(start[1] - reach, 0)
+        window = costmap.cost[r0 : start[0] + reach + 1, c0 : start[1] + reach + 1]
+        free = np.argwhere(np.isfinite(window))
+        if free.shape[0] == 0:
+            raise StartBlocked(
+                f"the robot at ({start_xy_m[0]:.2f}, {start_xy_m[1]:.2f}) m is "
+                f"{costmap.clearance_m[start]:.2f} m from an obstacle with no free cell within "
+                f"{START_ESCAPE_M} m to plan from"
+            )
+        offsets = free + (r0 - start[0], c0 - start[1])
+        nearest = free[np.argmin(np.hypot(offsets[:, 0], offsets[:, 1]))]
+        return (int(nearest[0] + r0), int(nearest[1] + c0))
+
+    def _reserve(self, cells: int) -> None:
+        """Working arrays for ``cells`` cells and a fresh generation number."""
+        if cells > self._cells or self._generation >= np.iinfo(np.int32).max - 1:
+            self._cells = max(cells, self._cells)
+            self._g = np.empty(self._cells)
+            self._parent = np.empty(self._cells, dtype=np.int32)
+            self._seen = np.zeros(self._cells, dtype=np.int32)
+            self._closed = np.zeros(self._cells, dtype=np.int32)
+            self._generation = 0
+        self._generation += 1

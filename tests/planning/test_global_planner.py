@@ -1,0 +1,173 @@
+"""A* against scipy's Dijkstra on random grids, and its documented errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
+from navd.planning.errors import GoalUnreachable, StartBlocked
+from navd.planning.global_planner import GlobalPlanner
+
+RES = 0.1
+
+
+def dijkstra_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int], w: float) -> float:
+    """The route cost [cells] by scipy's Dijkstra on the same graph, built independently."""
+    cost = cost.astype(np.float64)
+    rows, cols = cost.shape
+    free = np.isfinite(cost)
+    src, dst, weight = [], [], []
+    for r in range(rows):
+        for c in range(cols):
+            if not free[r, c]:
+                continue
+            for dr in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    nr, nc = r + dr, c + dc
+                    if (dr, dc) == (0, 0) or not (0 <= nr < rows and 0 <= nc < cols):
+                        continue
+                    if not free[nr, nc]:
+                        continue
+                    if dr and dc and not (free[r, nc] and free[nr, c]):
+                        continue
+                    length = math.hypot(dr, dc)
+                    src.append(r * cols + c)
+                    dst.append(nr * cols + nc)
+                    weight.append(length * (1 + w * 0.5 * (cost[r, c] + cost[nr, nc])))
+    graph = coo_matrix((weight, (src, dst)), shape=(rows * cols, rows * cols)).tocsr()
+    d = dijkstra(graph, indices=start[0] * cols + start[1])
+    return float(d[goal[0] * cols + goal[1]])
+
+
+def costmap_of(cost: np.ndarray) -> Costmap:
+    rows, cols = cost.shape
+    frame = GridFrame(RES, 0.0, 0.0, rows, cols)
+    blocked = ~np.isfinite(cost)
+    return Costmap(frame, blocked, np.zeros(cost.shape, np.float32), cost.astype(np.float32), np.zeros(cost.shape, bool))
+
+
+def center(cell: tuple[int, int]) -> tuple[float, float]:
+    return ((cell[1] + 0.5) * RES, (cell[0] + 0.5) * RES)
+
+
+@st.composite
+def grids(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int, int], float]:
+    rows = draw(st.integers(2, 14))
+    cols = draw(st.integers(2, 14))
+    seed = draw(st.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(seed)
+    cost = rng.random((rows, cols)).astype(np.float32)
+    cost[rng.random((rows, cols)) < draw(st.floats(0.0, 0.45))] = np.inf
+    start = (draw(st.integers(0, rows - 1)), draw(st.integers(0, cols - 1)))
+    goal = (draw(st.integers(0, rows - 1)), draw(st.integers(0, cols - 1)))
+    cost[start] = cost[start] if np.isfinite(cost[start]) else 0.0
+    cost[goal] = cost[goal] if np.isfinite(cost[goal]) else 0.0
+    return cost, start, goal, draw(st.sampled_from([0.0, 1.0, 5.0]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(grids())
+def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> None:
+    cost, start, goal, w = case
+    expected = dijkstra_cost(cost, start, goal, w)
+    planner = GlobalPlanner(cost_weight=w, smooth=False)
+    if math.isinf(expected):
+        with pytest.raises(GoalUnreachable, match="no route") as info:
+            planner.plan(costmap_of(cost), center(start), center(goal))
+        assert info.value.reason == "no route"
+        return
+    path = planner.plan(costmap_of(cost), center(start), center(goal))
+    assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
+    cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
+    assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
+    assert (np.abs(np.diff(cells, axis=0)) <= 1).all()
+    assert tuple(cells[0]) == start and tuple(cells[-1]) == goal
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rows, cols = 60, 60
+    obstacles = np.zeros((rows, cols), bool)
+    for _ in range(8):
+        r, c = rng.integers(0, rows - 8), rng.integers(0, cols - 8)
+        obstacles[r : r + rng.integers(2, 8), c : c + rng.integers(2, 8)] = True
+    frame = GridFrame(RES, 0.0, 0.0, rows, cols)
+    settings_ = CostmapSettings(0.25, 0.6, 3.0, True, 0.5, 65)
+    costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings_)
+    free = np.argwhere(np.isfinite(costmap.cost))
+    start, goal = free[rng.integers(len(free))], free[rng.integers(len(free))]
+    planner = GlobalPlanner(cost_weight=3.0, smooth=True)
+    try:
+        path = planner.plan(costmap, center(tuple(start)), center(tuple(goal)))
+    except GoalUnreachable:
+        return
+    # Sample every segment densely: every point lies in a cell the robot's centre may use.
+    for a, b in zip(path.points_m[:-1], path.points_m[1:], strict=True):
+        t = np.linspace(0, 1, int(np.hypot(*(b - a)) / (0.1 * RES)) + 2)[:, None]
+        cells = np.floor((a + t * (b - a))[:, ::-1] / RES).astype(int)
+        assert np.isfinite(costmap.cost[cells[:, 0], cells[:, 1]]).all()
+    assert costmap.clearance_m[tuple(start)] >= 0.25
+
+
+def test_inflation_keeps_routes_off_walls() -> None:
+    # A 3 m wide corridor: with a cost weight the route runs along its middle.
+    rows, cols = 30, 80
+    obstacles = np.zeros((rows, cols), bool)
+    obstacles[0, :] = obstacles[-1, :] = True
+    frame = GridFrame(RES, 0.0, 0.0, rows, cols)
+    costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), CostmapSettings(0.2, 1.5, 3.0, True, 0.5, 65))
+    path = GlobalPlanner(cost_weight=5.0, smooth=False).plan(costmap, (0.5, 0.6), (7.5, 0.6))
+    assert path.points_m[:, 1].max() > 1.3  # it moves out towards the middle (y = 1.5)
+
+
+@pytest.mark.parametrize(
+    ("goal", "reason", "match"),
+    [
+        ((50.0, 0.5), "off the map", "off the map"),
+        ((1.05, 1.05), "occupied", "occupied"),
+        ((2.55, 2.55), "no route", "no route"),
+    ],
+)
+def test_unreachable_goals_raise_with_the_reason(goal, reason, match) -> None:
+    cost = np.zeros((40, 40), np.float32)
+    cost[10, 10] = np.inf  # the goal cell itself
+    cost[20:31, 20] = cost[20:31, 30] = cost[20, 20:31] = cost[30, 20:31] = np.inf  # a closed box
+    with pytest.raises(GoalUnreachable, match=match) as info:
+        GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap_of(cost), (0.5, 0.5), goal)
+    assert info.value.reason == reason
+
+
+def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
+    frame = GridFrame(RES, 0.0, 0.0, 20, 20)
+    unknown = np.zeros((20, 20), bool)
+    unknown[15:, 15:] = True
+    costmap = build_costmap(frame, np.zeros((20, 20), bool), unknown, CostmapSettings(0.1, 0.3, 3.0, False, 0.5, 65))
+    with pytest.raises(GoalUnreachable, match="unexplored") as info:
+        GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap, (0.5, 0.5), (1.75, 1.75))
+    assert info.value.reason == "unknown"
+
+
+def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
+    cost = np.zeros((20, 20), np.float32)
+    cost[:, :3] = np.inf
+    path = GlobalPlanner(cost_weight=1.0, smooth=False).plan(costmap_of(cost), (0.15, 1.0), (1.5, 1.0))
+    assert tuple(path.points_m[0]) == (0.15, 1.0)
+    assert path.points_m[1][0] == pytest.approx(0.35)  # first free column
+
+
+def test_start_off_the_map_or_walled_in_is_refused() -> None:
+    cost = np.full((20, 20), np.inf, np.float32)
+    planner = GlobalPlanner(cost_weight=1.0, smooth=False)
+    with pytest.raises(StartBlocked, match="off the map"):
+        planner.plan(costmap_of(cost), (-1.0, 0.5), (0.5, 0.5))
+    with pytest.raises(StartBlocked, match="no free cell"):
+        planner.plan(costmap_of(cost), (1.0, 1.0), (0.5, 0.5))

@@ -1,0 +1,112 @@
+"""The navigator driving a kinematic robot: arrival, heading, obstacles, dead ends, failures."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navd.bench.room import WALLS
+from navd.config import NavdConfig
+from navd.planning.navigator import GoalState, NavGoal, Navigator
+from navd.planning.stuck import StuckPhase
+from tests.planning.drive import drive
+
+NO_WALLS = np.empty((0, 4))
+
+
+def config(**planning: object) -> NavdConfig:
+    return NavdConfig.model_validate({"robot": {"footprint": "rectangle"}, "planning": planning})
+
+
+@pytest.mark.parametrize("goal", [(3.0, 0.0), (2.0, 2.0), (-2.0, 1.0)])
+def test_reaches_a_goal_in_free_space_and_stops_within_tolerance(goal) -> None:
+    cfg = config()
+    result = drive(cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", *goal), max_time_s=40, known_map=False)
+    assert result.state is GoalState.REACHED
+    x, y, _ = result.poses[-1]
+    assert math.hypot(x - goal[0], y - goal[1]) <= cfg.planning.goal_xy_tolerance_m
+    assert result.steps[-1].linear_mps == 0.0 and result.steps[-1].angular_radps == 0.0
+
+
+@pytest.mark.parametrize("yaw", [math.pi / 2, math.pi, -2.5])
+def test_turns_to_the_target_heading(yaw: float) -> None:
+    cfg = config()
+    result = drive(cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 2.0, 0.0, yaw), max_time_s=40, known_map=False)
+    assert result.state is GoalState.REACHED
+    x, y, heading = result.poses[-1]
+    assert math.hypot(x - 2.0, y) <= cfg.planning.goal_xy_tolerance_m
+    assert abs((heading - yaw + math.pi) % (2 * math.pi) - math.pi) <= cfg.planning.goal_yaw_tolerance_rad
+
+
+def test_drives_through_the_room_without_touching_a_wall() -> None:
+    cfg = config()
+    result = drive(cfg, WALLS, (-5.0, -3.0, 0.0), NavGoal("g", 0.0, 2.5, math.pi / 2), max_time_s=80)
+    assert result.state is GoalState.REACHED
+    assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
+
+
+def test_an_obstacle_missing_from_the_map_blocks_the_route_and_is_driven_around() -> None:
+    # The map is empty; a wall across the straight route is only seen by the lidar.
+    wall = np.array([(1.5, -1.0, 1.5, 1.0)])
+    cfg = config()
+    result = drive(cfg, wall, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False)
+    assert result.state is GoalState.REACHED
+    assert "route blocked by an obstacle" in result.plan_reasons
+    assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
+    assert max(abs(p[1]) for p in result.poses) > 1.0  # it went round the end of the wall
+
+
+def test_a_robot_facing_a_dead_end_backs_out_and_replans() -> None:
+    # A narrow pocket (0.6 m) the 0.4 x 0.3 m robot cannot turn in; the goal is behind its end.
+    pocket = np.array([(1.2, 0.3, 2.0, 0.3), (1.2, -0.3, 2.0, -0.3), (2.0, -0.3, 2.0, 0.3)])
+    cfg = config(
+        stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=8.0, backup_distance_m=0.6
+    )
+    result = drive(cfg, pocket, (1.6, 0.0, 0.0), NavGoal("g", 3.5, 0.0), max_time_s=80, map_box=(-1, -2, 5, 2))
+    assert result.state is GoalState.REACHED
+    phases = [s.phase for s in result.steps]
+    assert StuckPhase.BACKING in phases
+    assert "backed out" in result.plan_reasons
+    assert min(c[0] for c in result.commands) < 0.0  # it drove backwards
+    assert min(p[0] for p in result.poses) < 1.2 - 0.2  # out of the pocket
+    assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
+
+
+def test_an_unreachable_goal_fails_with_the_reason_after_the_patience() -> None:
+    box = np.array([(2.0, -0.5, 3.0, -0.5), (3.0, -0.5, 3.0, 0.5), (3.0, 0.5, 2.0, 0.5), (2.0, 0.5, 2.0, -0.5)])
+    cfg = config(stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=3.0)
+    result = drive(cfg, box, (0.0, 0.0, 0.0), NavGoal("g", 2.5, 0.0), max_time_s=20, map_box=(-1, -2, 5, 2))
+    assert result.state is GoalState.FAILED
+    assert "no route" in result.steps[-1].reason
+    assert all(c == (0.0, 0.0) for c in result.commands)
+    assert result.time_s == pytest.approx(3.0, abs=0.1)
+
+
+def test_stuck_for_good_fails_after_the_allowed_replans() -> None:
+    # A ring 0.3 m round the robot with a gap ahead of it to the right (-y): the route leaves
+    # through the gap, but the 0.4 x 0.3 m robot faces +y and cannot turn or move in the ring.
+    a = np.linspace(-math.pi / 2 + 1.2, 3 * math.pi / 2 - 1.2, 40)
+    arc_ = np.column_stack([0.3 * np.cos(a), 0.3 * np.sin(a)])
+    ring = np.column_stack([arc_[:-1], arc_[1:]])
+    cfg = config(
+        stuck_time_s=0.5, stuck_time_force_backward_s=1.0, max_stuck_time_s=1.5, max_stuck_replans=1
+    )
+    result = drive(cfg, ring, (0.0, 0.0, math.pi / 2), NavGoal("g", 0.0, -3.0), max_time_s=20, known_map=False)
+    assert result.state is GoalState.FAILED
+    assert "stuck" in result.steps[-1].reason
+    assert sum(s.stuck_detected for s in result.steps) == 2
+
+
+def test_cancel_stops_the_robot() -> None:
+    nav = Navigator(config())
+    nav.set_goal(NavGoal("g", 3.0, 0.0))
+    nav.accept_plan(0.0, nav.plan(0.0, (0.0, 0.0, 0.0)))
+    for k in range(30):
+        step = nav.step(0.05 * k, (0.0, 0.0, 0.0))
+    assert step.linear_mps > 0.0
+    assert nav.cancel() == NavGoal("g", 3.0, 0.0)
+    step = nav.step(2.0, (0.0, 0.0, 0.0))
+    assert (step.linear_mps, step.angular_radps, step.state) == (0.0, 0.0, GoalState.CANCELED)
+    assert nav.plan_reason(2.0, (0.0, 0.0, 0.0)) is None
