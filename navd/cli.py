@@ -117,6 +117,13 @@ def _bench_commands(commands: Any) -> None:
     scan.add_argument("--beams", type=int, default=720, help="rays per scan")
     scan.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     scan.set_defaults(handler=_cmd_bench_scan)
+    planning = bench_commands.add_parser(
+        "planning", help="A* on 1000² and 2000² grids, ms per DWA cycle"
+    )
+    planning.add_argument("--repeats", type=int, default=5, help="A* searches per grid")
+    planning.add_argument("--cycles", type=int, default=200, help="DWA cycles timed")
+    planning.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    planning.set_defaults(handler=_cmd_bench_planning)
 
 
 def _slam_commands(commands: Any) -> None:
@@ -378,6 +385,13 @@ def _cmd_bench_scan(args: argparse.Namespace) -> int:
     from navd.bench.scan import run  # noqa: PLC0415
 
     _print_figures(run(scans=args.scans, beams=args.beams), args.json)
+    return EXIT_OK
+
+
+def _cmd_bench_planning(args: argparse.Namespace) -> int:
+    from navd.bench.planning import run  # noqa: PLC0415
+
+    _print_figures(run(repeats=args.repeats, cycles=args.cycles), args.json)
     return EXIT_OK
 
 

@@ -10,7 +10,8 @@ with c the cell costs and w the cost weight, so a route pays for running close t
 heuristic is the octile distance (the exact length of the shortest 8-connected route with no
 costs): admissible and consistent, so the first time the goal is popped its cost is optimal.
 Ties in f go to the node nearer the goal (fewer expansions across open floor): the open list
-is ordered by g + h * (1 + 1e-9), which keeps the route within a relative 1e-9 of optimal.
+is ordered by g + h * (1 + 1e-9), which keeps the route within a relative 1e-9 of optimal
+(the stack of already-minimal successors below adds at most as much again).
 
 Working arrays are passed in and stamped with a generation number, so a planner reuses them
 between searches without clearing millions of cells each time.
@@ -126,6 +127,13 @@ def astar_search(  # noqa: PLR0913, PLR0912, PLR0915, C901
     keys = np.empty(capacity)
     nodes = np.empty(capacity, dtype=np.int32)
     size = 0
+    # Successors whose key is no larger than the key last taken from the heap are already
+    # minimal: they go on a stack and are expanded before the heap is touched again. Across
+    # open floor most successors qualify (moving towards the goal leaves g + h unchanged), so
+    # most heap operations are skipped.
+    stack = np.empty(capacity, dtype=np.int32)
+    stack_size = 0
+    current_key = -math.inf
     g[start] = 0.0
     parent[start] = -1
     seen[start] = generation
@@ -133,9 +141,14 @@ def astar_search(  # noqa: PLR0913, PLR0912, PLR0915, C901
     _push(keys, nodes, size, h0 * TIE, start)
     size += 1
     expanded = 0
-    while size > 0:
-        node = _pop(keys, nodes, size)
-        size -= 1
+    while size > 0 or stack_size > 0:
+        if stack_size > 0:
+            stack_size -= 1
+            node = stack[stack_size]
+        else:
+            current_key = keys[0]
+            node = _pop(keys, nodes, size)
+            size -= 1
         if closed[node] == generation:
             continue  # a stale duplicate: this cell was expanded at a lower cost already
         closed[node] = generation
@@ -165,12 +178,18 @@ def astar_search(  # noqa: PLR0913, PLR0912, PLR0915, C901
             seen[nxt] = generation
             g[nxt] = g_next
             parent[nxt] = node
-            h = octile(nr - goal_r, nc - goal_c)
+            key = g_next + octile(nr - goal_r, nc - goal_c) * TIE
+            if key <= current_key:
+                if stack_size == stack.size:
+                    stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int32)))
+                stack[stack_size] = nxt
+                stack_size += 1
+                continue
             if size == capacity:
                 capacity *= 2
                 keys = np.concatenate((keys, np.empty(capacity - size)))
                 nodes = np.concatenate((nodes, np.empty(capacity - size, dtype=np.int32)))
-            _push(keys, nodes, size, g_next + h * TIE, nxt)
+            _push(keys, nodes, size, key, nxt)
             size += 1
     return -1.0, expanded
 

@@ -162,18 +162,17 @@ def _nearest(  # noqa: PLR0913
     local: FloatArray,
     x: float,
     y: float,
-    yaw: float,
+    cos_yaw: float,
+    sin_yaw: float,
     kind: int,
     half_length: float,
     half_width: float,
 ) -> float:
-    """[m] exact distance from the footprint at (x, y, yaw) to the nearest point in the 3 x 3
-    buckets around it (1e9 when they are empty)."""
+    """[m] exact distance from the footprint at (x, y) heading (cos_yaw, sin_yaw) to the
+    nearest point in the 3 x 3 buckets around it (1e9 when they are empty)."""
     bucket = local[5]
     b_rows = int(local[6])
     b_cols = int(local[7])
-    cos_yaw = math.cos(yaw)
-    sin_yaw = math.sin(yaw)
     bc = int(math.floor((x - local[0]) / bucket))
     br = int(math.floor((y - local[1]) / bucket))
     nearest = 1e9
@@ -263,7 +262,11 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
     y0 = pose[1]
     yaw0 = pose[2]
     # A robot already inside the margin may move, but never closer than it is.
-    here = _nearest(points, bucket_start, bucket_order, local, x0, y0, yaw0, kind, half_length, half_width)
+    cos0 = math.cos(yaw0)
+    sin0 = math.sin(yaw0)
+    here = _nearest(
+        points, bucket_start, bucket_order, local, x0, y0, cos0, sin0, kind, half_length, half_width
+    )
     allowed = min(margin, here - 1e-3)
     for k in range(velocities.shape[0]):
         v = velocities[k, 0]
@@ -273,16 +276,23 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
         path_sum = 0.0
         x = x0
         y = y0
-        yaw = yaw0
+        # The heading turns by w dt each step: rotate (cos, sin) instead of calling trig.
+        step_cos = math.cos(w * dt)
+        step_sin = math.sin(w * dt)
+        cos_yaw = cos0
+        sin_yaw = sin0
         for s in range(1, steps + 1):
             t = s * dt
-            yaw = yaw0 + w * t
+            cos_yaw, sin_yaw = (
+                cos_yaw * step_cos - sin_yaw * step_sin,
+                sin_yaw * step_cos + cos_yaw * step_sin,
+            )
             if abs(w) < 1e-9:
-                x = x0 + v * t * math.cos(yaw0)
-                y = y0 + v * t * math.sin(yaw0)
+                x = x0 + v * t * cos0
+                y = y0 + v * t * sin0
             else:
-                x = x0 + v / w * (math.sin(yaw) - math.sin(yaw0))
-                y = y0 - v / w * (math.cos(yaw) - math.cos(yaw0))
+                x = x0 + v / w * (sin_yaw - sin0)
+                y = y0 - v / w * (cos_yaw - cos0)
             # Obstacles: a lower bound from the distance grid, the exact footprint test only
             # when something may be within the margin.
             c = int(math.floor((x - ox) / cell))
@@ -293,7 +303,17 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
             clearance = min(clearance, center - inscribed)
             if center - slack < circumradius + margin:
                 nearest = _nearest(
-                    points, bucket_start, bucket_order, local, x, y, yaw, kind, half_length, half_width
+                    points,
+                    bucket_start,
+                    bucket_order,
+                    local,
+                    x,
+                    y,
+                    cos_yaw,
+                    sin_yaw,
+                    kind,
+                    half_length,
+                    half_width,
                 )
                 clearance = min(clearance, nearest)
                 if nearest < allowed:
@@ -314,6 +334,7 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
         metrics[k, OSCILLATION] = (
             abs(v - target[3]) / target[5] + abs(w - target[4]) / target[6] + reverse
         )
+        yaw = yaw0 + w * steps * dt
         metrics[k, HEADING] = abs(_wrap(yaw - target[2])) / (0.5 * math.pi)
 
 

@@ -204,21 +204,24 @@ class LocalPlanner:
         if not window.backward and window.min_speed_mps > 0.0:
             keep = np.abs(speeds) >= min(window.min_speed_mps, abs(hi))
             speeds = speeds[keep] if keep.any() else speeds[-1:]
-        rows = []
-        for v in speeds:
-            cap = self._yaw_rate_cap(float(v))
-            w_lo, w_hi = max(-cap, w_now - dw), min(cap, w_now + dw)
-            if w_lo > w_hi:  # turning faster than this speed allows: ease off towards the cap
-                w_lo = w_hi = min(max(w_now, -cap), cap)
-            for w in np.linspace(w_lo, w_hi, s.angular_samples):
-                rows.append((float(v), float(w)))
-        return np.array(rows, dtype=np.float64)
+        caps = np.minimum(s.max_yaw_rate_radps, self._yaw_caps(speeds))
+        w_lo = np.maximum(-caps, w_now - dw)
+        w_hi = np.minimum(caps, w_now + dw)
+        # Turning faster than a speed allows: ease off towards its cap.
+        stuck_turn = w_lo > w_hi
+        w_lo = np.where(stuck_turn, np.clip(w_now, -caps, caps), w_lo)
+        w_hi = np.where(stuck_turn, w_lo, w_hi)
+        fraction = np.linspace(0.0, 1.0, s.angular_samples)
+        turns = w_lo[:, None] + (w_hi - w_lo)[:, None] * fraction[None, :]
+        return np.column_stack(
+            [np.repeat(speeds, s.angular_samples), turns.ravel()]
+        ).astype(np.float64)
 
-    def _yaw_rate_cap(self, speed_mps: float) -> float:
-        cap = self.settings.max_yaw_rate_radps
-        if self._yaw_cap is not None:
-            cap = min(cap, self._yaw_cap(speed_mps))
-        return cap
+    def _yaw_caps(self, speeds_mps: FloatArray) -> FloatArray:
+        """[rad/s] the top yaw rate at each speed."""
+        if self._yaw_cap is None:
+            return np.full(speeds_mps.shape, self.settings.max_yaw_rate_radps)
+        return np.array([self._yaw_cap(float(v)) for v in speeds_mps])
 
     def choose(
         self,

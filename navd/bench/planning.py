@@ -1,0 +1,108 @@
+"""Planning benchmark: A* on large random grids and one DWA cycle with a rectangular robot.
+
+A*: grids of 1000 x 1000 and 2000 x 2000 cells with random rectangles until 25 % of the cells
+are occupied, start and goal in opposite corners (cleared), no inflation costs: the same
+problem pyastar2d solves. Printed: ms per search (median of several), cells expanded and the
+route cost against the straight-line distance.
+
+DWA: one control cycle as the navigator runs it (dynamic window of 20 x 21 = 420 rollouts of
+2 s at 0.1 s steps, 0.4 x 0.3 m rectangle, 1440 scan points of a cluttered surrounding,
+distance grid and buckets built inside the cycle). Printed: ms per cycle p50/p95.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.config import NavdConfig
+from navd.planning.costmap import Costmap, GridFrame
+from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
+from navd.planning.global_planner import GlobalPlanner
+from navd.planning.profile import VelocityProfile
+
+__all__ = ["random_rectangles", "run"]
+
+
+def random_rectangles(cells: int, fill: float, seed: int) -> npt.NDArray[np.bool_]:
+    """A cells x cells grid with random rectangles (2 to cells/20 on a side) until ``fill``
+    of it is occupied; the 20 x 20 corners stay free for the start and goal."""
+    rng = np.random.default_rng(seed)
+    occupied = np.zeros((cells, cells), dtype=np.bool_)
+    side = max(cells // 20, 3)
+    while occupied.mean() < fill:
+        for _ in range(64):
+            h, w = rng.integers(2, side, size=2)
+            r, c = rng.integers(0, cells - h), rng.integers(0, cells - w)
+            occupied[r : r + h, c : c + w] = True
+    occupied[:20, :20] = False
+    occupied[-20:, -20:] = False
+    return occupied
+
+
+def _astar(cells: int, repeats: int) -> dict[str, object]:
+    occupied = random_rectangles(cells, 0.25, seed=cells)
+    cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
+    frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
+    costmap = Costmap(frame, occupied, np.zeros(cost.shape, np.float32), cost, ~occupied & False)
+    planner = GlobalPlanner(cost_weight=0.0, smooth=False)
+    start, goal = (5.5, 5.5), (cells - 5.5, cells - 5.5)
+    planner.plan(costmap, start, goal)  # compile and size the working arrays
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        path = planner.plan(costmap, start, goal)
+        times.append(time.perf_counter() - t0)
+    return {
+        f"astar_{cells}_ms": round(1e3 * statistics.median(times), 2),
+        f"astar_{cells}_expanded": path.cells_expanded,
+        f"astar_{cells}_cost_over_straight": round(
+            path.cost / math.dist(start, goal), 4
+        ),
+    }
+
+
+def _dwa(cycles: int) -> dict[str, object]:
+    config = NavdConfig.model_validate({"robot": {"footprint": "rectangle"}})
+    profile = VelocityProfile.from_config(config)
+    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_cap)
+    rng = np.random.default_rng(7)
+    path = path_field(np.array([[0.0, 0.0], [6.0, 0.0]]))
+    times = []
+    rollouts = valid = 0
+    for i in range(cycles + 5):
+        # 1440 beams in a cluttered place: ranges from 0.6 to 4 m, in patches like furniture.
+        angles = np.linspace(-math.pi, math.pi, 1440, endpoint=False)
+        base = 0.6 + 3.4 * rng.random(24)
+        ranges = np.repeat(base, 60) + rng.normal(0.0, 0.01, 1440)
+        points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+        t0 = time.perf_counter()
+        choice = local.choose(
+            (0.0, 0.0, 0.0), (0.3, 0.1), points, path, (1.0, 0.0, 0.0), Window(0.5)
+        )
+        if i >= 5:  # the first cycles compile or load the kernels
+            times.append(time.perf_counter() - t0)
+            if choice is not None:
+                rollouts, valid = choice.rollouts, choice.valid
+    ms = sorted(1e3 * t for t in times)
+    return {
+        "dwa_rollouts": rollouts,
+        "dwa_valid_rollouts_last": valid,
+        "dwa_steps_per_rollout": local.steps,
+        "dwa_scan_points": 1440,
+        "dwa_ms_p50": round(statistics.median(ms), 3),
+        "dwa_ms_p95": round(ms[int(0.95 * (len(ms) - 1))], 3),
+    }
+
+
+def run(repeats: int = 5, cycles: int = 200) -> dict[str, object]:
+    """A* on 1000² and 2000² grids (median of ``repeats``), DWA over ``cycles`` cycles."""
+    figures: dict[str, object] = {}
+    figures.update(_astar(1000, repeats))
+    figures.update(_astar(2000, repeats))
+    figures.update(_dwa(cycles))
+    return figures
