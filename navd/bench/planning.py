@@ -60,9 +60,7 @@ def _astar(cells: int, repeats: int) -> dict[str, object]:
     return {
         f"astar_{cells}_ms": round(1e3 * statistics.median(times), 2),
         f"astar_{cells}_expanded": path.cells_expanded,
-        f"astar_{cells}_cost_over_straight": round(
-            path.cost / math.dist(start, goal), 4
-        ),
+        f"astar_{cells}_cost_over_straight": round(path.cost / math.dist(start, goal), 4),
     }
 
 

@@ -603,9 +603,7 @@ class PlanningConfig(Section):
     lookahead_m: float = Field(
         1.0, gt=0, le=20, description="[m] DWA aims at the path point this far ahead"
     )
-    sim_step_s: float = Field(
-        0.1, ge=0.01, le=1, description="[s] time step of the DWA rollouts"
-    )
+    sim_step_s: float = Field(0.1, ge=0.01, le=1, description="[s] time step of the DWA rollouts")
     occupied_threshold_pct: int = Field(
         65, ge=1, le=100, description="[%] map cells at or above this occupancy are obstacles"
     )

@@ -57,6 +57,7 @@ __all__ = [
     "SafeStopCleared",
     "SafetyState",
     "SaveMapRequest",
+    "StuckDetected",
     "Vector3",
     "VelocityCommand",
     "WheelOdometry",
@@ -623,6 +624,24 @@ class Path(Message):
         if points.shape[1] != 2:
             raise MessageError(f"points_m must have shape (N, 2), got {points.shape}")
         object.__setattr__(self, "points_m", points)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class StuckDetected(Message):
+    """The robot made no progress for planning.max_stuck_time_s (seed 001 §4.5).
+
+    Attributes:
+        goal_id: the goal being pursued.
+        x_m, y_m: [m] where the robot is stuck (map frame).
+        replans: how many times it has been stuck on this goal.
+        giving_up: True when the goal fails because of it.
+    """
+
+    goal_id: str
+    x_m: float
+    y_m: float
+    replans: int
+    giving_up: bool
 
 
 class ModuleHealth(NamedTuple):

@@ -4,11 +4,15 @@ Modules request motion with VelocityCommand; only the gate publishes DriveComman
 message the chassis obeys. The gate holds the robot still (zero DriveCommand) while any
 reason holds: a lidar that is stale or disconnected after having been seen, or a SafeStop
 (a faulted module, later a close obstacle or lost localization) not yet cleared by its key.
-It clamps what it passes to the robot's speed limits. The chassis driver adds the last
+It clamps what it passes to the robot's speed limits, then lets its limiters (the collision
+guard) reduce it. The chassis driver adds the last
 guard: with no fresh DriveCommand for ``safety.reaction_timeout_s`` it writes zero itself.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Protocol
 
 from navd.lifecycle.messages import (
     DeviceConnected,
@@ -24,15 +28,23 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["SafetyGate"]
+__all__ = ["SafetyGate", "SpeedLimiter"]
+
+
+class SpeedLimiter(Protocol):
+    """Something the gate asks about every command (the collision guard)."""
+
+    def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
+        """The command, possibly reduced, and why ("" when untouched)."""
 
 
 class SafetyGate(Module):
     """Turns requested VelocityCommands into DriveCommands, or zero while unsafe."""
 
-    def __init__(self) -> None:
+    def __init__(self, limiters: Sequence[SpeedLimiter] = ()) -> None:
         super().__init__("safety")
         self._reasons: dict[str, str] = {}
+        self._limiters = tuple(limiters)
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -57,8 +69,20 @@ class SafetyGate(Module):
         linear = min(max(cmd.linear_mps, -robot.max_reverse_speed_mps), robot.max_linear_speed_mps)
         limit = robot.max_angular_speed_radps
         angular = min(max(cmd.angular_radps, -limit), limit)
-        clamped = (linear, angular) != (cmd.linear_mps, cmd.angular_radps)
-        self._drive(linear, angular, "clamped to robot limits" if clamped else "")
+        reasons = (
+            ["clamped to robot limits"]
+            if (linear, angular)
+            != (
+                cmd.linear_mps,
+                cmd.angular_radps,
+            )
+            else []
+        )
+        for limiter in self._limiters:
+            linear, angular, why = limiter.limit(linear, angular)
+            if why:
+                reasons.append(why)
+        self._drive(linear, angular, "; ".join(reasons))
 
     def _on_stale(self, msg: DeviceStale) -> None:
         if msg.kind is DeviceKind.LIDAR:

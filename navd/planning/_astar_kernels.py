@@ -94,7 +94,7 @@ def _pop(keys: FloatArray, nodes: Int32Array, size: int) -> int:
 
 
 @njit(cache=True, nogil=True)
-def astar_search(  # noqa: PLR0913, PLR0912, PLR0915, C901
+def astar_search(
     cost: npt.NDArray[np.float32],
     start: int,
     goal: int,

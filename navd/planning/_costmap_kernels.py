@@ -16,7 +16,7 @@ __all__ = ["mark_and_clear"]
 
 
 @njit(cache=True, nogil=True)
-def mark_and_clear(  # noqa: PLR0913
+def mark_and_clear(
     last_seen: FloatArray,
     origin_i: int,
     origin_j: int,

@@ -22,15 +22,15 @@ from numba import njit
 
 __all__ = [
     "CHAMFER_RATIO",
+    "CLEARANCE",
     "GOAL",
     "HEADING",
     "METRICS",
     "OSCILLATION",
     "PATH",
-    "CLEARANCE",
     "bucket_points",
-    "choose",
     "chamfer_distance",
+    "choose",
     "footprint_distance",
     "rollouts",
 ]
@@ -49,7 +49,7 @@ SQRT2 = math.sqrt(2.0)
 
 
 @njit(cache=True, nogil=True)
-def chamfer_distance(  # noqa: PLR0913
+def chamfer_distance(
     points: FloatArray, origin_x: float, origin_y: float, res: float, rows: int, cols: int
 ) -> Float32Array:
     """[m] 8-connected chamfer distance from each cell centre to the nearest occupied cell.
@@ -61,8 +61,8 @@ def chamfer_distance(  # noqa: PLR0913
     big = np.float32(1e9)
     grid = np.full((rows, cols), big, dtype=np.float32)
     for k in range(points.shape[0]):
-        c = int(math.floor((points[k, 0] - origin_x) / res))
-        r = int(math.floor((points[k, 1] - origin_y) / res))
+        c = math.floor((points[k, 0] - origin_x) / res)
+        r = math.floor((points[k, 1] - origin_y) / res)
         if 0 <= r < rows and 0 <= c < cols:
             grid[r, c] = 0.0
     diag = np.float32(SQRT2 * res)
@@ -95,7 +95,7 @@ def chamfer_distance(  # noqa: PLR0913
 
 
 @njit(cache=True, nogil=True)
-def bucket_points(  # noqa: PLR0913
+def bucket_points(
     points: FloatArray, origin_x: float, origin_y: float, size: float, rows: int, cols: int
 ) -> tuple[IntArray, IntArray]:
     """Sort points into square buckets of ``size`` [m] (compressed rows).
@@ -108,8 +108,8 @@ def bucket_points(  # noqa: PLR0913
     bucket = np.empty(n, dtype=np.int64)
     start = np.zeros(rows * cols + 1, dtype=np.int64)
     for k in range(n):
-        c = int(math.floor((points[k, 0] - origin_x) / size))
-        r = int(math.floor((points[k, 1] - origin_y) / size))
+        c = math.floor((points[k, 0] - origin_x) / size)
+        r = math.floor((points[k, 1] - origin_y) / size)
         if 0 <= r < rows and 0 <= c < cols:
             bucket[k] = r * cols + c
             start[bucket[k] + 1] += 1
@@ -128,7 +128,7 @@ def bucket_points(  # noqa: PLR0913
 
 
 @njit(cache=True, nogil=True, inline="always")
-def footprint_distance(  # noqa: PLR0913
+def footprint_distance(
     px: float,
     py: float,
     x: float,
@@ -155,7 +155,7 @@ def footprint_distance(  # noqa: PLR0913
 
 
 @njit(cache=True, nogil=True)
-def _nearest(  # noqa: PLR0913
+def _nearest(
     points: FloatArray,
     bucket_start: IntArray,
     bucket_order: IntArray,
@@ -173,8 +173,8 @@ def _nearest(  # noqa: PLR0913
     bucket = local[5]
     b_rows = int(local[6])
     b_cols = int(local[7])
-    bc = int(math.floor((x - local[0]) / bucket))
-    br = int(math.floor((y - local[1]) / bucket))
+    bc = math.floor((x - local[0]) / bucket)
+    br = math.floor((y - local[1]) / bucket)
     nearest = 1e9
     for rr in range(max(br - 1, 0), min(br + 2, b_rows)):
         for cc in range(max(bc - 1, 0), min(bc + 2, b_cols)):
@@ -182,7 +182,15 @@ def _nearest(  # noqa: PLR0913
             for i in range(bucket_start[b], bucket_start[b + 1]):
                 q = bucket_order[i]
                 d = footprint_distance(
-                    points[q, 0], points[q, 1], x, y, cos_yaw, sin_yaw, kind, half_length, half_width
+                    points[q, 0],
+                    points[q, 1],
+                    x,
+                    y,
+                    cos_yaw,
+                    sin_yaw,
+                    kind,
+                    half_length,
+                    half_width,
                 )
                 nearest = min(nearest, d)
     return nearest
@@ -194,7 +202,7 @@ def _wrap(angle: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
+def rollouts(
     pose: FloatArray,
     velocities: FloatArray,
     dt: float,
@@ -216,7 +224,8 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
     Each rollout holds (v, ω) constant from ``pose`` (x, y, yaw): exact arcs, no integration
     error. A rollout collides if at any step an obstacle point is closer than the margin to
     the footprint; a robot already closer than the margin (pushed, or an obstacle came to it)
-    may still move, as long as no step comes closer than it is now. The metrics (lower is better, seed 001 §3.11):
+    may still move, as long as no step comes closer than it is now. The metrics (lower is
+    better, seed 001 §3.11):
 
     - GOAL: squared distance [m²] from the last pose to the target point;
     - PATH: mean distance [m] of the poses to the global path;
@@ -295,8 +304,8 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
                 y = y0 - v / w * (cos_yaw - cos0)
             # Obstacles: a lower bound from the distance grid, the exact footprint test only
             # when something may be within the margin.
-            c = int(math.floor((x - ox) / cell))
-            r = int(math.floor((y - oy) / cell))
+            c = math.floor((x - ox) / cell)
+            r = math.floor((y - oy) / cell)
             center = 1e9
             if 0 <= r < rows and 0 <= c < cols:
                 center = distance[r, c] / CHAMFER_RATIO
@@ -320,8 +329,8 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
                     hit = True
                     break
             # Closeness to the global path.
-            pc = int(math.floor((x - path_frame[0]) / path_frame[2]))
-            pr = int(math.floor((y - path_frame[1]) / path_frame[2]))
+            pc = math.floor((x - path_frame[0]) / path_frame[2])
+            pr = math.floor((y - path_frame[1]) / path_frame[2])
             if 0 <= pr < p_rows and 0 <= pc < p_cols:
                 path_sum += path_field[pr, pc]
             else:
@@ -342,9 +351,9 @@ def rollouts(  # noqa: PLR0913, PLR0912, PLR0915, C901
 def choose(
     metrics: FloatArray, colliding: npt.NDArray[np.bool_], weights: FloatArray
 ) -> tuple[int, FloatArray]:
-    """The best rollout by the normalized weighted cost (seed 001 eq. 3.5–3.6).
+    """The best rollout by the normalized weighted cost (seed 001 eq. 3.5 to 3.6).
 
-    Each metric is min–max normalized over the rollouts that do not collide (0 when they all
+    Each metric is min-max normalized over the rollouts that do not collide (0 when they all
     agree), weighted and summed; the lowest total wins.
 
     Returns:

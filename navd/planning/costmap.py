@@ -89,7 +89,9 @@ class GridFrame:
         return 0 <= row < self.rows and 0 <= col < self.cols
 
 
-def static_layer(occupancy: npt.NDArray[np.int8], threshold_pct: int) -> tuple[BoolArray, BoolArray]:
+def static_layer(
+    occupancy: npt.NDArray[np.int8], threshold_pct: int
+) -> tuple[BoolArray, BoolArray]:
     """Obstacle and unknown cells of an occupancy grid (-1 unknown, 0..100 percent).
 
     Returns:
@@ -114,7 +116,11 @@ class ObstacleLayer:
         self.last_seen: FloatArray = np.full(frame.shape, -np.inf)
 
     def add_scan(
-        self, sensor_xy_m: tuple[float, float], hits_m: FloatArray, misses_m: FloatArray, stamp: float
+        self,
+        sensor_xy_m: tuple[float, float],
+        hits_m: FloatArray,
+        misses_m: FloatArray,
+        stamp: float,
     ) -> None:
         """Clear along every ray of a scan and mark its hits.
 
@@ -157,9 +163,11 @@ class ObstacleLayer:
         res = self.frame.resolution_m
         shift_c = (self.frame.origin_x_m - frame.origin_x_m) / res
         shift_r = (self.frame.origin_y_m - frame.origin_y_m) / res
-        if frame.resolution_m != res or abs(shift_c - round(shift_c)) > 1e-6 or abs(
-            shift_r - round(shift_r)
-        ) > 1e-6:
+        if (
+            frame.resolution_m != res
+            or abs(shift_c - round(shift_c)) > 1e-6
+            or abs(shift_r - round(shift_r)) > 1e-6
+        ):
             raise ValueError(
                 f"cannot move obstacle marks from {self.frame} to {frame}: the grids' cells "
                 "do not line up"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -109,7 +110,7 @@ def path_field(points_m: FloatArray, cell_m: float = PATH_CELL_M) -> PathField:
     hi = points_m.max(axis=0) + PATH_FIELD_MARGIN_M
     cols, rows = (np.ceil((hi - lo) / cell_m).astype(int) + 1).tolist()
     on_path = np.zeros((rows, cols), dtype=np.bool_)
-    for a, b in zip(points_m[:-1], points_m[1:], strict=True):
+    for a, b in itertools.pairwise(points_m):
         n = max(int(np.ceil(np.hypot(*(b - a)) / (0.5 * cell_m))), 1)
         t = np.linspace(0.0, 1.0, n + 1)[:, None]
         cells = np.floor((a + t * (b - a) - lo) / cell_m).astype(int)
@@ -169,7 +170,7 @@ class LocalPlanner:
     ) -> None:
         self.settings = settings
         self._yaw_cap = yaw_rate_cap
-        self.steps = max(int(round(settings.horizon_s / settings.step_s)), 1)
+        self.steps = max(round(settings.horizon_s / settings.step_s), 1)
         fp = settings.footprint
         self._footprint = np.array(
             [
@@ -213,9 +214,9 @@ class LocalPlanner:
         w_hi = np.where(stuck_turn, w_lo, w_hi)
         fraction = np.linspace(0.0, 1.0, s.angular_samples)
         turns = w_lo[:, None] + (w_hi - w_lo)[:, None] * fraction[None, :]
-        return np.column_stack(
-            [np.repeat(speeds, s.angular_samples), turns.ravel()]
-        ).astype(np.float64)
+        return np.column_stack([np.repeat(speeds, s.angular_samples), turns.ravel()]).astype(
+            np.float64
+        )
 
     def _yaw_caps(self, speeds_mps: FloatArray) -> FloatArray:
         """[rad/s] the top yaw rate at each speed."""
@@ -223,7 +224,7 @@ class LocalPlanner:
             return np.full(speeds_mps.shape, self.settings.max_yaw_rate_radps)
         return np.array([self._yaw_cap(float(v)) for v in speeds_mps])
 
-    def choose(
+    def choose(  # noqa: PLR0917 - the inputs of one cycle, each named in the docstring
         self,
         pose: tuple[float, float, float],
         current: tuple[float, float],
@@ -248,14 +249,14 @@ class LocalPlanner:
         reach = max(s.max_speed_mps, s.max_reverse_mps) * s.horizon_s
         half = reach + fp.circumradius_m + max(s.margin_m, s.clearance_cap_m) + 2 * LOCAL_CELL_M
         ox, oy = pose[0] - half, pose[1] - half
-        n = int(math.ceil(2 * half / LOCAL_CELL_M))
+        n = math.ceil(2 * half / LOCAL_CELL_M)
         near = obstacles_m[
             (np.abs(obstacles_m[:, 0] - pose[0]) <= half)
             & (np.abs(obstacles_m[:, 1] - pose[1]) <= half)
         ]
         distance = chamfer_distance(near, ox, oy, LOCAL_CELL_M, n, n)
         bucket = fp.circumradius_m + s.margin_m
-        nb = int(math.ceil(2 * half / bucket))
+        nb = math.ceil(2 * half / bucket)
         start, order = bucket_points(near, ox, oy, bucket, nb, nb)
         local = np.array([ox, oy, LOCAL_CELL_M, n, n, bucket, nb, nb], dtype=np.float64)
         k = velocities.shape[0]
@@ -263,7 +264,15 @@ class LocalPlanner:
         colliding = np.empty(k, dtype=np.bool_)
         v_span = max(s.max_speed_mps + s.max_reverse_mps, 1e-6)
         targets = np.array(
-            [target[0], target[1], target[2], current[0], current[1], v_span, 2 * s.max_yaw_rate_radps]
+            [
+                target[0],
+                target[1],
+                target[2],
+                current[0],
+                current[1],
+                v_span,
+                2 * s.max_yaw_rate_radps,
+            ]
         )
         rollouts(
             np.array(pose, dtype=np.float64),

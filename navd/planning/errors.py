@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from navd.errors import NavdError
 
-__all__ = ["GoalUnreachable", "PlanningError", "StartBlocked"]
+__all__ = ["GoalUnreachableError", "PlanningError", "StartBlockedError"]
 
 
 class PlanningError(NavdError):
     """Base of the errors raised by navd.planning."""
 
 
-class GoalUnreachable(PlanningError):
+class GoalUnreachableError(PlanningError):
     """No route leads to the goal; ``reason`` says why: "off the map", "occupied", "no route"."""
 
     def __init__(self, message: str, reason: str) -> None:
@@ -19,5 +19,5 @@ class GoalUnreachable(PlanningError):
         self.reason = reason
 
 
-class StartBlocked(PlanningError):
+class StartBlockedError(PlanningError):
     """The robot's own cell is off the map or too close to an obstacle to plan from."""

@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from navd.planning._astar_kernels import astar_search, shortcut, trace_back
 from navd.planning.costmap import Costmap
-from navd.planning.errors import GoalUnreachable, StartBlocked
+from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
 __all__ = ["GlobalPlanner", "PlannedPath", "path_length"]
 
@@ -75,9 +75,9 @@ class GlobalPlanner:
         """The cheapest route from ``start_xy_m`` to ``goal_xy_m`` [m, map frame].
 
         Raises:
-            StartBlocked: the start is off the map, or too close to obstacles with no free cell
+            StartBlockedError: the start is off the map, or too close to obstacles with no free cell
                 within START_ESCAPE_M.
-            GoalUnreachable: the goal is off the map ("off the map"), unexplored while
+            GoalUnreachableError: the goal is off the map ("off the map"), unexplored while
                 unknown cells are forbidden ("unknown"), too close to an obstacle or in a
                 keep-out zone ("occupied"), or no route leads there ("no route").
         """
@@ -85,26 +85,27 @@ class GlobalPlanner:
         start = frame.cell_of(*start_xy_m)
         goal = frame.cell_of(*goal_xy_m)
         if not frame.contains(*start):
-            raise StartBlocked(
+            raise StartBlockedError(
                 f"the robot at ({start_xy_m[0]:.2f}, {start_xy_m[1]:.2f}) m is off the map"
             )
         robot_cell = start
         start = self._free_start(costmap, start, start_xy_m)
         where = f"goal ({goal_xy_m[0]:.2f}, {goal_xy_m[1]:.2f}) m"
         if not frame.contains(*goal):
-            raise GoalUnreachable(
-                f"{where} is off the map (x {frame.origin_x_m:.2f}.."
-                f"{frame.origin_x_m + frame.cols * frame.resolution_m:.2f}, y "
-                f"{frame.origin_y_m:.2f}..{frame.origin_y_m + frame.rows * frame.resolution_m:.2f})",
+            x1 = frame.origin_x_m + frame.cols * frame.resolution_m
+            y1 = frame.origin_y_m + frame.rows * frame.resolution_m
+            raise GoalUnreachableError(
+                f"{where} is off the map (x {frame.origin_x_m:.2f}..{x1:.2f}, "
+                f"y {frame.origin_y_m:.2f}..{y1:.2f})",
                 "off the map",
             )
         if not math.isfinite(costmap.cost[goal]) and costmap.unknown[goal]:
-            raise GoalUnreachable(
+            raise GoalUnreachableError(
                 f"{where} is in unexplored space and planning.allow_unknown is false",
                 "unknown",
             )
         if not math.isfinite(costmap.cost[goal]):
-            raise GoalUnreachable(
+            raise GoalUnreachableError(
                 f"{where} is occupied: {costmap.clearance_m[goal]:.2f} m from an obstacle or a "
                 "keep-out zone, too close for the robot",
                 "occupied",
@@ -123,7 +124,7 @@ class GlobalPlanner:
             self._generation,
         )
         if g_cells < 0.0:
-            raise GoalUnreachable(
+            raise GoalUnreachableError(
                 f"no route to {where}: obstacles enclose it or the robot "
                 f"({expanded} cells searched)",
                 "no route",
@@ -147,17 +148,17 @@ class GlobalPlanner:
         stands too close to an obstacle (pushed there, or an obstacle came to it)."""
         if math.isfinite(costmap.cost[start]):
             return start
-        reach = max(int(math.ceil(START_ESCAPE_M / costmap.frame.resolution_m)), 1)
+        reach = max(math.ceil(START_ESCAPE_M / costmap.frame.resolution_m), 1)
         r0, c0 = max(start[0] - reach, 0), max(start[1] - reach, 0)
         window = costmap.cost[r0 : start[0] + reach + 1, c0 : start[1] + reach + 1]
         free = np.argwhere(np.isfinite(window))
         if free.shape[0] == 0:
-            raise StartBlocked(
+            raise StartBlockedError(
                 f"the robot at ({start_xy_m[0]:.2f}, {start_xy_m[1]:.2f}) m is "
                 f"{costmap.clearance_m[start]:.2f} m from an obstacle with no free cell within "
                 f"{START_ESCAPE_M} m to plan from"
             )
-        offsets = free + (r0 - start[0], c0 - start[1])
+        offsets = free + np.array([r0 - start[0], c0 - start[1]])
         nearest = free[np.argmin(np.hypot(offsets[:, 0], offsets[:, 1]))]
         return (int(nearest[0] + r0), int(nearest[1] + c0))
 

@@ -37,7 +37,7 @@ from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
-__all__ = ["GoalState", "NavGoal", "Navigator", "Step"]
+__all__ = ["GoalState", "NavGoal", "Navigator", "PlanRequest", "Step"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -90,6 +90,27 @@ class Step:
     reason: str = ""
     stuck_detected: bool = False
     phase: StuckPhase = StuckPhase.MOVING
+
+
+@dataclass(frozen=True, slots=True)
+class PlanRequest:
+    """Everything A* needs, copied out of the navigator so it can run in another thread."""
+
+    frame: GridFrame
+    obstacles: npt.NDArray[np.bool_]
+    unknown: npt.NDArray[np.bool_]
+    settings: CostmapSettings
+    start_xy_m: tuple[float, float]
+    goal_xy_m: tuple[float, float]
+
+    def solve(self, planner: GlobalPlanner) -> PlannedPath:
+        """Inflate the layers and run A* (heavy).
+
+        Raises:
+            GoalUnreachableError, StartBlockedError: from A*.
+        """
+        costmap = build_costmap(self.frame, self.obstacles, self.unknown, self.settings)
+        return planner.plan(costmap, self.start_xy_m, self.goal_xy_m)
 
 
 def _wrap(angle: float) -> float:
@@ -170,7 +191,11 @@ class Navigator:
         return goal
 
     def set_map(
-        self, occupancy: npt.NDArray[np.int8], resolution_m: float, origin_x_m: float, origin_y_m: float
+        self,
+        occupancy: npt.NDArray[np.int8],
+        resolution_m: float,
+        origin_x_m: float,
+        origin_y_m: float,
     ) -> None:
         """Take the SLAM map (-1 unknown, 0..100 % occupied; row = y)."""
         rows, cols = occupancy.shape
@@ -219,12 +244,27 @@ class Navigator:
         """A* from ``pose`` to the goal on a costmap of the current layers (heavy).
 
         Raises:
-            PlanningError: no goal, or GoalUnreachable / StartBlocked from A*.
+            PlanningError: no goal, or GoalUnreachableError / StartBlockedError from A*.
+        """
+        return self.request(now, pose).solve(self.global_planner)
+
+    def request(self, now: float, pose: tuple[float, float, float]) -> PlanRequest:
+        """A snapshot of what A* needs (cheap): solve it without holding the navigator.
+
+        Raises:
+            PlanningError: there is no goal.
         """
         if self.goal is None:
             raise PlanningError("no goal to plan for")
-        costmap = self.costmap(now, pose)
-        return self.global_planner.plan(costmap, (pose[0], pose[1]), (self.goal.x_m, self.goal.y_m))
+        frame, obstacles, unknown = self.layers(now, pose)
+        return PlanRequest(
+            frame,
+            obstacles,
+            unknown,
+            self.costmap_settings,
+            (pose[0], pose[1]),
+            (self.goal.x_m, self.goal.y_m),
+        )
 
     def accept_plan(self, now: float, path: PlannedPath) -> None:
         """Follow ``path`` from now on."""
@@ -249,8 +289,11 @@ class Navigator:
             self.state = GoalState.FAILED
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
-    def costmap(self, now: float, pose: tuple[float, float, float]) -> Costmap:
-        """The costmap of the layers now, on a frame holding the map, the robot and the goal."""
+    def layers(
+        self, now: float, pose: tuple[float, float, float]
+    ) -> tuple[GridFrame, npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
+        """(frame, obstacle cells, unknown cells) of all layers now, on a frame holding the
+        map, the robot and the goal."""
         frame = self._frame(pose)
         obstacles = np.zeros(frame.shape, dtype=np.bool_)
         unknown = np.ones(frame.shape, dtype=np.bool_)
@@ -264,7 +307,11 @@ class Navigator:
         self._obstacles.reframe(frame)
         obstacles |= self._obstacles.active(now)
         obstacles |= keep_out_mask(frame, self.config.planning.keep_out_zones)
-        return build_costmap(frame, obstacles, unknown, self.costmap_settings)
+        return frame, obstacles, unknown
+
+    def costmap(self, now: float, pose: tuple[float, float, float]) -> Costmap:
+        """The inflated costmap of all layers now."""
+        return build_costmap(*self.layers(now, pose), self.costmap_settings)
 
     # --- control ---------------------------------------------------------------------------
 
@@ -280,7 +327,8 @@ class Navigator:
         distance = math.hypot(goal.x_m - pose[0], goal.y_m - pose[1])
         aligning = distance <= planning.goal_xy_tolerance_m
         if aligning and (
-            goal.yaw_rad is None or abs(_wrap(goal.yaw_rad - pose[2])) <= planning.goal_yaw_tolerance_rad
+            goal.yaw_rad is None
+            or abs(_wrap(goal.yaw_rad - pose[2])) <= planning.goal_yaw_tolerance_rad
         ):
             self.state = GoalState.REACHED
             self._command = (0.0, 0.0)
@@ -314,10 +362,19 @@ class Navigator:
                 min_speed_mps=stuck.min_speed_mps,
                 backward=stuck.phase is StuckPhase.BACKING,
             )
-        choice = self.local.choose(pose, self._command, self._local_obstacles(pose), self._field, target, window)
+        choice = self.local.choose(
+            pose, self._command, self._local_obstacles(pose), self._field, target, window
+        )
         if choice is None:
             self._command = (0.0, 0.0)
-            return Step(0.0, 0.0, self.state, remaining, reason="every trajectory collides", phase=stuck.phase)
+            return Step(
+                0.0,
+                0.0,
+                self.state,
+                remaining,
+                reason="every trajectory collides",
+                phase=stuck.phase,
+            )
         self._command = (choice.linear_mps, choice.angular_radps)
         speed = max(abs(choice.linear_mps), planning.min_linear_speed_mps, 1e-3)
         return Step(
@@ -341,11 +398,26 @@ class Navigator:
                 f"stuck: no progress after {limit} replans "
                 f"(max_stuck_time_s {self.config.planning.max_stuck_time_s} s each)"
             )
-            return Step(0.0, 0.0, self.state, remaining, reason=self._fail_reason, stuck_detected=True)
+            return Step(
+                0.0, 0.0, self.state, remaining, reason=self._fail_reason, stuck_detected=True
+            )
         if self._obstacles is not None:
             self._obstacles.clear_disc(pose[0], pose[1], STUCK_CLEAR_RADIUS_M)
         self._plan_reason = "stuck recovery"
-        return Step(0.0, 0.0, self.state, remaining, reason="stuck: replanning", stuck_detected=True, phase=StuckPhase.STUCK)
+        return Step(
+            0.0,
+            0.0,
+            self.state,
+            remaining,
+            reason="stuck: replanning",
+            stuck_detected=True,
+            phase=StuckPhase.STUCK,
+        )
+
+    @property
+    def stuck_replans(self) -> int:
+        """How many times the robot has been stuck on this goal."""
+        return self._stuck_replans
 
     # --- geometry helpers ------------------------------------------------------------------
 
@@ -371,16 +443,16 @@ class Navigator:
         # Snap to the anchor's cell lattice so layers can move between frames.
         ox = ax + math.floor((lo_x - ax) / res) * res
         oy = ay + math.floor((lo_y - ay) / res) * res
-        cols = int(math.ceil((hi_x - ox) / res))
-        rows = int(math.ceil((hi_y - oy) / res))
+        cols = math.ceil((hi_x - ox) / res)
+        rows = math.ceil((hi_y - oy) / res)
         if self._obstacles is not None:
             old = self._obstacles.frame
             if old.resolution_m == res:
                 # Never shrink below the obstacle layer's frame: its marks stay.
                 ox2 = min(ox, old.origin_x_m)
                 oy2 = min(oy, old.origin_y_m)
-                cols = int(round((max(ox + cols * res, old.origin_x_m + old.cols * res) - ox2) / res))
-                rows = int(round((max(oy + rows * res, old.origin_y_m + old.rows * res) - oy2) / res))
+                cols = round((max(ox + cols * res, old.origin_x_m + old.cols * res) - ox2) / res)
+                rows = round((max(oy + rows * res, old.origin_y_m + old.rows * res) - oy2) / res)
                 ox, oy = ox2, oy2
         return GridFrame(res, ox, oy, rows, cols)
 
@@ -472,8 +544,8 @@ def _to_map(pose: tuple[float, float, float], points: FloatArray) -> FloatArray:
 
 def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
     """The slices of ``outer`` covering ``inner`` (same lattice, inner inside outer)."""
-    r = int(round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m))
-    c = int(round((inner.origin_x_m - outer.origin_x_m) / outer.resolution_m))
+    r = round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m)
+    c = round((inner.origin_x_m - outer.origin_x_m) / outer.resolution_m)
     return slice(r, r + inner.rows), slice(c, c + inner.cols)
 
 
@@ -487,5 +559,5 @@ def _cells_near(
     r1, c1 = min(r1 + 1, frame.rows), min(c1 + 1, frame.cols)
     if r1 <= r0 or c1 <= c0:
         return np.empty((0, 2))
-    cells = np.argwhere(mask[r0:r1, c0:c1]) + (r0, c0)
+    cells = np.argwhere(mask[r0:r1, c0:c1]) + np.array([r0, c0])
     return frame.centers_of(cells.astype(np.int64))

@@ -36,11 +36,13 @@ class Drive:
     time_s: float = 0.0
 
 
-def rasterize(walls: FloatArray, resolution_m: float, lo: tuple[float, float], shape: tuple[int, int]) -> npt.NDArray[np.int8]:
+def rasterize(
+    walls: FloatArray, resolution_m: float, lo: tuple[float, float], shape: tuple[int, int]
+) -> npt.NDArray[np.int8]:
     """An occupancy grid (0 free, 100 occupied) of wall segments."""
     grid = np.zeros(shape, dtype=np.int8)
     for x0, y0, x1, y1 in walls:
-        n = int(math.ceil(math.hypot(x1 - x0, y1 - y0) / (0.25 * resolution_m))) + 1
+        n = math.ceil(math.hypot(x1 - x0, y1 - y0) / (0.25 * resolution_m)) + 1
         t = np.linspace(0.0, 1.0, n)
         cols = np.floor((x0 + t * (x1 - x0) - lo[0]) / resolution_m).astype(int)
         rows = np.floor((y0 + t * (y1 - y0) - lo[1]) / resolution_m).astype(int)
@@ -49,13 +51,15 @@ def rasterize(walls: FloatArray, resolution_m: float, lo: tuple[float, float], s
     return grid
 
 
-def footprint_clearance(walls: FloatArray, fp: Footprint, pose: tuple[float, float, float]) -> float:
+def footprint_clearance(
+    walls: FloatArray, fp: Footprint, pose: tuple[float, float, float]
+) -> float:
     """[m] distance from the footprint at ``pose`` to the nearest wall (sampled walls)."""
     if walls.shape[0] == 0:
         return math.inf
     pts = []
     for x0, y0, x1, y1 in walls:
-        n = int(math.ceil(math.hypot(x1 - x0, y1 - y0) / 0.01)) + 1
+        n = math.ceil(math.hypot(x1 - x0, y1 - y0) / 0.01) + 1
         t = np.linspace(0.0, 1.0, n)
         pts.append(np.column_stack([x0 + t * (x1 - x0), y0 + t * (y1 - y0)]))
     p = np.concatenate(pts) - np.array(pose[:2])
@@ -69,7 +73,7 @@ def footprint_clearance(walls: FloatArray, fp: Footprint, pose: tuple[float, flo
     return float(d.min())
 
 
-def drive(  # noqa: PLR0913
+def drive(
     config: NavdConfig,
     walls: FloatArray,
     start: tuple[float, float, float],
@@ -84,7 +88,10 @@ def drive(  # noqa: PLR0913
     res = 0.05
     if known_map:
         lo = (map_box[0], map_box[1])
-        shape = (int(round((map_box[3] - map_box[1]) / res)), int(round((map_box[2] - map_box[0]) / res)))
+        shape = (
+            round((map_box[3] - map_box[1]) / res),
+            round((map_box[2] - map_box[0]) / res),
+        )
         nav.set_map(rasterize(walls, res, lo, shape), res, lo[0], lo[1])
     nav.set_goal(goal)
     fp = Footprint.from_config(config.robot)

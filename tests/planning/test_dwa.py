@@ -25,9 +25,13 @@ def brute_clearance(points: np.ndarray, fp: Footprint, pose: np.ndarray) -> floa
     if fp.kind == 0:
         return float(np.hypot(*local.T).min() - fp.half_length_m)
     # Distance to a rectangle: clamp each point into the box; inside counts negative depth.
-    clamped = np.clip(local, [-fp.half_length_m, -fp.half_width_m], [fp.half_length_m, fp.half_width_m])
+    clamped = np.clip(
+        local, [-fp.half_length_m, -fp.half_width_m], [fp.half_length_m, fp.half_width_m]
+    )
     outside = np.hypot(*(local - clamped).T)
-    depth = np.minimum(fp.half_length_m - np.abs(local[:, 0]), fp.half_width_m - np.abs(local[:, 1]))
+    depth = np.minimum(
+        fp.half_length_m - np.abs(local[:, 0]), fp.half_width_m - np.abs(local[:, 1])
+    )
     return float(np.where(outside > 0, outside, -depth).min())
 
 
@@ -81,10 +85,12 @@ def test_dwa_reports_none_when_boxed_in() -> None:
 
 
 def test_dwa_lets_a_robot_inside_the_margin_move_away() -> None:
-    lp, s = planner("circle")
+    lp, _s = planner("circle")
     wall = np.column_stack([np.full(50, 0.26), np.linspace(-1, 1, 50)])  # 0.06 m ahead: < margin
     path = path_field(np.array([[0.0, 0.0], [-3.0, 0.0]]))
-    choice = lp.choose((0.0, 0.0, 0.0), (0.0, 0.0), wall, path, (-3.0, 0.0, 0.0), Window(0.5, backward=True))
+    choice = lp.choose(
+        (0.0, 0.0, 0.0), (0.0, 0.0), wall, path, (-3.0, 0.0, 0.0), Window(0.5, backward=True)
+    )
     assert choice is not None and choice.linear_mps < 0.0
 
 

@@ -12,13 +12,15 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
-from navd.planning.errors import GoalUnreachable, StartBlocked
+from navd.planning.errors import GoalUnreachableError, StartBlockedError
 from navd.planning.global_planner import GlobalPlanner
 
 RES = 0.1
 
 
-def dijkstra_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int], w: float) -> float:
+def dijkstra_cost(
+    cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int], w: float
+) -> float:
     """The route cost [cells] by scipy's Dijkstra on the same graph, built independently."""
     cost = cost.astype(np.float64)
     rows, cols = cost.shape
@@ -50,7 +52,13 @@ def costmap_of(cost: np.ndarray) -> Costmap:
     rows, cols = cost.shape
     frame = GridFrame(RES, 0.0, 0.0, rows, cols)
     blocked = ~np.isfinite(cost)
-    return Costmap(frame, blocked, np.zeros(cost.shape, np.float32), cost.astype(np.float32), np.zeros(cost.shape, bool))
+    return Costmap(
+        frame,
+        blocked,
+        np.zeros(cost.shape, np.float32),
+        cost.astype(np.float32),
+        np.zeros(cost.shape, bool),
+    )
 
 
 def center(cell: tuple[int, int]) -> tuple[float, float]:
@@ -79,7 +87,7 @@ def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> No
     expected = dijkstra_cost(cost, start, goal, w)
     planner = GlobalPlanner(cost_weight=w, smooth=False)
     if math.isinf(expected):
-        with pytest.raises(GoalUnreachable, match="no route") as info:
+        with pytest.raises(GoalUnreachableError, match="no route") as info:
             planner.plan(costmap_of(cost), center(start), center(goal))
         assert info.value.reason == "no route"
         return
@@ -108,7 +116,7 @@ def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:
     planner = GlobalPlanner(cost_weight=3.0, smooth=True)
     try:
         path = planner.plan(costmap, center(tuple(start)), center(tuple(goal)))
-    except GoalUnreachable:
+    except GoalUnreachableError:
         return
     # Sample every segment densely: every point lies in a cell the robot's centre may use.
     for a, b in zip(path.points_m[:-1], path.points_m[1:], strict=True):
@@ -124,7 +132,9 @@ def test_inflation_keeps_routes_off_walls() -> None:
     obstacles = np.zeros((rows, cols), bool)
     obstacles[0, :] = obstacles[-1, :] = True
     frame = GridFrame(RES, 0.0, 0.0, rows, cols)
-    costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), CostmapSettings(0.2, 1.5, 3.0, True, 0.5, 65))
+    costmap = build_costmap(
+        frame, obstacles, np.zeros_like(obstacles), CostmapSettings(0.2, 1.5, 3.0, True, 0.5, 65)
+    )
     path = GlobalPlanner(cost_weight=5.0, smooth=False).plan(costmap, (0.5, 0.6), (7.5, 0.6))
     assert path.points_m[:, 1].max() > 1.3  # it moves out towards the middle (y = 1.5)
 
@@ -141,7 +151,7 @@ def test_unreachable_goals_raise_with_the_reason(goal, reason, match) -> None:
     cost = np.zeros((40, 40), np.float32)
     cost[10, 10] = np.inf  # the goal cell itself
     cost[20:31, 20] = cost[20:31, 30] = cost[20, 20:31] = cost[30, 20:31] = np.inf  # a closed box
-    with pytest.raises(GoalUnreachable, match=match) as info:
+    with pytest.raises(GoalUnreachableError, match=match) as info:
         GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap_of(cost), (0.5, 0.5), goal)
     assert info.value.reason == reason
 
@@ -150,8 +160,10 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
     frame = GridFrame(RES, 0.0, 0.0, 20, 20)
     unknown = np.zeros((20, 20), bool)
     unknown[15:, 15:] = True
-    costmap = build_costmap(frame, np.zeros((20, 20), bool), unknown, CostmapSettings(0.1, 0.3, 3.0, False, 0.5, 65))
-    with pytest.raises(GoalUnreachable, match="unexplored") as info:
+    costmap = build_costmap(
+        frame, np.zeros((20, 20), bool), unknown, CostmapSettings(0.1, 0.3, 3.0, False, 0.5, 65)
+    )
+    with pytest.raises(GoalUnreachableError, match="unexplored") as info:
         GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap, (0.5, 0.5), (1.75, 1.75))
     assert info.value.reason == "unknown"
 
@@ -159,7 +171,9 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
 def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
     cost = np.zeros((20, 20), np.float32)
     cost[:, :3] = np.inf
-    path = GlobalPlanner(cost_weight=1.0, smooth=False).plan(costmap_of(cost), (0.15, 1.0), (1.5, 1.0))
+    path = GlobalPlanner(cost_weight=1.0, smooth=False).plan(
+        costmap_of(cost), (0.15, 1.0), (1.5, 1.0)
+    )
     assert tuple(path.points_m[0]) == (0.15, 1.0)
     assert path.points_m[1][0] == pytest.approx(0.35)  # first free column
 
@@ -167,7 +181,7 @@ def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
 def test_start_off_the_map_or_walled_in_is_refused() -> None:
     cost = np.full((20, 20), np.inf, np.float32)
     planner = GlobalPlanner(cost_weight=1.0, smooth=False)
-    with pytest.raises(StartBlocked, match="off the map"):
+    with pytest.raises(StartBlockedError, match="off the map"):
         planner.plan(costmap_of(cost), (-1.0, 0.5), (0.5, 0.5))
-    with pytest.raises(StartBlocked, match="no free cell"):
+    with pytest.raises(StartBlockedError, match="no free cell"):
         planner.plan(costmap_of(cost), (1.0, 1.0), (0.5, 0.5))

@@ -23,7 +23,9 @@ def config(**planning: object) -> NavdConfig:
 @pytest.mark.parametrize("goal", [(3.0, 0.0), (2.0, 2.0), (-2.0, 1.0)])
 def test_reaches_a_goal_in_free_space_and_stops_within_tolerance(goal) -> None:
     cfg = config()
-    result = drive(cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", *goal), max_time_s=40, known_map=False)
+    result = drive(
+        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", *goal), max_time_s=40, known_map=False
+    )
     assert result.state is GoalState.REACHED
     x, y, _ = result.poses[-1]
     assert math.hypot(x - goal[0], y - goal[1]) <= cfg.planning.goal_xy_tolerance_m
@@ -33,16 +35,23 @@ def test_reaches_a_goal_in_free_space_and_stops_within_tolerance(goal) -> None:
 @pytest.mark.parametrize("yaw", [math.pi / 2, math.pi, -2.5])
 def test_turns_to_the_target_heading(yaw: float) -> None:
     cfg = config()
-    result = drive(cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 2.0, 0.0, yaw), max_time_s=40, known_map=False)
+    result = drive(
+        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 2.0, 0.0, yaw), max_time_s=40, known_map=False
+    )
     assert result.state is GoalState.REACHED
     x, y, heading = result.poses[-1]
     assert math.hypot(x - 2.0, y) <= cfg.planning.goal_xy_tolerance_m
-    assert abs((heading - yaw + math.pi) % (2 * math.pi) - math.pi) <= cfg.planning.goal_yaw_tolerance_rad
+    assert (
+        abs((heading - yaw + math.pi) % (2 * math.pi) - math.pi)
+        <= cfg.planning.goal_yaw_tolerance_rad
+    )
 
 
 def test_drives_through_the_room_without_touching_a_wall() -> None:
     cfg = config()
-    result = drive(cfg, WALLS, (-5.0, -3.0, 0.0), NavGoal("g", 0.0, 2.5, math.pi / 2), max_time_s=80)
+    result = drive(
+        cfg, WALLS, (-5.0, -3.0, 0.0), NavGoal("g", 0.0, 2.5, math.pi / 2), max_time_s=80
+    )
     assert result.state is GoalState.REACHED
     assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
 
@@ -51,7 +60,9 @@ def test_an_obstacle_missing_from_the_map_blocks_the_route_and_is_driven_around(
     # The map is empty; a wall across the straight route is only seen by the lidar.
     wall = np.array([(1.5, -1.0, 1.5, 1.0)])
     cfg = config()
-    result = drive(cfg, wall, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False)
+    result = drive(
+        cfg, wall, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False
+    )
     assert result.state is GoalState.REACHED
     assert "route blocked by an obstacle" in result.plan_reasons
     assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
@@ -62,9 +73,14 @@ def test_a_robot_facing_a_dead_end_backs_out_and_replans() -> None:
     # A narrow pocket (0.6 m) the 0.4 x 0.3 m robot cannot turn in; the goal is behind its end.
     pocket = np.array([(1.2, 0.3, 2.0, 0.3), (1.2, -0.3, 2.0, -0.3), (2.0, -0.3, 2.0, 0.3)])
     cfg = config(
-        stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=8.0, backup_distance_m=0.6
+        stuck_time_s=1.0,
+        stuck_time_force_backward_s=2.0,
+        max_stuck_time_s=8.0,
+        backup_distance_m=0.6,
     )
-    result = drive(cfg, pocket, (1.6, 0.0, 0.0), NavGoal("g", 3.5, 0.0), max_time_s=80, map_box=(-1, -2, 5, 2))
+    result = drive(
+        cfg, pocket, (1.6, 0.0, 0.0), NavGoal("g", 3.5, 0.0), max_time_s=80, map_box=(-1, -2, 5, 2)
+    )
     assert result.state is GoalState.REACHED
     phases = [s.phase for s in result.steps]
     assert StuckPhase.BACKING in phases
@@ -75,9 +91,13 @@ def test_a_robot_facing_a_dead_end_backs_out_and_replans() -> None:
 
 
 def test_an_unreachable_goal_fails_with_the_reason_after_the_patience() -> None:
-    box = np.array([(2.0, -0.5, 3.0, -0.5), (3.0, -0.5, 3.0, 0.5), (3.0, 0.5, 2.0, 0.5), (2.0, 0.5, 2.0, -0.5)])
+    box = np.array(
+        [(2.0, -0.5, 3.0, -0.5), (3.0, -0.5, 3.0, 0.5), (3.0, 0.5, 2.0, 0.5), (2.0, 0.5, 2.0, -0.5)]
+    )
     cfg = config(stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=3.0)
-    result = drive(cfg, box, (0.0, 0.0, 0.0), NavGoal("g", 2.5, 0.0), max_time_s=20, map_box=(-1, -2, 5, 2))
+    result = drive(
+        cfg, box, (0.0, 0.0, 0.0), NavGoal("g", 2.5, 0.0), max_time_s=20, map_box=(-1, -2, 5, 2)
+    )
     assert result.state is GoalState.FAILED
     assert "no route" in result.steps[-1].reason
     assert all(c == (0.0, 0.0) for c in result.commands)
@@ -93,7 +113,9 @@ def test_stuck_for_good_fails_after_the_allowed_replans() -> None:
     cfg = config(
         stuck_time_s=0.5, stuck_time_force_backward_s=1.0, max_stuck_time_s=1.5, max_stuck_replans=1
     )
-    result = drive(cfg, ring, (0.0, 0.0, math.pi / 2), NavGoal("g", 0.0, -3.0), max_time_s=20, known_map=False)
+    result = drive(
+        cfg, ring, (0.0, 0.0, math.pi / 2), NavGoal("g", 0.0, -3.0), max_time_s=20, known_map=False
+    )
     assert result.state is GoalState.FAILED
     assert "stuck" in result.steps[-1].reason
     assert sum(s.stuck_detected for s in result.steps) == 2

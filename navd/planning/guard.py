@@ -1,0 +1,188 @@
+"""The collision guard: independent of the planner, it zeroes or slows a command that would
+bring scan points into the stop or slow-down zone (Nav2's collision monitor idea).
+
+For a command (v, ω) the footprint is swept along its arc over the time the robot needs to
+brake (|v| / max linear deceleration, |ω| / max angular deceleration, plus one command
+period), and the smallest distance from the swept footprint to any scan point is compared
+with ``safety.stop_distance_m`` and ``safety.slowdown_distance_m``. Only motion that brings the
+robot closer than it already is counts: backing away from a wall is always allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from navd.config import NavdConfig
+from navd.lifecycle.messages import LaserScan
+from navd.lifecycle.module import Module, ModuleContext
+from navd.planning._dwa_kernels import footprint_distance
+from navd.planning.footprint import Footprint
+from navd.slam.pose import Pose2
+from navd.slam.scan import scan_points
+
+__all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# The sweep is sampled at least this finely [m of travel] and [rad of turn].
+SWEEP_STEP_M = 0.02
+SWEEP_STEP_RAD = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class GuardSettings:
+    """The guard's plain values (see the module docstring)."""
+
+    footprint: Footprint
+    stop_m: float
+    slowdown_m: float
+    slowdown_factor: float
+    linear_decel_mps2: float
+    angular_decel_radps2: float
+    period_s: float
+    enabled: bool
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> GuardSettings:
+        """The settings the safety, robot and chassis sections describe."""
+        safety, robot = config.safety, config.robot
+        return cls(
+            footprint=Footprint.from_config(robot),
+            stop_m=safety.stop_distance_m,
+            slowdown_m=safety.slowdown_distance_m,
+            slowdown_factor=safety.slowdown_factor,
+            linear_decel_mps2=robot.max_linear_accel_mps2,
+            angular_decel_radps2=robot.max_angular_accel_radps2,
+            period_s=1.0 / config.chassis.command_rate_hz,
+            enabled=safety.use_collisions,
+        )
+
+
+@njit(cache=True, nogil=True)
+def _sweep_clearance(  # noqa: PLR0917
+    points: FloatArray,
+    v: float,
+    w: float,
+    duration: float,
+    samples: int,
+    kind: int,
+    half_length: float,
+    half_width: float,
+) -> tuple[float, float]:
+    """[m] (clearance now, smallest clearance along the sweep) of the footprint to the points
+    (robot frame), the footprint moving at (v, ω) for ``duration`` [s]."""
+    now = 1e9
+    for q in range(points.shape[0]):
+        now = min(
+            now,
+            footprint_distance(
+                points[q, 0], points[q, 1], 0.0, 0.0, 1.0, 0.0, kind, half_length, half_width
+            ),
+        )
+    swept = now
+    for s in range(1, samples + 1):
+        t = duration * s / samples
+        yaw = w * t
+        if abs(w) < 1e-9:
+            x = v * t
+            y = 0.0
+        else:
+            x = v / w * math.sin(yaw)
+            y = v / w * (1.0 - math.cos(yaw))
+        c = math.cos(yaw)
+        sn = math.sin(yaw)
+        for q in range(points.shape[0]):
+            swept = min(
+                swept,
+                footprint_distance(
+                    points[q, 0], points[q, 1], x, y, c, sn, kind, half_length, half_width
+                ),
+            )
+    return now, swept
+
+
+def guard_scale(
+    points_m: FloatArray, linear_mps: float, angular_radps: float, s: GuardSettings
+) -> tuple[float, str]:
+    """The factor (0, the slow-down factor or 1) for a command, and why.
+
+    Args:
+        points_m: [m] M x 2 scan points in the robot frame.
+        linear_mps, angular_radps: the command.
+        s: the guard's settings.
+    """
+    if not s.enabled or points_m.shape[0] == 0 or (linear_mps == 0.0 and angular_radps == 0.0):
+        return 1.0, ""
+    braking = max(
+        abs(linear_mps) / s.linear_decel_mps2, abs(angular_radps) / s.angular_decel_radps2
+    )
+    duration = braking + s.period_s
+    travel = abs(linear_mps) * duration + s.footprint.circumradius_m * abs(angular_radps) * duration
+    samples = max(
+        math.ceil(travel / SWEEP_STEP_M),
+        math.ceil(abs(angular_radps) * duration / SWEEP_STEP_RAD),
+        1,
+    )
+    fp = s.footprint
+    now, swept = _sweep_clearance(
+        points_m,
+        linear_mps,
+        angular_radps,
+        duration,
+        samples,
+        fp.kind,
+        fp.half_length_m,
+        fp.half_width_m,
+    )
+    if swept >= now - 1e-6:
+        return 1.0, ""  # moving away, or along: nothing comes closer
+    if swept < s.stop_m:
+        return 0.0, f"obstacle {max(swept, 0.0):.2f} m from the footprint on the way: stop"
+    if swept < s.slowdown_m:
+        return s.slowdown_factor, f"obstacle {swept:.2f} m from the footprint on the way: slow"
+    return 1.0, ""
+
+
+class CollisionGuard(Module):
+    """Keeps the latest scan in the robot frame; the safety gate asks it about each command."""
+
+    def __init__(self) -> None:
+        super().__init__("collision_guard")
+        self._points: FloatArray = np.empty((0, 2))
+        self._settings: tuple[NavdConfig, GuardSettings] | None = None
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        ctx.subscribe(LaserScan, self._on_scan)
+
+    async def on_activate(self) -> None:
+        # Compile (or load) the kernel now, not on the first command of a moving robot.
+        guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, GuardSettings.from_config(self.ctx.config))
+
+    def _on_scan(self, scan: LaserScan) -> None:
+        slam = self.ctx.config.slam
+        points = scan_points(
+            scan.ranges,
+            scan.angle_min,
+            scan.angle_increment,
+            range_min=max(scan.range_min, slam.min_range_m),
+            range_max=scan.range_max,
+            mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
+            max_range=slam.max_range_m,
+        )
+        # Only what a braking robot can reach matters: keep the points within 3 m.
+        hits = points.hits
+        self._points = hits[np.hypot(hits[:, 0], hits[:, 1]) <= 3.0]
+
+    def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
+        """The command scaled by the guard, and why ("" when untouched)."""
+        config = self.ctx.config
+        if self._settings is None or self._settings[0] is not config:
+            self._settings = (config, GuardSettings.from_config(config))
+        scale, reason = guard_scale(self._points, linear_mps, angular_radps, self._settings[1])
+        return linear_mps * scale, angular_radps * scale, reason

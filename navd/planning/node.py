@@ -1,0 +1,267 @@
+"""The planner module: goals in, velocity commands, routes and goal progress out.
+
+Every ``planning.control_rate_hz`` tick (on the event loop, cheap) asks the navigator whether
+the route must be planned; if so A* runs in the ``global_plan`` worker slot on a snapshot of
+the layers, while the ``local_plan`` slot runs one navigator step (goal checks, stuck
+handling, velocity profile, DWA) and returns the VelocityCommand. Map updates and scans feed
+the layers in the ``planning_layers`` slot. The navigator is shared by these threads under one
+lock, held only for cheap work: A* runs outside it.
+
+The robot is never driven on an old pose: when the last PoseEstimate is older than
+``POSE_TIMEOUT_S`` the step commands zero.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+from navd.lifecycle.messages import (
+    CancelGoal,
+    ConfigApplied,
+    Goal,
+    GoalStatus,
+    LaserScan,
+    MapUpdate,
+    Message,
+    Path,
+    PoseEstimate,
+    StuckDetected,
+    VelocityCommand,
+)
+from navd.lifecycle.module import Module, ModuleContext
+from navd.planning.errors import PlanningError
+from navd.planning.navigator import GoalState, NavGoal, Navigator, PlanRequest, Step
+from navd.planning.warmup import warm_up
+from navd.slam.pose import Pose2
+from navd.slam.scan import scan_points
+
+__all__ = ["PlannerNode"]
+
+POSE_TIMEOUT_S = 0.5
+STATUS_PERIOD_S = 0.5
+SOURCE = "planner"
+
+
+class PlannerNode(Module):
+    """Runs the Navigator on live goals, poses, maps and scans."""
+
+    def __init__(self) -> None:
+        super().__init__("planner")
+        self._lock = threading.Lock()
+        self._pose: tuple[float, float, float] | None = None
+        self._pose_stamp = -math.inf
+        self._planning = False
+        self._status_at = -math.inf
+        self._last_state: GoalState | None = None
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        self.nav = Navigator(ctx.config)
+        ctx.subscribe(Goal, self._on_goal)
+        ctx.subscribe(CancelGoal, self._on_cancel)
+        ctx.subscribe(PoseEstimate, self._on_pose)
+        ctx.subscribe(MapUpdate, self._on_map)
+        ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(ConfigApplied, self._on_config)
+
+    async def on_activate(self) -> None:
+        self.ctx.submit("local_plan", warm_up)
+        self.ctx.every(1.0 / self.ctx.config.planning.control_rate_hz, self._tick, name="control")
+
+    async def on_deactivate(self) -> None:
+        with self._lock:
+            active = self.nav.cancel()
+        if active is not None:
+            self._stop("the daemon is stopping")
+            self._status(active.goal_id, GoalState.CANCELED, reason="the daemon is stopping")
+
+    # --- inputs (event loop) ---------------------------------------------------------------
+
+    def _on_goal(self, goal: Goal) -> None:
+        with self._lock:
+            previous = self.nav.cancel()
+            self.nav.set_goal(NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad))
+        if previous is not None and previous.goal_id != goal.goal_id:
+            self._status(
+                previous.goal_id, GoalState.CANCELED, reason=f"replaced by {goal.goal_id!r}"
+            )
+        self.ctx.log.info("goal", goal_id=goal.goal_id, x=goal.x_m, y=goal.y_m, yaw=goal.yaw_rad)
+        self._status(goal.goal_id, GoalState.ACTIVE)
+
+    def _on_cancel(self, cancel: CancelGoal) -> None:
+        with self._lock:
+            goal = self.nav.goal
+            if goal is None or (cancel.goal_id is not None and cancel.goal_id != goal.goal_id):
+                return
+            active = self.nav.cancel()
+        if active is not None:
+            self._stop("goal canceled")
+            self._status(active.goal_id, GoalState.CANCELED, reason="canceled by a client")
+            self.ctx.log.info("goal_canceled", goal_id=active.goal_id)
+
+    def _on_pose(self, pose: PoseEstimate) -> None:
+        self._pose = (pose.x_m, pose.y_m, pose.yaw_rad)
+        self._pose_stamp = pose.stamp
+
+    def _on_map(self, update: MapUpdate) -> None:
+        def job() -> None:
+            with self._lock:
+                self.nav.set_map(
+                    np.asarray(update.occupancy),
+                    update.resolution_m,
+                    update.origin_x_m,
+                    update.origin_y_m,
+                )
+
+        self.ctx.submit("planning_map", job)
+
+    def _on_scan(self, scan: LaserScan) -> None:
+        pose = self._pose
+        if pose is None:
+            return
+        slam = self.ctx.config.slam
+
+        def job() -> None:
+            points = scan_points(
+                scan.ranges,
+                scan.angle_min,
+                scan.angle_increment,
+                range_min=max(scan.range_min, slam.min_range_m),
+                range_max=scan.range_max,
+                mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
+                max_range=slam.max_range_m,
+            )
+            with self._lock:
+                self.nav.add_scan(pose, points.hits, points.misses, scan.stamp)
+
+        self.ctx.submit("planning_scan", job)
+
+    def _on_config(self, applied: ConfigApplied) -> None:
+        if any(
+            key.split(".")[0] in ("planning", "robot", "safety") for key in applied.changed_keys
+        ):
+            with self._lock:
+                self.nav.configure(applied.config)
+
+    # --- control (event loop, then workers) ------------------------------------------------
+
+    def _tick(self, now: float) -> None:
+        with self._lock:
+            if self.nav.state is not GoalState.ACTIVE:
+                return
+        pose = self._pose
+        if pose is None or now - self._pose_stamp > POSE_TIMEOUT_S:
+            self._stop("no fresh pose estimate")
+            return
+        with self._lock:
+            reason = None if self._planning else self.nav.plan_reason(now, pose)
+            request = self.nav.request(now, pose) if reason is not None else None
+        if request is not None:
+            self._planning = True
+            self.ctx.submit("global_plan", lambda: self._plan(now, request, reason or ""))
+        self.ctx.submit("local_plan", lambda: self._step(now, pose))
+
+    def _plan(self, now: float, request: PlanRequest, reason: str) -> tuple[Message, ...]:
+        """Worker: A* on the snapshot, then hand the route to the navigator."""
+        try:
+            path = request.solve(self.nav.global_planner)
+        except PlanningError as err:
+            with self._lock:
+                self.nav.plan_failed(now, err)
+                self._planning = False
+            self.ctx.log.warning("plan_failed", reason=reason, error=str(err))
+            return ()
+        with self._lock:
+            goal = self.nav.goal
+            self._planning = False
+            if goal is None or (goal.x_m, goal.y_m) != request.goal_xy_m:
+                return ()  # the goal changed meanwhile: this route is for the old one
+            self.nav.accept_plan(now, path)
+        self.ctx.log.info(
+            "planned",
+            reason=reason,
+            length_m=round(path.length_m, 2),
+            points=len(path.points_m),
+            expanded=path.cells_expanded,
+        )
+        stamp = self.ctx.clock.now()
+        return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
+
+    def _step(self, now: float, pose: tuple[float, float, float]) -> tuple[Message, ...]:
+        """Worker: one navigator step; the command, and status when it is due."""
+        with self._lock:
+            goal = self.nav.goal
+            if goal is None or self.nav.state is not GoalState.ACTIVE:
+                return ()
+            step = self.nav.step(now, pose)
+            replans = self.nav.stuck_replans
+        stamp = self.ctx.clock.now()
+        messages: list[Message] = [
+            VelocityCommand(
+                stamp=stamp,
+                received=stamp,
+                linear_mps=step.linear_mps,
+                angular_radps=step.angular_radps,
+                source=SOURCE,
+            )
+        ]
+        if step.stuck_detected:
+            giving_up = step.state is GoalState.FAILED
+            self.ctx.log.warning(
+                "stuck", goal_id=goal.goal_id, replans=replans, giving_up=giving_up
+            )
+            messages.append(
+                StuckDetected(
+                    stamp=stamp,
+                    received=stamp,
+                    goal_id=goal.goal_id,
+                    x_m=pose[0],
+                    y_m=pose[1],
+                    replans=replans,
+                    giving_up=giving_up,
+                )
+            )
+        status = self._status_due(goal.goal_id, step, stamp)
+        if status is not None:
+            messages.append(status)
+        return tuple(messages)
+
+    def _status_due(self, goal_id: str, step: Step, stamp: float) -> GoalStatus | None:
+        changed = step.state is not self._last_state
+        if not changed and stamp - self._status_at < STATUS_PERIOD_S:
+            return None
+        self._last_state = step.state
+        self._status_at = stamp
+        if changed and step.state is not GoalState.ACTIVE:
+            self.ctx.log.info(
+                "goal_done", goal_id=goal_id, state=str(step.state), reason=step.reason
+            )
+        return GoalStatus(
+            stamp=stamp,
+            received=stamp,
+            goal_id=goal_id,
+            state=str(step.state),
+            distance_remaining_m=step.remaining_m,
+            eta_s=step.eta_s,
+            reason=step.reason,
+        )
+
+    def _stop(self, why: str) -> None:
+        now = self.ctx.clock.now()
+        self.ctx.publish(
+            VelocityCommand(
+                stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source=SOURCE
+            )
+        )
+        self.ctx.log.debug("planner_stop", reason=why)
+
+    def _status(self, goal_id: str, state: GoalState, reason: str = "") -> None:
+        now = self.ctx.clock.now()
+        self._last_state = state
+        self._status_at = now
+        self.ctx.publish(
+            GoalStatus(stamp=now, received=now, goal_id=goal_id, state=str(state), reason=reason)
+        )

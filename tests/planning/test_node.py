@@ -1,0 +1,94 @@
+"""The planner and the collision guard inside a running daemon, driven over the real TCP
+protocol."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.lifecycle.messages import (
+    DriveCommand,
+    GoalStatus,
+    LaserScan,
+    Path,
+    VelocityCommand,
+)
+from tests.drivers.conftest import AsyncClient, record, running_daemon, until
+
+
+def _room_scan(stamp: float, wall_x: float | None = None) -> dict[str, object]:
+    """A 360-beam scan of a 10 m square room around the origin, optionally with a wall across
+    x = wall_x ahead."""
+    angles = -math.pi + 2 * math.pi * np.arange(360) / 360
+    ranges = 5.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
+    if wall_x is not None:
+        ahead = np.cos(angles) > 1e-6
+        ranges = np.where(
+            ahead, np.minimum(ranges, wall_x / np.where(ahead, np.cos(angles), 1)), ranges
+        )
+    return {
+        "type": "scan",
+        "stamp": stamp,
+        "angle_min": -math.pi,
+        "angle_increment": 2 * math.pi / 360,
+        "range_min": 0.05,
+        "range_max": 12.0,
+        "ranges": [round(float(r), 4) for r in ranges],
+    }
+
+
+async def test_a_goal_over_tcp_is_planned_and_driven_then_canceled() -> None:
+    async with running_daemon() as (daemon, port):
+        commands = record(daemon, VelocityCommand)
+        paths = record(daemon, Path)
+        statuses = record(daemon, GoalStatus)
+        control, _ = await AsyncClient.hello(port, "control", "ui")
+        await control.send({"type": "initial_pose", "x": 0.0, "y": 0.0, "yaw": 0.0, "std_xy": 0.05})
+        await control.recv_type("ack")
+        await control.send({"type": "goal", "x": 3.0, "y": 0.0, "goal_id": "g1"})
+        await control.recv_type("ack")
+        frame = await control.recv_type("goal_status")
+        assert (frame["goal_id"], frame["state"]) == ("g1", "active")
+        await until(lambda: bool(paths), timeout_s=10.0)
+        assert paths[0].goal_id == "g1"
+        assert np.allclose(paths[0].points_m[0], (0.0, 0.0), atol=0.05)
+        assert np.allclose(paths[0].points_m[-1], (3.0, 0.0))
+        planner = [c for c in commands if c.source == "planner"]
+        await until(lambda: any(c.source == "planner" and c.linear_mps > 0 for c in commands))
+        planner = [c for c in commands if c.source == "planner"]
+        assert all(0.0 <= c.linear_mps <= 0.5 for c in planner)
+        await control.send({"type": "cancel"})
+        await control.recv_type("ack")
+        await until(lambda: any(s.state == "canceled" for s in statuses))
+        assert [c for c in commands if c.source == "planner"][-1].is_stop
+        await control.close()
+
+
+async def test_the_collision_guard_stops_a_command_towards_a_close_wall() -> None:
+    async with running_daemon() as (daemon, port):
+        drives = record(daemon, DriveCommand)
+        scans = record(daemon, LaserScan)
+        lidar, _ = await AsyncClient.hello(port, "lidar", "front")
+        await lidar.send(_room_scan(10.0, wall_x=0.3))  # 0.1 m in front of a 0.2 m robot
+        await until(lambda: bool(scans))
+
+        def command(v: float, w: float = 0.0) -> DriveCommand:
+            now = daemon.clock.now()
+            daemon.bus.publish(
+                VelocityCommand(stamp=now, received=now, linear_mps=v, angular_radps=w, source="t")
+            )
+            return drives[-1]
+
+        forward = command(0.3)
+        assert (forward.linear_mps, forward.angular_radps) == (0.0, 0.0)
+        assert "obstacle" in forward.reason and "stop" in forward.reason
+        backward = command(-0.1)
+        assert backward.linear_mps == -0.1  # moving away is always allowed
+        spin = command(0.0, 1.0)
+        assert spin.angular_radps == 1.0  # a circle turning on the spot comes no closer
+        await lidar.send(_room_scan(10.1, wall_x=0.55))  # 0.35 m ahead: inside the slow zone
+        await until(lambda: len(scans) >= 2)
+        slow = command(0.3)
+        assert 0.0 < slow.linear_mps < 0.3 and "slow" in slow.reason
+        await lidar.close()

@@ -1,0 +1,95 @@
+"""Velocity profile, stuck monitor and collision guard: exact values in small tables."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navd.config import NavdConfig
+from navd.planning.footprint import Footprint
+from navd.planning.guard import GuardSettings, guard_scale
+from navd.planning.profile import VelocityProfile
+from navd.planning.stuck import StuckMonitor, StuckPhase
+
+PROFILE = VelocityProfile(0.5, 0.05, 0.5, 1.0, 1.0, (0.0, 0.5), (1.5, 0.8))
+
+
+@pytest.mark.parametrize(
+    ("remaining", "moving", "expected"),
+    [
+        (10.0, 5.0, 0.5),  # cruising
+        (10.0, 0.5, 0.5 * 0.125),  # start ramp (t/T)^3
+        (10.0, 0.0, 0.05),  # never below the minimum
+        (0.5, 5.0, 0.25),  # approach taper 0.5 * d / 1 m (sqrt(2 a d) = 0.707 is looser)
+        (0.01, 5.0, 0.05),  # floor near the goal
+    ],
+)
+def test_speed_cap(remaining: float, moving: float, expected: float) -> None:
+    assert PROFILE.speed_cap(remaining, moving) == pytest.approx(expected)
+
+
+def test_braking_distance_limits_the_cap_when_it_is_tighter() -> None:
+    gentle = VelocityProfile(2.0, 0.0, 0.5, 0.0, 0.0, (0.0,), (1.0,))
+    assert gentle.speed_cap(1.0, 10.0) == pytest.approx(math.sqrt(2 * 0.5 * 1.0))
+
+
+@pytest.mark.parametrize(
+    ("v", "w"), [(0.0, 1.5), (0.25, 1.15), (0.5, 0.8), (1.0, 0.8), (-0.25, 1.15)]
+)
+def test_yaw_rate_table_is_interpolated(v: float, w: float) -> None:
+    assert PROFILE.yaw_rate_cap(v) == pytest.approx(w)
+
+
+def test_stuck_monitor_phases_follow_the_configured_times() -> None:
+    config = NavdConfig.model_validate(
+        {
+            "planning": {
+                "stuck_time_s": 1.0,
+                "stuck_time_force_backward_s": 2.0,
+                "max_stuck_time_s": 4.0,
+                "backup_distance_m": 0.3,
+            }
+        }
+    )
+    monitor = StuckMonitor(config)
+    phases = {t: monitor.update(t, 0.0, 0.0, 0.0) for t in (0.0, 0.5, 1.5, 1.9)}
+    assert [p.phase for p in phases.values()] == [StuckPhase.MOVING] * 2 + [StuckPhase.PUSHING] * 2
+    # The minimum speed rises linearly from min to max speed over max_stuck_time.
+    assert phases[1.5].min_speed_mps == pytest.approx(0.05 + 0.45 * 1.5 / 4.0)
+    assert monitor.update(2.1, 0.0, 0.0, 0.0).phase is StuckPhase.BACKING
+    # Backing holds even though moving 0.1 m would count as progress, until 0.3 m.
+    assert monitor.update(2.5, -0.15, 0.0, 0.0).phase is StuckPhase.BACKING
+    assert monitor.update(3.0, -0.31, 0.0, 0.0).phase is StuckPhase.BACKED_OUT
+    assert monitor.update(3.1, -0.31, 0.0, 0.0).phase is StuckPhase.MOVING
+    # Turning counts as progress too.
+    monitor.update(5.0, 0.0, 0.0, 0.0)
+    assert monitor.update(5.9, 0.0, 0.0, 0.6).phase is StuckPhase.MOVING
+    assert monitor.update(10.5, 0.0, 0.0, 0.6).phase is StuckPhase.STUCK
+
+
+GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, True)
+
+
+@pytest.mark.parametrize(
+    ("wall_x", "v", "w", "scale"),
+    [
+        (3.0, 0.5, 0.0, 1.0),  # far: braking 1 s + one period sweeps 0.525 m
+        (1.1, 0.5, 0.0, 0.4),  # 0.9 m ahead, the sweep leaves 0.375 m: slow down
+        (0.6, 0.5, 0.0, 0.0),  # 0.4 m ahead, the sweep reaches the wall: stop
+        (0.6, -0.2, 0.0, 1.0),  # backing away
+        (0.3, 0.0, 1.0, 0.0),  # the corners (0.25 m out) swing into a wall 0.1 m ahead
+        (0.6, 0.0, 1.0, 0.4),  # they come within 0.35 m: slow
+        (0.8, 0.0, 1.0, 1.0),  # a turn on the spot that stays 0.55 m clear
+    ],
+)
+def test_guard_scales_by_the_clearance_of_the_braking_sweep(wall_x, v, w, scale) -> None:
+    wall = np.column_stack([np.full(201, wall_x), np.linspace(-1.0, 1.0, 201)])
+    assert guard_scale(wall, v, w, GUARD)[0] == scale
+
+
+def test_guard_passes_everything_when_collisions_are_off() -> None:
+    disabled = GuardSettings(GUARD.footprint, 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, False)
+    wall = np.column_stack([np.full(201, 0.25), np.linspace(-1.0, 1.0, 201)])
+    assert guard_scale(wall, 0.5, 0.0, disabled) == (1.0, "")
