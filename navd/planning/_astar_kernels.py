@@ -49,27 +49,35 @@ def octile(dr: int, dc: int) -> float:
     return (a - b) + SQRT2 * b
 
 
-# The open list is a 4-ary min-heap of (key, node) in two arrays: shallower than a binary
-# heap, and a node's four children share a cache line.
+# The open list is an indexed 4-ary min-heap of (key, node) in two arrays: shallower than a
+# binary heap, a node's four children share a cache line, and ``where[node]`` (its slot, or -1)
+# lets an improved node move up in place instead of leaving a stale duplicate behind.
 @njit(cache=True, nogil=True)
-def _push(keys: FloatArray, nodes: Int32Array, size: int, key: float, node: int) -> None:
-    i = size
+def _sift_up(
+    keys: FloatArray, nodes: Int32Array, where: Int32Array, i: int, key: float, node: int
+) -> None:
+    """Put ``node`` with ``key`` into the hole at slot ``i`` and move it up to its place."""
     while i > 0:
         up = (i - 1) >> 2
         if keys[up] <= key:
             break
         keys[i] = keys[up]
         nodes[i] = nodes[up]
+        where[nodes[i]] = i
         i = up
     keys[i] = key
     nodes[i] = node
+    where[node] = i
 
 
 @njit(cache=True, nogil=True)
-def _pop(keys: FloatArray, nodes: Int32Array, size: int) -> int:
+def _pop(keys: FloatArray, nodes: Int32Array, where: Int32Array, size: int) -> int:
     """Remove the root of a heap of ``size`` entries; return its node."""
     top = nodes[0]
+    where[top] = -1
     last = size - 1
+    if last == 0:
+        return int(top)
     key = keys[last]
     node = nodes[last]
     i = 0
@@ -87,9 +95,11 @@ def _pop(keys: FloatArray, nodes: Int32Array, size: int) -> int:
             break
         keys[i] = best_key
         nodes[i] = nodes[best]
+        where[nodes[i]] = i
         i = best
     keys[i] = key
     nodes[i] = node
+    where[node] = i
     return int(top)
 
 
@@ -103,6 +113,7 @@ def astar_search(
     parent: Int32Array,
     seen: Int32Array,
     closed: Int32Array,
+    where: Int32Array,
     generation: int,
 ) -> tuple[float, int]:
     """A* from cell ``start`` to cell ``goal`` (flat indices row * cols + col).
@@ -111,9 +122,10 @@ def astar_search(
         cost: rows x cols cell costs, inf where blocked.
         start, goal: flat cell indices, both with finite cost.
         cost_weight: w in the step cost above.
-        g, parent, seen, closed: working arrays of rows * cols entries; ``g`` and ``parent``
-            are valid where ``seen == generation``; ``closed == generation`` marks expanded
-            cells. Read the path back through ``parent`` from ``goal``.
+        g, parent, seen, closed, where: working arrays of rows * cols entries; ``g``,
+            ``parent`` and ``where`` are valid where ``seen == generation``;
+            ``closed == generation`` marks expanded cells. Read the path back through
+            ``parent`` from ``goal``.
         generation: a number not used by an earlier search with these arrays (> 0).
 
     Returns:
@@ -138,7 +150,7 @@ def astar_search(
     parent[start] = -1
     seen[start] = generation
     h0 = octile(start // cols - goal_r, start % cols - goal_c)
-    _push(keys, nodes, size, h0 * TIE, start)
+    _sift_up(keys, nodes, where, size, h0 * TIE, start)
     size += 1
     expanded = 0
     while size > 0 or stack_size > 0:
@@ -147,7 +159,7 @@ def astar_search(
             node = stack[stack_size]
         else:
             current_key = keys[0]
-            node = _pop(keys, nodes, size)
+            node = _pop(keys, nodes, where, size)
             size -= 1
         if closed[node] == generation:
             continue  # a stale duplicate: this cell was expanded at a lower cost already
@@ -173,8 +185,11 @@ def astar_search(
             ):
                 continue  # a diagonal between two blocked cells
             g_next = g_here + _LEN[k] * (1.0 + cost_weight * 0.5 * (c_here + c_next))
-            if seen[nxt] == generation and g_next >= g[nxt]:
-                continue
+            if seen[nxt] == generation:
+                if g_next >= g[nxt]:
+                    continue
+            else:
+                where[nxt] = -1
             seen[nxt] = generation
             g[nxt] = g_next
             parent[nxt] = node
@@ -185,11 +200,15 @@ def astar_search(
                 stack[stack_size] = nxt
                 stack_size += 1
                 continue
+            slot = where[nxt]
+            if slot >= 0:
+                _sift_up(keys, nodes, where, slot, key, nxt)  # improved: move up in place
+                continue
             if size == capacity:
                 capacity *= 2
                 keys = np.concatenate((keys, np.empty(capacity - size)))
                 nodes = np.concatenate((nodes, np.empty(capacity - size, dtype=np.int32)))
-            _push(keys, nodes, size, key, nxt)
+            _sift_up(keys, nodes, where, size, key, nxt)
             size += 1
     return -1.0, expanded
 

@@ -68,6 +68,7 @@ class GlobalPlanner:
         self._parent = np.empty(0, dtype=np.int32)
         self._seen = np.empty(0, dtype=np.int32)
         self._closed = np.empty(0, dtype=np.int32)
+        self._where = np.empty(0, dtype=np.int32)
 
     def plan(
         self, costmap: Costmap, start_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
@@ -121,6 +122,7 @@ class GlobalPlanner:
             self._parent,
             self._seen,
             self._closed,
+            self._where,
             self._generation,
         )
         if g_cells < 0.0:
@@ -170,5 +172,6 @@ class GlobalPlanner:
             self._parent = np.empty(self._cells, dtype=np.int32)
             self._seen = np.zeros(self._cells, dtype=np.int32)
             self._closed = np.zeros(self._cells, dtype=np.int32)
+            self._where = np.empty(self._cells, dtype=np.int32)
             self._generation = 0
         self._generation += 1
