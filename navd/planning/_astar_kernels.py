@@ -25,7 +25,14 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["astar_search", "octile", "segment_max_cost", "shortcut", "trace_back"]
+__all__ = [
+    "MAX_GENERATION",
+    "astar_search",
+    "octile",
+    "segment_max_cost",
+    "shortcut",
+    "trace_back",
+]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -49,35 +56,28 @@ def octile(dr: int, dc: int) -> float:
     return (a - b) + SQRT2 * b
 
 
-# The open list is an indexed 4-ary min-heap of (key, node) in two arrays: shallower than a
-# binary heap, a node's four children share a cache line, and ``where[node]`` (its slot, or -1)
-# lets an improved node move up in place instead of leaving a stale duplicate behind.
+# The open list is a 4-ary min-heap of (key, node) in two arrays: shallower than a binary
+# heap, and a node's four children share a cache line. A cell improved while open is pushed
+# again; the stale entry is skipped when it comes up.
 @njit(cache=True, nogil=True)
-def _sift_up(
-    keys: FloatArray, nodes: Int32Array, where: Int32Array, i: int, key: float, node: int
-) -> None:
-    """Put ``node`` with ``key`` into the hole at slot ``i`` and move it up to its place."""
+def _push(keys: FloatArray, nodes: Int32Array, size: int, key: float, node: int) -> None:
+    i = size
     while i > 0:
         up = (i - 1) >> 2
         if keys[up] <= key:
             break
         keys[i] = keys[up]
         nodes[i] = nodes[up]
-        where[nodes[i]] = i
         i = up
     keys[i] = key
     nodes[i] = node
-    where[node] = i
 
 
 @njit(cache=True, nogil=True)
-def _pop(keys: FloatArray, nodes: Int32Array, where: Int32Array, size: int) -> int:
+def _pop(keys: FloatArray, nodes: Int32Array, size: int) -> int:
     """Remove the root of a heap of ``size`` entries; return its node."""
     top = nodes[0]
-    where[top] = -1
     last = size - 1
-    if last == 0:
-        return int(top)
     key = keys[last]
     node = nodes[last]
     i = 0
@@ -95,12 +95,17 @@ def _pop(keys: FloatArray, nodes: Int32Array, where: Int32Array, size: int) -> i
             break
         keys[i] = best_key
         nodes[i] = nodes[best]
-        where[nodes[i]] = i
         i = best
     keys[i] = key
     nodes[i] = node
-    where[node] = i
     return int(top)
+
+
+# A cell's mark packs generation << 4 | closed (8) | the step k (0..7) that reached it, so one
+# 4-byte read tells whether it was seen in this search, whether it is closed, and where it came
+# from; g lives beside it. Two small arrays instead of four keep the frontier in cache.
+CLOSED = 8
+MAX_GENERATION = (1 << 27) - 1
 
 
 @njit(cache=True, nogil=True)
@@ -110,10 +115,7 @@ def astar_search(
     goal: int,
     cost_weight: float,
     g: FloatArray,
-    parent: Int32Array,
-    seen: Int32Array,
-    closed: Int32Array,
-    where: Int32Array,
+    mark: Int32Array,
     generation: int,
 ) -> tuple[float, int]:
     """A* from cell ``start`` to cell ``goal`` (flat indices row * cols + col).
@@ -122,11 +124,10 @@ def astar_search(
         cost: rows x cols cell costs, inf where blocked.
         start, goal: flat cell indices, both with finite cost.
         cost_weight: w in the step cost above.
-        g, parent, seen, closed, where: working arrays of rows * cols entries; ``g``,
-            ``parent`` and ``where`` are valid where ``seen == generation``;
-            ``closed == generation`` marks expanded cells. Read the path back through
-            ``parent`` from ``goal``.
-        generation: a number not used by an earlier search with these arrays (> 0).
+        g, mark: working arrays of rows * cols entries (see CLOSED); ``g`` is valid where
+            ``mark >> 4 == generation``. Read the route back with ``trace_back``.
+        generation: a number in 1..MAX_GENERATION not used by an earlier search with these
+            arrays.
 
     Returns:
         (cost of the best route in cells of length, -1 if none; cells expanded).
@@ -135,22 +136,20 @@ def astar_search(
     flat = cost.ravel()
     goal_r = goal // cols
     goal_c = goal % cols
+    offsets = _DR * cols + _DC
+    seen_tag = generation << 4
     capacity = 1024
     keys = np.empty(capacity)
     nodes = np.empty(capacity, dtype=np.int32)
     size = 0
     # Successors whose key is no larger than the key last taken from the heap are already
-    # minimal: they go on a stack and are expanded before the heap is touched again. Across
-    # open floor most successors qualify (moving towards the goal leaves g + h unchanged), so
-    # most heap operations are skipped.
+    # minimal: they go on a stack and are expanded before the heap is touched again.
     stack = np.empty(capacity, dtype=np.int32)
     stack_size = 0
     current_key = -math.inf
     g[start] = 0.0
-    parent[start] = -1
-    seen[start] = generation
-    h0 = octile(start // cols - goal_r, start % cols - goal_c)
-    _sift_up(keys, nodes, where, size, h0 * TIE, start)
+    mark[start] = seen_tag
+    _push(keys, nodes, size, octile(start // cols - goal_r, start % cols - goal_c) * TIE, start)
     size += 1
     expanded = 0
     while size > 0 or stack_size > 0:
@@ -159,11 +158,12 @@ def astar_search(
             node = stack[stack_size]
         else:
             current_key = keys[0]
-            node = _pop(keys, nodes, where, size)
+            node = _pop(keys, nodes, size)
             size -= 1
-        if closed[node] == generation:
+        m = mark[node]
+        if m & CLOSED:
             continue  # a stale duplicate: this cell was expanded at a lower cost already
-        closed[node] = generation
+        mark[node] = m | CLOSED
         expanded += 1
         if node == goal:
             return g[node], expanded
@@ -171,62 +171,63 @@ def astar_search(
         c = node % cols
         c_here = flat[node]
         g_here = g[node]
+        border = r == 0 or c == 0 or r == rows - 1 or c == cols - 1
         for k in range(8):
-            nr = r + _DR[k]
-            nc = c + _DC[k]
-            if nr < 0 or nr >= rows or nc < 0 or nc >= cols:
-                continue
-            nxt = nr * cols + nc
+            if border:
+                nr = r + _DR[k]
+                nc = c + _DC[k]
+                if nr < 0 or nr >= rows or nc < 0 or nc >= cols:
+                    continue
+            nxt = node + offsets[k]
             c_next = flat[nxt]
-            if not math.isfinite(c_next) or closed[nxt] == generation:
+            if not math.isfinite(c_next):
+                continue
+            m_next = mark[nxt]
+            seen = (m_next >> 4) == generation
+            if seen and m_next & CLOSED:
                 continue
             if k >= 4 and not (
-                math.isfinite(flat[r * cols + nc]) and math.isfinite(flat[nr * cols + c])
+                math.isfinite(flat[node + _DC[k]]) and math.isfinite(flat[node + _DR[k] * cols])
             ):
                 continue  # a diagonal between two blocked cells
             g_next = g_here + _LEN[k] * (1.0 + cost_weight * 0.5 * (c_here + c_next))
-            if seen[nxt] == generation:
-                if g_next >= g[nxt]:
-                    continue
-            else:
-                where[nxt] = -1
-            seen[nxt] = generation
+            if seen and g_next >= g[nxt]:
+                continue
             g[nxt] = g_next
-            parent[nxt] = node
-            key = g_next + octile(nr - goal_r, nc - goal_c) * TIE
+            mark[nxt] = seen_tag | k
+            key = g_next + octile(r + _DR[k] - goal_r, c + _DC[k] - goal_c) * TIE
             if key <= current_key:
                 if stack_size == stack.size:
                     stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int32)))
                 stack[stack_size] = nxt
                 stack_size += 1
                 continue
-            slot = where[nxt]
-            if slot >= 0:
-                _sift_up(keys, nodes, where, slot, key, nxt)  # improved: move up in place
-                continue
             if size == capacity:
                 capacity *= 2
                 keys = np.concatenate((keys, np.empty(capacity - size)))
                 nodes = np.concatenate((nodes, np.empty(capacity - size, dtype=np.int32)))
-            _sift_up(keys, nodes, where, size, key, nxt)
+            _push(keys, nodes, size, key, nxt)
             size += 1
     return -1.0, expanded
 
 
 @njit(cache=True, nogil=True)
-def trace_back(parent: Int32Array, goal: int, cols: int) -> npt.NDArray[np.int64]:
-    """The (row, col) cells from the start to ``goal`` following ``parent`` links."""
-    count = 0
+def trace_back(mark: Int32Array, start: int, goal: int, cols: int) -> npt.NDArray[np.int64]:
+    """The (row, col) cells from ``start`` to ``goal``, stepping back along the marks."""
+    count = 1
     node = goal
-    while node != -1:
+    while node != start:
+        k = mark[node] & 7
+        node -= _DR[k] * cols + _DC[k]
         count += 1
-        node = parent[node]
     cells = np.empty((count, 2), dtype=np.int64)
     node = goal
     for i in range(count - 1, -1, -1):
         cells[i, 0] = node // cols
         cells[i, 1] = node % cols
-        node = parent[node]
+        if i > 0:
+            k = mark[node] & 7
+            node -= _DR[k] * cols + _DC[k]
     return cells
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.planning._astar_kernels import astar_search, shortcut, trace_back
+from navd.planning._astar_kernels import MAX_GENERATION, astar_search, shortcut, trace_back
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
@@ -65,10 +65,7 @@ class GlobalPlanner:
         self._cells = 0
         self._generation = 0
         self._g: FloatArray = np.empty(0)
-        self._parent = np.empty(0, dtype=np.int32)
-        self._seen = np.empty(0, dtype=np.int32)
-        self._closed = np.empty(0, dtype=np.int32)
-        self._where = np.empty(0, dtype=np.int32)
+        self._mark = np.empty(0, dtype=np.int32)
 
     def plan(
         self, costmap: Costmap, start_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
@@ -119,10 +116,7 @@ class GlobalPlanner:
             goal[0] * cols + goal[1],
             self.cost_weight,
             self._g,
-            self._parent,
-            self._seen,
-            self._closed,
-            self._where,
+            self._mark,
             self._generation,
         )
         if g_cells < 0.0:
@@ -131,7 +125,7 @@ class GlobalPlanner:
                 f"({expanded} cells searched)",
                 "no route",
             )
-        cells = trace_back(self._parent, goal[0] * cols + goal[1], cols)
+        cells = trace_back(self._mark, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
         if self.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
@@ -166,12 +160,9 @@ class GlobalPlanner:
 
     def _reserve(self, cells: int) -> None:
         """Working arrays for ``cells`` cells and a fresh generation number."""
-        if cells > self._cells or self._generation >= np.iinfo(np.int32).max - 1:
+        if cells > self._cells or self._generation >= MAX_GENERATION:
             self._cells = max(cells, self._cells)
             self._g = np.empty(self._cells)
-            self._parent = np.empty(self._cells, dtype=np.int32)
-            self._seen = np.zeros(self._cells, dtype=np.int32)
-            self._closed = np.zeros(self._cells, dtype=np.int32)
-            self._where = np.empty(self._cells, dtype=np.int32)
+            self._mark = np.zeros(self._cells, dtype=np.int32)
             self._generation = 0
         self._generation += 1
