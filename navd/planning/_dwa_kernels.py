@@ -169,18 +169,26 @@ def _nearest(
     half_width: float,
 ) -> float:
     """[m] exact distance from the footprint at (x, y) heading (cos_yaw, sin_yaw) to the
-    nearest point in the 3 x 3 buckets around it (1e9 when they are empty)."""
+    nearest point within one bucket width of (x, y) (1e9 when there is none).
+
+    The buckets are circumradius + margin wide, so every point that can come within the margin
+    of the footprint is within one bucket width of its centre."""
     bucket = local[5]
     b_rows = int(local[6])
     b_cols = int(local[7])
     bc = math.floor((x - local[0]) / bucket)
     br = math.floor((y - local[1]) / bucket)
+    reach2 = bucket * bucket
     nearest = 1e9
     for rr in range(max(br - 1, 0), min(br + 2, b_rows)):
         for cc in range(max(bc - 1, 0), min(bc + 2, b_cols)):
             b = rr * b_cols + cc
             for i in range(bucket_start[b], bucket_start[b + 1]):
                 q = bucket_order[i]
+                dx = points[q, 0] - x
+                dy = points[q, 1] - y
+                if dx * dx + dy * dy > reach2:
+                    continue  # cheaper than the footprint test, and too far to matter
                 d = footprint_distance(
                     points[q, 0],
                     points[q, 1],

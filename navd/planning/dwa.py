@@ -26,6 +26,11 @@ FloatArray = npt.NDArray[np.float64]
 
 # The distance grid of the obstacles near the robot [m per cell].
 LOCAL_CELL_M = 0.05
+# Obstacle points are merged into cells this size [m] (a lidar 0.6 m from a wall puts several
+# beams in each), each replaced by its cell's centre; the margin grows by the half diagonal so
+# no test becomes less strict.
+SNAP_M = 0.01
+SNAP_SLACK_M = SNAP_M * math.sqrt(0.5)
 # Path-field cells [m], and how far beyond the path it reaches [m].
 PATH_CELL_M = 0.05
 PATH_FIELD_MARGIN_M = 2.0
@@ -178,7 +183,7 @@ class LocalPlanner:
                 fp.half_length_m,
                 fp.half_width_m,
                 fp.circumradius_m,
-                settings.margin_m,
+                settings.margin_m + SNAP_SLACK_M,
                 settings.clearance_cap_m,
                 fp.inscribed_m,
             ]
@@ -250,12 +255,14 @@ class LocalPlanner:
         half = reach + fp.circumradius_m + max(s.margin_m, s.clearance_cap_m) + 2 * LOCAL_CELL_M
         ox, oy = pose[0] - half, pose[1] - half
         n = math.ceil(2 * half / LOCAL_CELL_M)
-        near = obstacles_m[
-            (np.abs(obstacles_m[:, 0] - pose[0]) <= half)
-            & (np.abs(obstacles_m[:, 1] - pose[1]) <= half)
-        ]
+        near = _snap(
+            obstacles_m[
+                (np.abs(obstacles_m[:, 0] - pose[0]) <= half)
+                & (np.abs(obstacles_m[:, 1] - pose[1]) <= half)
+            ]
+        )
         distance = chamfer_distance(near, ox, oy, LOCAL_CELL_M, n, n)
-        bucket = fp.circumradius_m + s.margin_m
+        bucket = fp.circumradius_m + s.margin_m + SNAP_SLACK_M
         nb = math.ceil(2 * half / bucket)
         start, order = bucket_points(near, ox, oy, bucket, nb, nb)
         local = np.array([ox, oy, LOCAL_CELL_M, n, n, bucket, nb, nb], dtype=np.float64)
@@ -302,6 +309,18 @@ class LocalPlanner:
             k,
             int(k - colliding.sum()),
         )
+
+
+def _snap(points_m: FloatArray) -> FloatArray:
+    """[m] the centres of the SNAP_M cells holding the points, each once."""
+    if points_m.shape[0] == 0:
+        return points_m
+    cells = np.floor(points_m / SNAP_M).astype(np.int64)
+    keys = np.unique((cells[:, 0] << 32) + (cells[:, 1] & 0xFFFFFFFF))
+    x = keys >> 32
+    y = (keys & 0xFFFFFFFF).astype(np.int64)
+    y = np.where(y >= 1 << 31, y - (1 << 32), y)
+    return (np.column_stack([x, y]).astype(np.float64) + 0.5) * SNAP_M
 
 
 def arc(pose: tuple[float, float, float], v: float, w: float, dt: float, steps: int) -> FloatArray:

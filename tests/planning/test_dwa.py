@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from navd.config import NavdConfig
 from navd.planning._dwa_kernels import CHAMFER_RATIO, bucket_points, chamfer_distance
-from navd.planning.dwa import DwaSettings, LocalPlanner, Window, arc, path_field
+from navd.planning.dwa import SNAP_SLACK_M, DwaSettings, LocalPlanner, Window, arc, path_field
 from navd.planning.footprint import Footprint
 
 
@@ -65,8 +65,10 @@ def test_dwa_never_chooses_a_colliding_trajectory(
     choice = lp.choose(pose, (speed, turn), points, path, (3.0, 1.0, 0.0), window)
     if choice is None:
         return
-    # Never closer than the margin, or than the robot already is when it starts inside it.
-    allowed = min(s.margin_m, brute_clearance(points, s.footprint, np.array(pose)) - 1e-3)
+    # Never closer than the margin, or (to within the point-merging slack) than the robot
+    # already is when it starts inside it.
+    here = brute_clearance(points, s.footprint, np.array(pose))
+    allowed = min(s.margin_m, here - 1e-3 - 2 * SNAP_SLACK_M)
     for state in choice.trajectory:
         assert brute_clearance(points, s.footprint, state) >= allowed - 1e-9
 
@@ -133,6 +135,17 @@ def test_chamfer_grid_is_a_lower_bound_on_the_true_distance(seed: int) -> None:
     true = np.hypot(*(queries[:, None, :] - points[None, :, :]).transpose(2, 0, 1)).min(axis=1)
     assert (bound <= true + 1e-6).all()
     assert (grid[cells[:, 1], cells[:, 0]] <= true * CHAMFER_RATIO + 2 * res * CHAMFER_RATIO).all()
+
+
+def test_snapped_points_are_within_the_slack_of_every_original() -> None:
+    from navd.planning.dwa import _snap
+
+    rng = np.random.default_rng(5)
+    points = rng.uniform(-3.0, 3.0, (2000, 2))
+    snapped = _snap(points)
+    nearest = np.hypot(*(points[:, None, :] - snapped[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    assert nearest.max() <= SNAP_SLACK_M + 1e-12
+    assert len(snapped) == len({tuple(c) for c in np.floor(points / 0.01).astype(int)})
 
 
 def test_buckets_hold_exactly_their_points() -> None:
