@@ -142,6 +142,10 @@ class Navigator:
         self._stuck_replans = 0
         self._last_error = ""
         self._fail_reason = ""
+        self._keep_out_cache: (
+            tuple[GridFrame, tuple[tuple[tuple[float, float], ...], ...], npt.NDArray[np.bool_]]
+            | None
+        ) = None
         self.configure(config)
 
     def configure(self, config: NavdConfig) -> None:
@@ -306,8 +310,17 @@ class Navigator:
             self._obstacles = ObstacleLayer(frame, self.config.planning.obstacle_persistence_s)
         self._obstacles.reframe(frame)
         obstacles |= self._obstacles.active(now)
-        obstacles |= keep_out_mask(frame, self.config.planning.keep_out_zones)
+        obstacles |= self._keep_out(frame)
         return frame, obstacles, unknown
+
+    def _keep_out(self, frame: GridFrame) -> npt.NDArray[np.bool_]:
+        """The keep-out cells of ``frame``, computed once per frame and set of zones."""
+        zones = self.config.planning.keep_out_zones
+        cached = self._keep_out_cache
+        if cached is None or cached[0] != frame or cached[1] != zones:
+            cached = (frame, zones, keep_out_mask(frame, zones))
+            self._keep_out_cache = cached
+        return cached[2]
 
     def costmap(self, now: float, pose: tuple[float, float, float]) -> Costmap:
         """The inflated costmap of all layers now."""
@@ -464,7 +477,7 @@ class Navigator:
             parts.append(_cells_near(frame, occupied, pose, self._local_radius_m))
         if self.config.planning.keep_out_zones and self._obstacles is not None:
             frame = self._obstacles.frame
-            mask = keep_out_mask(frame, self.config.planning.keep_out_zones)
+            mask = self._keep_out(frame)
             parts.append(_cells_near(frame, mask, pose, self._local_radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 

@@ -132,3 +132,19 @@ def test_cancel_stops_the_robot() -> None:
     step = nav.step(2.0, (0.0, 0.0, 0.0))
     assert (step.linear_mps, step.angular_radps, step.state) == (0.0, 0.0, GoalState.CANCELED)
     assert nav.plan_reason(2.0, (0.0, 0.0, 0.0)) is None
+
+
+def test_keep_out_zones_are_driven_around_and_never_entered() -> None:
+    zone = ((1.0, -1.0), (2.0, -1.0), (2.0, 1.0), (1.0, 1.0))
+    cfg = config(keep_out_zones=[list(map(list, zone))])
+    result = drive(
+        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False
+    )
+    assert result.state is GoalState.REACHED
+    # The footprint's centre stays out of the zone grown by the inscribed radius.
+    inside = [
+        p
+        for p in result.poses
+        if 1.0 - 0.15 < p[0] < 2.0 + 0.15 and -1.0 - 0.15 < p[1] < 1.0 + 0.15
+    ]
+    assert inside == []
