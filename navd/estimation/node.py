@@ -12,10 +12,14 @@ import dataclasses
 import math
 import threading
 
+from navd.estimation.errors import GeoError
 from navd.estimation.estimator import Localization, StateEstimator
 from navd.lifecycle.messages import (
     CompassHeading,
     ConfigApplied,
+    GeoGoal,
+    Goal,
+    GoalStatus,
     GpsFix,
     Imu,
     InitialPose,
@@ -35,7 +39,8 @@ _STATE_REFRESH_S = 1.0
 
 
 class EstimationNode(Module):
-    """Fuses sensor messages into PoseEstimate, Orientation and LocalizationState."""
+    """Fuses sensor messages into PoseEstimate, Orientation and LocalizationState; turns
+    latitude/longitude goals into map-frame goals."""
 
     def __init__(self) -> None:
         super().__init__("estimation")
@@ -56,6 +61,7 @@ class EstimationNode(Module):
         ctx.subscribe(CompassHeading, self._on_compass)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
+        ctx.subscribe(GeoGoal, self._on_geo_goal)
         ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
@@ -107,6 +113,43 @@ class EstimationNode(Module):
             self._pending_pose = pose  # a person's word is kept until the filter exists
         else:
             self.estimator.set_pose(pose)
+
+    def _on_geo_goal(self, goal: GeoGoal) -> None:
+        """A latitude/longitude goal becomes a map-frame Goal through the GPS datum."""
+        now = self.ctx.clock.now()
+        geo = self.estimator.geo if self.estimator is not None else None
+        reason = ""
+        if geo is None:
+            reason = (
+                "no GPS datum yet: set world.datum_latitude_deg/longitude_deg or wait for a "
+                "good fix, or send the goal in map x, y"
+            )
+        else:
+            try:
+                x, y = geo.to_map(goal.latitude_deg, goal.longitude_deg)
+            except GeoError as err:
+                reason = str(err)
+        if reason:
+            self.ctx.log.warning("geo_goal_refused", goal_id=goal.goal_id, reason=reason)
+            self.ctx.publish(
+                GoalStatus(
+                    stamp=now, received=now, goal_id=goal.goal_id, state="failed", reason=reason
+                )
+            )
+            return
+        self.ctx.log.info(
+            "geo_goal", goal_id=goal.goal_id, lat=goal.latitude_deg, lon=goal.longitude_deg
+        )
+        self.ctx.publish(
+            Goal(
+                stamp=goal.stamp,
+                received=now,
+                goal_id=goal.goal_id,
+                x_m=x,
+                y_m=y,
+                yaw_rad=goal.yaw_rad,
+            )
+        )
 
     def _on_config(self, applied: ConfigApplied) -> None:
         if self.estimator is not None:

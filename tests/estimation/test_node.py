@@ -76,3 +76,45 @@ async def test_gps_fixes_over_tcp_land_in_the_map_frame_of_the_datum() -> None:
         assert pose.y_m > 29.9  # north is +y (to the UTM grid convergence here, < 0.1 m)
         assert np.all(np.linalg.eigvalsh(pose.covariance) > 0.0)
         await gps.close()
+
+
+async def test_a_latitude_longitude_goal_becomes_a_map_goal_through_the_datum() -> None:
+    from navd.lifecycle.messages import Goal
+
+    datum = {"datum_latitude_deg": 48.0, "datum_longitude_deg": 11.5}
+    async with running_daemon(world=datum) as (daemon, port):
+        goals = record(daemon, Goal)
+        control, _ = await AsyncClient.hello(port, "control", "ui")
+        await until(lambda: daemon_estimator_ready(daemon))
+        lon, lat, _ = Geod(ellps="WGS84").fwd(11.5, 48.0, 90.0, 20.0)  # 20 m east
+        await control.send({"type": "goal", "latitude": lat, "longitude": lon, "goal_id": "east"})
+        await control.recv_type("ack")
+        await until(lambda: bool(goals))
+        assert goals[0].goal_id == "east"
+        # The map frame is the UTM grid (zone 32 here) shifted to the datum.
+        from pyproj import Proj
+
+        utm = Proj(proj="utm", zone=32, ellps="WGS84")
+        e0, n0 = utm(11.5, 48.0)
+        e1, n1 = utm(lon, lat)
+        assert (goals[0].x_m, goals[0].y_m) == pytest.approx((e1 - e0, n1 - n0), abs=0.01)
+        assert math.hypot(goals[0].x_m, goals[0].y_m) == pytest.approx(20.0, abs=0.05)
+        await control.close()
+
+
+async def test_a_latitude_longitude_goal_without_a_datum_fails_with_the_reason() -> None:
+    async with running_daemon() as (daemon, port):
+        control, _ = await AsyncClient.hello(port, "control", "ui")
+        await until(lambda: daemon_estimator_ready(daemon))
+        await control.send({"type": "goal", "latitude": 48.0, "longitude": 11.5, "goal_id": "g"})
+        status = await control.recv_type("goal_status")
+        assert (status["goal_id"], status["state"]) == ("g", "failed")
+        assert "no GPS datum yet" in status["reason"]
+        await control.close()
+
+
+def daemon_estimator_ready(daemon: object) -> bool:
+    from navd.estimation.node import EstimationNode
+
+    node = next(m for m in daemon.manager.modules if isinstance(m, EstimationNode))  # type: ignore[attr-defined]
+    return node.estimator is not None
