@@ -89,7 +89,18 @@ def _parser() -> argparse.ArgumentParser:
 
     _bench_commands(commands)
     _slam_commands(commands)
+    _sim_commands(commands)
     return parser
+
+
+def _sim_commands(commands: Any) -> None:
+    demo = commands.add_parser(
+        "demo", help="the daemon drives a simulated robot to a goal; writes demo.png, summary.json"
+    )
+    demo.add_argument("--out", type=Path, default=Path("."), help="folder for the results (.)")
+    demo.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
+    demo.add_argument("--limit", type=float, default=180.0, help="[s] give up after this long")
+    demo.set_defaults(handler=_cmd_demo)
 
 
 def _bench_commands(commands: Any) -> None:
@@ -386,6 +397,24 @@ def _cmd_bench_scan(args: argparse.Namespace) -> int:
 
     _print_figures(run(scans=args.scans, beams=args.beams), args.json)
     return EXIT_OK
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from navd.sim.demo import run_demo  # noqa: PLC0415
+    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim.world import load_world, office  # noqa: PLC0415
+
+    try:
+        world = office() if args.world is None else load_world(args.world)
+        summary = run_demo(world, args.out, limit_s=args.limit)
+    except SimError as err:
+        print(f"navd demo: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print(json.dumps(summary, indent=2))
+    print(
+        f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
+    )
+    return EXIT_OK if summary["reached"] else EXIT_FAILED
 
 
 def _cmd_bench_planning(args: argparse.Namespace) -> int:

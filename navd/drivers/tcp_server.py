@@ -45,6 +45,7 @@ from navd.lifecycle.messages import (
     DeviceResumed,
     DeviceStale,
     GoalStatus,
+    Path,
 )
 from navd.lifecycle.module import Module, ModuleContext
 
@@ -89,6 +90,7 @@ class TcpServer(Module):
         self.ctx = ctx
         self.board.subscribe(ctx)
         ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(Path, self._on_path)
         ctx.subscribe(ConfigApplied, self._on_config_answer)
         ctx.subscribe(ConfigRejected, self._on_config_answer)
 
@@ -378,6 +380,13 @@ class TcpServer(Module):
 
     def _on_goal_status(self, status: GoalStatus) -> None:
         frame = {"type": "goal_status", **goal_dict(status)}
+        for session in self.sessions.values():
+            if session.kind is DeviceKind.CONTROL:
+                session.conn.send(frame)
+
+    def _on_path(self, path: Path) -> None:
+        points = [[round(float(x), 3), round(float(y), 3)] for x, y in path.points_m]
+        frame: dict[str, object] = {"type": "path", "goal_id": path.goal_id, "points": points}
         for session in self.sessions.values():
             if session.kind is DeviceKind.CONTROL:
                 session.conn.send(frame)

@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from navd.config import NavdConfig
 from navd.planning._costmap_kernels import mark_and_clear
-from navd.planning.footprint import Footprint
+from navd.planning.footprint import Footprint, keep_clear_m
 
 __all__ = [
     "Costmap",
@@ -231,8 +231,7 @@ class CostmapSettings:
         """The settings the planning, robot and safety sections describe."""
         planning = config.planning
         return cls(
-            robot_radius_m=Footprint.from_config(config.robot).inscribed_m
-            + config.safety.collision_distance_m,
+            robot_radius_m=Footprint.from_config(config.robot).inscribed_m + keep_clear_m(config),
             inflation_radius_m=planning.inflation_radius_m,
             cost_decay_per_m=planning.cost_decay,
             allow_unknown=planning.allow_unknown,

@@ -18,7 +18,7 @@ from navd.planning._dwa_kernels import (
     choose,
     rollouts,
 )
-from navd.planning.footprint import Footprint
+from navd.planning.footprint import Footprint, keep_clear_m
 
 __all__ = ["DwaChoice", "DwaSettings", "LocalPlanner", "PathField", "Window", "path_field"]
 
@@ -73,7 +73,7 @@ class DwaSettings:
         planning, robot = config.planning, config.robot
         return cls(
             footprint=Footprint.from_config(robot),
-            margin_m=config.safety.collision_distance_m,
+            margin_m=keep_clear_m(config),
             clearance_cap_m=max(planning.inflation_radius_m, 0.1),
             horizon_s=planning.prediction_horizon_s,
             step_s=planning.sim_step_s,

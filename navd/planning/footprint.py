@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from navd.config import RobotConfig
+from navd.config import NavdConfig, RobotConfig
 
-__all__ = ["CIRCLE", "RECTANGLE", "Footprint"]
+__all__ = ["CIRCLE", "RECTANGLE", "Footprint", "keep_clear_m"]
 
 CIRCLE = 0
 RECTANGLE = 1
@@ -55,3 +55,16 @@ class Footprint:
         if self.kind == CIRCLE:
             return self.half_length_m
         return math.hypot(self.half_length_m, self.half_width_m)
+
+
+def keep_clear_m(config: NavdConfig) -> float:
+    """[m] the distance planned motion keeps between the footprint and obstacles.
+
+    ``safety.collision_distance_m``, raised to the collision guard's ``stop_distance_m`` when
+    the guard is on: a route or rollout the guard would stop could never be driven, and the
+    planner would insist on it forever.
+    """
+    safety = config.safety
+    if safety.use_collisions:
+        return max(safety.collision_distance_m, safety.stop_distance_m)
+    return safety.collision_distance_m

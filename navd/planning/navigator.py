@@ -32,7 +32,7 @@ from navd.planning.costmap import (
 )
 from navd.planning.dwa import DwaSettings, LocalPlanner, PathField, Window, path_field
 from navd.planning.errors import PlanningError
-from navd.planning.footprint import Footprint
+from navd.planning.footprint import Footprint, keep_clear_m
 from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckMonitor, StuckPhase
@@ -165,7 +165,7 @@ class Navigator:
             max(config.robot.max_linear_speed_mps, config.robot.max_reverse_speed_mps)
             * planning.prediction_horizon_s
             + self.footprint.circumradius_m
-            + max(planning.inflation_radius_m, config.safety.collision_distance_m)
+            + max(planning.inflation_radius_m, keep_clear_m(config))
             + 0.5
         )
         if self._obstacles is not None:
@@ -541,7 +541,7 @@ class Navigator:
                 np.interp(stations, self._cumulative, self.path.points_m[:, 1]),
             ]
         )
-        radius = self.footprint.inscribed_m + self.config.safety.collision_distance_m
+        radius = self.footprint.inscribed_m + keep_clear_m(self.config)
         diff = route[:, None, :] - self._scan_points[None, :, :]
         return bool((np.einsum("ijk,ijk->ij", diff, diff) < radius**2).any())
 

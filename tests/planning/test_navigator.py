@@ -72,11 +72,18 @@ def test_an_obstacle_missing_from_the_map_blocks_the_route_and_is_driven_around(
 def test_a_robot_facing_a_dead_end_backs_out_and_replans() -> None:
     # A narrow pocket (0.6 m) the 0.4 x 0.3 m robot cannot turn in; the goal is behind its end.
     pocket = np.array([(1.2, 0.3, 2.0, 0.3), (1.2, -0.3, 2.0, -0.3), (2.0, -0.3, 2.0, 0.3)])
-    cfg = config(
-        stuck_time_s=1.0,
-        stuck_time_force_backward_s=2.0,
-        max_stuck_time_s=8.0,
-        backup_distance_m=0.6,
+    cfg = NavdConfig.model_validate(
+        {
+            "robot": {"footprint": "rectangle"},
+            # 0.15 m each side in the pocket: the guard's stop distance must be below that.
+            "safety": {"stop_distance_m": 0.1},
+            "planning": {
+                "stuck_time_s": 1.0,
+                "stuck_time_force_backward_s": 2.0,
+                "max_stuck_time_s": 8.0,
+                "backup_distance_m": 0.6,
+            },
+        }
     )
     result = drive(
         cfg, pocket, (1.6, 0.0, 0.0), NavGoal("g", 3.5, 0.0), max_time_s=80, map_box=(-1, -2, 5, 2)

@@ -50,6 +50,8 @@ async def test_a_goal_over_tcp_is_planned_and_driven_then_canceled() -> None:
         await control.recv_type("ack")
         frame = await control.recv_type("goal_status")
         assert (frame["goal_id"], frame["state"]) == ("g1", "active")
+        route = await control.recv_type("path")  # control clients see the route too
+        assert route["goal_id"] == "g1" and route["points"][-1] == [3.0, 0.0]
         await until(lambda: bool(paths), timeout_s=10.0)
         assert paths[0].goal_id == "g1"
         assert np.allclose(paths[0].points_m[0], (0.0, 0.0), atol=0.05)

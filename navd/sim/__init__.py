@@ -1,0 +1,1 @@
+"""The simulator: a robot that speaks the real protocols (the chassis pty and TCP sensors)."""

@@ -1,0 +1,271 @@
+"""``navd demo``: the daemon and the simulator together, a goal, and a picture of the drive.
+
+The daemon runs as its own process (``python -m navd run``) on a config written for the
+demo: the chassis driver on the simulator's pseudo-terminal with encoder feedback, the TCP
+server on a free port. The simulator runs in this process and connects its lidar and IMU like
+external sensor programs; a control client sends the start pose and the goal, follows the
+status and the planned route, asks for the map when the drive is over, and the results go to
+``demo.png`` and ``summary.json``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import math
+import signal
+import socket
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+
+from navd.config import NavdConfig
+from navd.drivers.wire import PROTOCOL_VERSION
+from navd.sim.errors import SimError
+from navd.sim.picture import demo_picture
+from navd.sim.runner import SimSettings, Simulator
+from navd.sim.world import World
+
+__all__ = ["DemoResult", "demo_config", "run_demo"]
+
+READY_TIMEOUT_S = 30.0
+
+
+@dataclass
+class DemoResult:
+    """What a demo drive recorded."""
+
+    state: str = "timeout"
+    reason: str = ""
+    time_s: float = math.nan
+    route: list[list[float]] = field(default_factory=list)  # the first full route
+    routes: int = 0  # how many routes the planner sent (plans and replans)
+    estimated: list[tuple[float, float, float]] = field(default_factory=list)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def demo_config(tty: Path, port: int, maps: Path) -> dict[str, Any]:
+    """The daemon config of a demo: chassis on the simulator's pty, TCP on ``port``."""
+    return {
+        "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
+        "tcp": {"port": port},
+        "slam": {"map_dir": str(maps)},
+        "lifecycle": {"event_loop": "asyncio"},
+        "logging": {"format": "json"},
+    }
+
+
+async def _control(port: int) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+    deadline = time.monotonic() + READY_TIMEOUT_S
+    while True:
+        try:
+            reader, writer = await asyncio.open_connection("127.0.0.1", port)
+            break
+        except OSError:
+            if time.monotonic() > deadline:
+                raise SimError(f"navd did not listen on port {port} within {READY_TIMEOUT_S} s")
+            await asyncio.sleep(0.2)
+    hello = {"type": "hello", "protocol": PROTOCOL_VERSION, "role": "control", "device_id": "demo"}
+    writer.write(json.dumps(hello).encode() + b"\n")
+    welcome = json.loads(await asyncio.wait_for(reader.readline(), 5.0))
+    if welcome.get("type") != "welcome":
+        raise SimError(f"navd refused the demo's control client: {welcome}")
+    return reader, writer
+
+
+def _send(writer: asyncio.StreamWriter, frame: dict[str, Any]) -> None:
+    writer.write(json.dumps(frame).encode() + b"\n")
+
+
+async def _drive(
+    sim: Simulator, port: int, world: World, limit_s: float, progress: bool
+) -> DemoResult:
+    """Send the start pose and the goal; follow status until arrival, failure or timeout."""
+    assert world.goal is not None
+    reader, writer = await _control(port)
+    result = DemoResult()
+    # Wait for the lidar: SLAM starts its map at the first scan, where the start pose says.
+    x0, y0, yaw0 = world.start
+    _send(writer, {"type": "initial_pose", "x": x0, "y": y0, "yaw": yaw0, "std_xy": 0.02})
+    _send(writer, {"type": "subscribe", "rate_hz": 5})
+    gx, gy, gyaw = world.goal
+    _send(writer, {"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
+    started = sim.now()
+    shown_at = -math.inf
+    try:
+        while sim.now() - started < limit_s:
+            try:
+                line = await asyncio.wait_for(reader.readline(), 1.0)
+            except TimeoutError:
+                continue
+            if not line:
+                result.reason = "navd closed the connection"
+                break
+            frame = json.loads(line)
+            kind = frame.get("type")
+            if kind == "path" and frame.get("goal_id") == "demo":
+                result.routes += 1
+                if not result.route:
+                    result.route = frame["points"]
+            elif kind == "status" and frame.get("pose"):
+                pose = frame["pose"]
+                result.estimated.append((pose["x"], pose["y"], pose["yaw"]))
+                if progress:
+                    shown_at = _progress(frame, sim.now() - started, shown_at)
+            elif kind == "goal_status" and frame.get("goal_id") == "demo":
+                if frame["state"] in ("reached", "failed", "canceled"):
+                    result.state = frame["state"]
+                    result.reason = frame.get("reason", "")
+                    break
+        result.time_s = sim.now() - started
+        if result.state == "timeout":
+            result.reason = f"not there after {limit_s:.0f} s"
+            _send(writer, {"type": "cancel"})
+        _send(writer, {"type": "save_map", "name": "demo"})
+        await asyncio.sleep(1.0)  # the map is saved in a worker
+    finally:
+        if progress and sys.stderr.isatty():
+            print(file=sys.stderr)  # end the line rewritten in place
+        writer.close()
+    return result
+
+
+def _progress(frame: dict[str, Any], elapsed_s: float, shown_at: float) -> float:
+    """A progress line: rewritten in place on a terminal, every 5 s otherwise."""
+    terminal = sys.stderr.isatty()
+    if not terminal and elapsed_s - shown_at < 5.0:
+        return shown_at
+    goal = frame.get("goal") or {}
+    remaining = goal.get("distance_remaining")
+    left = f"{remaining:5.1f} m to go" if remaining is not None else "planning"
+    safety = ", ".join(frame["diagnostics"]["safety"]) or "ok"
+    text = f"demo: {elapsed_s:5.1f} s  {frame['mode']:<10} {left}  safety: {safety}"
+    print(f"\r{text:<78}" if terminal else text, end="" if terminal else "\n", file=sys.stderr)
+    sys.stderr.flush()
+    return elapsed_s
+
+
+def run_demo(
+    world: World, out: Path, *, limit_s: float = 180.0, progress: bool = True
+) -> dict[str, Any]:
+    """Run the demo in ``world`` and write ``demo.png`` and ``summary.json`` into ``out``.
+
+    Returns:
+        The summary.
+
+    Raises:
+        SimError: the world has no goal, or navd could not be started or reached.
+    """
+    if world.goal is None:
+        raise SimError(f"world {world.name!r} has no goal: add goal = [x, y, yaw]")
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="navd-demo-") as tmp:
+        work = Path(tmp)
+        port = _free_port()
+        tty = work / "chassis-tty"
+        raw = demo_config(tty, port, work / "maps")
+        config = NavdConfig.model_validate(raw)
+        config_path = work / "navd.toml"
+        config_path.write_text(tomli_w.dumps(raw), encoding="utf-8")
+        sim = Simulator(world, config, SimSettings(port=port, tty_link=tty))
+        log_path = out / "demo.log"
+        result = asyncio.run(
+            _with_daemon(sim, config_path, log_path, port, world, limit_s, progress)
+        )
+        built = _load_built_map(work / "maps" / "demo.yaml")
+    truth = np.array([(x, y, yaw) for _, x, y, yaw in sim.truth]).reshape(-1, 3)
+    summary = _summary(world, sim, result, truth)
+    demo_picture(world, built, result.route, result.estimated, truth, out / "demo.png")
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    return summary
+
+
+async def _with_daemon(
+    sim: Simulator,
+    config_path: Path,
+    log_path: Path,
+    port: int,
+    world: World,
+    limit_s: float,
+    progress: bool,
+) -> DemoResult:
+    stop = asyncio.Event()
+    sim_task = asyncio.create_task(sim.run(stop))
+    await asyncio.sleep(0.2)  # the pseudo-terminal link exists before the daemon opens it
+    with log_path.open("wb") as log:
+        daemon = await asyncio.create_subprocess_exec(
+            sys.executable,
+            "-m",
+            "navd",
+            "run",
+            "--config",
+            str(config_path),
+            stdout=log,
+            stderr=log,
+        )
+        try:
+            return await _drive(sim, port, world, limit_s, progress)
+        finally:
+            if daemon.returncode is None:
+                daemon.send_signal(signal.SIGTERM)
+                try:
+                    await asyncio.wait_for(daemon.wait(), 15.0)
+                except TimeoutError:
+                    daemon.kill()
+                    await daemon.wait()
+            stop.set()
+            with contextlib.suppress(asyncio.CancelledError):
+                await sim_task
+
+
+def _load_built_map(path: Path) -> Any:
+    from navd.slam.errors import MapFileError  # noqa: PLC0415
+    from navd.slam.map_io import load_map  # noqa: PLC0415
+
+    try:
+        return load_map(path)
+    except MapFileError:
+        return None
+
+
+def _summary(world: World, sim: Simulator, result: DemoResult, truth: np.ndarray) -> dict[str, Any]:
+    """The numbers a person wants after a drive."""
+    driven = float(np.hypot(*np.diff(truth[:, :2], axis=0).T).sum()) if len(truth) > 1 else 0.0
+    assert world.goal is not None
+    end = truth[-1] if len(truth) else np.array(world.start)
+    pose_error = math.nan
+    if result.estimated and len(truth):
+        ex, ey, _ = result.estimated[-1]
+        pose_error = math.hypot(ex - end[0], ey - end[1])
+    route = np.array(result.route).reshape(-1, 2)
+    return {
+        "world": world.name,
+        "reached": result.state == "reached",
+        "state": result.state,
+        "reason": result.reason,
+        "time_s": round(result.time_s, 2),
+        "driven_length_m": round(driven, 3),
+        "route_length_m": round(float(np.hypot(*np.diff(route, axis=0).T).sum()), 3)
+        if len(route) > 1
+        else None,
+        "routes_planned": result.routes,
+        "final_distance_to_goal_m": round(
+            math.hypot(end[0] - world.goal[0], end[1] - world.goal[1]), 3
+        ),
+        "min_clearance_m": round(sim.body.min_clearance_m, 3),
+        "collisions": sim.body.collisions,
+        "final_pose_error_m": round(pose_error, 3) if math.isfinite(pose_error) else None,
+        "chassis_lines": sim.chassis_lines,
+    }
