@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/navd run --config config/navd.toml
+	$(BIN)/navd demo --out demo-output
 
 test: $(STAMP)
 	$(BIN)/ruff check .

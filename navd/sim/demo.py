@@ -45,8 +45,7 @@ class DemoResult:
     state: str = "timeout"
     reason: str = ""
     time_s: float = math.nan
-    route: list[list[float]] = field(default_factory=list)  # the first full route
-    routes: int = 0  # how many routes the planner sent (plans and replans)
+    routes: list[list[list[float]]] = field(default_factory=list)  # every route, in order
     estimated: list[tuple[float, float, float]] = field(default_factory=list)
 
 
@@ -73,9 +72,11 @@ async def _control(port: int) -> tuple[asyncio.StreamReader, asyncio.StreamWrite
         try:
             reader, writer = await asyncio.open_connection("127.0.0.1", port)
             break
-        except OSError:
+        except OSError as err:
             if time.monotonic() > deadline:
-                raise SimError(f"navd did not listen on port {port} within {READY_TIMEOUT_S} s")
+                raise SimError(
+                    f"navd did not listen on port {port} within {READY_TIMEOUT_S} s (see demo.log)"
+                ) from err
             await asyncio.sleep(0.2)
     hello = {"type": "hello", "protocol": PROTOCOL_VERSION, "role": "control", "device_id": "demo"}
     writer.write(json.dumps(hello).encode() + b"\n")
@@ -116,19 +117,20 @@ async def _drive(
             frame = json.loads(line)
             kind = frame.get("type")
             if kind == "path" and frame.get("goal_id") == "demo":
-                result.routes += 1
-                if not result.route:
-                    result.route = frame["points"]
+                result.routes.append(frame["points"])
             elif kind == "status" and frame.get("pose"):
                 pose = frame["pose"]
                 result.estimated.append((pose["x"], pose["y"], pose["yaw"]))
                 if progress:
                     shown_at = _progress(frame, sim.now() - started, shown_at)
-            elif kind == "goal_status" and frame.get("goal_id") == "demo":
-                if frame["state"] in ("reached", "failed", "canceled"):
-                    result.state = frame["state"]
-                    result.reason = frame.get("reason", "")
-                    break
+            elif (
+                kind == "goal_status"
+                and frame.get("goal_id") == "demo"
+                and frame["state"] in ("reached", "failed", "canceled")
+            ):
+                result.state = frame["state"]
+                result.reason = frame.get("reason", "")
+                break
         result.time_s = sim.now() - started
         if result.state == "timeout":
             result.reason = f"not there after {limit_s:.0f} s"
@@ -187,12 +189,12 @@ def run_demo(
         built = _load_built_map(work / "maps" / "demo.yaml")
     truth = np.array([(x, y, yaw) for _, x, y, yaw in sim.truth]).reshape(-1, 3)
     summary = _summary(world, sim, result, truth)
-    demo_picture(world, built, result.route, result.estimated, truth, out / "demo.png")
+    demo_picture(world, built, result.routes, result.estimated, truth, out / "demo.png")
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
 
 
-async def _with_daemon(
+async def _with_daemon(  # noqa: PLR0917 - private, called once
     sim: Simulator,
     config_path: Path,
     log_path: Path,
@@ -249,7 +251,7 @@ def _summary(world: World, sim: Simulator, result: DemoResult, truth: np.ndarray
     if result.estimated and len(truth):
         ex, ey, _ = result.estimated[-1]
         pose_error = math.hypot(ex - end[0], ey - end[1])
-    route = np.array(result.route).reshape(-1, 2)
+    route = np.array(result.routes[0] if result.routes else []).reshape(-1, 2)
     return {
         "world": world.name,
         "reached": result.state == "reached",
@@ -257,10 +259,10 @@ def _summary(world: World, sim: Simulator, result: DemoResult, truth: np.ndarray
         "reason": result.reason,
         "time_s": round(result.time_s, 2),
         "driven_length_m": round(driven, 3),
-        "route_length_m": round(float(np.hypot(*np.diff(route, axis=0).T).sum()), 3)
+        "first_route_length_m": round(float(np.hypot(*np.diff(route, axis=0).T).sum()), 3)
         if len(route) > 1
         else None,
-        "routes_planned": result.routes,
+        "routes_planned": len(result.routes),
         "final_distance_to_goal_m": round(
             math.hypot(end[0] - world.goal[0], end[1] - world.goal[1]), 3
         ),

@@ -17,7 +17,8 @@ __all__ = ["demo_picture"]
 PIXEL_M = 0.025
 WORLD_RGB = (215, 215, 215)  # the true obstacles, light grey
 MAP_RGB = (20, 20, 20)  # what navd mapped as occupied, black
-ROUTE_RGB = (40, 90, 230)  # the planned route, blue
+ROUTE_RGB = (40, 90, 230)  # the last route planned, blue
+OLD_ROUTE_RGB = (170, 195, 245)  # earlier routes (replanned as the map grew), light blue
 ESTIMATE_RGB = (20, 160, 60)  # where navd thought it was, green
 TRUTH_RGB = (220, 30, 30)  # where the robot really went, red
 MOVER_RGB = (240, 150, 20)  # moving obstacles' paths, orange
@@ -83,16 +84,17 @@ class _Canvas:
         self.line(np.column_stack([x + radius_m * np.cos(a), y + radius_m * np.sin(a)]), rgb, 3)
 
 
-def demo_picture(
+def demo_picture(  # noqa: PLR0917 - every layer of the picture, named
     world: World,
     built: Any,
-    route: list[list[float]],
+    routes: list[list[list[float]]],
     estimated: list[tuple[float, float, float]],
     truth: npt.NDArray[np.float64],
     path: Path,
 ) -> None:
-    """Write the picture: true obstacles light grey, navd's map black, route blue, estimated
-    trajectory green, true trajectory red, moving obstacles' paths orange, goal magenta."""
+    """Write the picture: true obstacles light grey, navd's map black, earlier routes light
+    blue and the last one blue, estimated trajectory green, true trajectory red, moving
+    obstacles' paths orange, start green and goal magenta circles."""
     canvas = _Canvas(world)
     # Draw the world at its own resolution, thinned to the picture's pixels.
     canvas.cells(world.grid, world.origin_x_m, world.origin_y_m, world.resolution_m, WORLD_RGB)
@@ -101,7 +103,10 @@ def demo_picture(
         canvas.cells(occupied, built.origin_x, built.origin_y, built.resolution, MAP_RGB)
     for mover in world.movers:
         canvas.line(mover.path_m, MOVER_RGB, 3)
-    canvas.line(np.array(route, dtype=np.float64).reshape(-1, 2), ROUTE_RGB, 3)
+    for i, route in enumerate(routes):
+        last = i == len(routes) - 1
+        points = np.array(route, dtype=np.float64).reshape(-1, 2)
+        canvas.line(points, ROUTE_RGB if last else OLD_ROUTE_RGB, 3 if last else 1)
     canvas.line(
         np.array([e[:2] for e in estimated], dtype=np.float64).reshape(-1, 2), ESTIMATE_RGB, 3
     )

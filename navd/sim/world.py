@@ -118,7 +118,7 @@ def _pairs(value: object, width: int, key: str) -> list[tuple[float, ...]]:
     return rows
 
 
-def from_shapes(spec: dict[str, object], name: str = "world") -> World:
+def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa: PLR0915
     """A world from a parsed TOML table of shapes (see the module docstring).
 
     Raises:

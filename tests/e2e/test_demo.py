@@ -1,0 +1,49 @@
+"""``navd demo`` end to end: the real daemon process drives the simulated robot (chassis on a
+real pseudo-terminal, sensors over real TCP) to a goal, and the results are written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from navd.sim.demo import run_demo
+from navd.sim.world import from_shapes
+from tests.e2e.conftest import run_navd
+
+# A 6 m x 3 m room with a box in the middle of the straight line to the goal.
+ROOM = {
+    "walls": [[-1, -1.5, 5, -1.5], [5, -1.5, 5, 1.5], [5, 1.5, -1, 1.5], [-1, 1.5, -1, -1.5]],
+    "boxes": [[1.6, -0.4, 0.6, 0.8]],
+    "start": [0.0, 0.0, 0.0],
+    "goal": [3.8, 0.0, 0.0],
+}
+
+
+def test_the_demo_drives_around_a_box_to_the_goal_and_writes_its_results(tmp_path: Path) -> None:
+    world = from_shapes(ROOM, "room")
+    summary = run_demo(world, tmp_path, limit_s=60.0, progress=False)
+    assert summary["reached"], summary
+    assert summary["collisions"] == 0
+    assert summary["min_clearance_m"] >= 0.1  # the guard's stop distance, less the sim's grid
+    assert summary["final_distance_to_goal_m"] <= 0.2
+    assert summary["final_pose_error_m"] <= 0.15
+    assert summary["driven_length_m"] > 3.8  # not through the box
+    assert summary["chassis_lines"] > 100  # it drove through the wheel commands
+    assert json.loads((tmp_path / "summary.json").read_text()) == summary
+    picture = np.asarray(Image.open(tmp_path / "demo.png").convert("RGB"))
+    assert picture.shape == (int(np.ceil(5.0 / 0.025)), int(np.ceil(8.0 / 0.025)), 3)
+    colours = {tuple(c) for c in picture.reshape(-1, 3)}
+    for colour in [(220, 30, 30), (20, 160, 60), (40, 90, 230), (20, 20, 20)]:
+        assert colour in colours  # truth, estimate, route and the map navd built
+    assert (tmp_path / "demo.log").stat().st_size > 0
+
+
+def test_demo_refuses_a_bad_world_by_name(tmp_path: Path) -> None:
+    world = tmp_path / "bad.toml"
+    world.write_text("walls = [[0, 0, 1]]\n")
+    result = run_navd("demo", "--world", str(world), "--out", str(tmp_path))
+    assert result.returncode == 2
+    assert "walls[0] must be 4 finite numbers" in result.stderr
