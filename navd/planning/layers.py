@@ -1,0 +1,190 @@
+"""What the planner knows about the world: the SLAM map, scan obstacles and keep-out zones.
+
+The layers live on the map's cell lattice. A snapshot for A* covers the map grown (in whole
+cells) to hold the robot and the goal with ``FRAME_MARGIN_M`` to spare; unmapped cells are
+unknown. The obstacle layer follows the snapshot's frame, keeping its marks; if the lattice
+itself changes (a new map with another origin or resolution) it starts afresh, its marks last
+only ``obstacle_persistence_s`` anyway.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.config import PlanningConfig
+from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
+
+__all__ = ["FRAME_MARGIN_M", "Layers"]
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+Pose = tuple[float, float, float]
+
+# Unmapped space planned through around the robot and the goal [m].
+FRAME_MARGIN_M = 3.0
+# Cell size [m] before a map arrives.
+DEFAULT_RESOLUTION_M = 0.05
+
+
+class Layers:
+    """The static, obstacle and keep-out layers.
+
+    Args:
+        planning: occupancy threshold, obstacle persistence and keep-out zones.
+    """
+
+    def __init__(self, planning: PlanningConfig) -> None:
+        self.planning = planning
+        self.map: tuple[GridFrame, BoolArray, BoolArray] | None = None
+        self.obstacles: ObstacleLayer | None = None
+        self.scan_points: FloatArray = np.empty((0, 2))
+        self._keep_out: tuple[GridFrame, object, BoolArray] | None = None
+
+    def configure(self, planning: PlanningConfig) -> None:
+        """Take a new planning section (runtime changes)."""
+        self.planning = planning
+        if self.obstacles is not None:
+            self.obstacles.persistence_s = planning.obstacle_persistence_s
+
+    def set_map(
+        self,
+        occupancy: npt.NDArray[np.int8],
+        resolution_m: float,
+        origin_x_m: float,
+        origin_y_m: float,
+    ) -> None:
+        """Take the SLAM map (-1 unknown, 0..100 % occupied; row = y)."""
+        rows, cols = occupancy.shape
+        frame = GridFrame(resolution_m, origin_x_m, origin_y_m, rows, cols)
+        occupied, unknown = static_layer(occupancy, self.planning.occupied_threshold_pct)
+        self.map = (frame, occupied, unknown)
+
+    def add_scan(
+        self, pose: Pose, hits_robot_m: FloatArray, misses_robot_m: FloatArray, stamp: float
+    ) -> None:
+        """Take a scan (points in the robot frame) seen from ``pose`` [m, m, rad] at ``stamp``:
+        its hits become the live obstacle points; its rays mark and clear the obstacle layer."""
+        hits = to_map(pose, hits_robot_m)
+        self.scan_points = hits
+        if self.obstacles is not None:
+            self.obstacles.add_scan((pose[0], pose[1]), hits, to_map(pose, misses_robot_m), stamp)
+
+    def forget_around(self, x_m: float, y_m: float, radius_m: float) -> None:
+        """Forget scan obstacles within ``radius_m`` of (x_m, y_m) (stuck recovery)."""
+        if self.obstacles is not None:
+            self.obstacles.clear_disc(x_m, y_m, radius_m)
+
+    def snapshot(
+        self, now: float, points_m: list[tuple[float, float]]
+    ) -> tuple[GridFrame, BoolArray, BoolArray]:
+        """(frame, obstacle cells, unknown cells) of all layers at ``now``, on a frame holding
+        the map and ``points_m`` (the robot, the goal) with a margin."""
+        frame = self._frame(points_m)
+        obstacles = np.zeros(frame.shape, dtype=np.bool_)
+        unknown = np.ones(frame.shape, dtype=np.bool_)
+        if self.map is not None:
+            map_frame, occupied, map_unknown = self.map
+            window = _placement(frame, map_frame)
+            obstacles[window] = occupied
+            unknown[window] = map_unknown
+        if self.obstacles is None:
+            self.obstacles = ObstacleLayer(frame, self.planning.obstacle_persistence_s)
+        try:
+            self.obstacles.reframe(frame)
+        except ValueError:
+            # A map on another lattice: the short-lived marks start afresh.
+            self.obstacles = ObstacleLayer(frame, self.planning.obstacle_persistence_s)
+        obstacles |= self.obstacles.active(now)
+        obstacles |= self.keep_out(frame)
+        return frame, obstacles, unknown
+
+    def keep_out(self, frame: GridFrame) -> BoolArray:
+        """The keep-out cells of ``frame``, computed once per frame and set of zones."""
+        zones = self.planning.keep_out_zones
+        cached = self._keep_out
+        if cached is None or cached[0] != frame or cached[1] != zones:
+            cached = (frame, zones, keep_out_mask(frame, zones))
+            self._keep_out = cached
+        return cached[2]
+
+    def local_points(self, pose: Pose, radius_m: float) -> FloatArray:
+        """[m] obstacle points near the robot: live scan hits, map and keep-out cells."""
+        parts = [self.scan_points]
+        if self.map is not None:
+            frame, occupied, _ = self.map
+            parts.append(_cells_near(frame, occupied, pose, radius_m))
+        if self.planning.keep_out_zones and self.obstacles is not None:
+            frame = self.obstacles.frame
+            parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
+        return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+    def _frame(self, points_m: list[tuple[float, float]]) -> GridFrame:
+        """The map's frame grown in whole cells to hold ``points_m`` with a margin, and never
+        smaller than the obstacle layer's (its marks stay)."""
+        res = self.map[0].resolution_m if self.map is not None else DEFAULT_RESOLUTION_M
+        xs = [p[0] for p in points_m]
+        ys = [p[1] for p in points_m]
+        lo_x, hi_x = min(xs) - FRAME_MARGIN_M, max(xs) + FRAME_MARGIN_M
+        lo_y, hi_y = min(ys) - FRAME_MARGIN_M, max(ys) + FRAME_MARGIN_M
+        anchor = (0.0, 0.0)
+        if self.map is not None:
+            m = self.map[0]
+            anchor = (m.origin_x_m, m.origin_y_m)
+            lo_x, lo_y = min(lo_x, m.origin_x_m), min(lo_y, m.origin_y_m)
+            hi_x, hi_y = (
+                max(hi_x, m.origin_x_m + m.cols * res),
+                max(hi_y, m.origin_y_m + m.rows * res),
+            )
+        elif self.obstacles is not None:
+            anchor = (self.obstacles.frame.origin_x_m, self.obstacles.frame.origin_y_m)
+        old = self.obstacles.frame if self.obstacles is not None else None
+        if old is not None and old.resolution_m == res and _aligned(old, anchor):
+            lo_x, lo_y = min(lo_x, old.origin_x_m), min(lo_y, old.origin_y_m)
+            hi_x = max(hi_x, old.origin_x_m + old.cols * res)
+            hi_y = max(hi_y, old.origin_y_m + old.rows * res)
+        # Snap to the anchor's cell lattice so the layers line up cell for cell.
+        ox = anchor[0] + math.floor(round((lo_x - anchor[0]) / res, 6)) * res
+        oy = anchor[1] + math.floor(round((lo_y - anchor[1]) / res, 6)) * res
+        cols = math.ceil(round((hi_x - ox) / res, 6))
+        rows = math.ceil(round((hi_y - oy) / res, 6))
+        return GridFrame(res, ox, oy, rows, cols)
+
+
+def _aligned(frame: GridFrame, anchor: tuple[float, float]) -> bool:
+    """True if ``frame``'s cells lie on the lattice through ``anchor``."""
+    for offset in (frame.origin_x_m - anchor[0], frame.origin_y_m - anchor[1]):
+        cells = offset / frame.resolution_m
+        if abs(cells - round(cells)) > 1e-6:
+            return False
+    return True
+
+
+def to_map(pose: Pose, points: FloatArray) -> FloatArray:
+    """Robot-frame points [m] seen from ``pose`` in the map frame."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    pts = points.reshape(-1, 2)
+    return np.column_stack(
+        [pose[0] + c * pts[:, 0] - s * pts[:, 1], pose[1] + s * pts[:, 0] + c * pts[:, 1]]
+    )
+
+
+def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
+    """The slices of ``outer`` covering ``inner`` (same lattice, inner inside outer)."""
+    r = round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m)
+    c = round((inner.origin_x_m - outer.origin_x_m) / outer.resolution_m)
+    return slice(r, r + inner.rows), slice(c, c + inner.cols)
+
+
+def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose, radius_m: float) -> FloatArray:
+    """[m] centres of the ``mask`` cells within a square of half-size radius_m around pose."""
+    r0, c0 = frame.cell_of(pose[0] - radius_m, pose[1] - radius_m)
+    r1, c1 = frame.cell_of(pose[0] + radius_m, pose[1] + radius_m)
+    r0, c0 = max(r0, 0), max(c0, 0)
+    r1, c1 = min(r1 + 1, frame.rows), min(c1 + 1, frame.cols)
+    if r1 <= r0 or c1 <= c0:
+        return np.empty((0, 2))
+    cells = np.argwhere(mask[r0:r1, c0:c1]) + np.array([r0, c0])
+    return frame.centers_of(cells.astype(np.int64))

@@ -1,0 +1,96 @@
+"""Following a planned route: where the robot is along it, what lies ahead, what blocks it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.planning.dwa import PathField, path_field
+
+__all__ = ["Route"]
+
+FloatArray = npt.NDArray[np.float64]
+Pose = tuple[float, float, float]
+
+# Stations along the route are checked for obstacles this far apart [m].
+STATION_STEP_M = 0.1
+
+
+class Route:
+    """A polyline the robot follows; progress along it only moves forward.
+
+    Args:
+        points_m: [m] N x 2 map points, from the robot to the goal.
+    """
+
+    def __init__(self, points_m: FloatArray) -> None:
+        self.points_m = points_m
+        self.field: PathField = path_field(points_m)
+        steps = np.hypot(*np.diff(points_m, axis=0).T) if len(points_m) > 1 else np.empty(0)
+        self.cumulative: FloatArray = np.concatenate([[0.0], np.cumsum(steps)])
+        self.progress = 0
+
+    @property
+    def length_m(self) -> float:
+        """[m] the whole route's length."""
+        return float(self.cumulative[-1])
+
+    def locate(self, pose: Pose) -> tuple[int, float, float]:
+        """(segment, fraction along it, distance [m]) of the route point nearest the robot,
+        searched from the last progress on (so a route that doubles back is not cut short)."""
+        points = self.points_m
+        if points.shape[0] == 1:
+            return 0, 0.0, float(math.hypot(points[0, 0] - pose[0], points[0, 1] - pose[1]))
+        a = points[self.progress : -1]
+        ab = points[self.progress + 1 :] - a
+        p = np.array([pose[0], pose[1]])
+        length2 = np.maximum((ab**2).sum(axis=1), 1e-12)
+        t = np.clip(((p - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
+        d = np.hypot(*(a + t[:, None] * ab - p).T)
+        i = int(np.argmin(d))
+        self.progress += i
+        return self.progress, float(t[i]), float(d[i])
+
+    def _station(self, segment: int, fraction: float) -> float:
+        """[m] distance along the route of a point on ``segment``."""
+        if self.cumulative.size < 2:
+            return 0.0
+        start = self.cumulative[segment]
+        return float(start + fraction * (self.cumulative[segment + 1] - start))
+
+    def distance_to(self, pose: Pose) -> float:
+        """[m] from the robot to the route."""
+        return self.locate(pose)[2]
+
+    def remaining(self, pose: Pose) -> float:
+        """[m] from the robot to the route, then along it to the goal."""
+        segment, fraction, distance = self.locate(pose)
+        return distance + self.length_m - self._station(segment, fraction)
+
+    def point_at(self, station_m: FloatArray) -> FloatArray:
+        """[m] K x 2 route points at distances ``station_m`` along it (clamped to its ends)."""
+        return np.column_stack(
+            [
+                np.interp(station_m, self.cumulative, self.points_m[:, 0]),
+                np.interp(station_m, self.cumulative, self.points_m[:, 1]),
+            ]
+        )
+
+    def carrot(self, pose: Pose, lookahead_m: float) -> tuple[float, float]:
+        """[m] the route point ``lookahead_m`` ahead of the robot's nearest route point."""
+        here = self._station(*self.locate(pose)[:2])
+        x, y = self.point_at(np.array([min(here + lookahead_m, self.length_m)]))[0]
+        return float(x), float(y)
+
+    def blocked(self, obstacles_m: FloatArray, radius_m: float, ahead_m: float) -> bool:
+        """True if an obstacle point lies within ``radius_m`` of the next ``ahead_m`` of route."""
+        if obstacles_m.shape[0] == 0:
+            return False
+        here = self.cumulative[self.progress]
+        stations = np.arange(here, min(here + ahead_m, self.length_m), STATION_STEP_M)
+        if stations.size == 0:
+            return False
+        diff = self.point_at(stations)[:, None, :] - obstacles_m[None, :, :]
+        return bool((np.einsum("ijk,ijk->ij", diff, diff) < radius_m**2).any())
