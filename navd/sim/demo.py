@@ -11,31 +11,23 @@ status and the planned route, asks for the map when the drive is over, and the r
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import math
-import signal
-import socket
 import sys
 import tempfile
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomli_w
 
-from navd.config import NavdConfig
-from navd.drivers.wire import PROTOCOL_VERSION
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
-from navd.sim.runner import SimSettings, Simulator
+from navd.sim.runner import Simulator
+from navd.sim.session import Session, session
 from navd.sim.world import World
 
-__all__ = ["DemoResult", "demo_config", "run_demo"]
-
-READY_TIMEOUT_S = 30.0
+__all__ = ["DemoResult", "run_demo"]
 
 
 @dataclass
@@ -49,73 +41,29 @@ class DemoResult:
     estimated: list[tuple[float, float, float]] = field(default_factory=list)
 
 
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def demo_config(tty: Path, port: int, maps: Path) -> dict[str, Any]:
-    """The daemon config of a demo: chassis on the simulator's pty, TCP on ``port``."""
-    return {
-        "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
-        "tcp": {"port": port},
-        "slam": {"map_dir": str(maps)},
-        "lifecycle": {"event_loop": "asyncio"},
-        "logging": {"format": "json"},
-    }
-
-
-async def _control(port: int) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
-    deadline = time.monotonic() + READY_TIMEOUT_S
-    while True:
-        try:
-            reader, writer = await asyncio.open_connection("127.0.0.1", port)
-            break
-        except OSError as err:
-            if time.monotonic() > deadline:
-                raise SimError(
-                    f"navd did not listen on port {port} within {READY_TIMEOUT_S} s (see demo.log)"
-                ) from err
-            await asyncio.sleep(0.2)
-    hello = {"type": "hello", "protocol": PROTOCOL_VERSION, "role": "control", "device_id": "demo"}
-    writer.write(json.dumps(hello).encode() + b"\n")
-    welcome = json.loads(await asyncio.wait_for(reader.readline(), 5.0))
-    if welcome.get("type") != "welcome":
-        raise SimError(f"navd refused the demo's control client: {welcome}")
-    return reader, writer
-
-
-def _send(writer: asyncio.StreamWriter, frame: dict[str, Any]) -> None:
-    writer.write(json.dumps(frame).encode() + b"\n")
-
-
-async def _drive(
-    sim: Simulator, port: int, world: World, limit_s: float, progress: bool
-) -> DemoResult:
+async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> DemoResult:
     """Send the start pose and the goal; follow status until arrival, failure or timeout."""
     assert world.goal is not None
-    reader, writer = await _control(port)
+    control, sim = s.control, s.sim
     result = DemoResult()
-    # Wait for the lidar: SLAM starts its map at the first scan, where the start pose says.
+    # The start as the initial pose: SLAM starts its map there, so map and world coincide.
     x0, y0, yaw0 = world.start
-    _send(writer, {"type": "initial_pose", "x": x0, "y": y0, "yaw": yaw0, "std_xy": 0.02})
-    _send(writer, {"type": "subscribe", "rate_hz": 5})
+    control.send({"type": "initial_pose", "x": x0, "y": y0, "yaw": yaw0, "std_xy": 0.02})
+    control.send({"type": "subscribe", "rate_hz": 5})
     gx, gy, gyaw = world.goal
-    _send(writer, {"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
+    control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
     started = sim.now()
     shown_at = -math.inf
     try:
         while sim.now() - started < limit_s:
             try:
-                line = await asyncio.wait_for(reader.readline(), 1.0)
+                frame = await control.recv(1.0)
             except TimeoutError:
                 continue
-            if not line:
+            kind = frame.get("type")
+            if kind == "eof":
                 result.reason = "navd closed the connection"
                 break
-            frame = json.loads(line)
-            kind = frame.get("type")
             if kind == "path" and frame.get("goal_id") == "demo":
                 result.routes.append(frame["points"])
             elif kind == "status" and frame.get("pose"):
@@ -134,13 +82,12 @@ async def _drive(
         result.time_s = sim.now() - started
         if result.state == "timeout":
             result.reason = f"not there after {limit_s:.0f} s"
-            _send(writer, {"type": "cancel"})
-        _send(writer, {"type": "save_map", "name": "demo"})
+            control.send({"type": "cancel"})
+        control.send({"type": "save_map", "name": "demo"})
         await asyncio.sleep(1.0)  # the map is saved in a worker
     finally:
         if progress and sys.stderr.isatty():
             print(file=sys.stderr)  # end the line rewritten in place
-        writer.close()
     return result
 
 
@@ -175,61 +122,18 @@ def run_demo(
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="navd-demo-") as tmp:
         work = Path(tmp)
-        port = _free_port()
-        tty = work / "chassis-tty"
-        raw = demo_config(tty, port, work / "maps")
-        config = NavdConfig.model_validate(raw)
-        config_path = work / "navd.toml"
-        config_path.write_text(tomli_w.dumps(raw), encoding="utf-8")
-        sim = Simulator(world, config, SimSettings(port=port, tty_link=tty))
-        log_path = out / "demo.log"
-        result = asyncio.run(
-            _with_daemon(sim, config_path, log_path, port, world, limit_s, progress)
-        )
+
+        async def main() -> tuple[DemoResult, Simulator]:
+            async with session(world, work, log_path=out / "demo.log") as s:
+                return await _drive(s, world, limit_s, progress), s.sim
+
+        result, sim = asyncio.run(main())
         built = _load_built_map(work / "maps" / "demo.yaml")
     truth = np.array([(x, y, yaw) for _, x, y, yaw in sim.truth]).reshape(-1, 3)
     summary = _summary(world, sim, result, truth)
     demo_picture(world, built, result.routes, result.estimated, truth, out / "demo.png")
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
-
-
-async def _with_daemon(  # noqa: PLR0917 - private, called once
-    sim: Simulator,
-    config_path: Path,
-    log_path: Path,
-    port: int,
-    world: World,
-    limit_s: float,
-    progress: bool,
-) -> DemoResult:
-    stop = asyncio.Event()
-    sim_task = asyncio.create_task(sim.run(stop))
-    await asyncio.sleep(0.2)  # the pseudo-terminal link exists before the daemon opens it
-    with log_path.open("wb") as log:
-        daemon = await asyncio.create_subprocess_exec(
-            sys.executable,
-            "-m",
-            "navd",
-            "run",
-            "--config",
-            str(config_path),
-            stdout=log,
-            stderr=log,
-        )
-        try:
-            return await _drive(sim, port, world, limit_s, progress)
-        finally:
-            if daemon.returncode is None:
-                daemon.send_signal(signal.SIGTERM)
-                try:
-                    await asyncio.wait_for(daemon.wait(), 15.0)
-                except TimeoutError:
-                    daemon.kill()
-                    await daemon.wait()
-            stop.set()
-            with contextlib.suppress(asyncio.CancelledError):
-                await sim_task
 
 
 def _load_built_map(path: Path) -> Any:

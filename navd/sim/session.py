@@ -1,0 +1,193 @@
+"""A simulation session: the real daemon process, the simulator, and a control client.
+
+``async with session(world, work_dir) as s:`` writes a daemon config (chassis on the
+simulator's pseudo-terminal with encoder feedback, the TCP server on a free port, maps in
+``work_dir/maps``, plus any overrides), starts the simulator, then ``python -m navd run``
+(its log in ``work_dir/navd.log`` unless another path is given), and connects a control
+client. On exit the daemon gets SIGTERM (SIGKILL after 15 s) and the simulator stops. The demo
+and the end-to-end scenarios are built on it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import signal
+import socket
+import sys
+import time
+from collections.abc import AsyncIterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from navd.config import NavdConfig
+from navd.drivers.wire import PROTOCOL_VERSION
+from navd.sim.errors import SimError
+from navd.sim.runner import SimSettings, Simulator
+from navd.sim.world import World
+
+__all__ = ["Control", "Session", "session"]
+
+READY_TIMEOUT_S = 30.0
+
+
+def free_port() -> int:
+    """A TCP port nobody listens on now."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+    merged = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
+    for section, values in extra.items():
+        merged.setdefault(section, {}).update(values)
+    return merged
+
+
+class Control:
+    """A control client of the wire protocol on asyncio streams."""
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self.reader = reader
+        self.writer = writer
+
+    @classmethod
+    async def connect(cls, port: int, device_id: str = "sim-control") -> Control:
+        """Connect and say hello, retrying until the daemon listens (READY_TIMEOUT_S).
+
+        Raises:
+            SimError: navd did not listen in time or refused the client.
+        """
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while True:
+            try:
+                reader, writer = await asyncio.open_connection("127.0.0.1", port)
+                break
+            except OSError as err:
+                if time.monotonic() > deadline:
+                    raise SimError(
+                        f"navd did not listen on port {port} within {READY_TIMEOUT_S} s "
+                        "(see its log)"
+                    ) from err
+                await asyncio.sleep(0.2)
+        control = cls(reader, writer)
+        control.send(
+            {
+                "type": "hello",
+                "protocol": PROTOCOL_VERSION,
+                "role": "control",
+                "device_id": device_id,
+            }
+        )
+        welcome = await control.recv(5.0)
+        if welcome.get("type") != "welcome":
+            raise SimError(f"navd refused the control client: {welcome}")
+        return control
+
+    def send(self, frame: Mapping[str, Any]) -> None:
+        """Queue one frame."""
+        self.writer.write(json.dumps(frame).encode() + b"\n")
+
+    async def recv(self, timeout_s: float) -> dict[str, Any]:
+        """The next frame, or {"type": "eof"} when the daemon closed the connection.
+
+        Raises:
+            TimeoutError: nothing came within ``timeout_s``.
+        """
+        line = await asyncio.wait_for(self.reader.readline(), timeout_s)
+        if not line:
+            return {"type": "eof"}
+        frame: dict[str, Any] = json.loads(line)
+        return frame
+
+    def close(self) -> None:
+        """Close the connection."""
+        self.writer.close()
+
+
+@dataclass
+class Session:
+    """What a running session offers: the simulator, the control client, the daemon's port,
+    process and config, and the folder its maps go to."""
+
+    sim: Simulator
+    control: Control
+    port: int
+    daemon: asyncio.subprocess.Process
+    config: NavdConfig
+    maps: Path
+
+
+@contextlib.asynccontextmanager
+async def session(
+    world: World,
+    work_dir: Path,
+    *,
+    overrides: Mapping[str, Any] | None = None,
+    sim_settings: Mapping[str, Any] | None = None,
+    log_path: Path | None = None,
+) -> AsyncIterator[Session]:
+    """Run the daemon and the simulator in ``world`` (see the module docstring).
+
+    Args:
+        world: the simulated world.
+        work_dir: folder for the config, the chassis link, the maps and the log.
+        overrides: config sections merged over the session's own ({"planning": {...}}).
+        sim_settings: SimSettings fields to change (noise, rates, seed).
+        log_path: where the daemon's log goes (default ``work_dir/navd.log``).
+    """
+    work_dir.mkdir(parents=True, exist_ok=True)
+    port = free_port()
+    tty = work_dir / "chassis-tty"
+    maps = work_dir / "maps"
+    raw = _merge(
+        {
+            "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
+            "tcp": {"port": port},
+            "slam": {"map_dir": str(maps)},
+            "lifecycle": {"event_loop": "asyncio"},
+            "logging": {"format": "json"},
+        },
+        overrides or {},
+    )
+    config = NavdConfig.model_validate(raw)
+    config_path = work_dir / "navd.toml"
+    config_path.write_text(tomli_w.dumps(raw), encoding="utf-8")
+    settings = SimSettings(port=port, tty_link=tty, **dict(sim_settings or {}))
+    sim = Simulator(world, config, settings)
+    stop = asyncio.Event()
+    sim_task = asyncio.create_task(sim.run(stop))
+    await asyncio.sleep(0.2)  # the pseudo-terminal link exists before the daemon opens it
+    with (log_path or work_dir / "navd.log").open("wb") as log:
+        daemon = await asyncio.create_subprocess_exec(
+            sys.executable,
+            "-m",
+            "navd",
+            "run",
+            "--config",
+            str(config_path),
+            stdout=log,
+            stderr=log,
+        )
+        control: Control | None = None
+        try:
+            control = await Control.connect(port)
+            yield Session(sim, control, port, daemon, config, maps)
+        finally:
+            if control is not None:
+                control.close()
+            if daemon.returncode is None:
+                daemon.send_signal(signal.SIGTERM)
+                try:
+                    await asyncio.wait_for(daemon.wait(), 15.0)
+                except TimeoutError:
+                    daemon.kill()
+                    await daemon.wait()
+            stop.set()
+            with contextlib.suppress(asyncio.CancelledError):
+                await sim_task
