@@ -21,6 +21,7 @@ import math
 import os
 import time
 import tty
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -104,6 +105,10 @@ class Simulator:
         self._slave = -1
         self._last_accel = (0.0, 0.0)
         self._readers: set[asyncio.Task[None]] = set()
+        # Scenario controls: a lidar "unplugged" closes its connection until plugged back.
+        self.lidar_plugged = True
+        # Every wheel command line received: (sim time [s], left, right).
+        self.wheel_log: list[tuple[float, int, int]] = []
 
     @property
     def chassis_lines(self) -> int:
@@ -177,6 +182,7 @@ class Simulator:
             drive.command = command_velocity(left, right, self.config)
             drive.commanded_at = self.now()
             drive.lines += 1
+            self.wheel_log.append((drive.commanded_at, left, right))
         if len(drive.buffer) > 256:
             drive.buffer.clear()
             drive.bad_lines += 1
@@ -240,22 +246,43 @@ class Simulator:
                 pass
             await asyncio.sleep(RECONNECT_S)
 
-    async def _stream(self, role: str, device_id: str, rate_hz: float, frame: object) -> None:
-        """Send ``frame()`` at ``rate_hz`` on a (re)connected sensor connection."""
+    async def _stream(
+        self,
+        role: str,
+        device_id: str,
+        rate_hz: float,
+        frame: Callable[[], dict[str, object]],
+        plugged: Callable[[], bool] | None = None,
+    ) -> None:
+        """Send ``frame()`` at ``rate_hz`` on a (re)connected sensor connection, while
+        ``plugged()`` (when given) says the device is plugged in."""
         period = 1.0 / rate_hz
+
+        def is_plugged() -> bool:
+            return plugged is None or plugged()
+
         while True:
+            while not is_plugged():
+                await asyncio.sleep(period)
             writer = await self._connect(role, device_id)
             try:
-                while True:
+                while is_plugged():
                     await asyncio.sleep(period)
-                    writer.write(json.dumps(frame()).encode() + b"\n")  # type: ignore[operator]
+                    writer.write(json.dumps(frame()).encode() + b"\n")
                     await writer.drain()
             except (ConnectionError, OSError):
-                self.connected.discard(device_id)
-                writer.close()
+                pass
+            self.connected.discard(device_id)
+            writer.close()
 
     async def _lidar(self) -> None:
-        await self._stream("lidar", "sim-lidar", self.settings.lidar_rate_hz, self._scan)
+        await self._stream(
+            "lidar",
+            "sim-lidar",
+            self.settings.lidar_rate_hz,
+            self._scan,
+            lambda: self.lidar_plugged,
+        )
 
     def _scan(self) -> dict[str, object]:
         s, slam = self.settings, self.config.slam

@@ -1,0 +1,172 @@
+"""Closed-loop scenarios: the real daemon process drives the simulated robot (chassis on a
+real pseudo-terminal, lidar and IMU over real TCP) through the seed's test situations."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from navd.sim.session import Session, session
+from navd.sim.world import World, from_shapes
+from navd.slam.map_io import load_map
+
+pytestmark = pytest.mark.e2e
+
+# An 8 m x 3 m hall with a pillar off the straight line.
+HALL = {
+    "walls": [[-1, -1.5, 7, -1.5], [7, -1.5, 7, 1.5], [7, 1.5, -1, 1.5], [-1, 1.5, -1, -1.5]],
+    "boxes": [[2.5, 0.5, 0.4, 0.4]],
+    "start": [0.0, 0.0, 0.0],
+    "goal": [5.5, 0.0, 0.0],
+}
+
+
+async def start(s: Session, world: World, goal_id: str = "g") -> None:
+    """Tell navd where the robot starts and where to go."""
+    x, y, yaw = world.start
+    assert world.goal is not None
+    s.control.send({"type": "initial_pose", "x": x, "y": y, "yaw": yaw, "std_xy": 0.02})
+    gx, gy, gyaw = world.goal
+    s.control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": goal_id})
+
+
+async def outcome(s: Session, goal_id: str = "g", limit_s: float = 60.0) -> dict[str, Any]:
+    """The goal's final goal_status frame (or a timeout)."""
+    deadline = s.sim.now() + limit_s
+    while s.sim.now() < deadline:
+        try:
+            frame = await s.control.recv(1.0)
+        except TimeoutError:
+            continue
+        if frame.get("type") == "goal_status" and frame.get("goal_id") == goal_id:
+            if frame["state"] in ("reached", "failed", "canceled"):
+                return frame
+        if frame.get("type") == "eof":
+            return {"state": "eof"}
+    return {"state": "timeout"}
+
+
+async def latest_pose(s: Session, after_s: float) -> dict[str, float]:
+    """The pose in the last status frame received within the next ``after_s`` seconds."""
+    deadline = s.sim.now() + after_s
+    pose = None
+    while s.sim.now() < deadline:
+        frame = await s.control.recv(2.0)
+        if frame.get("type") == "status" and frame.get("pose"):
+            pose = frame["pose"]
+    assert pose is not None, "no pose in status"
+    return pose
+
+
+async def until(predicate: Any, timeout_s: float) -> None:
+    deadline = asyncio.get_running_loop().time() + timeout_s
+    while not predicate():
+        assert asyncio.get_running_loop().time() < deadline, "condition not met in time"
+        await asyncio.sleep(0.02)
+
+
+async def test_lidar_unplugged_stops_the_wheels_within_300_ms_and_the_drive_goes_on(
+    tmp_path: Path,
+) -> None:
+    world = from_shapes(HALL, "hall")
+    async with session(world, tmp_path) as s:
+        await start(s, world)
+        await until(lambda: s.sim.body.linear_mps > 0.2, 30.0)
+        unplugged_at = s.sim.now()
+        s.sim.lidar_plugged = False
+        await asyncio.sleep(1.5)
+        # Every wheel line from 300 ms after the unplugging on is "0 0".
+        after = [(t, left, right) for t, left, right in s.sim.wheel_log if t >= unplugged_at]
+        stopped = [t for t, left, right in after if (left, right) == (0, 0)]
+        assert stopped and stopped[0] - unplugged_at <= 0.3
+        assert all((left, right) == (0, 0) for t, left, right in after if t >= stopped[0])
+        assert s.sim.body.linear_mps == 0.0
+        s.sim.lidar_plugged = True  # plugged back: the drive goes on to the goal
+        result = await outcome(s)
+    assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+
+
+async def test_a_moving_obstacle_crossing_the_route_is_never_hit(tmp_path: Path) -> None:
+    spec = dict(HALL, movers=[{"radius": 0.25, "speed": 0.4, "path": [[3.5, -1.1], [3.5, 1.1]]}])
+    world = from_shapes(spec, "crossing")
+    async with session(world, tmp_path) as s:
+        await start(s, world)
+        result = await outcome(s, limit_s=90.0)
+    assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+    assert s.sim.body.min_clearance_m > 0.0
+
+
+async def test_the_map_built_matches_the_world(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    async with session(world, tmp_path) as s:
+        await start(s, world)
+        result = await outcome(s)
+        s.control.send({"type": "save_map", "name": "hall"})
+        await until(lambda: (s.maps / "hall.yaml").exists(), 5.0)
+    assert result["state"] == "reached", result
+    built = load_map(tmp_path / "maps" / "hall.yaml")
+    assert tolerant_iou(world, built, tolerance_m=0.05) >= 0.85
+
+
+def tolerant_iou(world: World, built: Any, tolerance_m: float) -> float:
+    """IoU = TP / (TP + FP + FN) of the mapped obstacle cells against the world's obstacle
+    surfaces the lidar could see: a mapped cell is a true positive if a surface cell lies
+    within ``tolerance_m``, a false positive otherwise; a surface cell with no mapped cell
+    within ``tolerance_m`` is a false negative."""
+    res = built.resolution
+    occupancy = built.occupancy_percent()
+    mapped = occupancy >= 65
+    observed = occupancy >= 0
+    rows, cols = mapped.shape
+    # The world's obstacles on the map's grid: a map cell holding any occupied world cell.
+    wr, wc = np.nonzero(world.grid)
+    x = world.origin_x_m + (wc + 0.5) * world.resolution_m
+    y = world.origin_y_m + (wr + 0.5) * world.resolution_m
+    r = np.floor((y - built.origin_y) / res).astype(int)
+    c = np.floor((x - built.origin_x) / res).astype(int)
+    keep = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    truth = np.zeros((rows, cols), bool)
+    truth[r[keep], c[keep]] = True
+    surface = truth & ~ndimage.binary_erosion(truth) & ndimage.binary_dilation(observed)
+    reach = max(1, math.ceil(tolerance_m / res))
+    near_truth = ndimage.binary_dilation(surface, iterations=reach)
+    near_mapped = ndimage.binary_dilation(mapped, iterations=reach)
+    true_positive = int((mapped & near_truth).sum())  # mapped, and a wall is that near
+    false_positive = int((mapped & ~near_truth).sum())  # mapped where nothing is
+    false_negative = int((surface & ~near_mapped).sum())  # a seen wall nothing was mapped near
+    return true_positive / (true_positive + false_positive + false_negative)
+
+
+async def test_localizes_on_a_saved_map_from_a_wrong_start(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    async with session(world, tmp_path / "first") as s:
+        await start(s, world)
+        assert (await outcome(s))["state"] == "reached"
+        s.control.send({"type": "save_map", "name": "hall"})
+        await until(lambda: (s.maps / "hall.yaml").exists(), 5.0)
+    saved = tmp_path / "first" / "maps" / "hall.yaml"
+    # Second run: the map is loaded and kept; the robot is told a start 0.5 m and 15° off.
+    overrides = {"slam": {"load_map": str(saved), "updating_map": False}}
+    async with session(world, tmp_path / "second", overrides=overrides) as s:
+        x, y, yaw = world.start
+        s.control.send(
+            {"type": "initial_pose", "x": x + 0.4, "y": y - 0.3, "yaw": yaw + math.radians(15)}
+        )
+        s.control.send({"type": "subscribe", "rate_hz": 5})
+        pose = await latest_pose(s, after_s=3.0)  # a few scans to find itself
+        assert math.hypot(pose["x"] - x, pose["y"] - y) < 0.1
+        assert abs(pose["yaw"] - yaw) < math.radians(3)
+        gx, gy, gyaw = world.goal or (0.0, 0.0, 0.0)
+        s.control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "g"})
+        result = await outcome(s)
+    assert result["state"] == "reached", result
+    end = s.sim.body
+    assert math.hypot(end.x_m - gx, end.y_m - gy) <= 0.25
