@@ -44,9 +44,12 @@ async def outcome(s: Session, goal_id: str = "g", limit_s: float = 60.0) -> dict
             frame = await s.control.recv(1.0)
         except TimeoutError:
             continue
-        if frame.get("type") == "goal_status" and frame.get("goal_id") == goal_id:
-            if frame["state"] in ("reached", "failed", "canceled"):
-                return frame
+        if (
+            frame.get("type") == "goal_status"
+            and frame.get("goal_id") == goal_id
+            and frame["state"] in ("reached", "failed", "canceled")
+        ):
+            return frame
         if frame.get("type") == "eof":
             return {"state": "eof"}
     return {"state": "timeout"}
@@ -110,7 +113,7 @@ async def test_the_map_built_matches_the_world(tmp_path: Path) -> None:
         await start(s, world)
         result = await outcome(s)
         s.control.send({"type": "save_map", "name": "hall"})
-        await until(lambda: (s.maps / "hall.yaml").exists(), 5.0)
+        await until((s.maps / "hall.yaml").exists, 5.0)
     assert result["state"] == "reached", result
     built = load_map(tmp_path / "maps" / "hall.yaml")
     assert tolerant_iou(world, built, tolerance_m=0.05) >= 0.85
@@ -151,7 +154,7 @@ async def test_localizes_on_a_saved_map_from_a_wrong_start(tmp_path: Path) -> No
         await start(s, world)
         assert (await outcome(s))["state"] == "reached"
         s.control.send({"type": "save_map", "name": "hall"})
-        await until(lambda: (s.maps / "hall.yaml").exists(), 5.0)
+        await until((s.maps / "hall.yaml").exists, 5.0)
     saved = tmp_path / "first" / "maps" / "hall.yaml"
     # Second run: the map is loaded and kept; the robot is told a start 0.5 m and 15° off.
     overrides = {"slam": {"load_map": str(saved), "updating_map": False}}
