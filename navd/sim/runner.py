@@ -30,6 +30,7 @@ import numpy as np
 from navd.config import NavdConfig
 from navd.drivers.kinematics import WheelCalibration
 from navd.drivers.wire import PROTOCOL_VERSION
+from navd.planning.footprint import Footprint
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body, command_velocity, encode_wheels
 from navd.sim.errors import SimError
@@ -40,6 +41,7 @@ __all__ = ["SimSettings", "Simulator"]
 COMMAND_TIMEOUT_S = 0.5
 GRAVITY_MPS2 = 9.80665
 RECONNECT_S = 0.2
+MOVER_GAP_M = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +109,9 @@ class Simulator:
         self._readers: set[asyncio.Task[None]] = set()
         # Scenario controls: a lidar "unplugged" closes its connection until plugged back.
         self.lidar_plugged = True
+        # Each mover's own clock [s]: it stands still while going on would touch the robot.
+        self._mover_t = np.zeros(len(world.movers))
+        self._mover_dir = np.ones(len(world.movers))
         # Every wheel command line received: (sim time [s], left, right).
         self.wheel_log: list[tuple[float, int, int]] = []
 
@@ -211,12 +216,38 @@ class Simulator:
             if now - self._drive.commanded_at > COMMAND_TIMEOUT_S:
                 command = (0.0, 0.0)  # the firmware's own watchdog
             v0, w0 = self.body.linear_mps, self.body.angular_radps
-            self.body.step(dt, command, self.config, self.world, self.world.discs(now))
+            self.advance_movers(dt)
+            self.body.step(dt, command, self.config, self.world, self.discs())
             if dt > 0:
                 self._last_accel = ((self.body.linear_mps - v0) / dt, v0 * w0)
             if now >= next_truth:
                 self.truth.append((now, self.body.x_m, self.body.y_m, self.body.yaw_rad))
                 next_truth = now + 0.1
+
+    def discs(self) -> np.ndarray:
+        """K x 3 (x, y, radius) [m] of the moving discs now."""
+        if not self.world.movers:
+            return np.empty((0, 3))
+        return np.array(
+            [
+                (*m.position(t), m.radius_m)
+                for m, t in zip(self.world.movers, self._mover_t, strict=True)
+            ]
+        )
+
+    def advance_movers(self, dt: float) -> None:
+        """Advance each mover; one whose next step would come within MOVER_GAP_M of the robot
+        turns back instead: movers are people, who do not walk into a robot."""
+        fp = Footprint.from_config(self.config.robot)
+        b = self.body
+        for i, mover in enumerate(self.world.movers):
+            t = self._mover_t[i] + self._mover_dir[i] * dt
+            x, y = mover.position(t)
+            gap = math.hypot(x - b.x_m, y - b.y_m) - fp.circumradius_m - mover.radius_m
+            if gap >= MOVER_GAP_M:
+                self._mover_t[i] = t
+            else:
+                self._mover_dir[i] = -self._mover_dir[i]
 
     # --- sensors ---------------------------------------------------------------------------
 
@@ -304,7 +335,7 @@ class Simulator:
             y,
             angles,
             s.lidar_max_range_m,
-            w.discs(now),
+            self.discs(),
         )
         ranges = ranges + self._rng.normal(0.0, s.lidar_noise_m, ranges.size)
         return {

@@ -112,3 +112,23 @@ def test_the_body_stops_at_a_wall_instead_of_passing_through() -> None:
         body.step(0.05, (0.5, 0.0), config, world, NO_DISCS)
     assert body.collisions > 0
     assert body.x_m < 1.0 - 0.2 and body.min_clearance_m < 0.0
+
+
+def test_movers_turn_back_rather_than_walk_into_the_robot() -> None:
+    from navd.sim.runner import SimSettings, Simulator
+
+    spec = {
+        "walls": [[-1, -2, 5, -2]],
+        "movers": [{"radius": 0.2, "speed": 1.0, "path": [[2.0, -1.5], [2.0, 1.5]]}],
+    }
+    sim = Simulator(from_shapes(spec), NavdConfig(), SimSettings())
+    sim.body.x_m, sim.body.y_m = 2.0, 0.0  # standing on the mover's path
+    closest = math.inf
+    ys = []
+    for _ in range(600):
+        sim.advance_movers(0.01)
+        x, y, radius = sim.discs()[0]
+        closest = min(closest, math.hypot(x - 2.0, y) - 0.2 - radius)
+        ys.append(y)
+    assert 0.0 < closest < 0.06  # it came close, never touched
+    assert max(ys) < 0.0 and min(ys[300:]) == pytest.approx(-1.5, abs=0.02)  # and went back
