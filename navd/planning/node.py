@@ -1,9 +1,10 @@
 """The planner module: goals in, velocity commands, routes and goal progress out.
 
-Every ``planning.control_rate_hz`` tick (on the event loop, cheap) asks the navigator whether
-the route must be planned; if so A* runs in the ``global_plan`` worker slot on a snapshot of
-the layers, while the ``local_plan`` slot runs one navigator step (goal checks, stuck
-handling, velocity profile, DWA) and returns the VelocityCommand. Map updates and scans feed
+Every ``planning.control_rate_hz`` tick (on the event loop, cheap) submits one navigator step
+to the ``local_plan`` worker slot (goal checks, stuck handling, velocity profile, DWA; it
+returns the VelocityCommand and decides whether the route must be planned); when the last
+step said so, the tick also submits A* to the ``global_plan`` slot, which takes a snapshot of
+the layers and plans on it. Map updates and scans feed
 the layers in the ``planning_layers`` slot. The navigator is shared by these threads under one
 lock, held only for cheap work: A* runs outside it.
 
@@ -33,7 +34,7 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
-from navd.planning.navigator import GoalState, NavGoal, Navigator, PlanRequest, Step
+from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
 from navd.planning.warmup import warm_up
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
@@ -54,6 +55,7 @@ class PlannerNode(Module):
         self._pose: tuple[float, float, float] | None = None
         self._pose_stamp = -math.inf
         self._planning = False
+        self._plan_due: str | None = None
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
 
@@ -84,6 +86,7 @@ class PlannerNode(Module):
         with self._lock:
             previous = self.nav.cancel()
             self.nav.set_goal(NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad))
+            self._plan_due = "new goal"
         if previous is not None and previous.goal_id != goal.goal_id:
             self._status(
                 previous.goal_id, GoalState.CANCELED, reason=f"replaced by {goal.goal_id!r}"
@@ -149,24 +152,31 @@ class PlannerNode(Module):
     # --- control (event loop, then workers) ------------------------------------------------
 
     def _tick(self, now: float) -> None:
+        """Event loop, cheap: submit this period's step, and A* if the last step asked."""
+        pose = self._pose
         with self._lock:
             if self.nav.state is not GoalState.ACTIVE:
                 return
-        pose = self._pose
         if pose is None or now - self._pose_stamp > POSE_TIMEOUT_S:
             self._stop("no fresh pose estimate")
             return
         with self._lock:
-            reason = None if self._planning else self.nav.plan_reason(now, pose)
-            request = self.nav.request(now, pose) if reason is not None else None
-        if request is not None:
-            self._planning = True
-            self.ctx.submit("global_plan", lambda: self._plan(now, request, reason or ""))
+            reason = None if self._planning else self._plan_due
+            if reason is not None:
+                self._planning = True
+                self._plan_due = None
+        if reason is not None:
+            self.ctx.submit("global_plan", lambda: self._plan(now, pose, reason))
         self.ctx.submit("local_plan", lambda: self._step(now, pose))
 
-    def _plan(self, now: float, request: PlanRequest, reason: str) -> tuple[Message, ...]:
-        """Worker: A* on the snapshot, then hand the route to the navigator."""
+    def _plan(
+        self, now: float, pose: tuple[float, float, float], reason: str
+    ) -> tuple[Message, ...]:
+        """Worker: a snapshot of the layers (under the lock), A* on it (outside), then the
+        route to the navigator."""
         try:
+            with self._lock:
+                request = self.nav.request(now, pose)
             path = request.solve(self.nav.global_planner)
         except PlanningError as err:
             with self._lock:
@@ -198,6 +208,8 @@ class PlannerNode(Module):
                 return ()
             step = self.nav.step(now, pose)
             replans = self.nav.stuck_replans
+            # Whether A* must run is decided here, in the worker; the next tick submits it.
+            self._plan_due = self.nav.plan_reason(now, pose)
         stamp = self.ctx.clock.now()
         messages: list[Message] = [
             VelocityCommand(
