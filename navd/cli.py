@@ -101,6 +101,16 @@ def _sim_commands(commands: Any) -> None:
     demo.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
     demo.add_argument("--limit", type=float, default=180.0, help="[s] give up after this long")
     demo.set_defaults(handler=_cmd_demo)
+    barn = commands.add_parser("barn", help="the BARN benchmark on navd's planner")
+    barn.add_argument(
+        "--dataset",
+        type=Path,
+        default=Path("../shared/datasets/barn"),
+        help="folder with barn_cylinders.csv.gz and path_files/ (default ../shared/datasets/barn)",
+    )
+    barn.add_argument("--worlds", help="comma-separated world indices (default: all)")
+    barn.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    barn.set_defaults(handler=_cmd_barn)
 
 
 def _bench_commands(commands: Any) -> None:
@@ -415,6 +425,27 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
     )
     return EXIT_OK if summary["reached"] else EXIT_FAILED
+
+
+def _cmd_barn(args: argparse.Namespace) -> int:
+    from navd.sim.barn import run_barn  # noqa: PLC0415
+    from navd.sim.errors import SimError  # noqa: PLC0415
+
+    try:
+        worlds = None if args.worlds is None else [int(w) for w in args.worlds.split(",")]
+    except ValueError:
+        print(
+            f"navd barn: --worlds must be integers separated by commas, got {args.worlds!r}",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    try:
+        summary = run_barn(args.dataset, worlds=worlds)
+    except SimError as err:
+        print(f"navd barn: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    _print_figures(summary, args.json)
+    return EXIT_OK
 
 
 def _cmd_bench_planning(args: argparse.Namespace) -> int:
