@@ -176,3 +176,43 @@ async def test_localizes_on_a_saved_map_from_a_wrong_start(tmp_path: Path) -> No
     assert result["state"] == "reached", result
     end = s.sim.body
     assert math.hypot(end.x_m - gx, end.y_m - gy) <= 0.25
+
+
+async def test_doubled_imu_noise_still_arrives(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    noisy = {"gyro_noise_radps": 0.004, "gyro_bias_radps": 0.006, "accel_noise_mps2": 0.1}
+    async with session(world, tmp_path, sim_settings=noisy) as s:
+        await start(s, world)
+        result = await outcome(s)
+    assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+
+
+# A maze: over wall A at its top gap, under wall B at its bottom gap; a dead-end pocket
+# between them (under the short wall C) lies on the straight line to the goal.
+MAZE = {
+    "walls": [
+        [-1, -1, 7, -1],
+        [7, -1, 7, 3],
+        [7, 3, -1, 3],
+        [-1, 3, -1, -1],
+        [1.5, -1, 1.5, 2.0],  # A: the way on is above it (y 2.0..3.0)
+        [4.0, 0.0, 4.0, 3.0],  # B: the way on is below it (y -1.0..0.0)
+        [2.5, 1.0, 4.0, 1.0],  # C: closes a pocket above y = 1 against B
+    ],
+    "start": [0.0, 0.0, 0.0],
+    "goal": [5.8, 2.0, 0.0],
+}
+
+
+async def test_a_maze_with_a_dead_end_is_solved_without_looping(tmp_path: Path) -> None:
+    world = from_shapes(MAZE, "maze")
+    async with session(world, tmp_path) as s:
+        await start(s, world)
+        result = await outcome(s, limit_s=150.0)
+    assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+    truth = np.array([(x, y) for _, x, y, _ in s.sim.truth])
+    driven = float(np.hypot(*np.diff(truth, axis=0).T).sum())
+    # The shortest way: over A, down between the walls, under B, up to the goal: ~10.5 m.
+    assert driven < 3.0 * 10.5
