@@ -53,6 +53,8 @@ class SimSettings:
         tty_link: path of the symlink to the chassis end of the pseudo-terminal.
         lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: the 2D lidar.
         imu_rate_hz, gyro_noise_radps, gyro_bias_radps, accel_noise_mps2: the IMU (0 Hz: none).
+        gps_rate_hz, gps_noise_m: a GNSS receiver, streaming only when the daemon's config
+            has a datum (``world.datum_latitude_deg``/``longitude_deg``, at map (0, 0)).
         physics_rate_hz: world steps per second.
         feedback_rate_hz: encoder lines per second (0: none).
         seed: seeds every noise source.
@@ -69,6 +71,8 @@ class SimSettings:
     gyro_noise_radps: float = 0.002
     gyro_bias_radps: float = 0.003
     accel_noise_mps2: float = 0.05
+    gps_rate_hz: float = 5.0
+    gps_noise_m: float = 1.0
     physics_rate_hz: float = 100.0
     feedback_rate_hz: float = 20.0
     seed: int = 0
@@ -109,6 +113,7 @@ class Simulator:
         self._readers: set[asyncio.Task[None]] = set()
         # Scenario controls: a lidar "unplugged" closes its connection until plugged back.
         self.lidar_plugged = True
+        self.gps_plugged = True
         # Each mover's own clock [s]: it stands still while going on would touch the robot.
         self._mover_t = np.zeros(len(world.movers))
         self._mover_dir = np.ones(len(world.movers))
@@ -135,6 +140,8 @@ class Simulator:
         ]
         if self.settings.imu_rate_hz > 0:
             tasks.append(asyncio.create_task(self._imu(), name="sim-imu"))
+        if self.settings.gps_rate_hz > 0 and self.config.world.datum_latitude_deg is not None:
+            tasks.append(asyncio.create_task(self._gps(), name="sim-gps"))
         if self.settings.feedback_rate_hz > 0:
             tasks.append(asyncio.create_task(self._feedback(), name="sim-feedback"))
         try:
@@ -347,6 +354,36 @@ class Simulator:
             "range_max": s.lidar_max_range_m,
             "ranges": [round(float(r), 4) if math.isfinite(r) else None for r in ranges],
         }
+
+    async def _gps(self) -> None:
+        from navd.estimation.geo import GeoFrame  # noqa: PLC0415 - only with a datum
+
+        world = self.config.world
+        assert world.datum_latitude_deg is not None and world.datum_longitude_deg is not None
+        geo = GeoFrame(
+            world.datum_latitude_deg,
+            world.datum_longitude_deg,
+            map_rotation_rad=world.map_rotation_rad,
+            zone=world.utm_zone,
+            max_distance_m=world.utm_threshold_m,
+        )
+        sigma = self.settings.gps_noise_m
+
+        def fix() -> dict[str, object]:
+            dx, dy = self._rng.normal(0.0, sigma, 2)
+            lat, lon = geo.to_wgs84(self.body.x_m + dx, self.body.y_m + dy)
+            return {
+                "type": "fix",
+                "stamp": self.now(),
+                "latitude": lat,
+                "longitude": lon,
+                "altitude": 0.0,
+                "horizontal_accuracy": sigma,
+            }
+
+        await self._stream(
+            "gps", "sim-gps", self.settings.gps_rate_hz, fix, lambda: self.gps_plugged
+        )
 
     async def _imu(self) -> None:
         await self._stream("imu", "sim-imu", self.settings.imu_rate_hz, self._imu_frame)

@@ -216,3 +216,17 @@ async def test_a_maze_with_a_dead_end_is_solved_without_looping(tmp_path: Path) 
     driven = float(np.hypot(*np.diff(truth, axis=0).T).sum())
     # The shortest way: over A, down between the walls, under B, up to the goal: ~10.5 m.
     assert driven < 3.0 * 10.5
+
+
+async def test_gps_outage_indoors_does_not_stop_the_drive(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    datum = {"world": {"datum_latitude_deg": 48.0, "datum_longitude_deg": 11.5}}
+    async with session(world, tmp_path, overrides=datum) as s:
+        await start(s, world)
+        await until(lambda: "sim-gps" in s.sim.connected, 10.0)
+        await until(lambda: s.sim.body.x_m > 1.0, 30.0)
+        s.sim.gps_plugged = False  # under a roof: no more fixes
+        result = await outcome(s)
+    assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+    assert s.sim.body.x_m > 5.0
