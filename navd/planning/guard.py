@@ -22,8 +22,7 @@ from navd.lifecycle.messages import LaserScan
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning._dwa_kernels import footprint_distance
 from navd.planning.footprint import Footprint
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
+from navd.slam.scan import laser_points
 
 __all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
 
@@ -166,15 +165,7 @@ class CollisionGuard(Module):
 
     def _on_scan(self, scan: LaserScan) -> None:
         slam = self.ctx.config.slam
-        points = scan_points(
-            scan.ranges,
-            scan.angle_min,
-            scan.angle_increment,
-            range_min=max(scan.range_min, slam.min_range_m),
-            range_max=scan.range_max,
-            mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
-            max_range=slam.max_range_m,
-        )
+        points = laser_points(scan, slam)
         # Only what a braking robot can reach matters: keep the points within 3 m.
         hits = points.hits
         self._points = hits[np.hypot(hits[:, 0], hits[:, 1]) <= 3.0]

@@ -36,8 +36,7 @@ from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
 from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
 from navd.planning.warmup import warm_up
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
+from navd.slam.scan import laser_points
 
 __all__ = ["PlannerNode"]
 
@@ -128,15 +127,7 @@ class PlannerNode(Module):
         slam = self.ctx.config.slam
 
         def job() -> None:
-            points = scan_points(
-                scan.ranges,
-                scan.angle_min,
-                scan.angle_increment,
-                range_min=max(scan.range_min, slam.min_range_m),
-                range_max=scan.range_max,
-                mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
-                max_range=slam.max_range_m,
-            )
+            points = laser_points(scan, slam)
             with self._lock:
                 self.nav.add_scan(pose, points.hits, points.misses, scan.stamp)
 

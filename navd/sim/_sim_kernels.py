@@ -12,6 +12,8 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from navd.planning._dwa_kernels import footprint_distance
+
 __all__ = ["cast_rays", "footprint_contact"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -139,30 +141,17 @@ def footprint_contact(
                 continue
             px = origin_x + (c + 0.5) * res - x
             py = origin_y + (r + 0.5) * res - y
-            best = min(best, _distance(px, py, cos_yaw, sin_yaw, kind, half_length, half_width))
+            best = min(
+                best,
+                footprint_distance(
+                    px, py, 0.0, 0.0, cos_yaw, sin_yaw, kind, half_length, half_width
+                ),
+            )
     for j in range(discs.shape[0]):
         # The disc's centre distance minus its radius (exact for a circle footprint; for a
         # rectangle, the distance to the rectangle minus the radius).
-        d = _distance(
-            discs[j, 0] - x, discs[j, 1] - y, cos_yaw, sin_yaw, kind, half_length, half_width
+        d = footprint_distance(
+            discs[j, 0], discs[j, 1], x, y, cos_yaw, sin_yaw, kind, half_length, half_width
         )
         best = min(best, d - discs[j, 2])
     return best
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _distance(
-    px: float,
-    py: float,
-    cos_yaw: float,
-    sin_yaw: float,
-    kind: int,
-    half_length: float,
-    half_width: float,
-) -> float:
-    """Signed distance from a point (relative to the footprint's centre) to the footprint."""
-    if kind == 0:
-        return math.hypot(px, py) - half_length
-    qx = abs(cos_yaw * px + sin_yaw * py) - half_length
-    qy = abs(-sin_yaw * px + cos_yaw * py) - half_width
-    return math.hypot(max(qx, 0.0), max(qy, 0.0)) + min(max(qx, qy), 0.0)

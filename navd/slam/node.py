@@ -39,7 +39,7 @@ from navd.slam.map_io import load_map, save_map
 from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.odometry import ScanOdometry
 from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points, voxel_downsample
+from navd.slam.scan import laser_points, voxel_downsample
 from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode"]
@@ -105,15 +105,7 @@ class SlamNode(Module):
 
     def _match(self, scan: LaserScan, odom: Pose2 | None) -> tuple[Message, ...]:
         slam = self.ctx.config.slam
-        points = scan_points(
-            scan.ranges,
-            scan.angle_min,
-            scan.angle_increment,
-            range_min=max(scan.range_min, slam.min_range_m),
-            range_max=scan.range_max,
-            mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
-            max_range=slam.max_range_m,
-        )
+        points = laser_points(scan, slam)
         if odom is None:
             # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
             if self._scan_odometry is None:

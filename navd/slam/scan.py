@@ -7,9 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from navd.config import SlamConfig
+from navd.lifecycle.messages import LaserScan
 from navd.slam.pose import Pose2
 
-__all__ = ["ScanPoints", "scan_points", "voxel_downsample"]
+__all__ = ["ScanPoints", "laser_points", "scan_points", "voxel_downsample"]
 
 FloatArray = npt.NDArray[np.float64]
 IDENTITY = Pose2(0.0, 0.0, 0.0)
@@ -60,6 +62,20 @@ def scan_points(
     hits = np.column_stack([r[hit] * np.cos(angles[hit]), r[hit] * np.sin(angles[hit])])
     misses = np.column_stack([use_max * np.cos(angles[miss]), use_max * np.sin(angles[miss])])
     return ScanPoints(mount.transform(hits), mount.transform(misses))
+
+
+def laser_points(scan: LaserScan, slam: SlamConfig) -> ScanPoints:
+    """A LaserScan's points in the robot frame: the lidar's mount and the range limits come
+    from the slam section (``laser_*``, ``min_range_m``, ``max_range_m``)."""
+    return scan_points(
+        scan.ranges,
+        scan.angle_min,
+        scan.angle_increment,
+        range_min=max(scan.range_min, slam.min_range_m),
+        range_max=scan.range_max,
+        mount=Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad),
+        max_range=slam.max_range_m,
+    )
 
 
 def voxel_downsample(points: FloatArray, voxel_m: float) -> FloatArray:
