@@ -379,14 +379,14 @@ class TcpServer(Module):
             )
 
     def _on_goal_status(self, status: GoalStatus) -> None:
-        frame = {"type": "goal_status", **goal_dict(status)}
-        for session in self.sessions.values():
-            if session.kind is DeviceKind.CONTROL:
-                session.conn.send(frame)
+        self._to_controls({"type": "goal_status", **goal_dict(status)})
 
     def _on_path(self, path: Path) -> None:
         points = [[round(float(x), 3), round(float(y), 3)] for x, y in path.points_m]
-        frame: dict[str, object] = {"type": "path", "goal_id": path.goal_id, "points": points}
+        self._to_controls({"type": "path", "goal_id": path.goal_id, "points": points})
+
+    def _to_controls(self, frame: dict[str, object]) -> None:
+        """Send ``frame`` to every connected control client."""
         for session in self.sessions.values():
             if session.kind is DeviceKind.CONTROL:
                 session.conn.send(frame)

@@ -71,13 +71,6 @@ class GridFrame:
         rows = np.floor((points_m[:, 1] - self.origin_y_m) / self.resolution_m)
         return np.column_stack([rows, cols]).astype(np.int64)
 
-    def center_of(self, row: int, col: int) -> tuple[float, float]:
-        """[m] map (x, y) of a cell's centre."""
-        return (
-            self.origin_x_m + (col + 0.5) * self.resolution_m,
-            self.origin_y_m + (row + 0.5) * self.resolution_m,
-        )
-
     def centers_of(self, cells: IntArray) -> FloatArray:
         """[m] N x 2 map (x, y) of the centres of N x 2 (row, column) cells."""
         x = self.origin_x_m + (cells[:, 1] + 0.5) * self.resolution_m
@@ -258,20 +251,6 @@ class Costmap:
     clearance_m: npt.NDArray[np.float32]
     cost: npt.NDArray[np.float32]
     unknown: BoolArray
-
-    def cost_at(self, x_m: float, y_m: float) -> float:
-        """Cost of the cell holding (x_m, y_m); inf outside the grid."""
-        row, col = self.frame.cell_of(x_m, y_m)
-        if not self.frame.contains(row, col):
-            return math.inf
-        return float(self.cost[row, col])
-
-    def clearance_at(self, x_m: float, y_m: float) -> float:
-        """[m] clearance of the cell holding (x_m, y_m); 0 outside the grid."""
-        row, col = self.frame.cell_of(x_m, y_m)
-        if not self.frame.contains(row, col):
-            return 0.0
-        return float(self.clearance_m[row, col])
 
 
 def build_costmap(

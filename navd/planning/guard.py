@@ -147,6 +147,10 @@ def guard_scale(
     return 1.0, ""
 
 
+def _warm_up(settings: GuardSettings) -> None:
+    guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, settings)
+
+
 class CollisionGuard(Module):
     """Keeps the latest scan in the robot frame; the safety gate asks it about each command."""
 
@@ -160,8 +164,10 @@ class CollisionGuard(Module):
         ctx.subscribe(LaserScan, self._on_scan)
 
     async def on_activate(self) -> None:
-        # Compile (or load) the kernel now, not on the first command of a moving robot.
-        guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, GuardSettings.from_config(self.ctx.config))
+        # Compile (or load) the kernel now in a worker, not on the event loop nor on the
+        # first command of a moving robot.
+        settings = GuardSettings.from_config(self.ctx.config)
+        self.ctx.submit("guard_warm_up", lambda: _warm_up(settings))
 
     def _on_scan(self, scan: LaserScan) -> None:
         slam = self.ctx.config.slam

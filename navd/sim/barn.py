@@ -32,6 +32,7 @@ from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body
 from navd.sim.errors import SimError
 from navd.sim.world import World, from_shapes
+from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
 
 __all__ = ["BarnRun", "jackal_config", "load_cylinders", "run_barn", "run_world"]
@@ -50,6 +51,7 @@ LIDAR_FOV_RAD = math.radians(270.0)
 LIDAR_BEAMS = 720
 LIDAR_RANGE_M = 10.0
 LIDAR_X_M = -0.065  # the challenge's UST-10 mount
+LIDAR_MOUNT = Pose2(LIDAR_X_M, 0.0, 0.0)
 
 
 def jackal_config() -> NavdConfig:
@@ -180,7 +182,7 @@ def run_world(
                 increment,
                 range_min=0.05,
                 range_max=LIDAR_RANGE_M,
-                mount=_mount(),
+                mount=LIDAR_MOUNT,
             )
             nav.add_scan(pose, points.hits, points.misses, t)
         if nav.plan_reason(t, pose) is not None:
@@ -204,12 +206,6 @@ def run_world(
         t += CONTROL_DT_S
         step += 1
     return _run(index, False, False, True, TIME_LIMIT_S, optimal_length_m)
-
-
-def _mount() -> Any:
-    from navd.slam.pose import Pose2  # noqa: PLC0415
-
-    return Pose2(LIDAR_X_M, 0.0, 0.0)
 
 
 def _run(  # noqa: PLR0917 - one positional per BarnRun field
