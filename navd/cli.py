@@ -100,7 +100,23 @@ def _sim_commands(commands: Any) -> None:
     demo.add_argument("--out", type=Path, default=Path("."), help="folder for the results (.)")
     demo.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
     demo.add_argument("--limit", type=float, default=180.0, help="[s] give up after this long")
+    demo.add_argument(
+        "--real-time",
+        action="store_true",
+        help="run in real time (default: simulated time in lockstep, as fast as the CPU allows)",
+    )
     demo.set_defaults(handler=_cmd_demo)
+    sim = commands.add_parser(
+        "sim", help="play a simulated robot for a running navd (its config names the ports)"
+    )
+    sim.add_argument(
+        "--config", type=Path, required=True, help="the config file `navd run` was started with"
+    )
+    sim.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
+    sim.add_argument("--seed", type=int, default=0, help="seeds every noise source (0)")
+    sim.add_argument("--truth", type=Path, help="write the ground truth CSV here at the end")
+    sim.add_argument("--limit", type=float, help="[s] stop after this much simulated time")
+    sim.set_defaults(handler=_cmd_sim)
     barn = commands.add_parser("barn", help="the BARN benchmark on navd's planner")
     barn.add_argument(
         "--dataset",
@@ -416,7 +432,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     try:
         world = office() if args.world is None else load_world(args.world)
-        summary = run_demo(world, args.out, limit_s=args.limit)
+        summary = run_demo(world, args.out, limit_s=args.limit, lockstep=not args.real_time)
     except SimError as err:
         print(f"navd demo: {err}", file=sys.stderr)
         return EXIT_USAGE
@@ -425,6 +441,26 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
     )
     return EXIT_OK if summary["reached"] else EXIT_FAILED
+
+
+def _cmd_sim(args: argparse.Namespace) -> int:
+    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim.standalone import run_sim  # noqa: PLC0415
+    from navd.sim.world import load_world, office  # noqa: PLC0415
+
+    try:
+        config = load_config(args.config)
+    except ConfigError as err:
+        print(f"navd sim: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        world = office() if args.world is None else load_world(args.world)
+        summary = run_sim(world, config, seed=args.seed, truth_path=args.truth, limit_s=args.limit)
+    except SimError as err:
+        print(f"navd sim: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(json.dumps(summary, indent=2))
+    return EXIT_OK
 
 
 def _cmd_barn(args: argparse.Namespace) -> int:

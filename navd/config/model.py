@@ -73,6 +73,20 @@ class LifecycleConfig(Section):
             "uvloop (libuv; about 3x less CPU per socket wakeup here) or the standard asyncio loop"
         ),
     )
+    clock: Literal["real", "simulated"] = Field(
+        "real",
+        **restart(
+            "real (the monotonic clock) or simulated (time stands still until a clock client, "
+            "a simulator, moves it in lockstep; see docs/simulator.md)"
+        ),
+    )
+    lockstep_timeout_s: float = Field(
+        5.0,
+        gt=0,
+        le=600,
+        description="[s] real time a simulated-clock step waits for the lines the simulator "
+        "says it sent before going ahead without them (logged)",
+    )
     worker_threads: int = Field(
         2, ge=1, le=16, **restart("[threads] worker threads for heavy jobs (scan matching, A*)")
     )

@@ -39,6 +39,7 @@ __all__ = ["ChassisDriver"]
 
 LINE_ENDINGS = {"lf": "\n", "crlf": "\r\n"}
 MAX_FEEDBACK_LINE = 256
+TRAFFIC_ID = "chassis"  # the chassis's name in the line counters (and in WheelOdometry)
 
 
 class ChassisDriver(Module):
@@ -175,6 +176,7 @@ class ChassisDriver(Module):
         line = format_command(left, right, LINE_ENDINGS[self.ctx.config.chassis.line_ending])
         try:
             self._port.write(line)
+            self.ctx.traffic.add_sent(TRAFFIC_ID)
         except serial.SerialTimeoutException:
             self.writes_stalled += 1  # nobody reads the UART: drop this line, not the port
             if self.writes_stalled == 1 or self.writes_stalled % 100 == 0:
@@ -205,6 +207,7 @@ class ChassisDriver(Module):
             del self._rx[: end + 1]
             if line:
                 self._feedback(line)
+                self.ctx.traffic.add_received(TRAFFIC_ID)
         if len(self._rx) > MAX_FEEDBACK_LINE:
             self.ctx.log.warning("chassis_feedback_garbled", bytes=len(self._rx))
             self._rx.clear()
@@ -232,7 +235,7 @@ class ChassisDriver(Module):
             WheelOdometry(
                 stamp=now,
                 received=now,
-                device_id="chassis",
+                device_id=TRAFFIC_ID,
                 linear_mps=linear,
                 angular_radps=angular,
             )

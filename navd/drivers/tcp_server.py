@@ -25,16 +25,20 @@ from navd.drivers.timesync import StampMapper
 from navd.drivers.wire import (
     PROTOCOL_VERSION,
     SENSOR_ROLES,
+    ClockFrame,
     PingFrame,
     SubscribeFrame,
     UnsubscribeFrame,
     control_message,
+    decode_clock,
     decode_control,
     decode_hello,
     decode_sensor,
     sensor_message,
 )
-from navd.lifecycle.errors import MessageError
+from navd.lifecycle.clock import SimClock
+from navd.lifecycle.errors import LifecycleError, MessageError
+from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.messages import (
     ConfigApplied,
     ConfigChange,
@@ -53,6 +57,7 @@ __all__ = ["TcpServer"]
 
 STALE_CHECK_PERIOD_S = 0.1  # adds at most this to a timeout; each wakeup costs CPU
 STATUS_FRAME_BYTES = 4096
+CLOCK_QUEUE = 16  # clock frames waiting: a simulator sends one and waits for its answer
 
 
 @dataclass
@@ -71,6 +76,8 @@ class Session:
     replaced: bool = False
     requests: int = 0
     status_task: asyncio.Task[None] | None = None
+    clock_frames: asyncio.Queue[ClockFrame] | None = None
+    clock_task: asyncio.Task[None] | None = None
 
 
 class TcpServer(Module):
@@ -83,11 +90,14 @@ class TcpServer(Module):
         self._server: asyncio.Server | None = None
         self._config_requests: dict[str, Session] = {}
         self.board = StatusBoard()
+        self.lockstep: Lockstep | None = None
 
     # --- lifecycle --------------------------------------------------------------------
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        if isinstance(ctx.clock, SimClock):
+            self.lockstep = Lockstep(ctx.clock, ctx.workers, ctx.traffic)
         self.board.subscribe(ctx)
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(Path, self._on_path)
@@ -174,7 +184,10 @@ class TcpServer(Module):
                     self._handshake(conn, line)
                 else:
                     assert isinstance(session, Session)
-                    self._control(session, decode_control(line), self.ctx.clock.now())
+                    if session.kind is DeviceKind.CLOCK:
+                        self._clock(session, decode_clock(line))
+                    else:
+                        self._control(session, decode_control(line), self.ctx.clock.now())
             except Exception as err:
                 self._reject(conn, line, err)
 
@@ -196,11 +209,21 @@ class TcpServer(Module):
         session = conn.session
         if not isinstance(session, Session):
             return
-        if session.status_task is not None:
-            session.status_task.cancel()
+        for task in (session.status_task, session.clock_task):
+            if task is not None:
+                task.cancel()
+        if session.kind in SENSOR_ROLES:
+            self.ctx.traffic.add_received(session.device_id)  # the end counts as one line
         if session.replaced or self.sessions.get(session.device_id) is not session:
             return
         del self.sessions[session.device_id]
+        if session.kind is DeviceKind.CLOCK:
+            self.ctx.log.warning(
+                "clock_client_lost",
+                device_id=session.device_id,
+                time_s=self.ctx.clock.now(),
+                effect="simulated time stands still until a clock client connects",
+            )
         now = self.ctx.clock.now()
         self.ctx.log.info(
             "device_lost", device_id=session.device_id, kind=session.kind.value, reason=reason
@@ -241,6 +264,14 @@ class TcpServer(Module):
             )
             self.ctx.log.warning("client_refused", peer=conn.peer, reason="bad token")
             return
+        refusal = self._clock_refusal(hello.device_id) if hello.kind is DeviceKind.CLOCK else ""
+        if refusal:
+            conn.close(
+                "clock refused",
+                {"type": "error", "field": "role", "fatal": True, "reason": refusal},
+            )
+            self.ctx.log.warning("client_refused", peer=conn.peer, reason=refusal)
+            return
         now = self.ctx.clock.now()
         old = self.sessions.get(hello.device_id)
         if old is not None:
@@ -269,6 +300,11 @@ class TcpServer(Module):
         conn.handshake_done()
         if hello.kind in SENSOR_ROLES:
             conn.coalesce_s = self.ctx.config.tcp.read_coalesce_ms / 1e3
+        elif hello.kind is DeviceKind.CLOCK:
+            session.clock_frames = asyncio.Queue(CLOCK_QUEUE)
+            session.clock_task = self.ctx.spawn(
+                self._run_clock(session), name=f"clock:{hello.device_id}"
+            )
         conn.send(
             {
                 "type": "welcome",
@@ -310,6 +346,7 @@ class TcpServer(Module):
             session.stamps,
         )
         publish = self.ctx.publish
+        self.ctx.traffic.add_received(device_id, sum(1 for line in lines if line.strip()))
         for line in lines:
             if not line or line.isspace():
                 continue
@@ -325,6 +362,65 @@ class TcpServer(Module):
             session.accepted += 1
             if message is not None:
                 publish(message)
+
+    # --- the clock (a simulator in lockstep) ---------------------------------------------
+
+    def _clock_refusal(self, device_id: str) -> str:
+        """Why a clock client may not connect now ("" if it may)."""
+        if self.lockstep is None:
+            return (
+                "this daemon runs on real time (lifecycle.clock = 'real'); start it with "
+                "lifecycle.clock = 'simulated' to let a simulator drive its clock"
+            )
+        for session in self.sessions.values():
+            if session.kind is DeviceKind.CLOCK and session.device_id != device_id:
+                return (
+                    f"clock client {session.device_id!r} already drives the time; one "
+                    "simulator owns the clock"
+                )
+        return ""
+
+    def _clock(self, session: Session, frame: ClockFrame | PingFrame) -> None:
+        if isinstance(frame, PingFrame):
+            session.conn.send({"type": "pong", "id": frame.id})
+            return
+        assert session.clock_frames is not None
+        try:
+            session.clock_frames.put_nowait(frame)
+        except asyncio.QueueFull:
+            raise WireError(
+                "", f"{CLOCK_QUEUE} clock frames already waiting; wait for each clock_ack"
+            ) from None
+        session.accepted += 1
+
+    async def _run_clock(self, session: Session) -> None:
+        """Step the clock for each clock frame, in order, and answer each."""
+        assert self.lockstep is not None and session.clock_frames is not None
+        while session.conn.open:
+            frame = await session.clock_frames.get()
+            session.last_rx_s = self.ctx.clock.now()
+            try:
+                report = await self.lockstep.step_to(
+                    frame.time, frame.frames, self.ctx.config.lifecycle.lockstep_timeout_s
+                )
+            except LifecycleError as err:
+                session.rejected += 1
+                session.conn.send({"type": "error", "field": "time", "reason": str(err)})
+                continue
+            answer: dict[str, object] = {
+                "type": "clock_ack",
+                "time": report.time_s,
+                "sent": report.sent,
+            }
+            if report.missing:
+                answer["missing"] = report.missing
+                self.ctx.log.warning(
+                    "lockstep_lines_missing",
+                    time_s=report.time_s,
+                    missing=report.missing,
+                    waited_s=self.ctx.config.lifecycle.lockstep_timeout_s,
+                )
+            session.conn.send(answer)
 
     def _control(self, session: Session, frame: Any, now: float) -> None:
         session.accepted += 1

@@ -47,6 +47,7 @@ __all__ = [
     "PROTOCOL_VERSION",
     "SENSOR_ROLES",
     "CancelFrame",
+    "ClockFrame",
     "ConfigFrame",
     "GoalFrame",
     "Hello",
@@ -56,6 +57,7 @@ __all__ = [
     "SubscribeFrame",
     "UnsubscribeFrame",
     "control_message",
+    "decode_clock",
     "decode_control",
     "decode_hello",
     "decode_sensor",
@@ -78,7 +80,7 @@ class Hello(_Frame):
 
     type: Literal["hello"]
     protocol: int
-    role: Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control"]
+    role: Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control", "clock"]
     device_id: str = Field(pattern=DEVICE_ID_PATTERN)
     token: str | None = Field(None, max_length=1024)
 
@@ -241,6 +243,16 @@ class UnsubscribeFrame(_Frame):
     type: Literal["unsubscribe"]
 
 
+class ClockFrame(_Frame):
+    """From the clock client: take in ``frames`` lines per device, then move time to ``time``."""
+
+    type: Literal["clock"]
+    time: float = Field(ge=0)
+    frames: dict[Annotated[str, Field(pattern=DEVICE_ID_PATTERN)], Annotated[int, Field(ge=0)]] = (
+        Field(default_factory=dict, max_length=64)
+    )
+
+
 class PingFrame(_Frame):
     type: Literal["ping"]
     id: int | str | None = None
@@ -267,6 +279,9 @@ ControlFrame = Annotated[
     Field(discriminator="type"),
 ]
 _CONTROL: TypeAdapter[Any] = TypeAdapter(ControlFrame)
+_CLOCK: TypeAdapter[Any] = TypeAdapter(
+    Annotated[ClockFrame | PingFrame, Field(discriminator="type")]
+)
 _SENSOR: dict[DeviceKind, TypeAdapter[Any]] = {
     kind: TypeAdapter(
         Annotated[frame | PingFrame, Field(discriminator="type")]  # type: ignore[arg-type]
@@ -302,6 +317,16 @@ def decode_control(line: bytes) -> Any:
         WireError: naming the bad field.
     """
     return _decode(_CONTROL, line, "control")
+
+
+def decode_clock(line: bytes) -> ClockFrame | PingFrame:
+    """Decode a line from the clock client.
+
+    Raises:
+        WireError: naming the bad field.
+    """
+    frame: ClockFrame | PingFrame = _decode(_CLOCK, line, "clock")
+    return frame
 
 
 def _decode(adapter: TypeAdapter[Any], line: bytes, role: str) -> Any:
@@ -360,6 +385,7 @@ _TAGS = {
     "save_map",
     "subscribe",
     "unsubscribe",
+    "clock",
     "ping",
 }
 

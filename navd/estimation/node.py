@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 
 from navd.estimation.errors import GeoError
 from navd.estimation.estimator import Localization, StateEstimator
@@ -69,7 +68,7 @@ class EstimationNode(Module):
         # it happens beside start-up, in a daemon thread that never holds up an exit;
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
-        threading.Thread(target=self._build, name="estimation-setup", daemon=True).start()
+        self.ctx.workers.run_detached(self._build, name="estimation-setup")
         period = 1.0 / self.ctx.config.estimation.publish_rate_hz
         self.ctx.every(period, self._publish, name="publish")
 

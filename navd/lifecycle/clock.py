@@ -11,7 +11,7 @@ import asyncio
 import heapq
 import itertools
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Protocol
 
 from navd.lifecycle.errors import LifecycleError
@@ -92,12 +92,17 @@ class SimClock:
                 future.set_result(None)
         self._now = time_s
 
-    async def run_to(self, time_s: float, settle_steps: int = 10) -> None:
+    async def run_to(
+        self,
+        time_s: float,
+        settle_steps: int = 10,
+        settle: Callable[[], Awaitable[None]] | None = None,
+    ) -> None:
         """Step time forward to ``time_s`` [s], one deadline at a time.
 
         At each deadline the sleepers due are woken and the loop is let run (``settle_steps``
-        yields) before time moves on, so each task sees its own deadline and a periodic task
-        fires once per period, in order, deterministically.
+        yields, or ``settle()`` when given) before time moves on, so each task sees its own
+        deadline and a periodic task fires once per period, in order, deterministically.
         """
         if time_s < self._now:
             raise LifecycleError(
@@ -110,8 +115,11 @@ class SimClock:
                 _, _, future = heapq.heappop(self._sleepers)
                 if not future.done():
                     future.set_result(None)
-            for _ in range(settle_steps):
-                await asyncio.sleep(0)
+            if settle is not None:
+                await settle()
+            else:
+                for _ in range(settle_steps):
+                    await asyncio.sleep(0)
         self._now = time_s
 
 

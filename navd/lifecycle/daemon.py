@@ -18,7 +18,7 @@ from pathlib import Path
 from navd import __version__
 from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus
-from navd.lifecycle.clock import Clock, MonotonicClock
+from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
 from navd.lifecycle.lag import LoopLagMonitor
 from navd.lifecycle.messages import (
@@ -31,6 +31,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager
 from navd.lifecycle.sdnotify import SystemdNotifier
 from navd.lifecycle.supervision import Supervisor
+from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import WorkerPool
 from navd.logs import get_logger
 
@@ -45,7 +46,8 @@ class Daemon:
     Args:
         config: the config at start-up.
         modules: in start order (stopped in reverse).
-        clock: the time source; real monotonic time by default.
+        clock: the time source; by default real monotonic time, or a SimClock that a
+            simulator moves when ``lifecycle.clock`` is "simulated".
         config_path: the file SIGHUP reloads; None disables reloading.
         handle_signals: install SIGTERM/SIGINT/SIGHUP handlers (off in tests that share a loop).
         notifier: systemd notifications; by default from the environment (inactive without
@@ -65,7 +67,10 @@ class Daemon:
         notifier: SystemdNotifier | None = None,
     ) -> None:
         lc = config.lifecycle
-        self.clock: Clock = clock if clock is not None else MonotonicClock()
+        if clock is None:
+            clock = SimClock() if lc.clock == "simulated" else MonotonicClock()
+        self.clock: Clock = clock
+        self.traffic = Traffic()
         self.supervisor = Supervisor(lc.max_handler_failures, lc.failure_window_s)
         self.bus = Bus(
             self.clock,
@@ -193,6 +198,7 @@ class Daemon:
             clock=self.clock,
             workers=self.workers,
             config=lambda: self.config_service.current,
+            traffic=self.traffic,
         )
 
     def _stop_robot(self, reason: str) -> None:

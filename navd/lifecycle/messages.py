@@ -101,6 +101,7 @@ class DeviceKind(StrEnum):
     WHEEL_ODOMETRY = "wheel_odometry"
     CONTROL = "control"
     CHASSIS = "chassis"
+    CLOCK = "clock"
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -22,6 +22,7 @@ from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
 from navd.lifecycle.messages import Message
+from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import Job, WorkerPool
 from navd.logs import get_logger
 
@@ -42,7 +43,8 @@ class ModuleState(StrEnum):
 
 
 class ModuleContext:
-    """What a module may use: the bus, the clock, the workers and the current config.
+    """What a module may use: the bus, the clock, the workers, the current config and the
+    line counters drivers keep per device (``traffic``, for a simulated clock).
 
     Everything done through the context is attributed to the module (handler failures,
     worker slots, background tasks).
@@ -56,11 +58,13 @@ class ModuleContext:
         clock: Clock,
         workers: WorkerPool,
         config: Callable[[], NavdConfig],
+        traffic: Traffic | None = None,
     ) -> None:
         self.name = name
         self.bus = bus
         self.clock = clock
         self.workers = workers
+        self.traffic = traffic if traffic is not None else Traffic()
         self.log: FilteringBoundLogger = get_logger(name)
         self._config = config
         self._tasks: set[asyncio.Task[None]] = set()

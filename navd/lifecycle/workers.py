@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -50,6 +51,8 @@ class WorkerPool:
         self._bus = bus
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
         self._slots: dict[str, _Slot] = {}
+        self._detached = 0
+        self._idle_waiters: list[asyncio.Future[None]] = []
         self._closed = False
 
     def submit(self, slot: str, job: Job, *, module: str) -> None:
@@ -85,9 +88,35 @@ class WorkerPool:
             for name, s in self._slots.items()
         )
 
+    def run_detached(self, job: Callable[[], None], *, name: str) -> None:
+        """Run ``job`` once in its own daemon thread (a slow set-up that must never hold up
+        the process's exit); it counts as work in progress for ``busy`` and ``wait_idle``.
+        An exception is the job's own to report."""
+        loop = asyncio.get_running_loop()
+        self._detached += 1
+
+        def run() -> None:
+            try:
+                job()
+            finally:
+                with contextlib.suppress(RuntimeError):  # the loop may be gone
+                    loop.call_soon_threadsafe(self._detached_done)
+
+        threading.Thread(target=run, name=name, daemon=True).start()
+
     def busy(self) -> bool:
         """True while any job is running or waiting."""
-        return any(s.running or s.waiting is not None for s in self._slots.values())
+        return self._detached > 0 or any(
+            s.running or s.waiting is not None for s in self._slots.values()
+        )
+
+    async def wait_idle(self) -> None:
+        """Return once no job is running or waiting (at once if none is)."""
+        if not self.busy():
+            return
+        waiter = asyncio.get_running_loop().create_future()
+        self._idle_waiters.append(waiter)
+        await waiter
 
     def close(self) -> None:
         """Stop accepting jobs, drop waiting ones and let running ones finish unobserved."""
@@ -115,6 +144,7 @@ class WorkerPool:
     ) -> None:
         state.running = False
         if self._closed:
+            self._wake_idle_waiters()
             return
         error = future.exception()
         if error is not None:
@@ -129,3 +159,15 @@ class WorkerPool:
         if state.waiting is not None:
             job, state.waiting = state.waiting, None
             self._start(slot, state, job)
+        self._wake_idle_waiters()
+
+    def _detached_done(self) -> None:
+        self._detached -= 1
+        self._wake_idle_waiters()
+
+    def _wake_idle_waiters(self) -> None:
+        if self._idle_waiters and not self.busy():
+            waiters, self._idle_waiters = self._idle_waiters, []
+            for waiter in waiters:
+                if not waiter.done():
+                    waiter.set_result(None)

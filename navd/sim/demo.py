@@ -52,6 +52,8 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     control.send({"type": "subscribe", "rate_hz": 5})
     gx, gy, gyaw = world.goal
     control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
+    await _acknowledged(s, "goal")
+    sim.release_clock()  # on simulated time, the drive starts at 0 s with the goal known
     started = sim.now()
     shown_at = -math.inf
     try:
@@ -91,6 +93,23 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     return result
 
 
+async def _acknowledged(s: Session, request: str) -> None:
+    """Wait until navd acknowledged ``request`` (frames before it are of no interest yet).
+
+    Raises:
+        SimError: navd refused it, closed, or did not answer within 10 s.
+    """
+    while True:
+        try:
+            frame = await s.control.recv(10.0)
+        except TimeoutError as err:
+            raise SimError(f"navd did not acknowledge the {request} within 10 s") from err
+        if frame.get("type") in ("error", "eof"):
+            raise SimError(f"navd refused the {request}: {frame}")
+        if frame.get("type") == "ack" and frame.get("request") == request:
+            return
+
+
 def _progress(frame: dict[str, Any], elapsed_s: float, shown_at: float) -> float:
     """A progress line: rewritten in place on a terminal, every 5 s otherwise."""
     terminal = sys.stderr.isatty()
@@ -107,9 +126,17 @@ def _progress(frame: dict[str, Any], elapsed_s: float, shown_at: float) -> float
 
 
 def run_demo(
-    world: World, out: Path, *, limit_s: float = 180.0, progress: bool = True
+    world: World,
+    out: Path,
+    *,
+    limit_s: float = 180.0,
+    progress: bool = True,
+    lockstep: bool = True,
 ) -> dict[str, Any]:
     """Run the demo in ``world`` and write ``demo.png`` and ``summary.json`` into ``out``.
+
+    ``lockstep`` runs on simulated time, deterministic and as fast as the CPU allows;
+    False runs in real time (to watch the robot live through a control client).
 
     Returns:
         The summary.
@@ -124,7 +151,9 @@ def run_demo(
         work = Path(tmp)
 
         async def main() -> tuple[DemoResult, Simulator]:
-            async with session(world, work, log_path=out / "demo.log") as s:
+            async with session(
+                world, work, log_path=out / "demo.log", lockstep=lockstep, hold_clock=True
+            ) as s:
                 return await _drive(s, world, limit_s, progress), s.sim
 
         result, sim = asyncio.run(main())

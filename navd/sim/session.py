@@ -131,6 +131,8 @@ async def session(
     overrides: Mapping[str, Any] | None = None,
     sim_settings: Mapping[str, Any] | None = None,
     log_path: Path | None = None,
+    lockstep: bool = False,
+    hold_clock: bool = False,
 ) -> AsyncIterator[Session]:
     """Run the daemon and the simulator in ``world`` (see the module docstring).
 
@@ -140,6 +142,11 @@ async def session(
         overrides: config sections merged over the session's own ({"planning": {...}}).
         sim_settings: SimSettings fields to change (noise, rates, seed).
         log_path: where the daemon's log goes (default ``work_dir/navd.log``).
+        lockstep: the simulator drives the daemon's simulated clock (deterministic for a
+            seed, as fast as the CPU allows) instead of both running in real time.
+        hold_clock: in lockstep, time stays at 0 until ``s.sim.release_clock()`` (so a
+            scenario can send its goal first); otherwise it starts once the control client
+            is connected.
     """
     work_dir.mkdir(parents=True, exist_ok=True)
     port = free_port()
@@ -155,10 +162,17 @@ async def session(
         },
         overrides or {},
     )
+    if lockstep:
+        raw = _merge(raw, {"lifecycle": {"clock": "simulated"}, "tcp": {"read_coalesce_ms": 0.0}})
     config = NavdConfig.model_validate(raw)
     config_path = work_dir / "navd.toml"
     config_path.write_text(tomli_w.dumps(raw), encoding="utf-8")
-    settings = SimSettings(port=port, tty_link=tty, **dict(sim_settings or {}))
+    settings = SimSettings(
+        port=port,
+        tty_link=tty,
+        clock="lockstep" if lockstep else "real",
+        **dict(sim_settings or {}),
+    )
     sim = Simulator(world, config, settings)
     stop = asyncio.Event()
     sim_task = asyncio.create_task(sim.run(stop))
@@ -177,10 +191,16 @@ async def session(
         control: Control | None = None
         try:
             control = await Control.connect(port)
+            if not hold_clock:
+                sim.release_clock()
             yield Session(sim, control, port, daemon, config, maps)
         finally:
             if control is not None:
                 control.close()
+            if lockstep:  # time stops first, so the daemon stops at a known instant
+                stop.set()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await sim_task
             if daemon.returncode is None:
                 daemon.send_signal(signal.SIGTERM)
                 try:
