@@ -68,7 +68,7 @@ class EstimationNode(Module):
         # it happens beside start-up, in a daemon thread that never holds up an exit;
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
-        self.ctx.workers.run_detached(self._build, name="estimation-setup")
+        self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)
         period = 1.0 / self.ctx.config.estimation.publish_rate_hz
         self.ctx.every(period, self._publish, name="publish")
 

@@ -88,19 +88,21 @@ class WorkerPool:
             for name, s in self._slots.items()
         )
 
-    def run_detached(self, job: Callable[[], None], *, name: str) -> None:
+    def run_detached(self, job: Callable[[], None], *, name: str, module: str) -> None:
         """Run ``job`` once in its own daemon thread (a slow set-up that must never hold up
         the process's exit); it counts as work in progress for ``busy`` and ``wait_idle``.
-        An exception is the job's own to report."""
+        An exception is reported to supervision as a failure of ``module``."""
         loop = asyncio.get_running_loop()
         self._detached += 1
 
         def run() -> None:
+            error: Exception | None = None
             try:
                 job()
-            finally:
-                with contextlib.suppress(RuntimeError):  # the loop may be gone
-                    loop.call_soon_threadsafe(self._detached_done)
+            except Exception as err:
+                error = err
+            with contextlib.suppress(RuntimeError):  # the loop may be gone
+                loop.call_soon_threadsafe(self._detached_done, name, module, error)
 
         threading.Thread(target=run, name=name, daemon=True).start()
 
@@ -161,8 +163,10 @@ class WorkerPool:
             self._start(slot, state, job)
         self._wake_idle_waiters()
 
-    def _detached_done(self) -> None:
+    def _detached_done(self, name: str, module: str, error: Exception | None) -> None:
         self._detached -= 1
+        if error is not None:
+            self._bus.report_failure(module, {"thread": name}, error)
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:

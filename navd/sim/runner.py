@@ -456,7 +456,7 @@ class Simulator:
             "gps", "sim-gps", self.settings.gps_rate_hz, self._fix_frame, lambda: self.gps_plugged
         )
 
-    def _heading_frame(self) -> dict[str, object]:
+    def heading_frame(self) -> dict[str, object]:
         """A magnetic bearing of the true yaw: the inverse of the daemon's conversion."""
         world = self.config.world
         geo = self._geo_frame()
@@ -474,7 +474,7 @@ class Simulator:
 
     async def _compass(self) -> None:
         await self._stream(
-            "compass", "sim-compass", self.settings.compass_rate_hz, self._heading_frame
+            "compass", "sim-compass", self.settings.compass_rate_hz, self.heading_frame
         )
 
     async def _imu(self) -> None:
@@ -514,7 +514,7 @@ class Simulator:
             )
         if s.compass_rate_hz > 0:
             sensors.append(
-                _Sensor("compass", "sim-compass", s.compass_rate_hz, self._heading_frame)
+                _Sensor("compass", "sim-compass", s.compass_rate_hz, self.heading_frame)
             )
         return sensors
 

@@ -102,3 +102,38 @@ async def test_closed_pool_refuses_jobs(bus: Bus) -> None:
     pool.close()
     with pytest.raises(LifecycleError, match="worker pool is closed"):
         pool.submit("scan", lambda: None, module="slam")
+
+
+async def test_wait_idle_returns_once_every_job_and_detached_setup_is_done(bus: Bus) -> None:
+    pool = WorkerPool(bus, threads=2)
+    await asyncio.wait_for(pool.wait_idle(), 1.0)  # nothing running: at once
+    job_gate, setup_gate = threading.Event(), threading.Event()
+    pool.submit("plan", lambda: (job_gate.wait(5.0), None)[1], module="planner")
+
+    def setup() -> None:
+        setup_gate.wait(5.0)
+
+    pool.run_detached(setup, name="set-up", module="estimation")
+    waiter = asyncio.create_task(pool.wait_idle())
+    job_gate.set()
+    await _until(lambda: pool.stats()[0].completed == 1)
+    await asyncio.sleep(0.01)
+    assert pool.busy() and not waiter.done()  # the detached set-up still runs
+    setup_gate.set()
+    await asyncio.wait_for(waiter, 5.0)
+    assert not pool.busy()
+    pool.close()
+
+
+async def test_a_detached_job_that_raises_is_reported_and_ends_its_busy_time(bus: Bus) -> None:
+    pool = WorkerPool(bus, threads=1)
+
+    def broken() -> None:
+        raise RuntimeError("set-up failed")
+
+    pool.run_detached(broken, name="broken-setup", module="estimation")
+    await asyncio.wait_for(pool.wait_idle(), 5.0)
+    assert not pool.busy()
+    record = bus.supervisor.record("estimation")
+    assert record.failures == 1 and "set-up failed" in record.last_error
+    pool.close()

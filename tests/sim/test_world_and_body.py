@@ -132,3 +132,42 @@ def test_movers_turn_back_rather_than_walk_into_the_robot() -> None:
         ys.append(y)
     assert 0.0 < closest < 0.06  # it came close, never touched
     assert max(ys) < 0.0 and min(ys[300:]) == pytest.approx(-1.5, abs=0.02)  # and went back
+
+
+@pytest.mark.parametrize("datum", [False, True])
+def test_the_compass_reads_the_true_yaw_back_through_the_daemons_conversion(datum: bool) -> None:
+    from navd.estimation.angles import bearing_to_yaw
+    from navd.estimation.geo import GeoFrame
+    from navd.sim.runner import SimSettings, Simulator
+
+    world_config: dict[str, object] = {"magnetic_declination_deg": 4.5, "map_rotation_rad": 0.3}
+    if datum:  # off the zone's central meridian: a grid convergence near a degree
+        world_config |= {"datum_latitude_deg": 60.0, "datum_longitude_deg": 14.0}
+    config = NavdConfig.model_validate({"world": world_config})
+    world = from_shapes({"walls": [[-1, -1, 1, -1]]})
+    sim = Simulator(world, config, SimSettings(compass_noise_deg=1e-9))
+    convergence = 0.0
+    if datum:
+        geo = GeoFrame(  # the daemon's frame for that datum
+            60.0,
+            14.0,
+            map_rotation_rad=0.3,
+            zone=config.world.utm_zone,
+            max_distance_m=config.world.utm_threshold_m,
+        )
+        convergence = geo.grid_convergence_rad
+        assert abs(convergence) > math.radians(0.5)
+    for yaw in (-3.0, -1.2, 0.0, 0.7, 2.9):
+        sim.body.yaw_rad = yaw
+        frame = sim.heading_frame()
+        assert frame["type"] == "heading"
+        bearing = float(frame["bearing_deg"])  # type: ignore[arg-type]
+        assert 0.0 <= bearing < 360.0
+        back = bearing_to_yaw(
+            bearing,
+            declination_deg=4.5,
+            magnetic=True,
+            grid_convergence_rad=convergence,
+            map_rotation_rad=0.3,
+        )
+        assert math.remainder(back - yaw, math.tau) == pytest.approx(0.0, abs=1e-6)

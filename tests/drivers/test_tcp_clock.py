@@ -1,0 +1,89 @@
+"""The clock role: a simulator moving a daemon that runs on simulated time (real sockets)."""
+
+from __future__ import annotations
+
+from navd.lifecycle.clock import SimClock
+from navd.lifecycle.messages import LaserScan
+from tests.drivers.conftest import AsyncClient, record, running_daemon
+
+SIMULATED = {"clock": "simulated"}
+SCAN = {
+    "type": "scan",
+    "angle_min": -1.0,
+    "angle_increment": 0.5,
+    "range_min": 0.1,
+    "range_max": 5.0,
+    "ranges": [1.0, 2.0, 3.0],
+}
+
+
+async def test_a_clock_client_is_refused_by_a_daemon_on_real_time() -> None:
+    async with running_daemon() as (_, port):
+        _, answer = await AsyncClient.hello(port, "clock", "sim-clock")
+    assert answer["type"] == "error" and answer["fatal"] is True
+    assert answer["field"] == "role"
+    assert "lifecycle.clock = 'simulated'" in answer["reason"]
+
+
+async def test_time_stands_still_until_the_clock_client_moves_it() -> None:
+    async with running_daemon(lifecycle=SIMULATED) as (daemon, port):
+        assert isinstance(daemon.clock, SimClock)
+        scans = record(daemon, LaserScan)
+        clock, welcome = await AsyncClient.hello(port, "clock", "sim-clock")
+        assert welcome["type"] == "welcome"
+        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
+        start = daemon.clock.now()
+        for _ in range(3):
+            await lidar.send({**SCAN, "stamp": start})
+        # the step names the 3 lines: they are taken in, at the old time, before time moves
+        await clock.send({"type": "clock", "time": start + 0.5, "frames": {"lidar0": 3}})
+        ack = await clock.recv_type("clock_ack")
+        assert ack["time"] == start + 0.5 and "missing" not in ack
+        assert daemon.clock.now() == start + 0.5
+        assert [s.received for s in scans] == [start] * 3
+        assert [s.stamp for s in scans] == [start] * 3  # same clock: stamps kept as sent
+        # a second step goes on from there; nothing new was named
+        await clock.send({"type": "clock", "time": start + 1.0})
+        assert (await clock.recv_type("clock_ack"))["time"] == start + 1.0
+        await lidar.close()
+        await clock.close()
+
+
+async def test_bad_clock_frames_are_answered_by_name_and_time_stays() -> None:
+    async with running_daemon(lifecycle=SIMULATED) as (daemon, port):
+        clock, _ = await AsyncClient.hello(port, "clock", "sim-clock")
+        await clock.send({"type": "clock", "time": 5.0})
+        await clock.recv_type("clock_ack")
+        await clock.send({"type": "clock", "time": 4.0})  # backwards
+        error = await clock.recv_type("error")
+        assert error["field"] == "time" and "backwards" in error["reason"]
+        await clock.send({"type": "clock", "time": "soon"})
+        error = await clock.recv_type("error")
+        assert error["field"] == "time"
+        await clock.send({"type": "clock", "time": 6.0, "frames": {"lidar0": -1}})
+        error = await clock.recv_type("error")
+        assert error["field"].startswith("frames")
+        assert daemon.clock.now() == 5.0
+        # the connection carries on
+        await clock.send({"type": "clock", "time": 6.0})
+        assert (await clock.recv_type("clock_ack"))["time"] == 6.0
+        await clock.close()
+
+
+async def test_lines_that_never_come_are_named_in_the_answer() -> None:
+    sections = {"lifecycle": {**SIMULATED, "lockstep_timeout_s": 0.1}}
+    async with running_daemon(**sections) as (_, port):
+        clock, _ = await AsyncClient.hello(port, "clock", "sim-clock")
+        await clock.send({"type": "clock", "time": 1.0, "frames": {"imu0": 4}})
+        ack = await clock.recv_type("clock_ack")
+    assert ack["missing"] == {"imu0": 4}
+    assert ack["time"] == 1.0
+
+
+async def test_one_simulator_owns_the_clock() -> None:
+    async with running_daemon(lifecycle=SIMULATED) as (_, port):
+        first, _ = await AsyncClient.hello(port, "clock", "sim-a")
+        _, answer = await AsyncClient.hello(port, "clock", "sim-b")
+        assert answer["type"] == "error" and answer["field"] == "role"
+        assert "'sim-a' already drives the time" in answer["reason"]
+        await first.close()
