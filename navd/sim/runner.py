@@ -513,9 +513,7 @@ class Simulator:
                 _Sensor("gps", "sim-gps", s.gps_rate_hz, self._fix_frame, lambda: self.gps_plugged)
             )
         if s.compass_rate_hz > 0:
-            sensors.append(
-                _Sensor("compass", "sim-compass", s.compass_rate_hz, self.heading_frame)
-            )
+            sensors.append(_Sensor("compass", "sim-compass", s.compass_rate_hz, self.heading_frame))
         return sensors
 
     async def _run_lockstep(self, stop: asyncio.Event) -> None:
