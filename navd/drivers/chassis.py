@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 from typing import Any
 
 import serial
@@ -206,8 +207,7 @@ class ChassisDriver(Module):
             line = bytes(self._rx[:end]).strip()
             del self._rx[: end + 1]
             if line:
-                self._feedback(line)
-                self.ctx.traffic.add_received(TRAFFIC_ID)
+                self.ctx.traffic.take(TRAFFIC_ID, 1, functools.partial(self._feedback, line))
         if len(self._rx) > MAX_FEEDBACK_LINE:
             self.ctx.log.warning("chassis_feedback_garbled", bytes=len(self._rx))
             self._rx.clear()

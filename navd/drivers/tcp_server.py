@@ -13,6 +13,7 @@ other clients carry on.
 from __future__ import annotations
 
 import asyncio
+import functools
 import hmac
 from dataclasses import dataclass, field
 from typing import Any
@@ -329,7 +330,22 @@ class TcpServer(Module):
     # --- frames -------------------------------------------------------------------------
 
     def _sensor_lines(self, session: Session, lines: list[bytes]) -> None:
-        """Lines from a sensor that arrived together: one arrival time, one staleness check."""
+        """Lines from a sensor that arrived together: counted, then handled (at once, or on
+        simulated time at the next step, in device order)."""
+        traffic = self.ctx.traffic
+        count = sum(1 for line in lines if line and not line.isspace())
+        if traffic.defer:
+            traffic.take(
+                session.device_id,
+                count,
+                functools.partial(self._handle_sensor_lines, session, lines),
+            )
+        else:
+            traffic.add_received(session.device_id, count)
+            self._handle_sensor_lines(session, lines)
+
+    def _handle_sensor_lines(self, session: Session, lines: list[bytes]) -> None:
+        """One arrival time, one staleness check for the batch."""
         now = self.ctx.clock.now()
         session.last_rx_s = now
         if session.stale:
@@ -346,7 +362,6 @@ class TcpServer(Module):
             session.stamps,
         )
         publish = self.ctx.publish
-        self.ctx.traffic.add_received(device_id, sum(1 for line in lines if line.strip()))
         for line in lines:
             if not line or line.isspace():
                 continue

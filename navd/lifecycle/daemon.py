@@ -70,7 +70,7 @@ class Daemon:
         if clock is None:
             clock = SimClock() if lc.clock == "simulated" else MonotonicClock()
         self.clock: Clock = clock
-        self.traffic = Traffic()
+        self.traffic = Traffic(defer=lc.clock == "simulated")
         self.supervisor = Supervisor(lc.max_handler_failures, lc.failure_window_s)
         self.bus = Bus(
             self.clock,
@@ -79,7 +79,7 @@ class Daemon:
             max_cascade=lc.max_dispatch_cascade,
         )
         self.config_service = ConfigService(self.bus, self.clock, config)
-        self.workers = WorkerPool(self.bus, lc.worker_threads)
+        self.workers = WorkerPool(self.bus, lc.worker_threads, inline=lc.clock == "simulated")
         self.lag = LoopLagMonitor(lc.lag_sample_period_s, lc.lag_window)
         self.manager = ModuleManager(modules, self._context, lc.transition_timeout_s)
         self.config_path = config_path

@@ -2,12 +2,14 @@
 
 With ``lifecycle.clock = "simulated"`` the daemon's clock stands still until a clock client
 (a simulator) moves it. Each step the simulator names the lines it has sent each device; the
-daemon waits until it has read them all, lets the work they started finish, then moves time
+daemon waits until it has read them all, handles them in device order (see ``Traffic``),
+lets the work they started finish, then moves time
 to the requested instant one timer deadline at a time, letting every timer's work (and every
 worker job it starts) finish before the next deadline, and answers with the lines it has
 written each device (the chassis's wheel commands), so the simulator can read exactly those.
-Worker jobs thus take no simulated time: the run is what an infinitely fast computer would
-do, the same for the same inputs, and as fast as this one allows.
+Worker jobs thus take no simulated time (on simulated time the pool runs them on the loop,
+in start order): the run is what an infinitely fast computer would do, the same for the same
+inputs whatever the machine's load, and as fast as this one allows.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ class Lockstep:
                     f"simulated time cannot go backwards (from {self.clock.now()} s to {time_s} s)"
                 )
             missing = await self.traffic.wait_received(expected, timeout_s)
+            self.traffic.release()
             await self.settle()
             await self.clock.run_to(time_s, settle=self.settle)
             await self.settle()

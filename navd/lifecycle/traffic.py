@@ -6,24 +6,58 @@ to one (a chassis wheel command). A simulator that owns the clock says how many 
 has sent each device before it lets time move on; the daemon waits until it has read that
 many (``wait_received``), so a frame sent before a tick is always handled before the tick,
 whatever the sockets' timing. The counts are cumulative over the daemon's life.
+
+On simulated time (``defer``) what the drivers take in is also held until the step
+(``take``), then handled in device-id order (``release``): lines of different devices that
+came within one step are handled in the same order whichever socket the kernel delivered
+first, so a simulation is the same run after run.
 """
 
 from __future__ import annotations
 
 import asyncio
+import itertools
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 __all__ = ["Traffic"]
 
 
 class Traffic:
-    """Counters of lines received from and sent to each device id. Event loop only."""
+    """Counters of lines received from and sent to each device id. Event loop only.
 
-    def __init__(self) -> None:
+    Args:
+        defer: hold taken-in lines until ``release`` (simulated time); otherwise they are
+            handled at once.
+    """
+
+    def __init__(self, *, defer: bool = False) -> None:
+        self.defer = defer
         self.received: Counter[str] = Counter()
         self.sent: Counter[str] = Counter()
         self._waiter: asyncio.Future[None] | None = None
+        self._held: list[tuple[str, int, Callable[[], None]]] = []
+        self._order = itertools.count()
+
+    def take(self, device_id: str, lines: int, handle: Callable[[], None]) -> None:
+        """Count ``lines`` from ``device_id`` and handle them: now, or at ``release``."""
+        if self.defer:
+            self._held.append((device_id, next(self._order), handle))
+            self.add_received(device_id, lines)
+        else:
+            self.add_received(device_id, lines)
+            handle()
+
+    def release(self) -> int:
+        """Handle what was held, by device id, each device's lines in arrival order.
+
+        Returns:
+            how many batches were handled.
+        """
+        held, self._held = sorted(self._held, key=lambda h: (h[0], h[1])), []
+        for _, _, handle in held:
+            handle()
+        return len(held)
 
     def add_received(self, device_id: str, lines: int = 1) -> None:
         """Count ``lines`` taken in from ``device_id``."""

@@ -7,7 +7,9 @@ Message (published on the bus when it completes, on the event loop) or None. A j
 raises is reported to the bus's supervision as a failure of its module.
 
 Jobs run in threads: their heavy parts should be numba kernels compiled with ``nogil=True``
-or library calls that release the GIL, so the event loop keeps running.
+or library calls that release the GIL, so the event loop keeps running. On simulated time
+(``inline``) they run on the event loop instead, one after another in the order they were
+started, so a simulation never depends on how threads happen to be scheduled.
 """
 
 from __future__ import annotations
@@ -45,10 +47,12 @@ class WorkerPool:
     Args:
         bus: where results are published and failures reported.
         threads: number of worker threads.
+        inline: run each job on the event loop, in start order (for simulated time).
     """
 
-    def __init__(self, bus: Bus, threads: int) -> None:
+    def __init__(self, bus: Bus, threads: int, *, inline: bool = False) -> None:
         self._bus = bus
+        self.inline = inline
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
         self._slots: dict[str, _Slot] = {}
         self._detached = 0
@@ -132,6 +136,9 @@ class WorkerPool:
     def _start(self, slot: str, state: _Slot, job: Job) -> None:
         loop = asyncio.get_running_loop()
         state.running = True
+        if self.inline:
+            loop.call_soon(self._run_inline, slot, state, job)
+            return
         future = self._executor.submit(job)
 
         def finished(done: Future[Message | tuple[Message, ...] | None]) -> None:
@@ -140,6 +147,17 @@ class WorkerPool:
                 loop.call_soon_threadsafe(self._finished, slot, state, done)
 
         future.add_done_callback(finished)
+
+    def _run_inline(self, slot: str, state: _Slot, job: Job) -> None:
+        done: Future[Message | tuple[Message, ...] | None] = Future()
+        if not self._closed:
+            try:
+                done.set_result(job())
+            except Exception as err:
+                done.set_exception(err)
+        else:
+            done.set_result(None)
+        self._finished(slot, state, done)
 
     def _finished(
         self, slot: str, state: _Slot, future: Future[Message | tuple[Message, ...] | None]

@@ -79,10 +79,7 @@ def _config(work: Path) -> tuple[Path, int]:
 async def test_navd_sim_drives_navd_run_as_two_programs(tmp_path: Path) -> None:
     world_path = tmp_path / "hall.toml"
     world_path.write_text(tomli_w.dumps(HALL), encoding="utf-8")
-    config = _config(tmp_path)
-    port = int(
-        json.loads(json.dumps(__import__("tomllib").loads(config.read_text())))["tcp"]["port"]
-    )
+    config, port = _config(tmp_path)
     truth = tmp_path / "truth.csv"
     log = (tmp_path / "navd.log").open("wb")
     daemon = subprocess.Popen(

@@ -120,7 +120,7 @@ async def test_a_moving_obstacle_crossing_the_route_is_never_hit(tmp_path: Path)
     assert s.sim.body.min_clearance_m > 0.0
 
 
-async def test_the_map_built_matches_the_world(tmp_path: Path) -> None:
+async def test_a_to_b_straight_builds_a_map_that_matches_the_world(tmp_path: Path) -> None:
     world = from_shapes(HALL, "hall")
     async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
         await start(s, world)
@@ -128,6 +128,12 @@ async def test_the_map_built_matches_the_world(tmp_path: Path) -> None:
         s.control.send({"type": "save_map", "name": "hall"})
         await until((s.maps / "hall.yaml").exists, 5.0)
     assert result["state"] == "reached", result
+    assert s.sim.body.collisions == 0
+    # A to B with the pillar off the line: straight there, no detours, stopped at B.
+    truth = np.array([(x, y) for _, x, y, _ in s.sim.truth])
+    driven = float(np.hypot(*np.diff(truth, axis=0).T).sum())
+    assert driven < 1.15 * 5.5
+    assert math.hypot(truth[-1, 0] - 5.5, truth[-1, 1]) <= 0.2
     built = load_map(tmp_path / "maps" / "hall.yaml")
     assert tolerant_iou(world, built, tolerance_m=0.05) >= 0.85
 

@@ -38,3 +38,23 @@ def test_sent_lines_are_counted_apart_from_received_ones() -> None:
     assert traffic.sent["chassis"] == 3
     assert traffic.received["chassis"] == 0
     assert traffic.missing({"chassis": 1}) == {"chassis": 1}
+
+
+def test_deferred_lines_are_handled_at_release_by_device_then_arrival() -> None:
+    traffic = Traffic(defer=True)
+    handled: list[str] = []
+    for device, label in [("sim-lidar", "l1"), ("sim-imu", "i1"), ("sim-lidar", "l2")]:
+        traffic.take(device, 1, lambda label=label: handled.append(label))  # type: ignore[misc]
+    traffic.take("chassis", 2, lambda: handled.append("c1"))
+    assert handled == []  # held, but already counted for the step's wait
+    assert traffic.missing({"sim-lidar": 2, "sim-imu": 1, "chassis": 2}) == {}
+    assert traffic.release() == 4
+    assert handled == ["c1", "i1", "l1", "l2"]
+    assert traffic.release() == 0
+
+
+def test_without_defer_lines_are_handled_at_once() -> None:
+    traffic = Traffic()
+    handled: list[int] = []
+    traffic.take("imu0", 3, lambda: handled.append(1))
+    assert handled == [1] and traffic.received["imu0"] == 3

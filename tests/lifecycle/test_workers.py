@@ -137,3 +137,23 @@ async def test_a_detached_job_that_raises_is_reported_and_ends_its_busy_time(bus
     record = bus.supervisor.record("estimation")
     assert record.failures == 1 and "set-up failed" in record.last_error
     pool.close()
+
+
+async def test_inline_jobs_run_on_the_loop_in_start_order(bus: Bus) -> None:
+    results: list[float] = []
+    bus.subscribe(VelocityCommand, lambda m: results.append(m.linear_mps), module="rec")
+    pool = WorkerPool(bus, threads=2, inline=True)
+    threads: list[str] = []
+
+    def job(value: float) -> VelocityCommand:
+        threads.append(threading.current_thread().name)
+        return velocity(value)
+
+    pool.submit("b", lambda: job(1.0), module="planner")
+    pool.submit("a", lambda: job(2.0), module="slam")
+    pool.submit("b", lambda: job(3.0), module="planner")  # waits for the first "b"
+    assert pool.busy() and results == []  # started, not yet run: the caller goes on first
+    await asyncio.wait_for(pool.wait_idle(), 5.0)
+    assert results == [1.0, 2.0, 3.0]
+    assert set(threads) == {threading.current_thread().name}
+    pool.close()
