@@ -22,6 +22,8 @@ from collections.abc import Callable, Mapping
 
 __all__ = ["Traffic"]
 
+MAX_HELD = 10_000  # batches held at most: with no clock client moving time, memory stays bounded
+
 
 class Traffic:
     """Counters of lines received from and sent to each device id. Event loop only.
@@ -42,6 +44,8 @@ class Traffic:
     def take(self, device_id: str, lines: int, handle: Callable[[], None]) -> None:
         """Count ``lines`` from ``device_id`` and handle them: now, or at ``release``."""
         if self.defer:
+            if len(self._held) >= MAX_HELD:
+                self.release()  # nobody is stepping the clock: handle rather than hoard
             self._held.append((device_id, next(self._order), handle))
             self.add_received(device_id, lines)
         else:

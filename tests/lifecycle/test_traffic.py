@@ -58,3 +58,15 @@ def test_without_defer_lines_are_handled_at_once() -> None:
     handled: list[int] = []
     traffic.take("imu0", 3, lambda: handled.append(1))
     assert handled == [1] and traffic.received["imu0"] == 3
+
+
+def test_held_lines_stay_bounded_when_nobody_steps_the_clock() -> None:
+    from navd.lifecycle.traffic import MAX_HELD
+
+    traffic = Traffic(defer=True)
+    handled: list[int] = []
+    for i in range(MAX_HELD + 5):
+        traffic.take("imu0", 1, lambda i=i: handled.append(i))  # type: ignore[misc]
+    assert handled == list(range(MAX_HELD))  # the oldest were handled, in order
+    assert traffic.release() == 5
+    assert traffic.received["imu0"] == MAX_HELD + 5
