@@ -5,16 +5,9 @@ from __future__ import annotations
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.messages import LaserScan
 from tests.drivers.conftest import AsyncClient, record, running_daemon
+from tests.drivers.test_tcp_server import SCAN
 
 SIMULATED = {"clock": "simulated"}
-SCAN = {
-    "type": "scan",
-    "angle_min": -1.0,
-    "angle_increment": 0.5,
-    "range_min": 0.1,
-    "range_max": 5.0,
-    "ranges": [1.0, 2.0, 3.0],
-}
 
 
 async def test_a_clock_client_is_refused_by_a_daemon_on_real_time() -> None:
