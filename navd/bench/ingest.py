@@ -70,7 +70,7 @@ def run(
 def _measure(
     module: str, seconds: float, rays: int, binary: bool, imu_batch: int
 ) -> dict[str, Any]:
-    """Stream at full load into ``python -m module run``-like daemon; its figures."""
+    """Stream at full load into the daemon started by ``python -m <module>``; its figures."""
     port = _free_port()
     window = int(seconds / LAG_PROBE_S)
     with tempfile.TemporaryDirectory() as tmp:

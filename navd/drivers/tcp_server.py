@@ -332,17 +332,9 @@ class TcpServer(Module):
     def _sensor_lines(self, session: Session, lines: list[bytes]) -> None:
         """Lines from a sensor that arrived together: counted, then handled (at once, or on
         simulated time at the next step, in device order)."""
-        traffic = self.ctx.traffic
         count = sum(1 for line in lines if line and not line.isspace())
-        if traffic.defer:
-            traffic.take(
-                session.device_id,
-                count,
-                functools.partial(self._handle_sensor_lines, session, lines),
-            )
-        else:
-            traffic.add_received(session.device_id, count)
-            self._handle_sensor_lines(session, lines)
+        handle = functools.partial(self._handle_sensor_lines, session, lines)
+        self.ctx.traffic.take(session.device_id, count, handle)
 
     def _handle_sensor_lines(self, session: Session, lines: list[bytes]) -> None:
         """One arrival time, one staleness check for the batch."""

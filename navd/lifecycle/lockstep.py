@@ -57,7 +57,6 @@ class Lockstep:
         self.clock = clock
         self.workers = workers
         self.traffic = traffic
-        self.steps = 0
         self._lock = asyncio.Lock()
 
     async def step_to(
@@ -83,7 +82,6 @@ class Lockstep:
             await self.settle()
             await self.clock.run_to(time_s, settle=self.settle)
             await self.settle()
-            self.steps += 1
             return StepReport(self.clock.now(), missing, dict(self.traffic.sent))
 
     async def settle(self) -> None:

@@ -52,7 +52,7 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     control.send({"type": "subscribe", "rate_hz": 5})
     gx, gy, gyaw = world.goal
     control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
-    await _acknowledged(s, "goal")
+    await control.acknowledged("goal")
     sim.release_clock()  # on simulated time, the drive starts at 0 s with the goal known
     started = sim.now()
     shown_at = -math.inf
@@ -91,23 +91,6 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
         if progress and sys.stderr.isatty():
             print(file=sys.stderr)  # end the line rewritten in place
     return result
-
-
-async def _acknowledged(s: Session, request: str) -> None:
-    """Wait until navd acknowledged ``request`` (frames before it are of no interest yet).
-
-    Raises:
-        SimError: navd refused it, closed, or did not answer within 10 s.
-    """
-    while True:
-        try:
-            frame = await s.control.recv(10.0)
-        except TimeoutError as err:
-            raise SimError(f"navd did not acknowledge the {request} within 10 s") from err
-        if frame.get("type") in ("error", "eof"):
-            raise SimError(f"navd refused the {request}: {frame}")
-        if frame.get("type") == "ack" and frame.get("request") == request:
-            return
 
 
 def _progress(frame: dict[str, Any], elapsed_s: float, shown_at: float) -> float:

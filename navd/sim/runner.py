@@ -172,16 +172,11 @@ class Simulator:
             return
         loop = asyncio.get_running_loop()
         loop.add_reader(self._master, self._readable)
-        tasks = [
-            asyncio.create_task(self._physics(), name="sim-physics"),
-            asyncio.create_task(self._lidar(), name="sim-lidar"),
+        tasks = [asyncio.create_task(self._physics(), name="sim-physics")]
+        tasks += [
+            asyncio.create_task(self._stream(sensor), name=sensor.device_id)
+            for sensor in self._sensors()
         ]
-        if self.settings.imu_rate_hz > 0:
-            tasks.append(asyncio.create_task(self._imu(), name="sim-imu"))
-        if self._has_gps():
-            tasks.append(asyncio.create_task(self._gps(), name="sim-gps"))
-        if self.settings.compass_rate_hz > 0:
-            tasks.append(asyncio.create_task(self._compass(), name="sim-compass"))
         if self._feedback_rate_hz() > 0:
             tasks.append(asyncio.create_task(self._feedback(), name="sim-feedback"))
         try:
@@ -347,43 +342,23 @@ class Simulator:
             task.add_done_callback(self._readers.discard)
             return writer
 
-    async def _stream(
-        self,
-        role: str,
-        device_id: str,
-        rate_hz: float,
-        frame: Callable[[], dict[str, object]],
-        plugged: Callable[[], bool] | None = None,
-    ) -> None:
-        """Send ``frame()`` at ``rate_hz`` on a (re)connected sensor connection, while
-        ``plugged()`` (when given) says the device is plugged in."""
-        period = 1.0 / rate_hz
-
-        def is_plugged() -> bool:
-            return plugged is None or plugged()
-
+    async def _stream(self, sensor: _Sensor) -> None:
+        """Send the sensor's frames at its rate on a (re)connected connection, while it is
+        plugged in (real time)."""
+        period = 1.0 / sensor.rate_hz
         while True:
-            while not is_plugged():
+            while not sensor.is_plugged():
                 await asyncio.sleep(period)
-            writer = await self._connect(role, device_id)
+            writer = await self._connect(sensor.role, sensor.device_id)
             try:
-                while is_plugged():
+                while sensor.is_plugged():
                     await asyncio.sleep(period)
-                    writer.write(json.dumps(frame()).encode() + b"\n")
+                    writer.write(json.dumps(sensor.frame()).encode() + b"\n")
                     await writer.drain()
             except (ConnectionError, OSError):
                 pass
-            self.connected.discard(device_id)
+            self.connected.discard(sensor.device_id)
             writer.close()
-
-    async def _lidar(self) -> None:
-        await self._stream(
-            "lidar",
-            "sim-lidar",
-            self.settings.lidar_rate_hz,
-            self._scan,
-            lambda: self.lidar_plugged,
-        )
 
     def _scan(self) -> dict[str, object]:
         s, slam = self.settings, self.config.slam
@@ -451,11 +426,6 @@ class Simulator:
             "horizontal_accuracy": sigma,
         }
 
-    async def _gps(self) -> None:
-        await self._stream(
-            "gps", "sim-gps", self.settings.gps_rate_hz, self._fix_frame, lambda: self.gps_plugged
-        )
-
     def heading_frame(self) -> dict[str, object]:
         """A magnetic bearing of the true yaw: the inverse of the daemon's conversion."""
         world = self.config.world
@@ -471,14 +441,6 @@ class Simulator:
             "bearing_deg": magnetic if magnetic < 360.0 else 0.0,
             "accuracy_deg": self.settings.compass_noise_deg,
         }
-
-    async def _compass(self) -> None:
-        await self._stream(
-            "compass", "sim-compass", self.settings.compass_rate_hz, self.heading_frame
-        )
-
-    async def _imu(self) -> None:
-        await self._stream("imu", "sim-imu", self.settings.imu_rate_hz, self._imu_frame)
 
     def _imu_frame(self) -> dict[str, object]:
         s = self.settings
@@ -499,9 +461,8 @@ class Simulator:
             ],
         }
 
-    # --- lockstep ---------------------------------------------------------------------------
-
     def _sensors(self) -> list[_Sensor]:
+        """The sensors this robot has, in both clocks."""
         s = self.settings
         sensors = [
             _Sensor("lidar", "sim-lidar", s.lidar_rate_hz, self._scan, lambda: self.lidar_plugged)
@@ -515,6 +476,8 @@ class Simulator:
         if s.compass_rate_hz > 0:
             sensors.append(_Sensor("compass", "sim-compass", s.compass_rate_hz, self.heading_frame))
         return sensors
+
+    # --- lockstep ---------------------------------------------------------------------------
 
     async def _run_lockstep(self, stop: asyncio.Event) -> None:
         """Own the daemon's clock: one round per physics step until ``stop`` is set.
@@ -572,7 +535,7 @@ class Simulator:
                 await asyncio.sleep(RECONNECT_S)
 
     async def _lockstep_sensor(self, sensor: _Sensor, sent: Counter[str]) -> None:
-        plugged = sensor.plugged is None or sensor.plugged()
+        plugged = sensor.is_plugged()
         if sensor.writer is not None and not plugged:
             sensor.writer.close()  # the daemon counts the end of a connection as a line
             sensor.writer = None
@@ -611,7 +574,7 @@ class Simulator:
 
 @dataclass
 class _Sensor:
-    """A sensor of a lockstep simulation."""
+    """One simulated sensor: its connection, rate, frames and (in lockstep) its writer."""
 
     role: str
     device_id: str
@@ -619,6 +582,10 @@ class _Sensor:
     frame: Callable[[], dict[str, object]]
     plugged: Callable[[], bool] | None = None
     writer: asyncio.StreamWriter | None = None
+
+    def is_plugged(self) -> bool:
+        """False while a scenario has it unplugged."""
+        return self.plugged is None or self.plugged()
 
 
 def _steps_per_sample(physics_hz: float, rate_hz: float) -> int:

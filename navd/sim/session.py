@@ -105,6 +105,24 @@ class Control:
         frame: dict[str, Any] = json.loads(line)
         return frame
 
+    async def acknowledged(self, request: str, timeout_s: float = 10.0) -> None:
+        """Wait until navd acknowledged ``request`` ("goal"...); frames before it are skipped.
+
+        Raises:
+            SimError: navd refused it, closed, or did not answer within ``timeout_s``.
+        """
+        while True:
+            try:
+                frame = await self.recv(timeout_s)
+            except TimeoutError as err:
+                raise SimError(
+                    f"navd did not acknowledge the {request} within {timeout_s} s"
+                ) from err
+            if frame.get("type") in ("error", "eof"):
+                raise SimError(f"navd refused the {request}: {frame}")
+            if frame.get("type") == "ack" and frame.get("request") == request:
+                return
+
     def close(self) -> None:
         """Close the connection."""
         self.writer.close()

@@ -35,8 +35,7 @@ async def _send_goal(control: Control, world: Any) -> None:
     control.send({"type": "initial_pose", "x": x, "y": y, "yaw": yaw, "std_xy": 0.02})
     gx, gy, gyaw = world.goal
     control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "g"})
-    while (frame := await control.recv(10.0)).get("request") != "goal":
-        assert frame.get("type") not in ("error", "eof"), frame
+    await control.acknowledged("goal")
 
 
 async def _drive(work: Path, sim_seconds: float) -> tuple[list[Any], list[Any]]:

@@ -38,10 +38,7 @@ async def start(s: Session, world: World, goal_id: str = "g") -> None:
     s.control.send({"type": "initial_pose", "x": x, "y": y, "yaw": yaw, "std_xy": 0.02})
     gx, gy, gyaw = world.goal
     s.control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": goal_id})
-    while (frame := await s.control.recv(10.0)).get("type") != "ack" or frame.get(
-        "request"
-    ) != "goal":
-        assert frame.get("type") not in ("error", "eof"), frame
+    await s.control.acknowledged("goal")
     s.sim.release_clock()
 
 
