@@ -2,11 +2,12 @@
 
 With ``lifecycle.clock = "simulated"`` the daemon's clock stands still until a clock client
 (a simulator) moves it. Each step the simulator names the lines it has sent each device; the
-daemon waits until it has read them all, handles them in device order (see ``Traffic``),
-lets the work they started finish, then moves time
-to the requested instant one timer deadline at a time, letting every timer's work (and every
-worker job it starts) finish before the next deadline, and answers with the lines it has
-written each device (the chassis's wheel commands), so the simulator can read exactly those.
+daemon lets any start-up work still running beside the loop finish (the first step may wait
+for kernels to compile), waits until it has read the named lines, handles them in device
+order (see ``Traffic``), lets the work they started finish, then moves time to the requested
+instant one timer deadline at a time, letting every timer's work (and every worker job it
+starts) finish before the next deadline, and answers with the lines it has written each
+device (the chassis's wheel commands), so the simulator can read exactly those.
 Worker jobs thus take no simulated time (on simulated time the pool runs them on the loop,
 in start order): the run is what an infinitely fast computer would do, the same for the same
 inputs whatever the machine's load, and as fast as this one allows.
@@ -77,6 +78,9 @@ class Lockstep:
                 raise LifecycleError(
                     f"simulated time cannot go backwards (from {self.clock.now()} s to {time_s} s)"
                 )
+            # Work begun beside the loop (kernels compiling at start-up) finishes first, so
+            # no job of this step compiles on the loop; only the first step waits here.
+            await self.workers.wait_idle()
             missing = await self.traffic.wait_received(expected, timeout_s)
             self.traffic.release()
             await self.settle()

@@ -86,6 +86,15 @@ class ModuleContext:
         """Run a heavy job in a worker thread; latest wins within ``slot``."""
         self.workers.submit(slot, job, module=self.name)
 
+    def warm_up(self, job: Callable[[], None], *, name: str) -> None:
+        """Compile (or load from the cache) this module's kernels in a thread of their own.
+
+        A real thread on either clock: compiling has no effect on what the kernels compute,
+        so it cannot change a simulated run, and it never holds up the event loop (on
+        simulated time the first lockstep step waits for it instead, see ``Lockstep``).
+        """
+        self.workers.run_detached(job, name=f"{self.name}-{name}", module=self.name)
+
     def spawn(self, coro: Coroutine[Any, Any, None], *, name: str) -> asyncio.Task[None]:
         """Run a background task until the module is deactivated.
 

@@ -164,10 +164,10 @@ class CollisionGuard(Module):
         ctx.subscribe(LaserScan, self._on_scan)
 
     async def on_activate(self) -> None:
-        # Compile (or load) the kernel now in a worker, not on the event loop nor on the
-        # first command of a moving robot.
+        # Compile (or load) the kernel now, not on the event loop nor on the first command
+        # of a moving robot.
         settings = GuardSettings.from_config(self.ctx.config)
-        self.ctx.submit("guard_warm_up", lambda: _warm_up(settings))
+        self.ctx.warm_up(lambda: _warm_up(settings), name="warm-up")
 
     def _on_scan(self, scan: LaserScan) -> None:
         slam = self.ctx.config.slam

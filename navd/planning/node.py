@@ -69,7 +69,7 @@ class PlannerNode(Module):
         ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
-        self.ctx.submit("local_plan", warm_up)
+        self.ctx.warm_up(warm_up, name="warm-up")
         self.ctx.every(1.0 / self.ctx.config.planning.control_rate_hz, self._tick, name="control")
 
     async def on_deactivate(self) -> None:

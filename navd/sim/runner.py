@@ -52,6 +52,7 @@ GRAVITY_MPS2 = 9.80665
 RECONNECT_S = 0.2
 MOVER_GAP_M = 0.05
 ACK_TIMEOUT_S = 60.0  # [s] real time a lockstep step may take the daemon
+FIRST_ACK_TIMEOUT_S = 600.0  # [s] the same for the first step: it waits for kernels to compile
 CHASSIS_READ_TIMEOUT_S = 5.0  # [s] real time for wheel lines the daemon says it wrote
 
 
@@ -500,7 +501,9 @@ class Simulator:
                     json.dumps({"type": "clock", "time": t, "frames": dict(sent)}).encode() + b"\n"
                 )
                 try:
-                    ack = await _clock_ack(reader, t)
+                    ack = await _clock_ack(
+                        reader, t, FIRST_ACK_TIMEOUT_S if self.steps == 0 else ACK_TIMEOUT_S
+                    )
                 except SimError:
                     if stop.is_set():
                         return  # the daemon went first; nothing to report
@@ -593,18 +596,18 @@ def _steps_per_sample(physics_hz: float, rate_hz: float) -> int:
     return max(1, round(physics_hz / rate_hz)) if rate_hz > 0 else 0
 
 
-async def _clock_ack(reader: asyncio.StreamReader, time_s: float) -> dict[str, Any]:
-    """The daemon's answer to the clock frame for ``time_s``.
+async def _clock_ack(
+    reader: asyncio.StreamReader, time_s: float, timeout_s: float
+) -> dict[str, Any]:
+    """The daemon's answer to the clock frame for ``time_s``, within ``timeout_s`` [s].
 
     Raises:
         SimError: the daemon closed, refused the frame, or did not answer in time.
     """
     try:
-        line = await asyncio.wait_for(reader.readline(), ACK_TIMEOUT_S)
+        line = await asyncio.wait_for(reader.readline(), timeout_s)
     except TimeoutError as err:
-        raise SimError(
-            f"navd did not finish the step to {time_s} s within {ACK_TIMEOUT_S} s"
-        ) from err
+        raise SimError(f"navd did not finish the step to {time_s} s within {timeout_s} s") from err
     if not line:
         raise SimError(f"navd closed the clock connection at {time_s} s")
     answer: dict[str, Any] = json.loads(line)

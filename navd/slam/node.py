@@ -82,9 +82,9 @@ class SlamNode(Module):
         ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
-        # Compile (or load from the cache) the kernels before the first scan, in the scan
-        # slot: a scan arriving meanwhile waits for it (latest wins) instead of stalling.
-        self.ctx.submit(_SLOT, warm_up)
+        # Compile (or load from the cache) the kernels before the first scan; a scan job
+        # arriving meanwhile waits in its worker on numba's compile lock, not on the loop.
+        self.ctx.warm_up(warm_up, name="warm-up")
 
     async def on_deactivate(self) -> None:
         if self.ctx.config.slam.save_on_shutdown and not self.mapper.grid.empty:

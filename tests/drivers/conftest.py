@@ -15,6 +15,9 @@ from navd.drivers.tcp_server import TcpServer
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import Message
 
+READY_TIMEOUT_S = 30.0  # [s] start-up: imports and module activation
+WARM_UP_TIMEOUT_S = 300.0  # [s] numba kernels compiling with a cold cache on a slow machine
+
 
 @asynccontextmanager
 async def running_daemon(**sections: dict[str, Any]) -> AsyncIterator[tuple[Daemon, int]]:
@@ -24,9 +27,12 @@ async def running_daemon(**sections: dict[str, Any]) -> AsyncIterator[tuple[Daem
     config = parse_config(sections)
     daemon = Daemon(config, build_modules(config), handle_signals=False)
     task = asyncio.create_task(daemon.run())
-    await asyncio.wait_for(daemon.ready.wait(), 5.0)
-    server = next(m for m in daemon.manager.modules if isinstance(m, TcpServer))
     try:
+        await asyncio.wait_for(daemon.ready.wait(), READY_TIMEOUT_S)
+        # The kernels compile beside the loop after start-up; with a cold numba cache that
+        # takes a while, and no test here is about it.
+        await asyncio.wait_for(daemon.workers.wait_idle(), WARM_UP_TIMEOUT_S)
+        server = next(m for m in daemon.manager.modules if isinstance(m, TcpServer))
         yield daemon, server.port
     finally:
         daemon.request_shutdown("test over")
