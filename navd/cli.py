@@ -15,12 +15,15 @@ import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from navd import __version__
 from navd.config import ConfigError, NavdConfig, dump_toml, load_config
 from navd.errors import NavdError
 from navd.logs import configure_logging, get_logger
+
+if TYPE_CHECKING:
+    from navd.lifecycle import Daemon
 
 __all__ = ["main"]
 
@@ -254,8 +257,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
             asyncio.run(daemon.run())
     except NavdError as err:
         get_logger("cli").error("daemon_failed", error=str(err))
-        return EXIT_FAILED
-    return EXIT_OK
+        return _exit_past_threads(daemon, EXIT_FAILED)
+    return _exit_past_threads(daemon, EXIT_OK)
+
+
+def _exit_past_threads(daemon: Daemon, code: int) -> int:
+    """Return ``code``, or end the process at once with it if a set-up thread (a kernel
+    compiling) is still running: the daemon has stopped cleanly and its files are written,
+    and letting the interpreter shut down under a running compiler can abort the process."""
+    unfinished = daemon.workers.unfinished_threads()
+    if unfinished:
+        get_logger("cli").info("exit_without_waiting", threads=unfinished)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
 
 
 def _client_command(args: argparse.Namespace, frame: dict[str, Any]) -> int:

@@ -56,6 +56,7 @@ class WorkerPool:
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
         self._slots: dict[str, _Slot] = {}
         self._detached = 0
+        self._threads: list[threading.Thread] = []
         self._idle_waiters: list[asyncio.Future[None]] = []
         self._closed = False
 
@@ -108,7 +109,14 @@ class WorkerPool:
             with contextlib.suppress(RuntimeError):  # the loop may be gone
                 loop.call_soon_threadsafe(self._detached_done, name, module, error)
 
-        threading.Thread(target=run, name=name, daemon=True).start()
+        thread = threading.Thread(target=run, name=name, daemon=True)
+        self._threads = [t for t in self._threads if t.is_alive()] + [thread]
+        thread.start()
+
+    def unfinished_threads(self) -> list[str]:
+        """Names of the ``run_detached`` threads still running (for a process about to exit:
+        interpreter shutdown under a thread inside a compiler can abort the process)."""
+        return [t.name for t in self._threads if t.is_alive()]
 
     def busy(self) -> bool:
         """True while any job is running or waiting."""

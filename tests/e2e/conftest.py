@@ -33,8 +33,8 @@ def run_navd(*args: str, timeout_s: float = 30.0) -> subprocess.CompletedProcess
 class DaemonProcess:
     """The real ``navd run`` process, with its JSON log lines collected by a thread."""
 
-    def __init__(self, args: list[str]) -> None:
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
+    def __init__(self, args: list[str], env: dict[str, str] | None = None) -> None:
+        env = dict(os.environ, PYTHONUNBUFFERED="1", **(env or {}))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "navd", *args],
             cwd=REPO,
@@ -82,8 +82,8 @@ class DaemonProcess:
 def spawn_daemon() -> Iterator[Any]:
     started: list[DaemonProcess] = []
 
-    def spawn(*args: str) -> DaemonProcess:
-        daemon = DaemonProcess(list(args))
+    def spawn(*args: str, env: dict[str, str] | None = None) -> DaemonProcess:
+        daemon = DaemonProcess(list(args), env)
         started.append(daemon)
         return daemon
 

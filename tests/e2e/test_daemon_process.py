@@ -32,6 +32,19 @@ def test_daemon_gets_ready_idles_and_exits_0_on_signal(spawn_daemon: Any, sig: i
     daemon.wait_for("stopped", timeout_s=1.0)
 
 
+def test_a_daemon_stopped_while_its_kernels_compile_exits_0_at_once(
+    spawn_daemon: Any, tmp_path: Any
+) -> None:
+    # An empty numba cache: the kernels take seconds to compile, in threads beside the loop.
+    cold = {"NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    daemon = spawn_daemon("run", "--config", "config/navd.toml", env=cold)
+    daemon.wait_for("ready", timeout_s=3.0)
+    daemon.proc.send_signal(signal.SIGTERM)
+    assert daemon.proc.wait(timeout=2.0) == 0  # not an abort from under the compiler
+    daemon.wait_for("stopped", timeout_s=1.0)
+    assert daemon.wait_for("exit_without_waiting", timeout_s=1.0)["threads"]
+
+
 def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any) -> None:
     daemon = spawn_daemon("run")
     starting = daemon.wait_for("starting", timeout_s=3.0)
