@@ -4,14 +4,16 @@ IMU at 1 kHz, lidar at 10 Hz with 1440 rays, GPS at 5 Hz and compass at 10 Hz st
 few seconds, twice: into a daemon with only its ingest path (TCP server and safety gate:
 sockets, framing, decoding, stamping, publishing), then into the whole daemon (which also
 fuses the IMU, matches every scan and plans). Printed for each: CPU use over the streaming
-window (% of one core, from /proc), event-loop lag p50/p99/max over the same window (from
-its status), and messages dropped (sent by the clients minus accepted by the daemon). The
-idle CPU (lag probe, status and staleness timers), measured once start-up work is over, is
-reported beside the total; the ingest figure is the difference.
+window (% of one core, from the kernel's scheduler statistics), event-loop lag p50/p99/max
+over the same window (from its status), and messages dropped (sent by the clients minus
+accepted by the daemon). The idle CPU (lag probe, status and staleness timers), measured
+once start-up work is over, is reported beside the total; the ingest figure is the
+difference.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import socket
@@ -19,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +40,32 @@ def _free_port() -> int:
         return port
 
 
-def _cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+@dataclass(frozen=True)
+class _Cpu:
+    """CPU time used so far by a process: per live thread to the nanosecond (the kernel's
+    scheduler statistics), and in total in 10 ms ticks (``/proc/PID/stat``, which also keeps
+    the time of threads that have ended)."""
+
+    threads: dict[int, float]  # [s] per thread id
+    ticks_s: float
+
+    @classmethod
+    def read(cls, pid: int) -> _Cpu:
+        threads = {}
+        for task in Path(f"/proc/{pid}/task").iterdir():
+            with contextlib.suppress(FileNotFoundError, ProcessLookupError):  # a thread ended
+                threads[int(task.name)] = int((task / "schedstat").read_text().split()[0]) / 1e9
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return cls(threads, (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK"))
+
+    def percent_since(self, before: _Cpu, wall_s: float) -> float:
+        """[% of one core] used between ``before`` and this reading, ``wall_s`` [s] apart:
+        to the nanosecond, unless a thread ended in between (then to the tick)."""
+        ticks = self.ticks_s - before.ticks_s
+        precise = sum(t - before.threads.get(tid, 0.0) for tid, t in self.threads.items())
+        tick_s = 1.0 / os.sysconf("SC_CLK_TCK")
+        whole = before.threads.keys() <= self.threads.keys() and abs(precise - ticks) <= 2 * tick_s
+        return 100.0 * (precise if whole else ticks) / wall_s
 
 
 def _status(port: int) -> dict[str, Any]:
@@ -92,10 +118,10 @@ def _measure(
         try:
             _wait_listening(port, daemon)
             _wait_settled(daemon.pid)  # start-up work (imports, kernel warm-ups) is over
-            idle_cpu, idle_wall = _cpu_seconds(daemon.pid), time.monotonic()
+            idle_cpu, idle_wall = _Cpu.read(daemon.pid), time.monotonic()
             time.sleep(IDLE_S)
-            idle_percent = (
-                100.0 * (_cpu_seconds(daemon.pid) - idle_cpu) / (time.monotonic() - idle_wall)
+            idle_percent = _Cpu.read(daemon.pid).percent_since(
+                idle_cpu, time.monotonic() - idle_wall
             )
             for role, rate in STREAMS:
                 command = [
@@ -125,7 +151,7 @@ def _measure(
             for client in clients:  # every client started and connected: measure from here
                 assert client.stdout is not None
                 json.loads(client.stdout.readline())
-            cpu_start, wall_start = _cpu_seconds(daemon.pid), time.monotonic()
+            cpu_start, wall_start = _Cpu.read(daemon.pid), time.monotonic()
             for client in clients:
                 assert client.stdin is not None
                 client.stdin.write("go\n")
@@ -134,7 +160,7 @@ def _measure(
             for (role, _), client in zip(STREAMS, clients, strict=True):
                 assert client.stdout is not None
                 sent[role] = json.loads(client.stdout.readline())["sent"]
-            cpu_end, wall_end = _cpu_seconds(daemon.pid), time.monotonic()
+            cpu_end, wall_end = _Cpu.read(daemon.pid), time.monotonic()
             status = _status(port)
         finally:
             for client in clients:
@@ -144,7 +170,7 @@ def _measure(
             daemon.terminate()
             daemon.wait(10)
     accepted = {d["kind"]: d["accepted"] for d in status["devices"]}
-    total_percent = 100.0 * (cpu_end - cpu_start) / (wall_end - wall_start)
+    total_percent = cpu_end.percent_since(cpu_start, wall_end - wall_start)
     diag = status["diagnostics"]
     return {
         "seconds": round(wall_end - wall_start, 2),
@@ -167,9 +193,9 @@ def _wait_settled(pid: int, limit_s: float = 30.0) -> None:
     """Wait until the process uses under SETTLED_PERCENT of a core over half a second."""
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
-        before = _cpu_seconds(pid)
+        before, wall = _Cpu.read(pid), time.monotonic()
         time.sleep(0.5)
-        if 100.0 * (_cpu_seconds(pid) - before) / 0.5 < SETTLED_PERCENT:
+        if _Cpu.read(pid).percent_since(before, time.monotonic() - wall) < SETTLED_PERCENT:
             return
     raise RuntimeError(f"navd still busy {limit_s} s after start-up")
 

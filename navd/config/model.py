@@ -250,12 +250,13 @@ class TcpConfig(Section):
         5.0, gt=0, le=60, description="[s] time a new client has to send hello"
     )
     read_coalesce_ms: float = Field(
-        10.0,
+        20.0,
         ge=0,
         le=50,
-        description="[ms] after reading a sensor connection, wait this long before the next "
-        "read, so fast streams are handled several lines per wakeup; adds at most this "
-        "latency, only to streams faster than 1/this; 0 reads every line at once",
+        description="[ms] after reading a fast sensor connection (several lines at once, or "
+        "lines closer than this), wait this long before the next read, so it is handled many "
+        "lines per wakeup; adds at most this latency, only to streams faster than 1/this; "
+        "0 reads every line at once",
     )
     status_queue: int = Field(
         8, ge=1, le=1024, description="[messages] status messages buffered per slow subscriber"

@@ -11,6 +11,7 @@ client that lets even its replies pile up past a hard cap is disconnected.
 from __future__ import annotations
 
 import asyncio
+import math
 from typing import Protocol, cast
 
 from navd.drivers.wire import encode
@@ -63,6 +64,7 @@ class Connection(asyncio.Protocol):
         self.session: object = None  # the server's session, once the handshake is done
         self.coalesce_s = 0.0  # [s] pause after each read (set for sensor sessions)
         self._resume: asyncio.TimerHandle | None = None
+        self._last_read_s = -math.inf  # [s] loop time of the last read
         self._buffer = bytearray()
         self._discarding = False
         self._transport: asyncio.Transport | None = None
@@ -109,10 +111,18 @@ class Connection(asyncio.Protocol):
             self._discarding = True
             buffer.clear()
         if self.coalesce_s > 0.0 and self._resume is None and self.open:
-            # let lines gather in the kernel: the next read takes all of them in one wakeup
-            assert self._transport is not None
-            self._transport.pause_reading()
-            self._resume = asyncio.get_running_loop().call_later(self.coalesce_s, self._read_again)
+            # A stream faster than one line per coalescing window (several lines in this
+            # read, or a read soon after the last): let its lines gather in the kernel, so
+            # the next read takes all of them in one wakeup. A slower stream (a lidar, a
+            # GPS) is read the moment each line comes and pays no timer: every wakeup
+            # costs, on a small board more than the handling of a line.
+            loop = asyncio.get_running_loop()
+            now = loop.time()
+            if len(lines) > 1 or now - self._last_read_s < self.coalesce_s:
+                assert self._transport is not None
+                self._transport.pause_reading()
+                self._resume = loop.call_later(self.coalesce_s, self._read_again)
+            self._last_read_s = now
 
     def _deliver(self, lines: list[bytes]) -> None:
         if lines and self.open:

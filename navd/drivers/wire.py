@@ -135,7 +135,7 @@ class ScanFrame(_Frame):
     def ranges_array(self) -> np.ndarray[Any, np.dtype[np.float32]]:
         """[m] the ranges as float32; null becomes NaN (an invalid ray)."""
         if self.ranges is not None:
-            return np.array([math.nan if r is None else r for r in self.ranges], dtype=np.float32)
+            return np.array(self.ranges, dtype=np.float32)  # numpy turns None into NaN
         assert self.ranges_f32 is not None
         try:
             raw = base64.b64decode(self.ranges_f32, validate=True)

@@ -117,8 +117,9 @@ class Message:
     received: float
 
     def __post_init__(self) -> None:
-        _require_finite("stamp", self.stamp)
-        _require_finite("received", self.received)
+        if not (math.isfinite(self.stamp) and math.isfinite(self.received)):  # one test per
+            _require_finite("stamp", self.stamp)  # message on the hot path; then say which
+            _require_finite("received", self.received)
 
 
 # --- sensors ----------------------------------------------------------------------------

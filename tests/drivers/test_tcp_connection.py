@@ -17,6 +17,13 @@ class FakeTransport(asyncio.Transport):
         self.written = bytearray()
         self.buffered = 0
         self.closed = False
+        self.reading = True
+
+    def pause_reading(self) -> None:
+        self.reading = False
+
+    def resume_reading(self) -> None:
+        self.reading = True
 
     def get_extra_info(self, name: str, default: Any = None) -> Any:
         return ("127.0.0.1", 5555) if name == "peername" else default
@@ -67,6 +74,23 @@ async def test_lines_are_reassembled_across_chunks(wired: Any) -> None:
         conn.data_received(chunk)
     assert sink.lines == [b"abc", b"def", b"", b"gh"]
     assert sink.batches == [1, 2, 1]  # the lines of one read are handed over together
+
+
+async def test_a_fast_stream_is_read_in_batches_a_slow_one_line_by_line(wired: Any) -> None:
+    conn, transport, sink = wired
+    conn.coalesce_s = 0.03
+    conn.data_received(b"a\n")  # a first line: read at once, nothing to batch yet
+    assert transport.reading
+    conn.data_received(b"b\n")  # the next one soon after: a fast stream, let lines gather
+    assert not transport.reading
+    await asyncio.sleep(0.05)
+    assert transport.reading  # the window is over: the next read takes what gathered
+    await asyncio.sleep(0.05)
+    conn.data_received(b"c\n")  # a line per 100 ms: read as it comes, no pause, no timer
+    assert transport.reading
+    conn.data_received(b"d\ne\n")  # several lines in one read: a fast stream again
+    assert not transport.reading
+    assert sink.lines == [b"a", b"b", b"c", b"d", b"e"]
 
 
 async def test_overlong_line_is_discarded_up_to_its_newline(wired: Any) -> None:
