@@ -168,7 +168,11 @@ def _bench_commands(commands: Any) -> None:
 
 def _slam_commands(commands: Any) -> None:
     replay = commands.add_parser("replay", help="run SLAM over a laser log, as fast as possible")
-    replay.add_argument("log", type=Path, help="<name>_scans.txt[.gz] dump or CARMEN .clf[.gz]")
+    replay.add_argument(
+        "log",
+        type=Path,
+        help="<name>_scans.txt[.gz] dump, CARMEN .clf[.gz], ROS 1 .bag or ROS 2 bag folder",
+    )
     replay.add_argument("--out", type=Path, required=True, help="folder for the results")
     replay.add_argument("--config", type=Path, help="TOML config (its slam section is used)")
     replay.add_argument("--laser-x", type=float, help="[m] lidar x on the robot (slam.laser_x_m)")
@@ -177,6 +181,12 @@ def _slam_commands(commands: Any) -> None:
         "--laser-yaw", type=float, help="[rad] lidar yaw on the robot (slam.laser_yaw_rad)"
     )
     replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
+    replay.add_argument(
+        "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
+    )
+    replay.add_argument(
+        "--odom-topic", help="bag topic of the odometry (default: the nav_msgs/Odometry one)"
+    )
     replay.add_argument(
         "--odometry",
         choices=("log", "scan", "none"),
@@ -361,6 +371,7 @@ def _print_figures(figures: Mapping[str, object], as_json: bool) -> None:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
+    from navd.slam.bags import inspect_bag, is_bag, read_bag  # noqa: PLC0415
     from navd.slam.errors import SlamError  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.logfiles import count_scans, open_log  # noqa: PLC0415
     from navd.slam.mapper import mapper_settings  # noqa: PLC0415
@@ -371,16 +382,29 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     settings = mapper_settings(slam)
     if args.max_range is not None:
         settings = dataclasses.replace(settings, max_range_m=args.max_range)
-    mount = Pose2(
-        slam.laser_x_m if args.laser_x is None else args.laser_x,
-        slam.laser_y_m if args.laser_y is None else args.laser_y,
-        slam.laser_yaw_rad if args.laser_yaw is None else args.laser_yaw,
-    )
+    mount = Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad)
     try:
-        total = count_scans(args.log)
+        if is_bag(args.log):
+            bag = inspect_bag(args.log, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
+            if bag.mount is not None:  # the recording's own transforms beat the config's
+                mount = bag.mount
+                if not args.quiet:
+                    print(
+                        f"laser mount from the bag's /tf_static: x {mount.x:.3f} m, "
+                        f"y {mount.y:.3f} m, yaw {mount.yaw:.4f} rad",
+                        file=sys.stderr,
+                    )
+            scans, total = read_bag(bag), bag.scans
+        else:
+            scans, total = open_log(args.log), count_scans(args.log)
+        mount = Pose2(
+            mount.x if args.laser_x is None else args.laser_x,
+            mount.y if args.laser_y is None else args.laser_y,
+            mount.yaw if args.laser_yaw is None else args.laser_yaw,
+        )
         progress = None if args.quiet else _progress_line(total)
         result = replay(
-            open_log(args.log),
+            scans,
             args.out,
             settings,
             mount=mount,

@@ -1,4 +1,5 @@
-"""Laser logs for replay: the plain-text dumps of the Freiburg benchmark, and CARMEN logs.
+"""Laser logs for replay: the plain-text dumps of the Freiburg benchmark, CARMEN logs, and
+ROS bags (``navd.slam.bags``).
 
 Every reader yields ``LogScan``: a scan in the LaserScan sense plus the odometry pose at its
 stamp (interpolated between odometry samples), or None when the log has none.
@@ -20,7 +21,14 @@ import numpy.typing as npt
 from navd.slam.errors import LogFormatError
 from navd.slam.pose import Pose2
 
-__all__ = ["LogScan", "count_scans", "open_log", "read_carmen", "read_text_dump"]
+__all__ = [
+    "LogScan",
+    "OdometryTrack",
+    "count_scans",
+    "open_log",
+    "read_carmen",
+    "read_text_dump",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +57,7 @@ def _numbers(line: str, path: Path, number: int) -> list[float]:
         raise LogFormatError(f"{path}:{number}: not a line of numbers: {line[:60]!r}") from err
 
 
-class _Odometry:
+class OdometryTrack:
     """Odometry poses by time, interpolated (yaw on the circle)."""
 
     def __init__(self, stamps: list[float], poses: list[Pose2]) -> None:
@@ -92,7 +100,7 @@ def read_text_dump(scans: Path, odom: Path | None) -> Iterator[LogScan]:
                     raise LogFormatError(f"{odom}:{number}: expected stamp x y theta ...")
                 stamps.append(v[0])
                 poses.append(Pose2(v[1], v[2], v[3]))
-    odometry = _Odometry(stamps, poses)
+    odometry = OdometryTrack(stamps, poses)
     with _open_text(scans) as f:
         for number, line in enumerate(f, 1):
             if line.startswith("#") or not line.strip():
@@ -140,17 +148,24 @@ def read_carmen(path: Path, *, range_max: float = 80.0) -> Iterator[LogScan]:
                 raise LogFormatError(f"{path}:{number}: malformed {words[0]} line") from err
 
 
-def open_log(path: Path) -> Iterator[LogScan]:
+def open_log(
+    path: Path, *, scan_topic: str | None = None, odom_topic: str | None = None
+) -> Iterator[LogScan]:
     """Scans of the log at ``path``, its format told by its name.
 
-    ``*_scans.txt[.gz]`` reads with the ``*_odom.txt[.gz]`` beside it; ``*.clf[.gz]`` is CARMEN.
+    ``*_scans.txt[.gz]`` reads with the ``*_odom.txt[.gz]`` beside it; ``*.clf[.gz]`` is CARMEN;
+    a ``.bag`` file or a ROS 2 bag folder is a ROS bag (topics chosen by type unless named).
 
     Raises:
         LogFormatError: a format navd cannot read (the supported ones are named).
     """
+    from navd.slam.bags import inspect_bag, is_bag, read_bag  # noqa: PLC0415 - rosbags is big
+
     name = path.name
     if not path.exists():
         raise LogFormatError(f"{path}: no such file")
+    if is_bag(path):
+        return read_bag(inspect_bag(path, scan_topic=scan_topic, odom_topic=odom_topic))
     if "_scans.txt" in name:
         odom = path.with_name(name.replace("_scans.txt", "_odom.txt"))
         return read_text_dump(path, odom if odom.exists() else None)
@@ -158,16 +173,19 @@ def open_log(path: Path) -> Iterator[LogScan]:
         return read_carmen(path)
     raise LogFormatError(
         f"{path}: unknown log format; navd replays <name>_scans.txt[.gz] dumps (with "
-        f"<name>_odom.txt[.gz] beside them) and CARMEN .clf logs. ROS bags are not read yet."
+        f"<name>_odom.txt[.gz] beside them), CARMEN .clf logs, ROS 1 .bag files and ROS 2 bag "
+        f"folders"
     )
 
 
 def count_scans(path: Path) -> int:
-    """How many scans the log at ``path`` holds (for a progress bar); 0 if unknown."""
+    """How many scans the text log at ``path`` holds (for a progress bar); 0 if unknown."""
     name = path.name
-    if not path.exists():
+    if not path.exists() or path.is_dir():
         return 0
     with _open_text(path) as f:
         if "_scans.txt" in name:
             return sum(1 for line in f if line.strip() and not line.startswith("#"))
-        return sum(1 for line in f if line.startswith(("FLASER", "ROBOTLASER1")))
+        if name.endswith((".clf", ".clf.gz", ".log", ".log.gz")):
+            return sum(1 for line in f if line.startswith(("FLASER", "ROBOTLASER1")))
+        return 0
