@@ -1,5 +1,5 @@
-"""Laser logs for replay: the plain-text dumps of the Freiburg benchmark, CARMEN logs, and
-ROS bags (``navd.slam.bags``).
+"""Laser logs for replay: the plain-text dumps of the Freiburg benchmark, and CARMEN logs
+(ROS bags are read by ``navd.slam.bags``).
 
 Every reader yields ``LogScan``: a scan in the LaserScan sense plus the odometry pose at its
 stamp (interpolated between odometry samples), or None when the log has none.
@@ -148,24 +148,17 @@ def read_carmen(path: Path, *, range_max: float = 80.0) -> Iterator[LogScan]:
                 raise LogFormatError(f"{path}:{number}: malformed {words[0]} line") from err
 
 
-def open_log(
-    path: Path, *, scan_topic: str | None = None, odom_topic: str | None = None
-) -> Iterator[LogScan]:
-    """Scans of the log at ``path``, its format told by its name.
+def open_log(path: Path) -> Iterator[LogScan]:
+    """Scans of the text log at ``path``, its format told by its name (ROS bags: ``bags``).
 
-    ``*_scans.txt[.gz]`` reads with the ``*_odom.txt[.gz]`` beside it; ``*.clf[.gz]`` is CARMEN;
-    a ``.bag`` file or a ROS 2 bag folder is a ROS bag (topics chosen by type unless named).
+    ``*_scans.txt[.gz]`` reads with the ``*_odom.txt[.gz]`` beside it; ``*.clf[.gz]`` is CARMEN.
 
     Raises:
         LogFormatError: a format navd cannot read (the supported ones are named).
     """
-    from navd.slam.bags import inspect_bag, is_bag, read_bag  # noqa: PLC0415 - rosbags is big
-
     name = path.name
     if not path.exists():
         raise LogFormatError(f"{path}: no such file")
-    if is_bag(path):
-        return read_bag(inspect_bag(path, scan_topic=scan_topic, odom_topic=odom_topic))
     if "_scans.txt" in name:
         odom = path.with_name(name.replace("_scans.txt", "_odom.txt"))
         return read_text_dump(path, odom if odom.exists() else None)

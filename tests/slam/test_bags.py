@@ -19,7 +19,6 @@ from navd.bench.room import cast
 from navd.cli import main
 from navd.slam.bags import inspect_bag, is_bag, read_bag
 from navd.slam.errors import LogFormatError
-from navd.slam.logfiles import open_log
 from navd.slam.pose import Pose2
 from navd.slam.relations import read_tum
 from tests.datasets import dataset
@@ -202,7 +201,7 @@ def test_a_file_that_is_not_a_bag_is_refused_by_name(tmp_path: Path) -> None:
     with pytest.raises(LogFormatError, match=r"broken\.bag: not a readable ROS bag"):
         inspect_bag(fake)
     with pytest.raises(LogFormatError, match=r"missing\.bag: no such file"):
-        open_log(tmp_path / "missing.bag")
+        inspect_bag(tmp_path / "missing.bag")
 
 
 def test_the_freiburg_bag_matches_its_text_dump_and_gives_the_laser_offset() -> None:
