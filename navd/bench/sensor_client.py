@@ -17,9 +17,9 @@ import math
 import sys
 import time
 
-import numpy as np
-
+from navd.bench.room import cast
 from navd.drivers.client import Client
+from navd.slam.pose import Pose2
 
 
 def frames(role: str, rays: int, binary: bool) -> dict[str, object]:
@@ -41,18 +41,21 @@ def frames(role: str, rays: int, binary: bool) -> dict[str, object]:
     if role == "compass":
         return {"type": "heading", "bearing_deg": 123.4, "accuracy_deg": 2.0}
     if role == "lidar":
-        ranges = np.random.default_rng(7).uniform(0.2, 11.5, rays).astype("<f4")
+        # A robot standing in the synthetic room: what a real lidar indoors sees (random
+        # ranges would make every scan a hard, unrepresentative case for the matcher).
+        angle_min, increment, exact = cast(Pose2(-3.0, -1.0, 0.3), beams=rays)
+        ranges = exact.astype("<f4")
         scan: dict[str, object] = {
             "type": "scan",
-            "angle_min": -math.pi,
-            "angle_increment": 2 * math.pi / rays,
+            "angle_min": angle_min,
+            "angle_increment": increment,
             "range_min": 0.1,
             "range_max": 12.0,
         }
         if binary:
             scan["ranges_f32"] = base64.b64encode(ranges.tobytes()).decode()
-        else:
-            scan["ranges"] = [round(float(r), 3) for r in ranges]
+        else:  # no return: null
+            scan["ranges"] = [round(float(r), 3) if math.isfinite(r) else None for r in ranges]
         return scan
     raise SystemExit(f"unknown role {role!r}")
 
