@@ -117,8 +117,9 @@ class Message:
     received: float
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.stamp) and math.isfinite(self.received)):  # one test per
-            _require_finite("stamp", self.stamp)  # message on the hot path; then say which
+        # one test on the hot path (a thousand IMU samples a second); the named check after
+        if not (math.isfinite(self.stamp) and math.isfinite(self.received)):
+            _require_finite("stamp", self.stamp)
             _require_finite("received", self.received)
 
 
