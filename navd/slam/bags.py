@@ -9,6 +9,7 @@ taken from the bag itself, so custom builds of common messages read too.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -105,7 +106,8 @@ def _bag_path(path: Path) -> Path:
     return path.parent if path.suffix in ROS2_FILES else path
 
 
-def _reader(path: Path) -> Any:
+def _reader(path: Path) -> contextlib.closing[Any]:
+    """The bag at ``path`` opened, closed when the ``with`` block ends."""
     from rosbags.highlevel import AnyReader, AnyReaderError  # noqa: PLC0415 - replay only
 
     bag = _bag_path(path)
@@ -116,20 +118,7 @@ def _reader(path: Path) -> Any:
         reader.open()
     except (AnyReaderError, OSError, ValueError, KeyError) as err:
         raise LogFormatError(f"{path}: not a readable ROS bag: {err}") from err
-    return _Closing(reader)
-
-
-class _Closing:
-    """An opened AnyReader as a context manager that closes it."""
-
-    def __init__(self, reader: Any) -> None:
-        self.reader = reader
-
-    def __enter__(self) -> Any:
-        return self.reader
-
-    def __exit__(self, *exc: object) -> None:
-        self.reader.close()
+    return contextlib.closing(reader)
 
 
 def _pick(connections: list[Any], msgtype: str, chosen: str | None, option: str) -> str | None:
