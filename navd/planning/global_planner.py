@@ -8,7 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.planning._astar_kernels import MAX_GENERATION, astar_search, shortcut, trace_back
+from navd.planning._astar_kernels import (
+    MAX_GENERATION,
+    astar_search,
+    shortcut,
+    trace_back,
+    uniform_costs,
+)
+from navd.planning._bitgrid_kernels import pack_free_cells
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
@@ -66,6 +73,7 @@ class GlobalPlanner:
         self._generation = 0
         self._g: FloatArray = np.empty(0)
         self._mark = np.empty(0, dtype=np.int32)
+        self._parent = np.empty(0, dtype=np.int32)
 
     def plan(
         self, costmap: Costmap, start_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
@@ -110,6 +118,10 @@ class GlobalPlanner:
             )
         self._reserve(frame.rows * frame.cols)
         cols = frame.cols
+        if self.cost_weight == 0.0 or uniform_costs(costmap.cost):
+            rows_free, cols_free = pack_free_cells(costmap.cost)  # every step costs its length
+        else:
+            rows_free = cols_free = np.empty((0, 0), dtype=np.uint64)
         g_cells, expanded = astar_search(
             costmap.cost,
             start[0] * cols + start[1],
@@ -117,15 +129,18 @@ class GlobalPlanner:
             self.cost_weight,
             self._g,
             self._mark,
+            self._parent,
             self._generation,
+            rows_free,
+            cols_free,
         )
         if g_cells < 0.0:
             raise GoalUnreachableError(
                 f"no route to {where}: obstacles enclose it or the robot "
-                f"({expanded} cells searched)",
+                f"({expanded} cells expanded)",
                 "no route",
             )
-        cells = trace_back(self._mark, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
+        cells = trace_back(self._parent, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
         if self.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
@@ -164,5 +179,6 @@ class GlobalPlanner:
             self._cells = max(cells, self._cells)
             self._g = np.empty(self._cells)
             self._mark = np.zeros(self._cells, dtype=np.int32)
+            self._parent = np.empty(self._cells, dtype=np.int32)
             self._generation = 0
         self._generation += 1

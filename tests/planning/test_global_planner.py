@@ -99,6 +99,53 @@ def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> No
     assert tuple(cells[0]) == start and tuple(cells[-1]) == goal
 
 
+@st.composite
+def floor_plans(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int, int], float]:
+    """Floor of cost 0 with blocked rectangles, some with a costly band around them: a uniform
+    grid (no band, or w = 0) is searched by jumping, the others cell by cell."""
+    rows = draw(st.integers(3, 40))
+    cols = draw(st.integers(3, 40))
+    rng = np.random.default_rng(draw(st.integers(0, 2**31 - 1)))
+    cost = np.zeros((rows, cols), np.float32)
+    for _ in range(draw(st.integers(0, 12))):
+        r, c = rng.integers(0, rows), rng.integers(0, cols)
+        h, w = rng.integers(1, max(rows // 3, 2) + 1), rng.integers(1, max(cols // 3, 2) + 1)
+        if rng.random() < 0.4:  # a costly band, as inflation leaves around walls
+            band = cost[max(r - 1, 0) : r + h + 1, max(c - 1, 0) : c + w + 1]
+            band[np.isfinite(band)] = rng.random() + 0.1
+        cost[r : r + h, c : c + w] = np.inf
+    free = np.argwhere(np.isfinite(cost))
+    if free.shape[0] == 0:
+        cost[0, 0] = 0.0
+        free = np.argwhere(np.isfinite(cost))
+    start = tuple(int(v) for v in free[draw(st.integers(0, free.shape[0] - 1))])
+    goal = tuple(int(v) for v in free[draw(st.integers(0, free.shape[0] - 1))])
+    return cost, start, goal, draw(st.sampled_from([0.0, 1.0, 5.0]))
+
+
+@settings(max_examples=400, deadline=None)
+@given(floor_plans())
+def test_astar_on_floor_plans_keeps_dijkstras_cost_jumping_or_not(case) -> None:
+    cost, start, goal, w = case
+    expected = dijkstra_cost(cost, start, goal, w)
+    planner = GlobalPlanner(cost_weight=w, smooth=False)
+    if math.isinf(expected):
+        with pytest.raises(GoalUnreachableError, match="no route"):
+            planner.plan(costmap_of(cost), center(start), center(goal))
+        return
+    path = planner.plan(costmap_of(cost), center(start), center(goal))
+    assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
+    cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
+    assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
+    steps = np.diff(cells, axis=0)
+    assert (np.abs(steps) <= 1).all() and (np.abs(steps).sum(axis=1) > 0).all()
+    # Every diagonal step has both side cells free (no squeezing past a corner).
+    for (r, c), (dr, dc) in zip(cells[:-1], steps, strict=False):
+        if dr and dc:
+            assert np.isfinite(cost[r + dr, c]) and np.isfinite(cost[r, c + dc])
+    assert tuple(cells[0]) == start and tuple(cells[-1]) == goal
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:
