@@ -354,7 +354,8 @@ class SlamConfig(Section):
         0.3,
         ge=0,
         le=1,
-        description="[ratio] scans matching worse than this keep the odometry pose, unmapped",
+        description="[ratio] scans whose points on mapped ground match worse than this keep the "
+        "odometry pose, unmapped (on mostly new ground they are mapped from it)",
     )
     loop_closure: bool = Field(
         False,

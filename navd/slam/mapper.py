@@ -4,8 +4,11 @@ inserted into the occupancy grid at keyframes.
 The prediction is the last pose moved by the odometry since the last scan (wheel odometry,
 or scan odometry from kiss-icp); without odometry, the last pose. The map the scan is matched
 onto is a likelihood field of the occupancy grid around the prediction, rebuilt when the
-grid changed or the robot left its window. Scans whose best match scores below
-``min_score`` keep the predicted pose and are not inserted (counted).
+grid changed or the robot left its window. A match is judged on the scan points that land
+on mapped ground: scans whose fit there is below ``min_score`` keep the predicted pose and
+are not inserted (counted), except on new ground (most points where the map has seen
+nothing), which is mapped from the predicted pose so the map keeps growing ahead of the
+robot.
 """
 
 from __future__ import annotations
@@ -122,6 +125,7 @@ class _Counts:
     scans: int = 0
     matched: int = 0
     weak_matches: int = 0
+    exploring: int = 0
     keyframes: int = 0
     fields_built: int = 0
     loop_checks: int = 0
@@ -131,6 +135,11 @@ class _Counts:
 
 # Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
 EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
+# A match is judged on the scan points that land on mapped cells: at least this many of them.
+MIN_KNOWN_POINTS = 10
+# Below this share of points on mapped cells an unmatched scan counts as new ground: it is
+# mapped from the motion prior instead of dropped.
+EXPLORING_KNOWN_FRACTION = 0.5
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
 LOOP_SUBMAP_KEYFRAMES = 10
@@ -232,10 +241,20 @@ class ScanMapper:
             return ScanResult(prior, cov, 0.0, False, keyframe)
         points = voxel_downsample(scan.hits, s.voxel_size_m)
         match = self.matcher.match(self._field_around(prior), points, prior)
-        if match.score < s.min_score or points.shape[0] < 10:
-            self.counts.weak_matches += 1
+        # Judge the match on the part of the scan the map can explain: a robot driving into a
+        # new corridor sees mostly never-mapped space, where every pose scores zero.
+        known = self.grid.known_fraction(match.pose, points)
+        known_points = known * points.shape[0]
+        fit = match.score / known if known > 0.0 else 0.0
+        if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
+            if known < EXPLORING_KNOWN_FRACTION and points.shape[0] >= MIN_KNOWN_POINTS:
+                # New ground with too little map to match against: map it from the motion
+                # prior, or the map never grows there and the robot stays lost.
+                self.counts.exploring += 1
+                return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
+            self.counts.weak_matches += 1
             return ScanResult(prior, cov, match.score, False, False)
         self.counts.matched += 1
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))

@@ -111,6 +111,25 @@ class OccupancyGrid:
         )
         return cells
 
+    def known_fraction(self, pose: Pose2, points: npt.NDArray[np.float64]) -> float:
+        """The share of scan points (N x 2, robot frame) that land, from ``pose``, within one
+        cell of a cell the map has observed (free or occupied): how much of what the scan sees
+        the map already holds. Points in never-seen space tell nothing about the pose."""
+        if self.empty or points.shape[0] == 0:
+            return 0.0
+        cells = self.cells(pose.transform(points))
+        rows, cols = self.logodds.shape
+        known = np.zeros(points.shape[0], dtype=np.bool_)
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                r = cells[:, 1] + dr
+                c = cells[:, 0] + dc
+                inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+                seen = np.zeros_like(known)
+                seen[inside] = self.logodds[r[inside], c[inside]] != 0.0
+                known |= seen
+        return float(known.mean())
+
     def insert(self, pose: Pose2, scan: ScanPoints) -> None:
         """Ray-cast one scan taken at ``pose`` into the grid."""
         hits = pose.transform(scan.hits)

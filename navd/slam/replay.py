@@ -120,6 +120,7 @@ def replay(
         "ms_per_scan_p95": round(ms[int(0.95 * (len(ms) - 1))], 3),
         "matched": counts.matched,
         "weak_matches": counts.weak_matches,
+        "exploring": counts.exploring,
         "keyframes": counts.keyframes,
         "loop_checks": counts.loop_checks,
         "loops_found": counts.loops_found,

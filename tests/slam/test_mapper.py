@@ -1,0 +1,71 @@
+"""The scan mapper's handling of new ground: it keeps mapping where the map cannot explain a
+scan yet, instead of dropping every scan and staying lost."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.bench.room import cast
+from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose import Pose2
+from navd.slam.scan import ScanPoints, scan_points
+
+# A corridor about 2 m wide and 40 m long, closed at both ends (walls off cell borders).
+W = 1.02
+CORRIDOR = np.array(
+    [
+        [-1.0, -W, 40.0, -W],
+        [-1.0, W, 40.0, W],
+        [-1.0, -W, -1.0, W],
+        [40.0, -W, 40.0, W],
+    ]
+)
+SENSOR_RANGE_M = 4.0
+
+
+def front_scan(pose: Pose2) -> ScanPoints:
+    """What a 180° lidar facing forward with a 4 m range sees at ``pose`` in the corridor."""
+    angle_min, increment, ranges = cast(pose, 360, CORRIDOR)
+    front = slice(90, 271)  # -90° .. +90°
+    return scan_points(
+        ranges[front],
+        angle_min + 90 * increment,
+        increment,
+        range_min=0.1,
+        range_max=SENSOR_RANGE_M,
+    )
+
+
+def test_known_fraction_tells_mapped_from_never_seen_ground() -> None:
+    grid = OccupancyGrid(0.05)
+    grid.insert(Pose2(0.0, 0.0, 0.0), front_scan(Pose2(0.0, 0.0, 0.0)))
+    on_mapped_walls = np.array([[1.0, W], [2.0, -W], [3.0, W]])
+    far_down_the_corridor = np.array([[20.0, W], [25.0, -W]])
+    assert grid.known_fraction(Pose2(0.0, 0.0, 0.0), on_mapped_walls) == 1.0
+    assert grid.known_fraction(Pose2(0.0, 0.0, 0.0), far_down_the_corridor) == 0.0
+    both = np.vstack([on_mapped_walls, far_down_the_corridor])
+    assert grid.known_fraction(Pose2(0.0, 0.0, 0.0), both) == 0.6
+    # The same points seen from 30 m further on land where nothing was mapped.
+    assert grid.known_fraction(Pose2(30.0, 0.0, 0.0), on_mapped_walls) == 0.0
+
+
+def test_a_robot_outrunning_its_map_keeps_mapping_from_odometry() -> None:
+    # 4.5 m between scans with a 4 m sensor: each scan sees only walls the map has never
+    # seen, nothing to match against. The mapper must still grow the map down the corridor.
+    settings = mapper_settings(max_range_m=SENSOR_RANGE_M, keep_trajectory=True)
+    mapper = ScanMapper(settings)
+    truth = [Pose2(4.5 * i, 0.0, 0.0) for i in range(8)]  # 0 .. 31.5 m
+    for i, pose in enumerate(truth):
+        mapper.add(float(i), front_scan(pose), pose)
+    assert mapper.counts.exploring == len(truth) - 1
+    assert mapper.counts.keyframes == len(truth)
+    # The far walls are in the map, where they are (beams 1° apart hit a wall 3 m ahead
+    # about 0.2 m apart, so look within 0.25 m along it).
+    for x, y in [(33.0, W), (34.0, -W), (35.0, W)]:
+        col, row = mapper.grid.cells(np.array([[x, y]]))[0]
+        assert (mapper.grid.logodds[row, col - 5 : col + 6] > 0.0).any(), (x, y)
+    end = mapper.trajectory()[-1]
+    assert math.hypot(end.x - truth[-1].x, end.y - truth[-1].y) < 0.1
