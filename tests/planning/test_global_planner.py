@@ -80,9 +80,9 @@ def grids(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]
     return cost, start, goal, draw(st.sampled_from([0.0, 1.0, 5.0]))
 
 
-@settings(max_examples=300, deadline=None)
-@given(grids())
-def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> None:
+def assert_route_matches_dijkstra(case) -> None:
+    """The planner's route on ``case`` costs what Dijkstra's does and is a chain of allowed
+    steps from the start to the goal, or the planner says "no route" where Dijkstra finds none."""
     cost, start, goal, w = case
     expected = dijkstra_cost(cost, start, goal, w)
     planner = GlobalPlanner(cost_weight=w, smooth=False)
@@ -95,8 +95,19 @@ def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> No
     assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
     cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
     assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
-    assert (np.abs(np.diff(cells, axis=0)) <= 1).all()
+    steps = np.diff(cells, axis=0)
+    assert (np.abs(steps) <= 1).all() and (np.abs(steps).sum(axis=1) > 0).all()
+    # Every diagonal step has both side cells free (no squeezing past a corner).
+    for (r, c), (dr, dc) in zip(cells[:-1], steps, strict=False):
+        if dr and dc:
+            assert np.isfinite(cost[r + dr, c]) and np.isfinite(cost[r, c + dc])
     assert tuple(cells[0]) == start and tuple(cells[-1]) == goal
+
+
+@settings(max_examples=300, deadline=None)
+@given(grids())
+def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> None:
+    assert_route_matches_dijkstra(case)
 
 
 @st.composite
@@ -126,24 +137,7 @@ def floor_plans(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int
 @settings(max_examples=400, deadline=None)
 @given(floor_plans())
 def test_astar_on_floor_plans_keeps_dijkstras_cost_jumping_or_not(case) -> None:
-    cost, start, goal, w = case
-    expected = dijkstra_cost(cost, start, goal, w)
-    planner = GlobalPlanner(cost_weight=w, smooth=False)
-    if math.isinf(expected):
-        with pytest.raises(GoalUnreachableError, match="no route"):
-            planner.plan(costmap_of(cost), center(start), center(goal))
-        return
-    path = planner.plan(costmap_of(cost), center(start), center(goal))
-    assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
-    cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
-    assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
-    steps = np.diff(cells, axis=0)
-    assert (np.abs(steps) <= 1).all() and (np.abs(steps).sum(axis=1) > 0).all()
-    # Every diagonal step has both side cells free (no squeezing past a corner).
-    for (r, c), (dr, dc) in zip(cells[:-1], steps, strict=False):
-        if dr and dc:
-            assert np.isfinite(cost[r + dr, c]) and np.isfinite(cost[r, c + dc])
-    assert tuple(cells[0]) == start and tuple(cells[-1]) == goal
+    assert_route_matches_dijkstra(case)
 
 
 @settings(max_examples=100, deadline=None)
