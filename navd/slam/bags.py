@@ -80,13 +80,17 @@ def inspect_bag(
 
 
 def read_bag(log: BagLog) -> Iterator[LogScan]:
-    """The scans of ``log`` in time order, each with the odometry pose at its stamp."""
+    """The scans of ``log`` in time order, each with the odometry pose at its stamp.
+
+    Stamps are the messages' header stamps; a zero header stamp falls back to the time the bag
+    received the message.
+    """
     with _reader(log.path) as reader:
         track = _odometry(reader, log.odom_topic)
         wanted = [c for c in reader.connections if c.topic == log.scan_topic]
-        for connection, _, raw in reader.messages(connections=wanted):
+        for connection, received_ns, raw in reader.messages(connections=wanted):
             msg = reader.deserialize(raw, connection.msgtype)
-            stamp = _seconds(msg.header.stamp)
+            stamp = _stamp(msg.header.stamp, received_ns)
             yield LogScan(
                 stamp,
                 float(msg.angle_min),
@@ -141,8 +145,12 @@ def _pick(connections: list[Any], msgtype: str, chosen: str | None, option: str)
     return only
 
 
-def _seconds(stamp: Any) -> float:
-    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+def _stamp(header_stamp: Any, received_ns: int) -> float:
+    """[s] a message's header stamp, or the time the bag received it when the header's is zero
+    (some drivers never fill it in)."""
+    if header_stamp.sec == 0 and header_stamp.nanosec == 0:
+        return 1e-9 * received_ns
+    return float(header_stamp.sec) + 1e-9 * float(header_stamp.nanosec)
 
 
 def _yaw(q: Any) -> float:
@@ -155,10 +163,10 @@ def _odometry(reader: Any, topic: str | None) -> OdometryTrack:
     poses: list[Pose2] = []
     if topic is not None:
         wanted = [c for c in reader.connections if c.topic == topic]
-        for connection, _, raw in reader.messages(connections=wanted):
+        for connection, received_ns, raw in reader.messages(connections=wanted):
             msg = reader.deserialize(raw, connection.msgtype)
             pose = msg.pose.pose
-            stamps.append(_seconds(msg.header.stamp))
+            stamps.append(_stamp(msg.header.stamp, received_ns))
             poses.append(Pose2(pose.position.x, pose.position.y, _yaw(pose.orientation)))
     order = np.argsort(stamps, kind="stable")  # bags are in receive order, not stamp order
     return OdometryTrack([stamps[i] for i in order], [poses[i] for i in order])

@@ -65,9 +65,15 @@ def _header(ts: Any, ros1: bool, stamp: float, frame: str) -> Any:
 
 
 def _messages(
-    ts: Any, ros1: bool, scan_topics: tuple[str, ...]
+    ts: Any, ros1: bool, scan_topics: tuple[str, ...], zero_stamps: bool = False
 ) -> list[tuple[str, str, float, Any]]:
-    """(topic, type, stamp, message) of the whole recording, in time order."""
+    """(topic, type, stamp, message) of the whole recording, in time order; with
+    ``zero_stamps`` the scan and odometry headers carry stamp 0 (the bag still records when
+    each message came)."""
+
+    def header_stamp(stamp: float) -> float:
+        return 0.0 if zero_stamps else stamp
+
     t = ts.types
     out: list[tuple[str, str, float, Any]] = []
     transforms = [
@@ -86,7 +92,7 @@ def _messages(
     for stamp in ODOM_STAMPS:
         pose = _truth(stamp)
         odom = t["nav_msgs/msg/Odometry"](
-            header=_header(ts, ros1, stamp, "odom"),
+            header=_header(ts, ros1, header_stamp(stamp), "odom"),
             child_frame_id="base_link",
             pose=t["geometry_msgs/msg/PoseWithCovariance"](
                 pose=t["geometry_msgs/msg/Pose"](
@@ -109,7 +115,7 @@ def _messages(
         ranges = ranges.astype(np.float32)
         ranges[3] = np.inf  # no return
         scan = t["sensor_msgs/msg/LaserScan"](
-            header=_header(ts, ros1, stamp, "laser"),
+            header=_header(ts, ros1, header_stamp(stamp), "laser"),
             angle_min=a0,
             angle_max=a0 + inc * (ranges.size - 1),
             angle_increment=inc,
@@ -124,9 +130,11 @@ def _messages(
     return sorted(out, key=lambda m: m[2])
 
 
-def write_bag(path: Path, *, ros1: bool, scan_topics: tuple[str, ...] = ("/scan",)) -> Path:
+def write_bag(
+    path: Path, *, ros1: bool, scan_topics: tuple[str, ...] = ("/scan",), zero_stamps: bool = False
+) -> Path:
     ts = _typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
-    messages = _messages(ts, ros1, scan_topics)
+    messages = _messages(ts, ros1, scan_topics, zero_stamps)
     writer: Any = Ros1Writer(path) if ros1 else Ros2Writer(path, version=9)
     with writer:
         connections = {}
@@ -166,6 +174,19 @@ def test_a_bag_gives_its_scans_odometry_at_their_stamps_and_the_mount(
         assert odom is not None
         assert math.hypot(odom.x - truth.x, odom.y - truth.y) < 1e-3
         assert abs(odom.yaw - truth.yaw) < 1e-3
+
+
+@pytest.mark.parametrize("ros1", [True, False], ids=["ros1", "ros2"])
+def test_zero_header_stamps_fall_back_to_the_time_the_bag_received_them(
+    tmp_path: Path, ros1: bool
+) -> None:
+    bag = write_bag(tmp_path / ("drive.bag" if ros1 else "drive"), ros1=ros1, zero_stamps=True)
+    scans = list(read_bag(inspect_bag(bag)))
+    assert [s.stamp for s in scans] == pytest.approx(SCAN_STAMPS, abs=1e-6)
+    for scan in scans:
+        truth, odom = _truth(scan.stamp), scan.odom
+        assert odom is not None
+        assert math.hypot(odom.x - truth.x, odom.y - truth.y) < 1e-3
 
 
 def test_replay_reads_a_bag_and_uses_its_mount(
