@@ -12,6 +12,8 @@ tests/slam/grid_reference.py.
   field over a block of f x f translations (the coarse level of the matcher).
 - ``coarse_scores`` / ``fine_scores``: the summed field under the scan points, rotated and
   moved; the coarse level bounds whole f x f blocks of translations for branch and bound.
+- ``count_known``: how many world points lie within one cell of an observed cell
+  (log-odds not 0).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numba as nb
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["coarse_scores", "fine_scores", "ray_update", "sliding_max", "smear"]
+__all__ = ["coarse_scores", "count_known", "fine_scores", "ray_update", "sliding_max", "smear"]
 
 FloatArray = npt.NDArray[np.float32]
 F64 = npt.NDArray[np.float64]
@@ -209,3 +211,25 @@ def fine_scores(
                     total += field[y, x]
             out[j, i] = total
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def count_known(logodds: FloatArray, cols_x: IntArray, rows_y: IntArray) -> int:
+    """How many of the cells (cols_x[i], rows_y[i]) have an observed cell (log-odds not 0)
+    among themselves and their 8 neighbours; cells off the grid count as unobserved."""
+    rows, cols = logodds.shape
+    known = 0
+    for i in range(cols_x.size):
+        x0 = cols_x[i]
+        y0 = rows_y[i]
+        found = False
+        for y in range(max(y0 - 1, 0), min(y0 + 2, rows)):
+            for x in range(max(x0 - 1, 0), min(x0 + 2, cols)):
+                if logodds[y, x] != 0.0:
+                    found = True
+                    break
+            if found:
+                break
+        if found:
+            known += 1
+    return known

@@ -118,17 +118,8 @@ class OccupancyGrid:
         if self.empty or points.shape[0] == 0:
             return 0.0
         cells = self.cells(pose.transform(points))
-        rows, cols = self.logodds.shape
-        known = np.zeros(points.shape[0], dtype=np.bool_)
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                r = cells[:, 1] + dr
-                c = cells[:, 0] + dc
-                inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-                seen = np.zeros_like(known)
-                seen[inside] = self.logodds[r[inside], c[inside]] != 0.0
-                known |= seen
-        return float(known.mean())
+        known = int(k.count_known(self.logodds, cells[:, 0].copy(), cells[:, 1].copy()))
+        return float(known / points.shape[0])
 
     def insert(self, pose: Pose2, scan: ScanPoints) -> None:
         """Ray-cast one scan taken at ``pose`` into the grid."""

@@ -55,3 +55,12 @@ def score(field, px, py, c, s, tx, ty, dx, dy):  # type: ignore[no-untyped-def]
     rows = np.floor(s * px + c * py + ty + 0.5).astype(int) + dy
     inside = (cols >= 0) & (cols < field.shape[1]) & (rows >= 0) & (rows < field.shape[0])
     return float(field[rows[inside], cols[inside]].sum())
+
+
+def count_known(logodds, cols_x, rows_y):  # type: ignore[no-untyped-def]
+    padded = np.pad(logodds != 0.0, 1)  # off the grid: unobserved
+    count = 0
+    for x, y in zip(cols_x, rows_y, strict=True):
+        if -1 <= x <= logodds.shape[1] and -1 <= y <= logodds.shape[0]:
+            count += bool(padded[max(y, 0) : y + 3, max(x, 0) : x + 3].any())
+    return count

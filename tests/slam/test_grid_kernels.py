@@ -81,3 +81,15 @@ def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
     values = np.random.default_rng(block).random((97, 130)).astype(np.float32)
     field = LikelihoodField(values, 0.0, 0.0, 0.05)
     np.testing.assert_array_equal(field.bound(block), k.sliding_max(values, block))
+
+
+def test_count_known_matches_the_reference_on_and_off_the_grid() -> None:
+    rng = np.random.default_rng(9)
+    logodds = np.where(rng.random((30, 40)) < 0.1, rng.normal(0, 1, (30, 40)), 0.0).astype(
+        np.float32
+    )
+    cols_x = rng.integers(-4, 44, 500)
+    rows_y = rng.integers(-4, 34, 500)
+    got = k.count_known(logodds, cols_x, rows_y)
+    assert got == ref.count_known(logodds, cols_x, rows_y)
+    assert 0 < got < 500
