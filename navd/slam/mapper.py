@@ -140,6 +140,7 @@ MIN_KNOWN_POINTS = 10
 # Below this share of points on mapped cells an unmatched scan counts as new ground: it is
 # mapped from the motion prior instead of dropped.
 EXPLORING_KNOWN_FRACTION = 0.5
+ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
 LOOP_SUBMAP_KEYFRAMES = 10
@@ -249,9 +250,15 @@ class ScanMapper:
         if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
-            if known < EXPLORING_KNOWN_FRACTION and points.shape[0] >= MIN_KNOWN_POINTS:
-                # New ground with too little map to match against: map it from the motion
-                # prior, or the map never grows there and the robot stays lost.
+            if (
+                known < EXPLORING_KNOWN_FRACTION
+                and points.shape[0] >= MIN_KNOWN_POINTS
+                and self.grid.known_fraction(prior, ROBOT_CELL) == 1.0
+            ):
+                # New ground with too little map to match against, seen from ground the map
+                # knows: map it from the motion prior, or the map never grows there and the
+                # robot stays lost. (A prior off the mapped ground is more likely wrong than
+                # new: such scans are dropped, not mapped at a doubtful pose.)
                 self.counts.exploring += 1
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1

@@ -53,19 +53,32 @@ def test_known_fraction_tells_mapped_from_never_seen_ground() -> None:
 
 
 def test_a_robot_outrunning_its_map_keeps_mapping_from_odometry() -> None:
-    # 4.5 m between scans with a 4 m sensor: each scan sees only walls the map has never
-    # seen, nothing to match against. The mapper must still grow the map down the corridor.
+    # 3.8 m between scans with a 4 m sensor: each scan sees almost only walls the map has
+    # never seen, too little to match against, from a spot the last scan saw. The mapper
+    # must still grow the map down the corridor.
     settings = mapper_settings(max_range_m=SENSOR_RANGE_M, keep_trajectory=True)
     mapper = ScanMapper(settings)
-    truth = [Pose2(4.5 * i, 0.0, 0.0) for i in range(8)]  # 0 .. 31.5 m
+    truth = [Pose2(3.8 * i, 0.0, 0.0) for i in range(9)]  # 0 .. 30.4 m
     for i, pose in enumerate(truth):
         mapper.add(float(i), front_scan(pose), pose)
     assert mapper.counts.exploring == len(truth) - 1
     assert mapper.counts.keyframes == len(truth)
     # The far walls are in the map, where they are (beams 1° apart hit a wall 3 m ahead
     # about 0.2 m apart, so look within 0.25 m along it).
-    for x, y in [(33.0, W), (34.0, -W), (35.0, W)]:
+    for x, y in [(32.0, W), (33.0, -W), (34.0, W)]:
         col, row = mapper.grid.cells(np.array([[x, y]]))[0]
         assert (mapper.grid.logodds[row, col - 5 : col + 6] > 0.0).any(), (x, y)
     end = mapper.trajectory()[-1]
     assert math.hypot(end.x - truth[-1].x, end.y - truth[-1].y) < 0.1
+
+
+def test_a_scan_from_a_pose_off_the_mapped_ground_is_not_mapped() -> None:
+    # Odometry that puts the robot 20 m beyond anything mapped is more likely wrong than new:
+    # its scan is dropped rather than mapped at a doubtful pose.
+    mapper = ScanMapper(mapper_settings(max_range_m=SENSOR_RANGE_M))
+    mapper.add(0.0, front_scan(Pose2(0.0, 0.0, 0.0)), Pose2(0.0, 0.0, 0.0))
+    before = mapper.grid.logodds.copy()
+    result = mapper.add(1.0, front_scan(Pose2(2.0, 0.0, 0.0)), Pose2(22.0, 0.0, 0.0))
+    assert not result.matched and not result.keyframe
+    assert (mapper.counts.exploring, mapper.counts.weak_matches) == (0, 1)
+    np.testing.assert_array_equal(mapper.grid.logodds, before)
