@@ -30,7 +30,6 @@ WordArray = npt.NDArray[np.uint64]
 
 _ONE = np.uint64(1)
 _ALL = np.uint64(0xFFFFFFFFFFFFFFFF)
-_U1 = np.uint64(1)
 _U63 = np.uint64(63)
 # (x & -x) * _DEBRUIJN >> 58 is distinct for each of the 64 single-bit words x.
 _DEBRUIJN = np.uint64(0x03F79D71B4CB0A89)
@@ -51,7 +50,7 @@ def _highest_bit(word: np.uint64) -> int:
     """Index of the highest set bit of a non-zero word."""
     for shift in (1, 2, 4, 8, 16, 32):
         word |= word >> np.uint64(shift)
-    return _lowest_bit(word ^ (word >> _U1))
+    return _lowest_bit(word ^ (word >> _ONE))
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -112,7 +111,7 @@ def pack_free_cells(cost: npt.NDArray[np.float32]) -> tuple[WordArray, WordArray
 @njit(cache=True, nogil=True, inline="always")
 def _forced_forward(side: WordArray, w: int) -> np.uint64:
     """Bits x of word w where the side line is free at x and blocked at x - 1."""
-    behind = side[w] << _U1
+    behind = side[w] << _ONE
     if w > 0:
         behind |= side[w - 1] >> _U63
     forced: np.uint64 = side[w] & ~behind
@@ -122,7 +121,7 @@ def _forced_forward(side: WordArray, w: int) -> np.uint64:
 @njit(cache=True, nogil=True, inline="always")
 def _forced_backward(side: WordArray, w: int) -> np.uint64:
     """Bits x of word w where the side line is free at x and blocked at x + 1."""
-    behind = side[w] >> _U1
+    behind = side[w] >> _ONE
     if w + 1 < side.shape[0]:
         behind |= side[w + 1] << _U63
     forced: np.uint64 = side[w] & ~behind
