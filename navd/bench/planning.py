@@ -25,7 +25,7 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
-from navd.planning.global_planner import GlobalPlanner
+from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.profile import VelocityProfile
 
 __all__ = ["random_rectangles", "run"]
@@ -47,6 +47,24 @@ def random_rectangles(cells: int, fill: float, seed: int) -> npt.NDArray[np.bool
     return occupied
 
 
+def _timed_plans(
+    planner: GlobalPlanner,
+    costmap: Costmap,
+    start: tuple[float, float],
+    goal: tuple[float, float],
+    repeats: int,
+) -> tuple[float, PlannedPath]:
+    """Median ms of ``repeats`` searches (after one that compiles and sizes the working
+    arrays), and the route found."""
+    path = planner.plan(costmap, start, goal)
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        path = planner.plan(costmap, start, goal)
+        times.append(time.perf_counter() - t0)
+    return round(1e3 * statistics.median(times), 2), path
+
+
 def _astar(cells: int, repeats: int) -> dict[str, object]:
     occupied = random_rectangles(cells, 0.25, seed=cells)
     cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
@@ -54,14 +72,9 @@ def _astar(cells: int, repeats: int) -> dict[str, object]:
     costmap = Costmap(frame, occupied, np.zeros(cost.shape, np.float32), cost, ~occupied & False)
     planner = GlobalPlanner(cost_weight=0.0, smooth=False)
     start, goal = (5.5, 5.5), (cells - 5.5, cells - 5.5)
-    planner.plan(costmap, start, goal)  # compile and size the working arrays
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        path = planner.plan(costmap, start, goal)
-        times.append(time.perf_counter() - t0)
+    ms, path = _timed_plans(planner, costmap, start, goal, repeats)
     return {
-        f"astar_{cells}_ms": round(1e3 * statistics.median(times), 2),
+        f"astar_{cells}_ms": ms,
         f"astar_{cells}_expanded": path.cells_expanded,
         f"astar_{cells}_cost_over_straight": round(path.cost / math.dist(start, goal), 4),
     }
@@ -78,15 +91,10 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
     )
     planner = GlobalPlanner(cost_weight=config.planning.cost_weight, smooth=False)
     start, goal = (0.2, 0.2), (0.05 * cells - 0.2, 0.05 * cells - 0.2)
-    path = planner.plan(costmap, start, goal)
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        path = planner.plan(costmap, start, goal)
-        times.append(time.perf_counter() - t0)
+    ms, path = _timed_plans(planner, costmap, start, goal, repeats)
     costly = np.isfinite(costmap.cost) & (costmap.cost > 0.0)
     return {
-        f"astar_{cells}_inflated_ms": round(1e3 * statistics.median(times), 2),
+        f"astar_{cells}_inflated_ms": ms,
         f"astar_{cells}_inflated_expanded": path.cells_expanded,
         f"astar_{cells}_inflated_costly_cells_pct": round(100.0 * float(costly.mean()), 1),
     }
