@@ -182,6 +182,9 @@ def _slam_commands(commands: Any) -> None:
     )
     replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
     replay.add_argument(
+        "--loop-closure", action="store_true", help="close loops (slam.loop_closure = true)"
+    )
+    replay.add_argument(
         "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
     )
     replay.add_argument(
@@ -382,6 +385,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     settings = mapper_settings(slam)
     if args.max_range is not None:
         settings = dataclasses.replace(settings, max_range_m=args.max_range)
+    if args.loop_closure:
+        settings = dataclasses.replace(settings, loop_closure=True)
     mount = Pose2(slam.laser_x_m, slam.laser_y_m, slam.laser_yaw_rad)
     try:
         if is_bag(args.log):

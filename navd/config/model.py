@@ -359,13 +359,16 @@ class SlamConfig(Section):
     )
     loop_closure: bool = Field(
         False,
-        **restart("experimental: match keyframes onto old places and re-solve the pose graph"),
+        **restart(
+            "match keyframes onto old places and re-solve the pose graph (costs CPU: off "
+            "unless the robot revisits places after drifting metres)"
+        ),
     )
     loop_search_radius_m: float = Field(
-        5.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
+        10.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
     )
     loop_search_xy_m: float = Field(
-        1.5, gt=0, le=20, description="[m] half-width of the loop closure search window"
+        4.0, gt=0, le=20, description="[m] half-width of the loop closure search window"
     )
     loop_min_score: float = Field(
         0.65, gt=0, le=1, description="[ratio] match score a loop closure must reach"

@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import SlamConfig
-from navd.slam.matcher import CorrelativeMatcher
+from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
@@ -55,6 +55,10 @@ class MapperSettings:
     loop_search_yaw_rad: float = 0.5
     loop_min_gap: int = 40
     loop_check_every: int = 3
+    # The motion prior's pull on tracking matches (see CorrelativeMatcher), in mean score
+    # per squared metre and per squared radian away from the predicted pose.
+    prior_weight_per_m2: float = 0.5
+    prior_weight_per_rad2: float = 1.0
     # Keep every scan's pose (relative to its keyframe) for ``trajectory()``: a replay wants
     # it; a robot running for days does not (it grows with every scan).
     keep_trajectory: bool = False
@@ -130,6 +134,7 @@ class _Counts:
     fields_built: int = 0
     loop_checks: int = 0
     loops_found: int = 0
+    loops_ambiguous: int = 0
     optimizations: int = 0
 
 
@@ -144,6 +149,19 @@ ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
 LOOP_SUBMAP_KEYFRAMES = 10
+# A loop closure must be unambiguous: no translation within LOOP_RIVAL_RADIUS_M but beyond
+# LOOP_RIVAL_EXCLUDE_M of it may score more than LOOP_MAX_RIVAL_RATIO of its score.
+LOOP_RIVAL_RADIUS_M, LOOP_RIVAL_EXCLUDE_M, LOOP_MAX_RIVAL_RATIO = 1.0, 0.3, 0.9
+
+
+def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
+    return CorrelativeMatcher(
+        search_xy_m=s.search_xy_m,
+        search_yaw_rad=s.search_yaw_rad,
+        reach_m=s.max_range_m / 2,
+        prior_weight_per_m2=s.prior_weight_per_m2,
+        prior_weight_per_rad2=s.prior_weight_per_rad2,
+    )
 
 
 @dataclass
@@ -155,9 +173,7 @@ class ScanMapper:
     def __post_init__(self) -> None:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
-        self.matcher = CorrelativeMatcher(
-            search_xy_m=s.search_xy_m, search_yaw_rad=s.search_yaw_rad, reach_m=s.max_range_m / 2
-        )
+        self.matcher = _tracking_matcher(s)
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
@@ -178,11 +194,7 @@ class ScanMapper:
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
-        self.matcher = CorrelativeMatcher(
-            search_xy_m=settings.search_xy_m,
-            search_yaw_rad=settings.search_yaw_rad,
-            reach_m=settings.max_range_m / 2,
-        )
+        self.matcher = _tracking_matcher(settings)
         self.loop_matcher = CorrelativeMatcher(
             search_xy_m=settings.loop_search_xy_m,
             search_yaw_rad=settings.loop_search_yaw_rad,
@@ -316,9 +328,15 @@ class ScanMapper:
         match = self.loop_matcher.match(field, points, current.pose)
         if match.score < s.loop_min_score:
             return
+        rival = rival_ratio(
+            field, points, match.pose, radius_m=LOOP_RIVAL_RADIUS_M, exclude_m=LOOP_RIVAL_EXCLUDE_M
+        )
+        if rival > LOOP_MAX_RIVAL_RATIO:
+            self.counts.loops_ambiguous += 1
+            return
         self.counts.loops_found += 1
         z = self.keyframes[j].pose.between(match.pose)
-        self.edges.append(Edge(j, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS))
+        self.edges.append(Edge(j, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS, robust=True))
         off = current.pose.between(match.pose)
         if math.hypot(off.x, off.y) < LOOP_SETTLED_M and abs(off.yaw) < LOOP_SETTLED_RAD:
             return

@@ -7,6 +7,13 @@ sliding maximum, so blocks are expanded best-first and the search stops when no 
 block can beat the best exact score: the result is the exhaustive optimum at a fraction of
 the cost. The optimum is refined below one cell and one angular step by parabolic fits, and
 the covariance comes from the curvature of the response there.
+
+A motion prior can weigh in (Olson 2009 multiplies the scan's likelihood by the motion
+model's): each candidate's mean score loses ``prior_weight_per_m2 * d^2 +
+prior_weight_per_rad2 * dyaw^2`` for its distance from the prior. Where the scan pins the
+pose down this moves the optimum by a few percent of the prior's error at most; where it
+does not (a featureless corridor, seen along its length) the prior decides instead of
+whichever equal score the search met first.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ from navd.slam import _grid_kernels as k
 from navd.slam.occupancy import LikelihoodField
 from navd.slam.pose import Pose2
 
-__all__ = ["CorrelativeMatcher", "Match"]
+__all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -74,6 +81,8 @@ class CorrelativeMatcher:
         block: translation block size in cells (the coarse level).
         response_gain: [1] how sharply the score (a mean in [0, 1]) is read as a likelihood
             when turning its curvature into a covariance.
+        prior_weight_per_m2: [1/m^2] mean score lost per squared metre from the prior.
+        prior_weight_per_rad2: [1/rad^2] mean score lost per squared radian from the prior.
     """
 
     def __init__(
@@ -85,6 +94,8 @@ class CorrelativeMatcher:
         reach_m: float = 8.0,
         block: int = 4,
         response_gain: float = 400.0,
+        prior_weight_per_m2: float = 0.0,
+        prior_weight_per_rad2: float = 0.0,
     ) -> None:
         self.search_xy_m = search_xy_m
         self.search_yaw_rad = search_yaw_rad
@@ -92,6 +103,8 @@ class CorrelativeMatcher:
         self.reach_m = reach_m
         self.block = block
         self.response_gain = response_gain
+        self.prior_weight_per_m2 = prior_weight_per_m2
+        self.prior_weight_per_rad2 = prior_weight_per_rad2
 
     def match(self, field: LikelihoodField, points: FloatArray, prior: Pose2) -> Match:
         """The best pose of ``points`` (robot frame, N x 2 [m]) near ``prior``."""
@@ -108,9 +121,16 @@ class CorrelativeMatcher:
         f = self.block
         starts_1d = np.arange(-limit, limit + 1, f)
         starts = np.array([(dx, dy) for dy in starts_1d for dx in starts_1d], dtype=np.int64)
+        # The prior's pull, in summed-score units: per squared cell and per angle.
+        n = px.size
+        per_cell2 = n * self.prior_weight_per_m2 * res * res
+        turn_cost = n * self.prior_weight_per_rad2 * (angles - prior.yaw) ** 2
+        # A block's bound loses the pull at its cell nearest the prior.
+        near = np.clip(0, starts, starts + f - 1)
         bounds = k.coarse_scores(field.bound(f), px, py, cosines, sines, tx, ty, starts, f)
+        bounds = bounds - turn_cost[:, None] - per_cell2 * np.sum(near**2, axis=1)[None, :]
         order = np.argsort(bounds, axis=None)[::-1]
-        best = (-1.0, 0, 0, 0)  # score, angle index, dx, dy
+        best = (-math.inf, 0, 0, 0, -1.0)  # with prior, angle index, dx, dy, score
         blocks = 0
         for flat in order:
             a, b = divmod(int(flat), starts.shape[0])
@@ -123,22 +143,28 @@ class CorrelativeMatcher:
                 field.values, px, py, cosines[a], sines[a], tx, ty, dx0, dy0, nx, ny
             )
             blocks += 1
-            j, i = np.unravel_index(int(np.argmax(scores)), scores.shape)
-            if scores[j, i] > best[0]:
-                best = (float(scores[j, i]), a, dx0 + int(i), dy0 + int(j))
+            if per_cell2 > 0.0 or turn_cost[a] > 0.0:
+                cx = np.arange(dx0, dx0 + nx)
+                cy = np.arange(dy0, dy0 + ny)
+                pulled = scores - turn_cost[a] - per_cell2 * (cx[None, :] ** 2 + cy[:, None] ** 2)
+            else:
+                pulled = scores
+            j, i = np.unravel_index(int(np.argmax(pulled)), pulled.shape)
+            if pulled[j, i] > best[0]:
+                best = (float(pulled[j, i]), a, dx0 + int(i), dy0 + int(j), float(scores[j, i]))
         scan = _Projected(px, py, angles, tx, ty)
-        return self._refine(field, scan, best, blocks)
+        return self._refine(field, scan, best[1:], blocks)
 
     def _refine(
         self,
         field: LikelihoodField,
         scan: _Projected,
-        best: tuple[float, int, int, int],
+        best: tuple[int, int, int, float],
         blocks: int,
     ) -> Match:
         px, py, angles, tx, ty = scan
         n_points = px.size
-        score, a, dx, dy = best
+        a, dx, dy, score = best
         res = field.resolution
         yaw = float(angles[a])
         around = k.fine_scores(
@@ -190,3 +216,47 @@ class CorrelativeMatcher:
             ]
         )
         return Match(pose, cov, score / n, blocks)
+
+
+def rival_ratio(
+    field: LikelihoodField,
+    points: FloatArray,
+    pose: Pose2,
+    *,
+    radius_m: float,
+    exclude_m: float,
+) -> float:
+    """How well the best rival of ``pose`` scores, as a share of ``pose``'s own score.
+
+    Rivals are the translations within ``radius_m`` of ``pose`` but farther than
+    ``exclude_m`` from it, at ``pose``'s rotation. A ratio near 1 means the scan fits
+    elsewhere about as well (a corridor seen along its length, a row of equal doors): the
+    match is ambiguous. 1.0 if ``pose`` itself scores nothing.
+    """
+    res = field.resolution
+    px = np.ascontiguousarray(points[:, 0] / res)
+    py = np.ascontiguousarray(points[:, 1] / res)
+    # The pose's own cell offset in the field is kept fractional: tx, ty carry it.
+    tx = (pose.x - field.origin_x) / res - 0.5
+    ty = (pose.y - field.origin_y) / res - 0.5
+    limit = max(1, math.ceil(radius_m / res))
+    scores = k.fine_scores(
+        field.values,
+        px,
+        py,
+        math.cos(pose.yaw),
+        math.sin(pose.yaw),
+        tx,
+        ty,
+        -limit,
+        -limit,
+        2 * limit + 1,
+        2 * limit + 1,
+    )
+    own = float(scores[limit, limit])
+    if own <= 0.0:
+        return 1.0
+    offsets = np.arange(-limit, limit + 1) * res
+    distance = np.hypot(offsets[None, :], offsets[:, None])
+    rivals = scores[(distance > exclude_m) & (distance <= radius_m)]
+    return float(rivals.max()) / own if rivals.size else 0.0

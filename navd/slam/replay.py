@@ -124,6 +124,7 @@ def replay(
         "keyframes": counts.keyframes,
         "loop_checks": counts.loop_checks,
         "loops_found": counts.loops_found,
+        "loops_ambiguous": counts.loops_ambiguous,
         "graph_optimizations": counts.optimizations,
         "map_cells": list(mapper.grid.logodds.shape),
     }

@@ -1,16 +1,18 @@
-"""Correlative matching: finds known offsets, and branch and bound equals the exhaustive search."""
+"""Correlative matching: finds known offsets, branch and bound equals the exhaustive search
+(with and without a motion prior), and ambiguous matches are told apart."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from navd.bench.room import cast
 from navd.slam import _grid_kernels as k
-from navd.slam.matcher import CorrelativeMatcher
-from navd.slam.occupancy import OccupancyGrid
+from navd.slam.matcher import CorrelativeMatcher, rival_ratio
+from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points, voxel_downsample
 
@@ -76,3 +78,89 @@ def test_a_prior_outside_the_window_is_not_reached() -> None:
     )
     assert abs(match.pose.x) <= 0.3 + 0.05
     assert match.score < 0.8
+
+
+def test_with_a_prior_weight_branch_and_bound_returns_the_exhaustive_optimum() -> None:
+    truth = Pose2(0.17, -0.11, 0.12)
+    a0, inc, r = cast(truth)
+    points = voxel_downsample(scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
+    w_xy, w_yaw = 40.0, 20.0  # strong enough to move the optimum off the truth
+    matcher = CorrelativeMatcher(
+        search_xy_m=0.3,
+        search_yaw_rad=0.2,
+        angle_step_rad=0.01,
+        prior_weight_per_m2=w_xy,
+        prior_weight_per_rad2=w_yaw,
+    )
+    match = matcher.match(FIELD, points, Pose2(0, 0, 0))
+    res, n = FIELD.resolution, points.shape[0]
+    px, py = points[:, 0] / res, points[:, 1] / res
+    tx, ty = -FIELD.origin_x / res - 0.5, -FIELD.origin_y / res - 0.5
+    offsets = np.arange(-6, 7) * res
+    pull = w_xy * (offsets[None, :] ** 2 + offsets[:, None] ** 2)
+    best, best_raw, best_pose = -np.inf, 0.0, (0.0, 0.0, 0.0)
+    for angle in 0.01 * np.arange(-20, 21):
+        raw = k.fine_scores(
+            FIELD.values, px, py, np.cos(angle), np.sin(angle), tx, ty, -6, -6, 13, 13
+        )
+        pulled = raw / n - pull - w_yaw * angle**2
+        j, i = np.unravel_index(int(np.argmax(pulled)), pulled.shape)
+        if pulled[j, i] > best:
+            best, best_raw = float(pulled[j, i]), float(raw[j, i])
+            best_pose = (float(offsets[i]), float(offsets[j]), float(angle))
+    assert match.score * n == pytest.approx(best_raw, rel=1e-5)
+    # The pull moved the optimum towards the prior, away from the truth.
+    assert math.hypot(best_pose[0], best_pose[1]) < math.hypot(truth.x, truth.y) - res
+
+
+def _corridor(y_robot: float) -> tuple[float, float, npt.NDArray[np.float64]]:
+    """A scan in an endless corridor along x, walls at y = +-1 m, robot facing +x."""
+    angles = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    s = np.sin(angles)
+    with np.errstate(divide="ignore"):
+        ranges = np.where(s > 0, (1.0 - y_robot) / s, (-1.0 - y_robot) / s)
+    ranges[(ranges > 8.0) | ~np.isfinite(ranges)] = np.inf  # well inside the field
+    return float(angles[0]), float(angles[1] - angles[0]), ranges
+
+
+def _corridor_field() -> LikelihoodField:
+    grid = OccupancyGrid(0.05)
+    for x in (-4.0, 0.0, 4.0):
+        a0, inc, r = _corridor(0.0)
+        grid.insert(Pose2(x, 0.0, 0.0), scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    return grid.likelihood_field(Pose2(0, 0, 0), 12.0, 0.05)
+
+
+CORRIDOR = _corridor_field()
+
+
+def _corridor_points(y_robot: float) -> npt.NDArray[np.float64]:
+    a0, inc, r = _corridor(y_robot)
+    return voxel_downsample(scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
+
+
+def test_in_a_corridor_the_prior_decides_along_it_and_the_walls_across_it() -> None:
+    truth = Pose2(0.0, 0.2, 0.0)
+    points = _corridor_points(truth.y)
+    prior = Pose2(0.37, 0.05, 0.0)  # off along the corridor and across it
+    pulled = CorrelativeMatcher(search_xy_m=0.6, search_yaw_rad=0.1, prior_weight_per_m2=0.5).match(
+        CORRIDOR, points, prior
+    )
+    assert abs(pulled.pose.y - truth.y) < 0.05  # the walls fix y
+    assert abs(pulled.pose.x - prior.x) < 0.06  # nothing in the scan fixes x: the prior does
+    # Without the pull, x is whichever of the equal scores the search met first.
+    free = CorrelativeMatcher(search_xy_m=0.6, search_yaw_rad=0.1).match(CORRIDOR, points, prior)
+    assert abs(free.pose.x - prior.x) > 0.1
+
+
+def test_a_corridor_match_is_ambiguous_and_a_room_match_is_not() -> None:
+    corridor = rival_ratio(
+        CORRIDOR, _corridor_points(0.0), Pose2(0, 0, 0), radius_m=1.0, exclude_m=0.3
+    )
+    assert corridor > 0.95
+    truth = Pose2(0.12, -0.08, 0.05)
+    a0, inc, r = cast(truth)
+    points = voxel_downsample(scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
+    match = CorrelativeMatcher(search_xy_m=0.3, search_yaw_rad=0.35).match(FIELD, points, truth)
+    room = rival_ratio(FIELD, points, match.pose, radius_m=1.0, exclude_m=0.3)
+    assert room < 0.8

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
@@ -93,3 +94,24 @@ def test_the_mapper_finds_loops_when_asked() -> None:
         for p, t in zip(final, truth, strict=True)
     ]
     assert max(errors) < 0.1
+
+
+def test_a_robust_loop_closure_pulls_less_and_bends_the_chain_evenly() -> None:
+    truth = [Pose2(float(i), 0.0, 0.0) for i in range(20)]
+    poses = np.array([tuple(p) for p in truth])
+    chain = [
+        Edge(i, i + 1, tuple(truth[i].between(truth[i + 1])), W) for i in range(len(truth) - 1)
+    ]  # type: ignore[arg-type]
+    wrong = (16.0, 0.0, 0.0)  # the last pose is 19 m from the first, not 16
+
+    def solve(robust: bool) -> npt.NDArray[np.float64]:
+        return optimize(poses, [*chain, Edge(0, 19, wrong, W, robust=robust)])
+
+    plain, robust = solve(False), solve(True)
+    pulled_plain = 19.0 - plain[19, 0]
+    pulled_robust = 19.0 - robust[19, 0]
+    assert pulled_plain > 1.0
+    assert 0.0 <= pulled_robust < 0.95 * pulled_plain
+    # The chain bends evenly: no step takes the loop's pull alone.
+    steps = np.diff(robust[:, 0])
+    assert steps.max() - steps.min() < 0.01
