@@ -357,6 +357,19 @@ class SlamConfig(Section):
         description="[ratio] scans whose points on mapped ground match worse than this keep the "
         "odometry pose, unmapped (on mostly new ground they are mapped from it)",
     )
+    prior_weight_per_m2: float = Field(
+        0.5,
+        ge=0,
+        le=1000,
+        description="[1/m^2] trust in the odometry: match score lost per squared metre a match "
+        "lies from the odometry's prediction (raise it for good wheel odometry)",
+    )
+    prior_weight_per_rad2: float = Field(
+        1.0,
+        ge=0,
+        le=10000,
+        description="[1/rad^2] the same per squared radian of heading",
+    )
     loop_closure: bool = Field(
         False,
         **restart(

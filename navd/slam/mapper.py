@@ -36,7 +36,7 @@ FloatArray = npt.NDArray[np.float64]
 @dataclass(frozen=True, slots=True)
 class MapperSettings:
     """Plain values the mapper runs on, built from the slam config section by
-    ``mapper_settings`` (the config holds the defaults; the last four are fixed here)."""
+    ``mapper_settings`` (the config holds the defaults; those with defaults here are fixed)."""
 
     resolution_m: float
     voxel_size_m: float
@@ -52,13 +52,11 @@ class MapperSettings:
     loop_search_radius_m: float
     loop_search_xy_m: float
     loop_min_score: float
+    prior_weight_per_m2: float
+    prior_weight_per_rad2: float
     loop_search_yaw_rad: float = 0.5
     loop_min_gap: int = 40
     loop_check_every: int = 3
-    # The motion prior's pull on tracking matches (see CorrelativeMatcher), in mean score
-    # per squared metre and per squared radian away from the predicted pose.
-    prior_weight_per_m2: float = 0.5
-    prior_weight_per_rad2: float = 1.0
     # Keep every scan's pose (relative to its keyframe) for ``trajectory()``: a replay wants
     # it; a robot running for days does not (it grows with every scan).
     keep_trajectory: bool = False
@@ -89,6 +87,8 @@ def _from_config(config: SlamConfig) -> MapperSettings:
         loop_search_radius_m=config.loop_search_radius_m,
         loop_search_xy_m=config.loop_search_xy_m,
         loop_min_score=config.loop_min_score,
+        prior_weight_per_m2=config.prior_weight_per_m2,
+        prior_weight_per_rad2=config.prior_weight_per_rad2,
     )
 
 

@@ -176,6 +176,20 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
             assert abs(math.remainder(found.pose.yaw - truth.yaw, 2 * math.pi)) < 0.05
 
 
+def test_aces_replay_with_loop_closure_beats_gmapping(tmp_path: Path) -> None:
+    freiburg = dataset("freiburg_slam_benchmark")
+    bag = freiburg / "bags_ros1" / "aces.orig.bag"
+    args = ["replay", str(bag), "--out", str(tmp_path), "--quiet"]
+    assert main([*args, "--max-range", "20", "--loop-closure"]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["loops_found"] > 0 and summary["loops_ambiguous"] > 0
+    stamps, poses = read_tum(tmp_path / "trajectory.tum")
+    errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
+    assert errors.used == 1279
+    assert errors.translation_mean_m <= 0.06  # RBPF / GMapping: 0.060 m
+    assert errors.rotation_mean_deg <= 1.0
+
+
 def test_replay_with_scan_odometry_needs_no_wheels(tmp_path: Path) -> None:
     log = _write_dump(tmp_path, PATH, drift=True)  # the log's odometry is ignored
     out = tmp_path / "out"
