@@ -368,7 +368,8 @@ class SlamConfig(Section):
         1.0,
         ge=0,
         le=10000,
-        description="[1/rad^2] the same per squared radian of heading",
+        description="[1/rad^2] trust in the odometry's heading: match score lost per squared "
+        "radian a match turns from the odometry's prediction",
     )
     loop_closure: bool = Field(
         False,

@@ -7,10 +7,9 @@ finite differences over the known sparsity). Node 0 is held fixed.
 
 Edges marked ``robust`` (loop closures, which can be wrong) pull through a soft-L1 loss on
 their whole weighted residual, so a wrong one pulls less than a right one; the chain of
-tracked edges stays quadratic. (Robustifying every edge let a strong loop closure break the
-chain at one edge instead of bending it: the trajectory jumped. A Huber loss was seen to
-leave a 2 m loop open: once the loop residual is in its linear part, the trust region stops
-early. soft-L1 closes it.)
+tracked edges is trusted and stays quadratic. (With every edge robust, the aces trajectory
+was seen to jump where loops pulled. A Huber loss was seen to leave a 2 m loop open: once
+the loop residual is in its linear part, the trust region stops early. soft-L1 closes it.)
 """
 
 from __future__ import annotations
