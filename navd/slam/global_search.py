@@ -42,13 +42,10 @@ def global_search(
         (pose, mean field value under the points, candidates expanded).
     """
     res = field.resolution
-    px = np.ascontiguousarray(points[:, 0] / res)
-    py = np.ascontiguousarray(points[:, 1] / res)
+    px, py, tx, ty = field.in_cells(points, center)
     n_angles = max(1, round(2 * yaw_window_rad / angle_step_rad))
     angles = center.yaw - yaw_window_rad + angle_step_rad * np.arange(n_angles)
     cosines, sines = np.cos(angles), np.sin(angles)
-    tx = (center.x - field.origin_x) / res - 0.5
-    ty = (center.y - field.origin_y) / res - 0.5
     limit = math.ceil(half_width_m / res)
     top = 1 << levels
     starts_1d = np.arange(-limit, limit + 1, top)

@@ -113,10 +113,7 @@ class CorrelativeMatcher:
         n_steps = max(1, math.ceil(self.search_yaw_rad / step))
         angles = prior.yaw + step * np.arange(-n_steps, n_steps + 1, dtype=np.float64)
         cosines, sines = np.cos(angles), np.sin(angles)
-        px = np.ascontiguousarray(points[:, 0] / res)
-        py = np.ascontiguousarray(points[:, 1] / res)
-        tx = (prior.x - field.origin_x) / res - 0.5
-        ty = (prior.y - field.origin_y) / res - 0.5
+        px, py, tx, ty = field.in_cells(points, prior)
         limit = max(1, math.ceil(self.search_xy_m / res))
         f = self.block
         starts_1d = np.arange(-limit, limit + 1, f)
@@ -234,11 +231,7 @@ def rival_ratio(
     match is ambiguous. 1.0 if ``pose`` itself scores nothing.
     """
     res = field.resolution
-    px = np.ascontiguousarray(points[:, 0] / res)
-    py = np.ascontiguousarray(points[:, 1] / res)
-    # The pose's own cell offset in the field is kept fractional: tx, ty carry it.
-    tx = (pose.x - field.origin_x) / res - 0.5
-    ty = (pose.y - field.origin_y) / res - 0.5
+    px, py, tx, ty = field.in_cells(points, pose)
     limit = max(1, math.ceil(radius_m / res))
     scores = k.fine_scores(
         field.values,

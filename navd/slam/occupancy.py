@@ -19,6 +19,7 @@ from navd.slam.scan import ScanPoints
 __all__ = ["LikelihoodField", "OccupancyGrid"]
 
 F32 = npt.NDArray[np.float32]
+F64 = npt.NDArray[np.float64]
 
 L_FREE = -0.4  # log-odds added to a cell a ray passes through
 L_OCC = 0.85  # log-odds added to the cell a ray ends in
@@ -62,6 +63,17 @@ class LikelihoodField:
                 cached = k.sliding_max(self.values, block)
             self._bounds[block] = cached
         return cached
+
+    def in_cells(self, points: F64, pose: Pose2) -> tuple[F64, F64, float, float]:
+        """``points`` (robot frame, N x 2 [m]) and ``pose``'s position in cell units, as the
+        scoring kernels take them: px, py (contiguous) and the offset tx, ty of ``pose`` from
+        the centre of cell (0, 0), fraction included."""
+        res = self.resolution
+        px = np.ascontiguousarray(points[:, 0] / res)
+        py = np.ascontiguousarray(points[:, 1] / res)
+        tx = (pose.x - self.origin_x) / res - 0.5
+        ty = (pose.y - self.origin_y) / res - 0.5
+        return px, py, tx, ty
 
 
 def gaussian_kernel(sigma_m: float, resolution: float) -> F32:
