@@ -1,15 +1,22 @@
-"""A 2D pose graph: keyframe poses tied by relative-pose constraints, optimized by scipy.
+"""A 2D pose graph: keyframe poses tied by relative-pose constraints, solved by sparse
+Levenberg-Marquardt.
 
 Each edge (i, j, z, w) says "pose j seen from pose i is z", with weights w = 1/sigma for
-(x, y, yaw). The residual of an edge is w * (z⁻¹ ⊕ (x_i⁻¹ ⊕ x_j)) as (dx, dy, dyaw), and
-the graph is solved with scipy.optimize.least_squares (trust region, sparse Jacobian by
-finite differences over the known sparsity). Node 0 is held fixed.
+(x, y, yaw). The residual of an edge is w * (z⁻¹ ⊕ (x_i⁻¹ ⊕ x_j)) as (dx, dy, dyaw). Each
+iteration linearizes every edge with its analytic Jacobian (two 3 x 3 blocks), forms the
+sparse normal equations and solves them with scipy's sparse LU: a graph of 3000 keyframes
+solves in about 0.2 s (`navd bench scan`), where a finite-difference trust-region solver
+(scipy.optimize.least_squares, used before) took 6 s on the fr-clinic graph. Node 0 is held
+fixed.
 
 Edges marked ``robust`` (loop closures, which can be wrong) pull through a soft-L1 loss on
-their whole weighted residual, so a wrong one pulls less than a right one; the chain of
-tracked edges is trusted and stays quadratic. (With every edge robust, the aces trajectory
-was seen to jump where loops pulled. A Huber loss was seen to leave a 2 m loop open: once
-the loop residual is in its linear part, the trust region stops early. soft-L1 closes it.)
+their whole weighted residual, 2 f² (sqrt(1 + q / f²) - 1) for the squared norm q, so a
+wrong one pulls less than a right one; the chain of tracked edges is trusted and stays
+quadratic. (With every edge robust, the aces trajectory was seen to jump where loops pulled.
+A Huber loss was seen to leave a 2 m loop open; soft-L1 closes it.) The loss enters the
+normal equations as a weight per edge, its derivative 1 / sqrt(1 + q / f²) at the current
+residual (iteratively reweighted least squares); a step is kept only if it lowers the robust
+cost, else the damping grows.
 """
 
 from __future__ import annotations
@@ -18,7 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import lil_matrix
 
 __all__ = ["Edge", "optimize"]
 
@@ -38,69 +44,137 @@ class Edge:
 
 # [sigma] where a robust edge's pull stops growing linearly with its residual
 ROBUST_SCALE = 3.0
+# Levenberg-Marquardt: the first damping (relative to the normal matrix's diagonal), and
+# convergence: a step below this [m or rad] or a relative cost drop below this.
+INITIAL_DAMPING = 1e-4
+STEP_TOLERANCE = 1e-7
+COST_TOLERANCE = 1e-12
 
 
-_Graph = tuple[
-    FloatArray,
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    FloatArray,
-    FloatArray,
-    npt.NDArray[np.bool_],
-]
+@dataclass(frozen=True, slots=True)
+class _Graph:
+    ii: npt.NDArray[np.int64]
+    jj: npt.NDArray[np.int64]
+    z: FloatArray
+    w: FloatArray
+    robust: npt.NDArray[np.bool_]
 
 
-def _residuals(flat: FloatArray, graph: _Graph) -> FloatArray:
-    fixed, ii, jj, z, w, robust = graph
-    poses = np.vstack([fixed[None, :], flat.reshape(-1, 3)])
-    a, b = poses[ii], poses[jj]
-    # x_i⁻¹ ⊕ x_j
+def _graph(edges: list[Edge]) -> _Graph:
+    return _Graph(
+        ii=np.array([e.i for e in edges], dtype=np.int64),
+        jj=np.array([e.j for e in edges], dtype=np.int64),
+        z=np.array([e.z for e in edges], dtype=np.float64).reshape(-1, 3),
+        w=np.array([e.weights for e in edges], dtype=np.float64).reshape(-1, 3),
+        robust=np.array([e.robust for e in edges], dtype=np.bool_),
+    )
+
+
+def _wrap(angle: FloatArray) -> FloatArray:
+    out: FloatArray = np.remainder(angle + np.pi, 2 * np.pi) - np.pi
+    return out
+
+
+def _residuals(poses: FloatArray, g: _Graph) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Weighted residuals (E x 3), and the relative pose x_i⁻¹ ⊕ x_j's translation parts."""
+    a, b = poses[g.ii], poses[g.jj]
     c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
     dx, dy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
     rel_x = c * dx + s * dy
     rel_y = -s * dx + c * dy
-    rel_t = b[:, 2] - a[:, 2]
-    # z⁻¹ ⊕ rel
-    cz, sz = np.cos(z[:, 2]), np.sin(z[:, 2])
-    ex = cz * (rel_x - z[:, 0]) + sz * (rel_y - z[:, 1])
-    ey = -sz * (rel_x - z[:, 0]) + cz * (rel_y - z[:, 1])
-    et = np.remainder(rel_t - z[:, 2] + np.pi, 2 * np.pi) - np.pi
-    r = np.column_stack([ex, ey, et]) * w
-    if robust.any():
-        # soft-L1 on the squared norm q: cost 2 f^2 (sqrt(1 + q / f^2) - 1), reached by
-        # scaling the residual vector by sqrt(cost / q) = sqrt(2 / (sqrt(1 + q / f^2) + 1)).
-        q = np.sum(r[robust] ** 2, axis=1)
-        r[robust] *= np.sqrt(2.0 / (np.sqrt(1.0 + q / ROBUST_SCALE**2) + 1.0))[:, None]
-    out: FloatArray = r.ravel()
-    return out
+    cz, sz = np.cos(g.z[:, 2]), np.sin(g.z[:, 2])
+    ux, uy = rel_x - g.z[:, 0], rel_y - g.z[:, 1]
+    r = np.column_stack(
+        [cz * ux + sz * uy, -sz * ux + cz * uy, _wrap(b[:, 2] - a[:, 2] - g.z[:, 2])]
+    )
+    return r * g.w, rel_x, rel_y
 
 
-def optimize(poses: FloatArray, edges: list[Edge], max_nfev: int = 50) -> FloatArray:
+def _edge_costs(r: FloatArray, robust: npt.NDArray[np.bool_]) -> tuple[FloatArray, FloatArray]:
+    """Each edge's cost (half its loss) and its loss weight for the normal equations."""
+    q = np.sum(r**2, axis=1)
+    f2 = ROBUST_SCALE**2
+    cost = np.where(robust, f2 * (np.sqrt(1.0 + q / f2) - 1.0), 0.5 * q)
+    weight = np.where(robust, 1.0 / np.sqrt(1.0 + q / f2), 1.0)
+    return cost, weight
+
+
+def _jacobian_blocks(
+    poses: FloatArray, g: _Graph, rel_x: FloatArray, rel_y: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """d residual / d pose_i and d residual / d pose_j (E x 3 x 3 each), weights applied."""
+    phi = poses[g.ii, 2] + g.z[:, 2]
+    cp, sp = np.cos(phi), np.sin(phi)
+    cz, sz = np.cos(g.z[:, 2]), np.sin(g.z[:, 2])
+    n = g.ii.size
+    d_j = np.zeros((n, 3, 3))
+    d_j[:, 0, 0], d_j[:, 0, 1] = cp, sp
+    d_j[:, 1, 0], d_j[:, 1, 1] = -sp, cp
+    d_j[:, 2, 2] = 1.0
+    d_i = -d_j
+    d_i[:, 0, 2] = cz * rel_y - sz * rel_x
+    d_i[:, 1, 2] = -sz * rel_y - cz * rel_x
+    return d_i * g.w[:, :, None], d_j * g.w[:, :, None]
+
+
+def optimize(poses: FloatArray, edges: list[Edge], max_iterations: int = 100) -> FloatArray:
     """Poses (N x 3) that best satisfy ``edges``, pose 0 unchanged."""
-    # scipy.optimize costs most of a second to import: only when a graph is solved.
-    from scipy.optimize import least_squares  # noqa: PLC0415
+    # scipy.sparse.linalg costs a fraction of a second to import: only when a graph is solved.
+    from scipy.sparse import coo_matrix, diags  # noqa: PLC0415
+    from scipy.sparse.linalg import spsolve  # noqa: PLC0415
 
     n = poses.shape[0]
     if n < 2 or not edges:
         return poses.copy()
-    ii = np.array([e.i for e in edges])
-    jj = np.array([e.j for e in edges])
-    z = np.array([e.z for e in edges], dtype=np.float64)
-    w = np.array([e.weights for e in edges], dtype=np.float64)
-    robust = np.array([e.robust for e in edges], dtype=np.bool_)
-    sparsity = lil_matrix((3 * len(edges), 3 * (n - 1)), dtype=np.int8)
-    for k, (i, j) in enumerate(zip(ii, jj, strict=True)):
-        for node in (i, j):
-            if node > 0:
-                sparsity[3 * k : 3 * k + 3, 3 * (node - 1) : 3 * node] = 1
-    result = least_squares(
-        _residuals,
-        poses[1:].ravel(),
-        jac_sparsity=sparsity.tocsr(),
-        method="trf",
-        max_nfev=max_nfev,
-        args=((poses[0], ii, jj, z, w, robust),),
-    )
-    solved: FloatArray = np.vstack([poses[:1], result.x.reshape(-1, 3)])
-    solved[:, 2] = np.remainder(solved[:, 2] + np.pi, 2 * np.pi) - np.pi
-    return solved
+    g = _graph(edges)
+    m = len(edges)
+    # The sparse structure: edge k's three rows against the three columns of its two poses
+    # (pose 0 is fixed: it has no columns).
+    rows = np.broadcast_to(3 * np.arange(m)[:, None, None] + np.arange(3)[None, :, None], (m, 3, 3))
+    cols_i = np.broadcast_to(3 * (g.ii - 1)[:, None, None] + np.arange(3)[None, None, :], (m, 3, 3))
+    cols_j = np.broadcast_to(3 * (g.jj - 1)[:, None, None] + np.arange(3)[None, None, :], (m, 3, 3))
+    keep_i = np.broadcast_to((g.ii > 0)[:, None, None], (m, 3, 3))
+    keep_j = np.broadcast_to((g.jj > 0)[:, None, None], (m, 3, 3))
+    row_index = np.concatenate([rows[keep_i], rows[keep_j]])
+    col_index = np.concatenate([cols_i[keep_i], cols_j[keep_j]])
+
+    x = poses.astype(np.float64, copy=True)
+    r, rel_x, rel_y = _residuals(x, g)
+    costs, weights = _edge_costs(r, g.robust)
+    cost = float(costs.sum())
+    damping = INITIAL_DAMPING
+    for _ in range(max_iterations):
+        d_i, d_j = _jacobian_blocks(x, g, rel_x, rel_y)
+        root = np.sqrt(weights)[:, None, None]
+        data = np.concatenate([(d_i * root)[keep_i], (d_j * root)[keep_j]])
+        jac = coo_matrix((data, (row_index, col_index)), shape=(3 * m, 3 * (n - 1))).tocsr()
+        normal = (jac.T @ jac).tocsc()
+        gradient = jac.T @ (r * np.sqrt(weights)[:, None]).ravel()
+        diagonal = np.maximum(normal.diagonal(), 1e-9)
+        while True:
+            step = spsolve(normal + diags(damping * diagonal, format="csc"), -gradient)
+            trial = x.copy()
+            trial[1:] += step.reshape(-1, 3)
+            r_trial, rx_trial, ry_trial = _residuals(trial, g)
+            costs_trial, weights_trial = _edge_costs(r_trial, g.robust)
+            cost_trial = float(costs_trial.sum())
+            if cost_trial <= cost or damping > 1e12:
+                break
+            damping *= 10.0
+        if cost_trial > cost:
+            break  # no step lowers the cost: at the optimum
+        drop = cost - cost_trial
+        x, r, rel_x, rel_y, weights, cost = (
+            trial,
+            r_trial,
+            rx_trial,
+            ry_trial,
+            weights_trial,
+            cost_trial,
+        )
+        damping = max(damping / 10.0, 1e-12)
+        if np.abs(step).max() < STEP_TOLERANCE or drop <= COST_TOLERANCE * max(cost, 1e-300):
+            break
+    x[:, 2] = _wrap(x[:, 2])
+    x[0] = poses[0]
+    return x
