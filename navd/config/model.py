@@ -382,7 +382,11 @@ class SlamConfig(Section):
         10.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
     )
     loop_search_xy_m: float = Field(
-        4.0, gt=0, le=20, description="[m] half-width of the loop closure search window"
+        4.0,
+        gt=0,
+        le=20,
+        description="[m] largest half-width of the loop closure search window (it grows by 3 % "
+        "of the path driven since the old pass, from 1 m)",
     )
     loop_min_score: float = Field(
         0.65, gt=0, le=1, description="[ratio] match score a loop closure must reach"

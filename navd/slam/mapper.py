@@ -22,7 +22,8 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import SlamConfig
-from navd.slam.matcher import CorrelativeMatcher, rival_ratio
+from navd.slam.loop_closure import LoopCloser
+from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
@@ -94,15 +95,19 @@ def _from_config(config: SlamConfig) -> MapperSettings:
 
 @dataclass(frozen=True, slots=True)
 class Keyframe:
-    """A scan inserted into the map, with the pose it was inserted at.
+    """A scan in the pose graph, with the pose it was taken at.
 
     The scan is kept only with loop closure on (the map is rebuilt from keyframes after the
     pose graph moves them); otherwise a keyframe is its pose, and memory stays small.
+    ``mapped`` is False for a scan that did not match the map (its pose is the odometry's):
+    with loop closure on it still joins the graph, so a loop found while the robot is lost
+    on a drifted map corrects it, but only matched scans make the map.
     """
 
     stamp: float
     pose: Pose2
     scan: ScanPoints | None
+    mapped: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,9 +137,6 @@ class _Counts:
     exploring: int = 0
     keyframes: int = 0
     fields_built: int = 0
-    loop_checks: int = 0
-    loops_found: int = 0
-    loops_ambiguous: int = 0
     optimizations: int = 0
 
 
@@ -148,10 +150,6 @@ EXPLORING_KNOWN_FRACTION = 0.5
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
-LOOP_SUBMAP_KEYFRAMES = 10
-# A loop closure must be unambiguous: no translation within LOOP_RIVAL_RADIUS_M but beyond
-# LOOP_RIVAL_EXCLUDE_M of it may score more than LOOP_MAX_RIVAL_RATIO of its score.
-LOOP_RIVAL_RADIUS_M, LOOP_RIVAL_EXCLUDE_M, LOOP_MAX_RIVAL_RATIO = 1.0, 0.3, 0.9
 
 
 def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
@@ -180,11 +178,7 @@ class ScanMapper:
         # Every scan's pose relative to the newest keyframe at the time, so the whole
         # trajectory follows the keyframes when the pose graph moves them.
         self._anchors: list[tuple[int, Pose2]] = []
-        self.loop_matcher = CorrelativeMatcher(
-            search_xy_m=s.loop_search_xy_m,
-            search_yaw_rad=s.loop_search_yaw_rad,
-            reach_m=s.max_range_m / 2,
-        )
+        self.loops = LoopCloser(s)
         self.counts = _Counts()
         self._last_odom: Pose2 | None = None
         self._field: LikelihoodField | None = None
@@ -195,11 +189,7 @@ class ScanMapper:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
-        self.loop_matcher = CorrelativeMatcher(
-            search_xy_m=settings.loop_search_xy_m,
-            search_yaw_rad=settings.loop_search_yaw_rad,
-            reach_m=settings.max_range_m / 2,
-        )
+        self.loops.settings = settings
         self._field = None
 
     def predict(self, odom: Pose2 | None) -> Pose2:
@@ -274,6 +264,9 @@ class ScanMapper:
                 self.counts.exploring += 1
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
+            if s.loop_closure:
+                # Lost on a map the robot drifted from is what a loop closure repairs.
+                self._insert(stamp, prior, scan, mapped=False)
             return ScanResult(prior, cov, match.score, False, False)
         self.counts.matched += 1
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))
@@ -281,7 +274,9 @@ class ScanMapper:
         keyframe = self._insert(stamp, pose, scan)
         return ScanResult(pose, match.covariance, match.score, True, keyframe)
 
-    def _insert(self, stamp: float, pose: Pose2, scan: ScanPoints) -> bool:
+    def _insert(self, stamp: float, pose: Pose2, scan: ScanPoints, mapped: bool = True) -> bool:
+        """Make a keyframe if the robot moved far enough since the last; True if it did and
+        the scan went into the map."""
         s = self.settings
         if not s.updating_map:
             return False
@@ -292,55 +287,29 @@ class ScanMapper:
                 and abs(moved.yaw) < s.keyframe_angle_rad
             ):
                 return False
-        self.grid.insert(pose, scan)
+        if mapped:
+            self.grid.insert(pose, scan)
         if self.keyframes:
             z = self.keyframes[-1].pose.between(pose)
             self.edges.append(Edge(len(self.keyframes) - 1, len(self.keyframes), z, EDGE_WEIGHTS))
-        self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None))
+        self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
         if s.loop_closure and k % s.loop_check_every == 0:
             self._close_loop(k)
-        return True
+        return mapped
 
     def _close_loop(self, k: int) -> None:
-        """Match keyframe ``k`` onto the map as it was near an old keyframe; re-solve if off."""
-        s = self.settings
-        current = self.keyframes[k]
-        old = self.keyframes[: k - s.loop_min_gap]
-        if not old or current.scan is None:
-            return
-        xy = np.array([(f.pose.x, f.pose.y) for f in old])
-        distance = np.hypot(xy[:, 0] - current.pose.x, xy[:, 1] - current.pose.y)
-        j = int(np.argmin(distance))
-        if distance[j] > s.loop_search_radius_m:
-            return
-        self.counts.loop_checks += 1
-        submap = OccupancyGrid(s.resolution_m)
-        lo = max(0, j - LOOP_SUBMAP_KEYFRAMES)
-        for frame in self.keyframes[lo : min(j + LOOP_SUBMAP_KEYFRAMES + 1, k - s.loop_min_gap)]:
-            if frame.scan is not None:
-                submap.insert(frame.pose, frame.scan)
-        field = submap.likelihood_field(
-            current.pose, s.max_range_m + s.loop_search_xy_m, s.blur_sigma_m
-        )
-        points = voxel_downsample(current.scan.hits, s.voxel_size_m)
-        match = self.loop_matcher.match(field, points, current.pose)
-        if match.score < s.loop_min_score:
-            return
-        rival = rival_ratio(
-            field, points, match.pose, radius_m=LOOP_RIVAL_RADIUS_M, exclude_m=LOOP_RIVAL_EXCLUDE_M
-        )
-        if rival > LOOP_MAX_RIVAL_RATIO:
-            self.counts.loops_ambiguous += 1
-            return
-        self.counts.loops_found += 1
-        z = self.keyframes[j].pose.between(match.pose)
-        self.edges.append(Edge(j, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS, robust=True))
-        off = current.pose.between(match.pose)
-        if math.hypot(off.x, off.y) < LOOP_SETTLED_M and abs(off.yaw) < LOOP_SETTLED_RAD:
-            return
-        self._solve()
+        """Tie keyframe ``k`` to the old passes it revisits; re-solve if it is off them."""
+        unsettled = False
+        for loop in self.loops.search(self.keyframes, k):
+            z = self.keyframes[loop.old].pose.between(loop.pose)
+            self.edges.append(Edge(loop.old, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS, robust=True))
+            off = self.keyframes[k].pose.between(loop.pose)
+            if math.hypot(off.x, off.y) >= LOOP_SETTLED_M or abs(off.yaw) >= LOOP_SETTLED_RAD:
+                unsettled = True
+        if unsettled:
+            self._solve()
 
     def _solve(self) -> None:
         """Re-solve the pose graph, move the keyframes and rebuild the map from them."""
@@ -349,12 +318,12 @@ class ScanMapper:
         after = optimize(before, self.edges)
         last_old = self.keyframes[-1].pose
         self.keyframes = [
-            Keyframe(f.stamp, Pose2(*map(float, p)), f.scan)
+            Keyframe(f.stamp, Pose2(*map(float, p)), f.scan, f.mapped)
             for f, p in zip(self.keyframes, after, strict=True)
         ]
         grid = OccupancyGrid(self.settings.resolution_m)
         for frame in self.keyframes:
-            if frame.scan is not None:
+            if frame.scan is not None and frame.mapped:
                 grid.insert(frame.pose, frame.scan)
         grid.revision = self.grid.revision + 1
         self.grid = grid

@@ -122,9 +122,9 @@ def replay(
         "weak_matches": counts.weak_matches,
         "exploring": counts.exploring,
         "keyframes": counts.keyframes,
-        "loop_checks": counts.loop_checks,
-        "loops_found": counts.loops_found,
-        "loops_ambiguous": counts.loops_ambiguous,
+        "loop_checks": mapper.loops.counts.checks,
+        "loops_found": mapper.loops.counts.found,
+        "loops_ambiguous": mapper.loops.counts.ambiguous,
         "graph_optimizations": counts.optimizations,
         "map_cells": list(mapper.grid.logodds.shape),
     }

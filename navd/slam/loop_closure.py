@@ -1,0 +1,231 @@
+"""Loop closure: find where a keyframe lies on the map of an earlier pass over the same place.
+
+After a long loop the robot's estimate can be metres off (fr-clinic: 8-10 m after 400 m of
+corridors), so the search window must grow with the path driven since the old pass, and a
+wide window in a building of corridors finds many places that look alike. The search:
+
+1. Old keyframes near the current pose are split into passes (runs of consecutive
+   keyframes); each pass is searched on its own, in a window that grows with the path driven
+   since it (``LOOP_DRIFT_PER_M`` of it, capped by ``loop_search_xy_m``). Passes driven
+   moments ago (less than ``LOOP_MIN_PATH_M``) have drifted too little to correct.
+2. Coarse: the last few keyframes' scans together (a few metres of travel: a corridor with
+   its side doors, not one view of bare walls) are matched onto a coarse map of the pass over
+   the whole window, by the multi-level branch and bound of ``global_search`` (exact at
+   its cell and angle steps, and cheap however wide the window). The match must be
+   unambiguous over the whole window: no translation farther than ``LOOP_COARSE_EXCLUDE_M``
+   may score more than ``LOOP_MAX_RIVAL_RATIO`` of it.
+3. Fine: the keyframe's own scan is matched onto the full-resolution map of the pass near the
+   coarse pose; it must reach ``loop_min_score`` and be unambiguous within
+   ``LOOP_RIVAL_RADIUS_M``.
+The result is an edge from the old keyframe nearest the match to the new one, for the pose
+graph (robust: a wrong one that slipped through pulls less than a right one).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.slam.global_search import global_search
+from navd.slam.matcher import CorrelativeMatcher, rival_ratio
+from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose import Pose2
+from navd.slam.scan import ScanPoints, voxel_downsample
+
+if TYPE_CHECKING:
+    from navd.slam.mapper import Keyframe, MapperSettings
+
+__all__ = ["LoopCandidate", "LoopCloser", "LoopCounts"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# The window grows by this share of the path driven since the old pass ([m] per m).
+LOOP_DRIFT_PER_M = 0.03
+# ... from at least this half-width [m].
+LOOP_MIN_WINDOW_M = 1.0
+# Passes fewer metres of path ago than this are not searched (too little drift to correct).
+LOOP_MIN_PATH_M = 15.0
+# Old keyframes within the window plus this of the current pose make up a pass's map [m].
+LOOP_PASS_MARGIN_M = 2.0
+# Keyframes this many indices apart still belong to the same pass.
+LOOP_PASS_JOIN = 5
+# At most this many keyframes of a pass are drawn into its coarse map (evenly spread).
+LOOP_COARSE_KEYFRAMES = 60
+# The coarse map's cell size, as a multiple of the map's, and its blur [cells].
+LOOP_COARSE_FACTOR, LOOP_COARSE_BLUR_CELLS = 2, 1.5
+# The coarse search's rotation step [rad] (the fine stage searches between the steps).
+LOOP_COARSE_ANGLE_STEP_RAD = math.radians(0.5)
+# The coarse query: this many newest keyframes' scans together.
+LOOP_QUERY_KEYFRAMES = 10
+# Coarse match: at least this score, and no rival beyond LOOP_COARSE_EXCLUDE_M [m] within
+# the window scoring more than LOOP_MAX_RIVAL_RATIO of it.
+LOOP_COARSE_MIN_SCORE = 0.5
+LOOP_COARSE_EXCLUDE_M = 0.6
+# Fine match: within LOOP_FINE_XY_M [m] / LOOP_FINE_YAW_RAD of the coarse pose, on the
+# full-resolution map of LOOP_SUBMAP_KEYFRAMES keyframes either side of the nearest old one.
+LOOP_FINE_XY_M, LOOP_FINE_YAW_RAD = 0.4, 0.06
+LOOP_SUBMAP_KEYFRAMES = 10
+# A fine match must be unambiguous: no translation within LOOP_RIVAL_RADIUS_M but beyond
+# LOOP_RIVAL_EXCLUDE_M of it may score more than LOOP_MAX_RIVAL_RATIO of its score.
+LOOP_RIVAL_RADIUS_M, LOOP_RIVAL_EXCLUDE_M, LOOP_MAX_RIVAL_RATIO = 1.0, 0.3, 0.9
+
+
+@dataclass
+class LoopCounts:
+    """What the loop search did (for the replay summary and diagnostics)."""
+
+    checks: int = 0
+    found: int = 0
+    ambiguous: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class LoopCandidate:
+    """Keyframe ``new`` lies at ``pose`` on the map of the pass holding keyframe ``old``.
+
+    Attributes:
+        old: index of the old keyframe the edge starts at.
+        new: index of the new keyframe.
+        pose: [m, m, rad] the new keyframe's pose on the old pass's map.
+        score: fine match score in [0, 1].
+    """
+
+    old: int
+    new: int
+    pose: Pose2
+    score: float
+
+
+def path_lengths(poses: FloatArray) -> FloatArray:
+    """[m] distance driven from the first keyframe to each (N poses -> N values)."""
+    steps = np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1]))
+    out: FloatArray = np.concatenate([[0.0], np.cumsum(steps)])
+    return out
+
+
+def passes(indices: npt.NDArray[np.int64], join: int) -> list[npt.NDArray[np.int64]]:
+    """Sorted keyframe indices split into runs whose neighbours are at most ``join`` apart."""
+    if indices.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(indices) > join) + 1
+    return list(np.split(indices, breaks))
+
+
+class LoopCloser:
+    """Searches old passes for the place a new keyframe shows (see the module docstring)."""
+
+    def __init__(self, settings: MapperSettings) -> None:
+        self.settings = settings
+        self.counts = LoopCounts()
+        self.fine = CorrelativeMatcher(
+            search_xy_m=LOOP_FINE_XY_M,
+            search_yaw_rad=LOOP_FINE_YAW_RAD,
+            reach_m=settings.max_range_m / 2,
+        )
+
+    def search(self, keyframes: list[Keyframe], k: int) -> list[LoopCandidate]:
+        """Loop closures for keyframe ``k`` (one per old pass at most)."""
+        s = self.settings
+        current = keyframes[k]
+        if current.scan is None or k <= s.loop_min_gap:
+            return []
+        poses = np.array([tuple(f.pose) for f in keyframes[: k + 1]])
+        driven = path_lengths(poses)
+        old = poses[: k - s.loop_min_gap]
+        distance = np.hypot(old[:, 0] - current.pose.x, old[:, 1] - current.pose.y)
+        # Only the old map is searched: keyframes that were not matched are left out.
+        mapped = np.array([f.mapped for f in keyframes[: old.shape[0]]], dtype=np.bool_)
+        distance[~mapped] = np.inf
+        if distance.min() > s.loop_search_radius_m:
+            return []
+        near = np.flatnonzero(distance <= s.loop_search_xy_m + LOOP_PASS_MARGIN_M)
+        found = []
+        for run in passes(near, LOOP_PASS_JOIN):
+            since = float(driven[k] - driven[run[-1]])
+            if since < LOOP_MIN_PATH_M or distance[run].min() > s.loop_search_radius_m:
+                continue
+            window = min(s.loop_search_xy_m, max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * since))
+            candidate = self._search_pass(keyframes, k, run, window)
+            if candidate is not None:
+                found.append(candidate)
+        return found
+
+    def _search_pass(
+        self, keyframes: list[Keyframe], k: int, run: npt.NDArray[np.int64], window_m: float
+    ) -> LoopCandidate | None:
+        s = self.settings
+        self.counts.checks += 1
+        current = keyframes[k]
+        assert current.scan is not None
+        coarse = self._coarse_match(keyframes, k, run, window_m)
+        if coarse is None:
+            return None
+        # The fine map: the old keyframes around the one nearest the coarse pose.
+        xy = np.array([(keyframes[i].pose.x, keyframes[i].pose.y) for i in run])
+        j = int(run[np.argmin(np.hypot(xy[:, 0] - coarse.x, xy[:, 1] - coarse.y))])
+        submap = OccupancyGrid(s.resolution_m)
+        end = min(j + LOOP_SUBMAP_KEYFRAMES + 1, k - s.loop_min_gap)
+        for frame in keyframes[max(0, j - LOOP_SUBMAP_KEYFRAMES) : end]:
+            if frame.scan is not None and frame.mapped:
+                submap.insert(frame.pose, frame.scan)
+        field = submap.likelihood_field(coarse, s.max_range_m + LOOP_FINE_XY_M, s.blur_sigma_m)
+        points = voxel_downsample(current.scan.hits, s.voxel_size_m)
+        match = self.fine.match(field, points, coarse)
+        if match.score < s.loop_min_score:
+            return None
+        rival = rival_ratio(
+            field, points, match.pose, radius_m=LOOP_RIVAL_RADIUS_M, exclude_m=LOOP_RIVAL_EXCLUDE_M
+        )
+        if rival > LOOP_MAX_RIVAL_RATIO:
+            self.counts.ambiguous += 1
+            return None
+        self.counts.found += 1
+        return LoopCandidate(j, k, match.pose, match.score)
+
+    def _coarse_match(
+        self, keyframes: list[Keyframe], k: int, run: npt.NDArray[np.int64], window_m: float
+    ) -> Pose2 | None:
+        """Where the newest keyframes' scans fit the pass's coarse map within the window."""
+        s = self.settings
+        current = keyframes[k]
+        resolution = s.resolution_m * LOOP_COARSE_FACTOR
+        grid = OccupancyGrid(resolution)
+        step = max(1, math.ceil(run.size / LOOP_COARSE_KEYFRAMES))
+        for i in run[::step]:
+            frame = keyframes[int(i)]
+            if frame.scan is not None:
+                grid.insert(frame.pose, frame.scan)
+        field = grid.likelihood_field(
+            current.pose, s.max_range_m + window_m, resolution * LOOP_COARSE_BLUR_CELLS
+        )
+        query = _query_points(keyframes, k, resolution)
+        pose, score, _ = global_search(
+            field,
+            query,
+            center=current.pose,
+            half_width_m=window_m,
+            yaw_window_rad=s.loop_search_yaw_rad,
+            angle_step_rad=LOOP_COARSE_ANGLE_STEP_RAD,
+        )
+        if score < LOOP_COARSE_MIN_SCORE:
+            return None
+        rival = rival_ratio(field, query, pose, radius_m=window_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
+        if rival > LOOP_MAX_RIVAL_RATIO:
+            self.counts.ambiguous += 1
+            return None
+        return pose
+
+
+def _query_points(keyframes: list[Keyframe], k: int, voxel_m: float) -> FloatArray:
+    """The scans of the newest LOOP_QUERY_KEYFRAMES keyframes up to ``k``, in ``k``'s frame."""
+    current = keyframes[k].pose
+    clouds = []
+    for frame in keyframes[max(0, k - LOOP_QUERY_KEYFRAMES + 1) : k + 1]:
+        scan: ScanPoints | None = frame.scan
+        if scan is not None and scan.hits.size:
+            clouds.append(current.between(frame.pose).transform(scan.hits))
+    return voxel_downsample(np.vstack(clouds), voxel_m)

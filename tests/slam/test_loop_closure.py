@@ -1,0 +1,112 @@
+"""Loop closure: a drifted revisit is found on the old pass's map, a look-alike is not."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.bench.room import cast
+from navd.slam.loop_closure import LoopCloser, passes, path_lengths
+from navd.slam.mapper import Keyframe, ScanMapper, mapper_settings
+from navd.slam.pose import Pose2
+from navd.slam.scan import ScanPoints, scan_points
+
+# A corridor 2 m wide and 60 m long with bare walls: every stretch of it looks the same.
+CORRIDOR = np.array([[-30.0, -1.0, 30.0, -1.0], [-30.0, 1.0, 30.0, 1.0]])
+
+
+def _scan(pose: Pose2, walls: np.ndarray | None = None) -> ScanPoints:
+    a0, inc, r = cast(pose) if walls is None else cast(pose, 360, walls)
+    return scan_points(r, a0, inc, range_min=0.1, range_max=30.0)
+
+
+def _ellipse(n: int, turn0: float = 0.0) -> list[Pose2]:
+    """Poses 0.3 m apart on an ellipse through the room's free space, facing along it."""
+    out = []
+    for i in range(n):
+        a = turn0 + 2 * math.pi * i / 70
+        out.append(Pose2(4.0 * math.cos(a) - 0.5, 2.6 * math.sin(a) - 0.5, a + math.pi / 2))
+    return out
+
+
+def _detour(start: Pose2, length_m: float) -> list[Keyframe]:
+    """Keyframes 1 m apart out from ``start`` and back, ``length_m`` of path that mapped
+    nothing (as when the robot was lost)."""
+    half = round(length_m / 2)
+    out = [Pose2(start.x + i, start.y, 0.0) for i in range(1, half + 1)]
+    out += [Pose2(start.x + half - i, start.y, math.pi) for i in range(1, half + 1)]
+    return [Keyframe(0.0, p, None, mapped=False) for p in out]
+
+
+def test_path_lengths_add_up_the_distance_between_keyframes() -> None:
+    poses = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 1.0], [3.0, 4.0, 2.0], [3.0, 6.0, 0.0]])
+    np.testing.assert_allclose(path_lengths(poses), [0.0, 5.0, 5.0, 7.0])
+
+
+def test_passes_split_where_keyframe_indices_jump() -> None:
+    runs = passes(np.array([1, 2, 4, 20, 22, 90]), join=5)
+    assert [r.tolist() for r in runs] == [[1, 2, 4], [20, 22], [90]]
+    assert passes(np.array([], dtype=np.int64), join=5) == []
+
+
+def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() -> None:
+    settings = mapper_settings(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    detour = _detour(first[-1].pose, 120.0)
+    # Back in the room after 120 m, the estimate has drifted 2.5 m and 4 degrees.
+    drift = Pose2(1.5, -2.0, math.radians(4.0))
+    truth = _ellipse(12, turn0=1.0)
+    revisit = [Keyframe(0.0, drift.compose(t), _scan(t)) for t in truth]
+    keyframes = first + detour + revisit
+    closer = LoopCloser(settings)
+    found = closer.search(keyframes, len(keyframes) - 1)
+    assert len(found) == 1
+    loop = found[0]
+    assert loop.new == len(keyframes) - 1 and 0 <= loop.old < len(first)
+    assert math.hypot(loop.pose.x - truth[-1].x, loop.pose.y - truth[-1].y) < 0.05
+    assert abs(math.remainder(loop.pose.yaw - truth[-1].yaw, 2 * math.pi)) < 0.01
+    assert loop.score >= settings.loop_min_score
+    assert (closer.counts.checks, closer.counts.found) == (1, 1)
+
+
+def test_the_window_grows_with_the_path_so_a_short_detour_cannot_jump_metres() -> None:
+    # The same 2.5 m error after only 30 m of path is not believed: the window is 1 m wide.
+    settings = mapper_settings(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    drift = Pose2(1.5, -2.0, math.radians(4.0))
+    truth = _ellipse(12, turn0=1.0)
+    revisit = [Keyframe(0.0, drift.compose(t), _scan(t)) for t in truth]
+    keyframes = first + _detour(first[-1].pose, 30.0) + revisit
+    for loop in LoopCloser(settings).search(keyframes, len(keyframes) - 1):
+        assert math.hypot(loop.pose.x - truth[-1].x, loop.pose.y - truth[-1].y) > 1.0
+
+
+def test_a_passage_that_looks_the_same_metres_further_on_is_not_a_loop() -> None:
+    settings = mapper_settings(loop_closure=True, max_range_m=6.0, loop_search_xy_m=4.0)
+    first = [Keyframe(0.0, p, _scan(p, CORRIDOR)) for p in _line(-15.0, 15.0)]
+    detour = _detour(first[-1].pose, 150.0)
+    revisit = [Keyframe(0.0, p, _scan(p, CORRIDOR)) for p in _line(-3.0, 0.0)]
+    keyframes = first + detour + revisit
+    closer = LoopCloser(settings)
+    assert closer.search(keyframes, len(keyframes) - 1) == []
+    assert closer.counts.checks == 1 and closer.counts.ambiguous == 1
+
+
+def _line(x0: float, x1: float) -> list[Pose2]:
+    return [Pose2(float(x), 0.0, 0.0) for x in np.arange(x0, x1 + 1e-9, 0.3)]
+
+
+def test_with_loop_closure_a_scan_that_does_not_match_joins_the_graph_but_not_the_map() -> None:
+    settings = mapper_settings(loop_closure=True, max_range_m=12.0)
+    mapper = ScanMapper(settings)
+    start = Pose2(0.0, 0.0, 0.0)
+    mapper.add(0.0, _scan(start), start)
+    before = mapper.grid.logodds.copy()
+    # Odometry says 0.5 m on; the scan was taken 1.5 m on and turned 0.6 rad: no match.
+    result = mapper.add(1.0, _scan(Pose2(1.5, 0.0, 0.6)), Pose2(0.5, 0.0, 0.0))
+    assert not result.matched and not result.keyframe
+    assert mapper.counts.weak_matches == 1
+    assert [k.mapped for k in mapper.keyframes] == [True, False]
+    assert mapper.keyframes[-1].pose == result.pose
+    np.testing.assert_array_equal(mapper.grid.logodds, before)
