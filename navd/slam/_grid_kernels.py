@@ -12,17 +12,29 @@ tests/slam/grid_reference.py.
   field over a block of f x f translations (the coarse level of the matcher).
 - ``coarse_scores`` / ``fine_scores``: the summed field under the scan points, rotated and
   moved; the coarse level bounds whole f x f blocks of translations for branch and bound.
+- ``branch_and_bound``: the best (rotation, translation) over a whole window, best-first
+  over blocks of translations bounded by ``coarse_scores``' sums (see global_search.py).
 - ``count_known``: how many world points lie within one cell of an observed cell
   (log-odds not 0).
 """
 
 from __future__ import annotations
 
+import heapq
+
 import numba as nb
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["coarse_scores", "count_known", "fine_scores", "ray_update", "sliding_max", "smear"]
+__all__ = [
+    "branch_and_bound",
+    "coarse_scores",
+    "count_known",
+    "fine_scores",
+    "ray_update",
+    "sliding_max",
+    "smear",
+]
 
 FloatArray = npt.NDArray[np.float32]
 F64 = npt.NDArray[np.float64]
@@ -175,6 +187,76 @@ def coarse_scores(
                     total += bound[y, x]
             out[a, b] = total
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _block_bound(bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int) -> float:
+    """Summed ``bound`` under the projected points moved by (dx, dy) cells, float32-rounded."""
+    n_rows, n_cols = bound.shape
+    total = 0.0
+    for k in range(cols.size):
+        x, y = cols[k] + dx, rows[k] + dy
+        if 0 <= x < n_cols and 0 <= y < n_rows:
+            total += bound[y, x]
+    return np.float64(np.float32(total))
+
+
+@nb.njit(cache=True, nogil=True)
+def branch_and_bound(
+    bounds: tuple[FloatArray, ...],
+    px: F64,
+    py: F64,
+    cosines: F64,
+    sines: F64,
+    tx: float,
+    ty: float,
+    limit: int,
+) -> tuple[int, int, int, float, int]:
+    """The best rotation and translation within ``limit`` cells, by best-first search.
+
+    Args:
+        bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
+        px, py, cosines, sines, tx, ty: as for ``coarse_scores``.
+        limit: translations dx, dy in [-limit, limit] cells are searched.
+
+    Returns:
+        (rotation index, dx, dy, summed field under the points, blocks expanded); the
+        rotation index is -1 if there was nothing to search.
+
+    A queue entry is (-bound, level, rotation, dx, dy) for the 2^level x 2^level block of
+    translations starting at (dx, dy); ties are broken by the rest of the tuple, so the
+    result does not depend on the order blocks were queued in.
+    """
+    levels = len(bounds) - 1
+    top = 1 << levels
+    n_angles, n_points = cosines.size, px.size
+    cols = np.empty((n_angles, n_points), dtype=np.int64)
+    rows = np.empty((n_angles, n_points), dtype=np.int64)
+    for a in range(n_angles):
+        for k in range(n_points):
+            cols[a, k], rows[a, k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
+    queue = [(0.0, 0, 0, 0, 0)]
+    queue.pop()
+    for a in range(n_angles):
+        for dy in range(-limit, limit + 1, top):
+            for dx in range(-limit, limit + 1, top):
+                bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy)
+                queue.append((-bound, levels, a, dx, dy))
+    heapq.heapify(queue)
+    expanded = 0
+    while len(queue) > 0:
+        negative, level, a, dx, dy = heapq.heappop(queue)
+        if level == 0:
+            return a, dx, dy, -negative, expanded
+        expanded += 1
+        half = 1 << (level - 1)
+        for j in (0, half):
+            for i in (0, half):
+                cx, cy = dx + i, dy + j
+                if abs(cx) <= limit and abs(cy) <= limit:
+                    bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy)
+                    heapq.heappush(queue, (-bound, level - 1, a, cx, cy))
+    return -1, 0, 0, 0.0, expanded
 
 
 @nb.njit(cache=True, nogil=True)

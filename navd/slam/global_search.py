@@ -10,7 +10,6 @@ matcher follows the same idea). ``relocalize`` then refines it with the local ma
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import numpy as np
@@ -45,42 +44,18 @@ def global_search(
     px, py, tx, ty = field.in_cells(points, center)
     n_angles = max(1, round(2 * yaw_window_rad / angle_step_rad))
     angles = center.yaw - yaw_window_rad + angle_step_rad * np.arange(n_angles)
-    cosines, sines = np.cos(angles), np.sin(angles)
-    limit = math.ceil(half_width_m / res)
-    top = 1 << levels
-    starts_1d = np.arange(-limit, limit + 1, top)
-    starts = np.array([(dx, dy) for dy in starts_1d for dx in starts_1d], dtype=np.int64)
-    bounds = {level: field.bound(1 << level) for level in range(levels + 1)}
-    scores = k.coarse_scores(bounds[levels], px, py, cosines, sines, tx, ty, starts, top)
-    queue: list[tuple[float, int, int, int, int]] = [
-        (-float(scores[a, b]), levels, a, int(starts[b, 0]), int(starts[b, 1]))
-        for a in range(n_angles)
-        for b in range(starts.shape[0])
-    ]
-    heapq.heapify(queue)
-    expanded = 0
-    while queue:
-        negative, level, a, dx, dy = heapq.heappop(queue)
-        if level == 0:
-            pose = Pose2(
-                (tx + 0.5 + dx) * res + field.origin_x,
-                (ty + 0.5 + dy) * res + field.origin_y,
-                math.remainder(float(angles[a]), 2 * math.pi),
-            )
-            return pose, -negative / max(points.shape[0], 1), expanded
-        expanded += 1
-        half = 1 << (level - 1)
-        children = np.array(
-            [(dx + i, dy + j) for j in (0, half) for i in (0, half)], dtype=np.int64
-        )
-        child = k.coarse_scores(
-            bounds[level - 1], px, py, cosines[a : a + 1], sines[a : a + 1], tx, ty, children, half
-        )
-        for c in range(4):
-            cx, cy = int(children[c, 0]), int(children[c, 1])
-            if abs(cx) <= limit and abs(cy) <= limit:
-                heapq.heappush(queue, (-float(child[0, c]), level - 1, a, cx, cy))
-    return center, 0.0, expanded
+    bounds = tuple(field.bound(1 << level) for level in range(levels + 1))
+    a, dx, dy, total, expanded = k.branch_and_bound(
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, math.ceil(half_width_m / res)
+    )
+    if a < 0:
+        return center, 0.0, expanded
+    pose = Pose2(
+        (tx + 0.5 + dx) * res + field.origin_x,
+        (ty + 0.5 + dy) * res + field.origin_y,
+        math.remainder(float(angles[a]), 2 * math.pi),
+    )
+    return pose, total / max(points.shape[0], 1), expanded
 
 
 def relocalize(

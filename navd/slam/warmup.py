@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
@@ -14,7 +15,8 @@ __all__ = ["warm_up"]
 
 
 def warm_up() -> None:
-    """Run two scans of a small square room through a throwaway mapper."""
+    """Run two scans of a small square room through a throwaway mapper, then find the
+    second on the map (the global search of localization and loop closure)."""
     angles = -math.pi + 2 * math.pi * np.arange(90) / 90
     # Distance to the walls of a 4 m square room seen from its centre.
     ranges = 2.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
@@ -24,3 +26,4 @@ def warm_up() -> None:
             ranges - shift, -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=10.0
         )
         mapper.add(shift, scan, Pose2(shift, 0.0, 0.0))
+    relocalize(mapper.grid, scan.hits)

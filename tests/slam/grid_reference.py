@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 
 
@@ -64,3 +66,30 @@ def count_known(logodds, cols_x, rows_y):  # type: ignore[no-untyped-def]
         if -1 <= x <= logodds.shape[1] and -1 <= y <= logodds.shape[0]:
             count += bool(padded[max(y, 0) : y + 3, max(x, 0) : x + 3].any())
     return count
+
+
+def branch_and_bound(bounds, px, py, angles, tx, ty, limit):  # type: ignore[no-untyped-def]
+    """Best-first search over blocks of translations; bounds[L] bounds 2^L x 2^L blocks."""
+    levels = len(bounds) - 1
+
+    def block(level, a, dx, dy):  # type: ignore[no-untyped-def]
+        c, s = np.cos(angles[a]), np.sin(angles[a])
+        return score(bounds[level], px, py, c, s, tx, ty, dx, dy)
+
+    starts = range(-limit, limit + 1, 2**levels)
+    queue = [
+        (-block(levels, a, dx, dy), levels, a, dx, dy)
+        for a in range(len(angles))
+        for dy in starts
+        for dx in starts
+    ]
+    heapq.heapify(queue)
+    while queue:
+        negative, level, a, dx, dy = heapq.heappop(queue)
+        if level == 0:
+            return a, dx, dy, -negative
+        half = 2 ** (level - 1)
+        for cx, cy in ((dx, dy), (dx + half, dy), (dx, dy + half), (dx + half, dy + half)):
+            if abs(cx) <= limit and abs(cy) <= limit:
+                heapq.heappush(queue, (-block(level - 1, a, cx, cy), level - 1, a, cx, cy))
+    return -1, 0, 0, 0.0

@@ -74,6 +74,28 @@ def test_scores_match_the_reference_and_blocks_bound_their_translations() -> Non
             assert bounds[a, b] >= block.max() - 1e-3
 
 
+@pytest.mark.parametrize("seed", [6, 7, 8])
+def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((60, 70)).astype(np.float32) ** 4  # a few strong cells
+    px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
+    angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
+    tx, ty, limit = 35.2, 29.7, 6
+    bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
+    a, dx, dy, total, _ = k.branch_and_bound(
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit
+    )
+    assert (a, dx, dy) == ref.branch_and_bound(bounds, px, py, angles, tx, ty, limit)[:3]
+    exhaustive = {
+        (b, x, y): ref.score(field, px, py, np.cos(angle), np.sin(angle), tx, ty, x, y)
+        for b, angle in enumerate(angles)
+        for y in range(-limit, limit + 1)
+        for x in range(-limit, limit + 1)
+    }
+    assert total == pytest.approx(max(exhaustive.values()), rel=1e-5)
+    assert total == pytest.approx(exhaustive[a, dx, dy], rel=1e-5)
+
+
 @pytest.mark.parametrize("block", [4, 8, 64])
 def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
     from navd.slam.occupancy import LikelihoodField
