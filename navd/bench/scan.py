@@ -4,6 +4,10 @@ A robot drives through a synthetic 12 m x 8 m room (exact ray casting); each sca
 through intake (ranges -> points, voxel filter) and the mapper (correlative match onto the
 map, keyframe insertion, loop closure checks). Printed: ms per scan p50/p95/max over the
 drive (kernels compiled before timing), and how far the tracked pose ends from the truth.
+
+Loop closure re-solves the pose graph off the per-scan path; its cost is printed too: a
+synthetic graph of 3000 keyframes (twelve laps of a 20 m circle with drifting odometry, the
+size of the fr-clinic graph) with 60 loop edges, solved from the drifted poses.
 """
 
 from __future__ import annotations
@@ -16,8 +20,9 @@ import numpy as np
 
 from navd.bench.room import cast
 from navd.config import NavdConfig
-from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper, mapper_settings
 from navd.slam.pose import Pose2
+from navd.slam.pose_graph import Edge, optimize
 from navd.slam.scan import scan_points
 from navd.slam.warmup import warm_up
 
@@ -53,5 +58,44 @@ def run(scans: int = 400, beams: int = 720) -> dict[str, object]:
         "ms_per_scan_max": round(ms[-1], 3),
         "final_error_m": round(math.hypot(result.pose.x - truth.x, result.pose.y - truth.y), 4),
         "keyframes": mapper.counts.keyframes,
-        "loops_found": mapper.counts.loops_found,
+        "loops_found": mapper.loops.counts.found,
+        **_pose_graph_figures(),
     }
+
+
+def _pose_graph_figures(nodes: int = 3000, loops: int = 60, repeats: int = 3) -> dict[str, object]:
+    """Solve time [ms] (median of ``repeats``) and worst pose error [m] before and after."""
+    rng = np.random.default_rng(2)
+    per_lap = 250  # 0.5 m apart on a 20 m circle
+    step_yaw = 2 * math.pi / per_lap
+    chord = 2 * 20.0 * math.sin(step_yaw / 2)
+    truth = [
+        Pose2(20.0 * math.sin(k * step_yaw), 20.0 - 20.0 * math.cos(k * step_yaw), k * step_yaw)
+        for k in range(nodes)
+    ]
+    edges, drifted = [], [truth[0]]
+    for k in range(1, nodes):
+        z = Pose2(chord + rng.normal(0, 0.01), rng.normal(0, 0.01), step_yaw + rng.normal(0, 0.002))
+        edges.append(Edge(k - 1, k, z, EDGE_WEIGHTS))
+        drifted.append(drifted[-1].compose(z))
+    for new in rng.choice(np.arange(per_lap, nodes), size=loops, replace=False):
+        old = int(new) % per_lap + per_lap * int(rng.integers(0, int(new) // per_lap))
+        z = truth[old].between(truth[int(new)])
+        edges.append(Edge(old, int(new), z, EDGE_WEIGHTS, robust=True))
+    start_poses = np.array(drifted)
+    seconds = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        solved = optimize(start_poses, edges)
+        seconds.append(time.perf_counter() - start)
+    return {
+        "pose_graph_nodes": nodes,
+        "pose_graph_solve_ms": round(1e3 * statistics.median(seconds), 1),
+        "pose_graph_error_before_m": round(_worst_offset(start_poses, truth), 3),
+        "pose_graph_error_after_m": round(_worst_offset(solved, truth), 3),
+    }
+
+
+def _worst_offset(poses: np.ndarray, truth: list[Pose2]) -> float:
+    """[m] the largest distance between a pose and its true position."""
+    return float(np.hypot(*(poses[:, :2] - np.array(truth)[:, :2]).T).max())
