@@ -384,7 +384,7 @@ class SlamConfig(Section):
     loop_search_xy_m: float = Field(
         4.0,
         gt=0,
-        le=20,
+        le=50,
         description="[m] largest half-width of the loop closure search window (it grows by 3 % "
         "of the path driven since the old pass, from 1 m)",
     )

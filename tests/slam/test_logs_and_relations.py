@@ -190,6 +190,27 @@ def test_aces_replay_with_loop_closure_beats_gmapping(tmp_path: Path) -> None:
     assert errors.rotation_mean_deg <= 1.0
 
 
+def test_fr_clinic_replay_with_its_config_beats_published_scan_matching(tmp_path: Path) -> None:
+    freiburg = dataset("freiburg_slam_benchmark")
+    bag = freiburg / "bags_ros1" / "fr-clinic_robotlaser.orig.bag"
+    config = Path(__file__).parents[2] / "config" / "replay" / "fr-clinic.toml"
+    args = ["replay", str(bag), "--out", str(tmp_path), "--quiet", "--config", str(config)]
+    assert main(args) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["loops_found"] > 0
+    stamps, poses = read_tum(tmp_path / "trajectory.tum")
+    relations = read_relations(freiburg / "relations" / "fr-clinic.relations")
+    errors = evaluate(stamps, poses, relations)
+    assert errors.used == 2820
+    assert errors.translation_mean_m <= 0.434  # scan matching (Kümmerle et al. 2009): 0.434 m
+    # The loops are closed: relations whose stamps lie 600 s or more apart (across the
+    # loops, where odometry and scan matching alone are metres off) are within a metre.
+    far = [r for r in relations if abs(r.t2 - r.t1) >= 600.0]
+    assert len(far) > 100
+    far_errors = evaluate(stamps, poses, far)
+    assert far_errors.translation_mean_m <= 1.0
+
+
 def test_replay_with_scan_odometry_needs_no_wheels(tmp_path: Path) -> None:
     log = _write_dump(tmp_path, PATH, drift=True)  # the log's odometry is ignored
     out = tmp_path / "out"
