@@ -148,6 +148,18 @@ def _project(px: F64, py: F64, c: float, s: float, tx: float, ty: float, k: int)
 
 
 @nb.njit(cache=True, nogil=True)
+def _block_bound(bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int) -> float:
+    """Summed ``bound`` under the projected points moved by (dx, dy) cells, float32-rounded."""
+    n_rows, n_cols = bound.shape
+    total = 0.0
+    for k in range(cols.size):
+        x, y = cols[k] + dx, rows[k] + dy
+        if 0 <= x < n_cols and 0 <= y < n_rows:
+            total += bound[y, x]
+    return np.float64(np.float32(total))
+
+
+@nb.njit(cache=True, nogil=True)
 def coarse_scores(
     bound: FloatArray,
     px: F64,
@@ -171,7 +183,6 @@ def coarse_scores(
     Returns:
         float32[n_rotations, n_blocks]: summed bound under the points.
     """
-    n_rows, n_cols = bound.shape
     out = np.zeros((cosines.size, starts.shape[0]), dtype=np.float32)
     cols = np.empty(px.size, dtype=np.int64)
     rows = np.empty(px.size, dtype=np.int64)
@@ -179,26 +190,8 @@ def coarse_scores(
         for k in range(px.size):
             cols[k], rows[k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
         for b in range(starts.shape[0]):
-            dx, dy = starts[b, 0], starts[b, 1]
-            total = 0.0
-            for k in range(px.size):
-                x, y = cols[k] + dx, rows[k] + dy
-                if 0 <= x < n_cols and 0 <= y < n_rows:
-                    total += bound[y, x]
-            out[a, b] = total
+            out[a, b] = _block_bound(bound, cols, rows, starts[b, 0], starts[b, 1])
     return out
-
-
-@nb.njit(cache=True, nogil=True)
-def _block_bound(bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int) -> float:
-    """Summed ``bound`` under the projected points moved by (dx, dy) cells, float32-rounded."""
-    n_rows, n_cols = bound.shape
-    total = 0.0
-    for k in range(cols.size):
-        x, y = cols[k] + dx, rows[k] + dy
-        if 0 <= x < n_cols and 0 <= y < n_rows:
-            total += bound[y, x]
-    return np.float64(np.float32(total))
 
 
 @nb.njit(cache=True, nogil=True)
