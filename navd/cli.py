@@ -377,9 +377,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from navd.slam.bags import inspect_bag, is_bag, read_bag  # noqa: PLC0415
     from navd.slam.errors import SlamError  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.logfiles import count_scans, open_log  # noqa: PLC0415
-    from navd.slam.mapper import mapper_settings  # noqa: PLC0415
     from navd.slam.pose import Pose2  # noqa: PLC0415
     from navd.slam.replay import replay  # noqa: PLC0415
+    from navd.slam.settings import mapper_settings  # noqa: PLC0415
 
     slam = _load(args.config).slam
     settings = mapper_settings(slam)

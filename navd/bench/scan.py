@@ -23,11 +23,12 @@ import numpy as np
 from navd.bench.room import cast
 from navd.config import NavdConfig
 from navd.slam.global_search import relocalize
-from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper, mapper_settings
+from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.scan import scan_points, voxel_downsample
+from navd.slam.settings import mapper_settings
 from navd.slam.warmup import warm_up
 
 __all__ = ["run"]

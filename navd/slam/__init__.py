@@ -5,9 +5,10 @@ No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads
 """
 
 from navd.slam.errors import LogFormatError, MapFileError, SlamError
-from navd.slam.mapper import MapperSettings, ScanMapper, mapper_settings
+from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
+from navd.slam.settings import MapperSettings, mapper_settings
 
 __all__ = [
     "LogFormatError",

@@ -25,19 +25,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from navd.slam.global_search import global_search
+from navd.slam.keyframe import Keyframe
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.scan import ScanPoints, voxel_downsample
-
-if TYPE_CHECKING:
-    from navd.slam.mapper import Keyframe, MapperSettings
+from navd.slam.settings import MapperSettings
 
 __all__ = ["LoopCandidate", "LoopCloser", "LoopCounts"]
 

@@ -36,10 +36,11 @@ from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.map_io import load_map, save_map
-from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry
 from navd.slam.pose import Pose2
 from navd.slam.scan import laser_points, voxel_downsample
+from navd.slam.settings import mapper_settings
 from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode"]

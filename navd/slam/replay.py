@@ -20,11 +20,12 @@ import numpy as np
 
 from navd.slam.logfiles import LogScan
 from navd.slam.map_io import save_map
-from navd.slam.mapper import MapperSettings, ScanMapper
+from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry
 from navd.slam.picture import map_picture
 from navd.slam.pose import Pose2
 from navd.slam.scan import IDENTITY, scan_points
+from navd.slam.settings import MapperSettings
 
 __all__ = ["ReplayResult", "replay", "tum_line"]
 

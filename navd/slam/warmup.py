@@ -7,9 +7,10 @@ import math
 import numpy as np
 
 from navd.slam.global_search import relocalize
-from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.mapper import ScanMapper
 from navd.slam.pose import Pose2
 from navd.slam.scan import scan_points
+from navd.slam.settings import mapper_settings
 
 __all__ = ["warm_up"]
 

@@ -7,10 +7,12 @@ import math
 import numpy as np
 
 from navd.bench.room import cast
+from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser, passes, path_lengths
-from navd.slam.mapper import Keyframe, ScanMapper, mapper_settings
+from navd.slam.mapper import ScanMapper
 from navd.slam.pose import Pose2
 from navd.slam.scan import ScanPoints, scan_points
+from navd.slam.settings import mapper_settings
 
 # A corridor 2 m wide and 60 m long with bare walls: every stretch of it looks the same.
 CORRIDOR = np.array([[-30.0, -1.0, 30.0, -1.0], [-30.0, 1.0, 30.0, 1.0]])

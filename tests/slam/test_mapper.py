@@ -8,10 +8,11 @@ import math
 import numpy as np
 
 from navd.bench.room import cast
-from navd.slam.mapper import ScanMapper, mapper_settings
+from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose import Pose2
 from navd.slam.scan import ScanPoints, scan_points
+from navd.slam.settings import mapper_settings
 
 # A corridor about 2 m wide and 40 m long, closed at both ends (walls off cell borders).
 W = 1.02

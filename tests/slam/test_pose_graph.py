@@ -65,8 +65,9 @@ def test_consistent_edges_leave_the_poses_alone() -> None:
 
 def test_the_mapper_finds_loops_when_asked() -> None:
     from navd.bench.room import cast
-    from navd.slam.mapper import ScanMapper, mapper_settings
+    from navd.slam.mapper import ScanMapper
     from navd.slam.scan import scan_points
+    from navd.slam.settings import mapper_settings
 
     settings = mapper_settings(
         loop_closure=True,
