@@ -117,8 +117,12 @@ class LoopCloser:
     """Searches old passes for the place a new keyframe shows (see the module docstring)."""
 
     def __init__(self, settings: MapperSettings) -> None:
-        self.settings = settings
         self.counts = LoopCounts()
+        self.configure(settings)
+
+    def configure(self, settings: MapperSettings) -> None:
+        """Take new settings (max_range_m sets the fine matcher's rotation step)."""
+        self.settings = settings
         self.fine = CorrelativeMatcher(
             search_xy_m=LOOP_FINE_XY_M,
             search_yaw_rad=LOOP_FINE_YAW_RAD,

@@ -112,7 +112,7 @@ class ScanMapper:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
-        self.loops.settings = settings
+        self.loops.configure(settings)
         self._field = None
 
     def predict(self, odom: Pose2 | None) -> Pose2:
@@ -227,7 +227,7 @@ class ScanMapper:
         unsettled = False
         for loop in self.loops.search(self.keyframes, k):
             z = self.keyframes[loop.old].pose.between(loop.pose)
-            self.edges.append(Edge(loop.old, k, (z.x, z.y, z.yaw), EDGE_WEIGHTS, robust=True))
+            self.edges.append(Edge(loop.old, k, z, EDGE_WEIGHTS, robust=True))
             off = self.keyframes[k].pose.between(loop.pose)
             if math.hypot(off.x, off.y) >= LOOP_SETTLED_M or abs(off.yaw) >= LOOP_SETTLED_RAD:
                 unsettled = True

@@ -112,3 +112,10 @@ def test_with_loop_closure_a_scan_that_does_not_match_joins_the_graph_but_not_th
     assert [k.mapped for k in mapper.keyframes] == [True, False]
     assert mapper.keyframes[-1].pose == result.pose
     np.testing.assert_array_equal(mapper.grid.logodds, before)
+
+
+def test_new_settings_reach_the_loop_search() -> None:
+    mapper = ScanMapper(mapper_settings(loop_closure=True, max_range_m=12.0))
+    mapper.configure(mapper_settings(loop_closure=True, max_range_m=30.0, loop_search_xy_m=8.0))
+    assert mapper.loops.settings.loop_search_xy_m == 8.0
+    assert mapper.loops.fine.reach_m == 15.0  # half the longest range: the rotation step
