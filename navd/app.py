@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from navd.config import NavdConfig
 from navd.drivers.chassis import ChassisDriver
-from navd.drivers.tcp_server import TcpServer
+from navd.drivers.tcp.server import TcpServer
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate

@@ -20,17 +20,14 @@ import time
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
 from navd.config import NavdConfig
-from navd.estimation.estimator import StateEstimator
+from navd.estimation.estimator import EstimatorSettings, StateEstimator
 from navd.estimation.history import Insert
 from navd.estimation.madgwick import MadgwickFilter
 from navd.estimation.ukf import FloatArray, Measurement, PoseUkf, StepOutcome
 from navd.lifecycle.messages import Imu, Message, PoseMeasurement, WheelOdometry
+from navd.lifecycle.stats import percentile
 
 __all__ = ["run"]
-
-
-def _p95(values: list[float]) -> float:
-    return sorted(values)[int(0.95 * (len(values) - 1))]
 
 
 def _madgwick_us(samples: list[Imu], repeats: int) -> float:
@@ -78,7 +75,7 @@ def _timed_replay(
     messages: list[Message],
 ) -> tuple[StateEstimator, list[float], list[float], list[float]]:
     """Feed ``messages`` in arrival order; time pose inserts (on time, late) and UKF steps."""
-    estimator = StateEstimator(NavdConfig())
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     timed = _TimedUkf(estimator.history.ukf)
     estimator.history.ukf = timed  # type: ignore[assignment]
     on_time: list[float] = []
@@ -116,13 +113,13 @@ def run(seconds: float = 60.0) -> dict[str, object]:
     return {
         "madgwick_us_per_sample": round(madgwick_us, 2),
         "madgwick_1khz_core_percent": round(madgwick_us * 1000 / 1e6 * 100, 2),
-        "ukf_step_us_median": round(statistics.median(steps) * 1e6, 1),
-        "ukf_step_us_p95": round(_p95(steps) * 1e6, 1),
+        "ukf_step_us_median": round(percentile(steps, 50) * 1e6, 1),
+        "ukf_step_us_p95": round(percentile(steps, 95) * 1e6, 1),
         "ukf_steps": len(steps),
         "ukf_resets": estimator.counters["resets"],
-        "pose_event_us_median": round(statistics.median(events) * 1e6, 1),
+        "pose_event_us_median": round(percentile(events, 50) * 1e6, 1),
         "late_event_ms_mean": round(statistics.fmean(late) * 1e3, 3),
-        "late_event_ms_p95": round(_p95(late) * 1e3, 3),
+        "late_event_ms_p95": round(percentile(late, 95) * 1e3, 3),
         "late_events": replayed,
         "events_reapplied_per_late_event": round(reapplied / max(replayed, 1), 2),
     }

@@ -26,18 +26,14 @@ from pathlib import Path
 from typing import Any
 
 from navd.drivers.client import Client
+from navd.drivers.protocol.frames import SubscribeFrame
+from navd.drivers.protocol.replies import StatusFrame
+from navd.sim.session import free_port
 
 STREAMS = (("imu", 1000.0), ("lidar", 10.0), ("gps", 5.0), ("compass", 10.0))
 LAG_PROBE_S = 0.05  # the daemon's default probe period
 IDLE_S = 3.0  # [s] idle measurement before streaming: the daemon's own baseline
 SETTLED_PERCENT = 5.0  # [% of a core] below this, start-up work is taken to be over
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
 
 
 @dataclass(frozen=True)
@@ -68,13 +64,10 @@ class _Cpu:
         return 100.0 * (precise if whole else ticks) / wall_s
 
 
-def _status(port: int) -> dict[str, Any]:
+def _status(port: int) -> StatusFrame:
     with Client("127.0.0.1", port, device_id="bench-probe") as control:
-        control.request({"type": "subscribe", "rate_hz": 10})
-        while True:
-            frame = control.receive()
-            if frame["type"] == "status":
-                return frame
+        control.request(SubscribeFrame(rate_hz=10))
+        return control.receive_type(StatusFrame)
 
 
 def run(
@@ -97,7 +90,7 @@ def _measure(
     module: str, seconds: float, rays: int, binary: bool, imu_batch: int
 ) -> dict[str, Any]:
     """Stream at full load into the daemon started by ``python -m <module>``; its figures."""
-    port = _free_port()
+    port = free_port()
     window = int(seconds / LAG_PROBE_S)
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "navd.toml"
@@ -169,18 +162,18 @@ def _measure(
                 client.wait(10)
             daemon.terminate()
             daemon.wait(10)
-    accepted = {d["kind"]: d["accepted"] for d in status["devices"]}
+    accepted = {d.kind: d.accepted for d in status.devices}
     total_percent = cpu_end.percent_since(cpu_start, wall_end - wall_start)
-    diag = status["diagnostics"]
+    diag = status.diagnostics
     return {
         "seconds": round(wall_end - wall_start, 2),
         "figures": {
             "cpu_percent_of_one_core": round(total_percent, 2),
             "idle_cpu_percent_of_one_core": round(idle_percent, 2),
             "ingest_cpu_percent_of_one_core": round(total_percent - idle_percent, 2),
-            "loop_lag_p50_ms": diag["loop_lag_p50_ms"],
-            "loop_lag_p99_ms": diag["loop_lag_p99_ms"],
-            "loop_lag_max_ms": diag["loop_lag_max_ms"],
+            "loop_lag_p50_ms": diag.loop_lag_p50_ms,
+            "loop_lag_p99_ms": diag.loop_lag_p99_ms,
+            "loop_lag_max_ms": diag.loop_lag_max_ms,
             "messages": {
                 role: {"sent": sent[role], "accepted": accepted.get(role, 0)} for role, _ in STREAMS
             },

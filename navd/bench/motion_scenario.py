@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from navd.estimation.angles import wrap_angle
 from navd.estimation.estimator import StateEstimator
 from navd.estimation.geo import GeoFrame
 from navd.estimation.madgwick import GRAVITY_MPS2
+from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
     CompassHeading,
     GpsFix,

@@ -16,16 +16,17 @@ distance grid and buckets built inside the cycle). Printed: ms per cycle p50/p95
 from __future__ import annotations
 
 import math
-import statistics
 import time
 
 import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
+from navd.geometry.pose import IDENTITY, Pose2
+from navd.lifecycle.stats import percentile
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
-from navd.planning.global_planner import GlobalPlanner, PlannedPath
+from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
 from navd.planning.profile import VelocityProfile
 
 __all__ = ["random_rectangles", "run"]
@@ -62,7 +63,7 @@ def _timed_plans(
         t0 = time.perf_counter()
         path = planner.plan(costmap, start, goal)
         times.append(time.perf_counter() - t0)
-    return round(1e3 * statistics.median(times), 2), path
+    return round(1e3 * percentile(times, 50), 2), path
 
 
 def _astar(cells: int, repeats: int) -> dict[str, object]:
@@ -70,7 +71,7 @@ def _astar(cells: int, repeats: int) -> dict[str, object]:
     cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
     frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
     costmap = Costmap(frame, occupied, np.zeros(cost.shape, np.float32), cost, ~occupied & False)
-    planner = GlobalPlanner(cost_weight=0.0, smooth=False)
+    planner = GlobalPlanner(SearchSettings(cost_weight=0.0, smooth=False))
     start, goal = (5.5, 5.5), (cells - 5.5, cells - 5.5)
     ms, path = _timed_plans(planner, costmap, start, goal, repeats)
     return {
@@ -89,7 +90,7 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
     costmap = build_costmap(
         frame, occupied, np.zeros_like(occupied), CostmapSettings.from_config(config)
     )
-    planner = GlobalPlanner(cost_weight=config.planning.cost_weight, smooth=False)
+    planner = GlobalPlanner(SearchSettings(cost_weight=config.planning.cost_weight, smooth=False))
     start, goal = (0.2, 0.2), (0.05 * cells - 0.2, 0.05 * cells - 0.2)
     ms, path = _timed_plans(planner, costmap, start, goal, repeats)
     costly = np.isfinite(costmap.cost) & (costmap.cost > 0.0)
@@ -115,9 +116,7 @@ def _dwa(cycles: int) -> dict[str, object]:
         ranges = np.repeat(base, 60) + rng.normal(0.0, 0.01, 1440)
         points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
         t0 = time.perf_counter()
-        choice = local.choose(
-            (0.0, 0.0, 0.0), (0.3, 0.1), points, path, (1.0, 0.0, 0.0), Window(0.5)
-        )
+        choice = local.choose(IDENTITY, (0.3, 0.1), points, path, Pose2(1.0, 0.0, 0.0), Window(0.5))
         if i >= 5:  # the first cycles compile or load the kernels
             times.append(time.perf_counter() - t0)
             if choice is not None:
@@ -128,8 +127,8 @@ def _dwa(cycles: int) -> dict[str, object]:
         "dwa_valid_rollouts_last": valid,
         "dwa_steps_per_rollout": local.steps,
         "dwa_scan_points": 1440,
-        "dwa_ms_p50": round(statistics.median(ms), 3),
-        "dwa_ms_p95": round(ms[int(0.95 * (len(ms) - 1))], 3),
+        "dwa_ms_p50": round(percentile(ms, 50), 3),
+        "dwa_ms_p95": round(percentile(ms, 95), 3),
     }
 
 

@@ -15,20 +15,21 @@ size of the fr-clinic graph) with 60 loop edges, solved from the drifted poses.
 from __future__ import annotations
 
 import math
-import statistics
 import time
 
 import numpy as np
 
 from navd.bench.room import cast
 from navd.config import NavdConfig
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
+from navd.lifecycle.stats import percentile
 from navd.slam.global_search import relocalize
 from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
-from navd.slam.scan import scan_points, voxel_downsample
-from navd.slam.settings import mapper_settings
+from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
 from navd.slam.warmup import warm_up
 
 __all__ = ["run"]
@@ -37,7 +38,7 @@ __all__ = ["run"]
 def run(scans: int = 400, beams: int = 720) -> dict[str, object]:
     """Drive ``scans`` scans of ``beams`` rays around the room; time each scan."""
     warm_up()
-    mapper = ScanMapper(mapper_settings(NavdConfig().slam))
+    mapper = ScanMapper(MapperSettings.from_config(NavdConfig()))
     rng = np.random.default_rng(1)
     seconds = []
     truth = Pose2(-4.0, -1.0, 0.0)
@@ -58,8 +59,8 @@ def run(scans: int = 400, beams: int = 720) -> dict[str, object]:
     return {
         "beams": beams,
         "scans": scans,
-        "ms_per_scan_p50": round(statistics.median(ms), 3),
-        "ms_per_scan_p95": round(ms[int(0.95 * (len(ms) - 1))], 3),
+        "ms_per_scan_p50": round(percentile(ms, 50), 3),
+        "ms_per_scan_p95": round(percentile(ms, 95), 3),
         "ms_per_scan_max": round(ms[-1], 3),
         "final_error_m": round(math.hypot(result.pose.x - truth.x, result.pose.y - truth.y), 4),
         "keyframes": mapper.counts.keyframes,
@@ -82,7 +83,7 @@ def _relocalize_figures(grid: OccupancyGrid, points: np.ndarray, truth: Pose2) -
             found = relocalize(grid, points, guess=guess)
             seconds.append(time.perf_counter() - start)
             errors.append(math.hypot(found.pose.x - truth.x, found.pose.y - truth.y))
-        figures[f"relocalize_{name}_ms"] = round(1e3 * statistics.median(seconds), 1)
+        figures[f"relocalize_{name}_ms"] = round(1e3 * percentile(seconds, 50), 1)
     figures["relocalize_error_m"] = round(max(errors), 4)
     return figures
 
@@ -114,7 +115,7 @@ def _pose_graph_figures(nodes: int = 3000, loops: int = 60, repeats: int = 3) ->
         seconds.append(time.perf_counter() - start)
     return {
         "pose_graph_nodes": nodes,
-        "pose_graph_solve_ms": round(1e3 * statistics.median(seconds), 1),
+        "pose_graph_solve_ms": round(1e3 * percentile(seconds, 50), 1),
         "pose_graph_error_before_m": round(_worst_offset(start_poses, truth), 3),
         "pose_graph_error_after_m": round(_worst_offset(solved, truth), 3),
     }

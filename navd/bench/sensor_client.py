@@ -19,44 +19,59 @@ import time
 
 from navd.bench.room import cast
 from navd.drivers.client import Client
-from navd.slam.pose import Pose2
+from navd.drivers.protocol.codec import encode
+from navd.drivers.protocol.frames import (
+    FixFrame,
+    HeadingFrame,
+    ImuFrame,
+    PingFrame,
+    ScanFrame,
+    SensorFrame,
+)
+from navd.drivers.protocol.replies import Pong
+from navd.geometry.pose import Pose2
 
 
-def frames(role: str, rays: int, binary: bool) -> dict[str, object]:
+def frame(role: str, rays: int, binary: bool) -> SensorFrame:
     """A representative frame for ``role`` (the stamp is filled in when sent)."""
     if role == "imu":
-        return {
-            "type": "imu",
-            "angular_velocity": [0.001, -0.002, 0.05],
-            "linear_acceleration": [0.12, -0.03, 9.807],
-        }
+        return ImuFrame(
+            stamp=None,
+            angular_velocity=(0.001, -0.002, 0.05),
+            linear_acceleration=(0.12, -0.03, 9.807),
+        )
     if role == "gps":
-        return {
-            "type": "fix",
-            "latitude": 52.520008,
-            "longitude": 13.404954,
-            "altitude": 34.0,
-            "horizontal_accuracy": 1.5,
-        }
+        return FixFrame(
+            stamp=None,
+            latitude=52.520008,
+            longitude=13.404954,
+            altitude=34.0,
+            horizontal_accuracy=1.5,
+        )
     if role == "compass":
-        return {"type": "heading", "bearing_deg": 123.4, "accuracy_deg": 2.0}
+        return HeadingFrame(stamp=None, bearing_deg=123.4, accuracy_deg=2.0)
     if role == "lidar":
         # A robot standing in the synthetic room: what a real lidar indoors sees (random
         # ranges would make every scan a hard, unrepresentative case for the matcher).
         angle_min, increment, exact = cast(Pose2(-3.0, -1.0, 0.3), beams=rays)
         ranges = exact.astype("<f4")
-        scan: dict[str, object] = {
-            "type": "scan",
-            "angle_min": angle_min,
-            "angle_increment": increment,
-            "range_min": 0.1,
-            "range_max": 12.0,
-        }
         if binary:
-            scan["ranges_f32"] = base64.b64encode(ranges.tobytes()).decode()
-        else:  # no return: null
-            scan["ranges"] = [round(float(r), 3) if math.isfinite(r) else None for r in ranges]
-        return scan
+            return ScanFrame(
+                stamp=None,
+                angle_min=angle_min,
+                angle_increment=increment,
+                range_min=0.1,
+                range_max=12.0,
+                ranges_f32=base64.b64encode(ranges.tobytes()).decode(),
+            )
+        return ScanFrame(  # no return: null
+            stamp=None,
+            angle_min=angle_min,
+            angle_increment=increment,
+            range_min=0.1,
+            range_max=12.0,
+            ranges=[round(float(r), 3) if math.isfinite(r) else None for r in ranges],
+        )
     raise SystemExit(f"unknown role {role!r}")
 
 
@@ -75,30 +90,30 @@ def main() -> None:
         help="frames written per send (a sensor reading a FIFO in bursts)",
     )
     args = parser.parse_args()
-    client = Client("127.0.0.1", args.port, role=args.role, device_id=f"bench-{args.role}")
-    client.sock.settimeout(None)
-    body = json.dumps(frames(args.role, args.rays, args.binary), separators=(",", ":"))[1:]
+    client = Client(
+        "127.0.0.1", args.port, role=args.role, device_id=f"bench-{args.role}", timeout_s=None
+    )
+    sample = frame(args.role, args.rays, args.binary)
     print(json.dumps({"ready": True}), flush=True)
     sys.stdin.readline()  # start together with the other clients
     period = 1.0 / args.rate
     start = time.monotonic()
     sent = 0
-    tail = body.encode() + b"\n"
     while (now := time.monotonic()) - start < args.seconds:
         # stamps are the sender's own clock, one sample period apart, as a sensor stamps them
         burst = b"".join(
-            b'{"stamp":%.6f,' % (now - (args.batch - 1 - i) * period) + tail
+            encode(sample.model_copy(update={"stamp": now - (args.batch - 1 - i) * period}))
             for i in range(args.batch)
         )
-        client.sock.sendall(burst)
+        client.send_raw(burst)
         sent += args.batch
         time.sleep(max(0.0, start + sent * period - time.monotonic()))
-    client.send({"type": "ping", "id": "end"})
+    client.send(PingFrame(id="end"))
     while True:
-        frame = client.receive()
-        if frame.get("type") == "pong":
+        reply = client.receive()
+        if isinstance(reply, Pong):
             break
-        print(json.dumps({"unexpected": frame}), file=sys.stderr)
+        print(json.dumps({"unexpected": reply.model_dump(mode="json")}), file=sys.stderr)
     print(json.dumps({"sent": sent}), flush=True)
     sys.stdin.read()
     client.close()

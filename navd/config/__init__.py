@@ -5,6 +5,7 @@ from navd.config.loader import apply_changes, dump_toml, load_config, parse_conf
 from navd.config.model import (
     ChassisConfig,
     EstimationConfig,
+    LidarConfig,
     LifecycleConfig,
     LoggingConfig,
     NavdConfig,
@@ -20,6 +21,7 @@ __all__ = [
     "ChassisConfig",
     "ConfigError",
     "EstimationConfig",
+    "LidarConfig",
     "LifecycleConfig",
     "LoggingConfig",
     "NavdConfig",

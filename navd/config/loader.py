@@ -21,6 +21,7 @@ from navd.config.errors import ConfigError
 from navd.config.model import NavdConfig, restart_required
 
 __all__ = [
+    "RETIRED_KEYS",
     "apply_changes",
     "changed_keys",
     "check_runtime_changeable",
@@ -28,6 +29,16 @@ __all__ = [
     "load_config",
     "parse_config",
 ]
+
+
+# Keys that moved or went away: an older config file is told where to, not just "unknown".
+RETIRED_KEYS = {
+    "slam.laser_x_m": "moved to lidar.x_m",
+    "slam.laser_y_m": "moved to lidar.y_m",
+    "slam.laser_yaw_rad": "moved to lidar.yaw_rad",
+    "slam.min_range_m": "moved to lidar.min_range_m",
+    "logging.debug": 'removed (it changed nothing); set logging.level = "debug" for detail',
+}
 
 
 def load_config(path: str | Path) -> NavdConfig:
@@ -159,8 +170,7 @@ def _set_dotted(data: dict[str, Any], key: str, value: object) -> list[str]:
     for depth, part in enumerate(parts):
         fields = model.model_fields
         if part not in fields:
-            where = ".".join(parts[:depth]) or "the config"
-            return [f"{key}: unknown key in {where}{_did_you_mean(part, list(fields))}"]
+            return [_unknown(".".join(parts[: depth + 1]), list(fields))]
         annotation = fields[part].annotation
         is_section = isinstance(annotation, type) and issubclass(annotation, BaseModel)
         if depth == len(parts) - 1:
@@ -194,6 +204,14 @@ def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return flat
 
 
+def _unknown(dotted: str, options: list[str]) -> str:
+    """The problem with an unknown key: where it went, or the nearest real key."""
+    if dotted in RETIRED_KEYS:
+        return f"{dotted}: {RETIRED_KEYS[dotted]}"
+    name = dotted.rpartition(".")[2]
+    return f"{dotted}: unknown key{_did_you_mean(name, options)}"
+
+
 def _did_you_mean(name: str, options: list[str]) -> str:
     close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
@@ -222,8 +240,7 @@ def _describe(err: ValidationError) -> list[str]:
         kind = error["type"]
         if kind == "extra_forbidden":
             parent = _model_at(loc[:-1])
-            options = list(parent.model_fields) if parent is not None else []
-            problems.append(f"{key}: unknown key{_did_you_mean(str(loc[-1]), options)}")
+            problems.append(_unknown(key, list(parent.model_fields) if parent else []))
             continue
         if kind in ("model_type", "model_attributes_type", "dict_type"):
             problems.append(f"{key}: must be a table ([{key}] section), got {error.get('input')!r}")

@@ -4,8 +4,9 @@ Every model is strict (a string is never read as a number), forbids unknown keys
 frozen, so the running config can only be replaced whole. Every number has bounds and a
 description that starts with its unit. Fields marked ``restart`` cannot change at runtime.
 The runtime-changeable fields follow the seed's ConfigProperty: updating_map,
-use_collisions, debug, reaction timeout, collision distance, and the planner, noise,
-localization, matching, sensor, stuck and metrics parameters.
+use_collisions, reaction timeout, collision distance, and the planner, noise,
+localization, matching, sensor, stuck and metrics parameters; the seed's UseDebug is
+``logging.level = "debug"``.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_valida
 __all__ = [
     "ChassisConfig",
     "EstimationConfig",
+    "LidarConfig",
     "LifecycleConfig",
     "LoggingConfig",
     "NavdConfig",
@@ -134,7 +136,6 @@ class LoggingConfig(Section):
     status_log_period_s: float = Field(
         60.0, ge=0, le=86_400, description="[s] how often status is logged; 0 never"
     )
-    debug: bool = Field(False, description="extra diagnostics (the seed's UseDebug)")
 
 
 class RobotConfig(Section):
@@ -171,12 +172,24 @@ class RobotConfig(Section):
             )
         return self
 
-    @property
-    def circumradius_m(self) -> float:
-        """[m] radius of the smallest circle around base_link holding the footprint."""
-        if self.footprint == "circle":
-            return self.radius_m
-        return float((self.length_m**2 + self.width_m**2) ** 0.5 / 2.0)
+
+class LidarConfig(Section):
+    """The 2D lidar: where it sits on the robot and its shortest trusted range."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar y in base_link (left)")
+    yaw_rad: float = Field(
+        0.0,
+        ge=-3.1416,
+        le=3.1416,
+        description="[rad] lidar yaw in base_link, counter-clockwise from the robot's forward",
+    )
+    min_range_m: float = Field(
+        0.1,
+        ge=0,
+        le=10,
+        description="[m] shorter ranges are ignored (the robot's own body, dust on the window)",
+    )
 
 
 class ChassisConfig(Section):
@@ -334,12 +347,8 @@ class SlamConfig(Section):
     voxel_size_m: float = Field(
         0.1, ge=0.01, le=2, description="[m] voxel size for scan downsampling and ICP"
     )
-    min_range_m: float = Field(0.1, ge=0, le=10, description="[m] shorter ranges are ignored")
-    max_range_m: float = Field(12.0, gt=0, le=100, description="[m] longer ranges are ignored")
-    laser_x_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar x in base_link")
-    laser_y_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar y in base_link")
-    laser_yaw_rad: float = Field(
-        0.0, ge=-3.1416, le=3.1416, description="[rad] lidar yaw in base_link"
+    max_range_m: float = Field(
+        12.0, gt=0, le=100, description="[m] longer ranges are not used for mapping and matching"
     )
     search_xy_m: float = Field(
         0.3, gt=0, le=5, description="[m] half-width of the correlative search window in x and y"
@@ -402,18 +411,9 @@ class SlamConfig(Section):
     load_map: str | None = Field(
         None,
         examples=["maps/office.yaml"],
-        description="map .yaml to load at start-up and localize on; unset: start a new map",
+        **restart("map .yaml to load at start-up and localize on; unset: start a new map"),
     )
     save_on_shutdown: bool = Field(False, description="save the map when the daemon stops")
-
-    @model_validator(mode="after")
-    def _ranges_ordered(self) -> SlamConfig:
-        if self.min_range_m >= self.max_range_m:
-            raise ValueError(
-                f"slam.min_range_m ({self.min_range_m}) must be below "
-                f"slam.max_range_m ({self.max_range_m})"
-            )
-        return self
 
 
 class EstimationConfig(Section):
@@ -563,6 +563,11 @@ class WorldConfig(Section):
                 "world.datum_latitude_deg and world.datum_longitude_deg must be set together "
                 "(or both left unset to take the datum from the first good fix)"
             )
+        if self.datum_latitude_deg is not None and not -80 <= self.datum_latitude_deg <= 84:
+            raise ValueError(
+                f"world.datum_latitude_deg ({self.datum_latitude_deg}) is outside UTM's "
+                "latitude range [-80, 84], which the map frame is projected through"
+            )
         return self
 
 
@@ -658,6 +663,12 @@ class PlanningConfig(Section):
     obstacle_persistence_s: float = Field(
         2.0, ge=0, le=600, description="[s] a scan obstacle not seen again is forgotten after this"
     )
+    obstacle_range_m: float = Field(
+        12.0,
+        gt=0,
+        le=100,
+        description="[m] lidar ranges farther than this neither mark nor clear scan obstacles",
+    )
     smooth_path: bool = Field(True, description="shortcut the A* path where the line is clear")
     stuck_rotation_tolerance_rad: float = Field(
         0.5, gt=0, le=6.3, description="[rad] turning this far also counts as progress"
@@ -724,6 +735,7 @@ class NavdConfig(BaseModel):
     model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
 
     robot: RobotConfig = Field(default_factory=RobotConfig)
+    lidar: LidarConfig = Field(default_factory=LidarConfig)
     chassis: ChassisConfig = Field(default_factory=ChassisConfig)
     tcp: TcpConfig = Field(default_factory=TcpConfig)
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
@@ -736,6 +748,14 @@ class NavdConfig(BaseModel):
 
     @model_validator(mode="after")
     def _across_sections(self) -> NavdConfig:
+        for reach, key in (
+            (self.slam.max_range_m, "slam.max_range_m"),
+            (self.planning.obstacle_range_m, "planning.obstacle_range_m"),
+        ):
+            if self.lidar.min_range_m >= reach:
+                raise ValueError(
+                    f"lidar.min_range_m ({self.lidar.min_range_m}) must be below {key} ({reach})"
+                )
         top_yaw = max(row[1] for row in self.planning.angular_limit_table)
         if top_yaw > self.robot.max_angular_speed_radps:
             raise ValueError(

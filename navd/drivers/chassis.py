@@ -13,10 +13,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+from dataclasses import dataclass
 from typing import Any
 
 import serial
 
+from navd.config import NavdConfig
 from navd.drivers.errors import SerialPortError
 from navd.drivers.kinematics import (
     WheelCalibration,
@@ -36,11 +38,55 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["ChassisDriver"]
+__all__ = ["ChassisDriver", "ChassisSettings"]
 
 LINE_ENDINGS = {"lf": "\n", "crlf": "\r\n"}
 MAX_FEEDBACK_LINE = 256
 TRAFFIC_ID = "chassis"  # the chassis's name in the line counters (and in WheelOdometry)
+
+
+@dataclass(frozen=True, slots=True)
+class ChassisSettings:
+    """The chassis driver's settings.
+
+    Attributes:
+        port, baudrate: the serial device and its speed (they need a restart).
+        line_ending: what ends each command line ("\\n" or "\\r\\n").
+        period_s: [s] one command line is written per period.
+        calibration: wheel speeds to the STM32's integers and back.
+        track_width_m: [m] between the wheels.
+        reaction_timeout_s: [s] no fresh command for this long writes "0 0".
+        reconnect_initial_s, reconnect_max_s: [s] the backoff reopening a lost port.
+        feedback: "off", "log" or "encoders" (what the lines the STM32 sends are).
+    """
+
+    port: str
+    baudrate: int
+    line_ending: str
+    period_s: float
+    calibration: WheelCalibration
+    track_width_m: float
+    reaction_timeout_s: float
+    reconnect_initial_s: float
+    reconnect_max_s: float
+    feedback: str
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> ChassisSettings:
+        """The settings the chassis, robot and safety sections describe."""
+        chassis = config.chassis
+        return cls(
+            port=chassis.port,
+            baudrate=chassis.baudrate,
+            line_ending=LINE_ENDINGS[chassis.line_ending],
+            period_s=1.0 / chassis.command_rate_hz,
+            calibration=WheelCalibration.from_config(chassis),
+            track_width_m=config.robot.track_width_m,
+            reaction_timeout_s=config.safety.reaction_timeout_s,
+            reconnect_initial_s=chassis.reconnect_initial_s,
+            reconnect_max_s=chassis.reconnect_max_s,
+            feedback=chassis.feedback,
+        )
 
 
 class ChassisDriver(Module):
@@ -54,10 +100,12 @@ class ChassisDriver(Module):
         self._timed_out = True
         self._lost_reason = ""
         self._rx = bytearray()
+        self._reading = False
         self.writes_stalled = 0
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self.settings = ctx.settings(ChassisSettings, self._settings_changed)
         ctx.subscribe(DriveCommand, self._on_drive)
         ctx.subscribe(SafeStop, self._on_safe_stop)
 
@@ -69,6 +117,17 @@ class ChassisDriver(Module):
             with contextlib.suppress(SerialPortError):
                 self._write(0, 0)
             self._close()
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
+
+    def _settings_changed(self, _old: ChassisSettings, new: ChassisSettings) -> None:
+        # The feedback lines are read only when they are used.
+        if self._port is not None:
+            if new.feedback == "off":
+                self._stop_reading()
+            else:
+                self._start_reading()
 
     # --- bus ----------------------------------------------------------------------------
 
@@ -86,8 +145,7 @@ class ChassisDriver(Module):
     # --- the serial loop ----------------------------------------------------------------
 
     async def _run(self) -> None:
-        chassis = self.ctx.config.chassis
-        backoff = chassis.reconnect_initial_s
+        backoff = self.settings.value.reconnect_initial_s
         reported_down = False
         while True:
             try:
@@ -95,19 +153,22 @@ class ChassisDriver(Module):
             except SerialPortError as err:
                 if not reported_down:
                     self.ctx.log.error(
-                        "chassis_unavailable", port=chassis.port, error=str(err), retry_s=backoff
+                        "chassis_unavailable",
+                        port=self.settings.value.port,
+                        error=str(err),
+                        retry_s=backoff,
                     )
                     self._publish_lost(str(err))
                     reported_down = True
                 await self.ctx.clock.sleep(backoff)
-                backoff = min(backoff * 2.0, self.ctx.config.chassis.reconnect_max_s)
+                backoff = min(backoff * 2.0, self.settings.value.reconnect_max_s)
                 continue
-            backoff = chassis.reconnect_initial_s
+            backoff = self.settings.value.reconnect_initial_s
             reported_down = False
             try:
                 await self._drive_loop()
             except SerialPortError as err:
-                self.ctx.log.error("chassis_lost", port=chassis.port, error=str(err))
+                self.ctx.log.error("chassis_lost", port=self.settings.value.port, error=str(err))
                 self._publish_lost(str(err))
             except Exception as err:  # the serial task's supervised boundary: never go silent
                 # a dead loop would leave the STM32 executing its last command: report, stop
@@ -121,34 +182,34 @@ class ChassisDriver(Module):
             reported_down = True
 
     async def _open(self) -> None:
-        chassis = self.ctx.config.chassis
+        settings = self.settings.value
         try:
             port = await asyncio.to_thread(
                 serial.Serial,
-                port=chassis.port,
-                baudrate=chassis.baudrate,
+                port=settings.port,
+                baudrate=settings.baudrate,
                 timeout=0,
                 write_timeout=0,
             )
         except (serial.SerialException, OSError, ValueError) as err:
-            raise SerialPortError(f"cannot open {chassis.port}: {err}") from err
+            raise SerialPortError(f"cannot open {settings.port}: {err}") from err
         self._port = port
         self._lost_reason = ""
         self._latest = None  # never replay a command from before the port was (re)opened
         self._rx.clear()
         self._write(0, 0)
-        if self.ctx.config.chassis.feedback != "off":
-            asyncio.get_running_loop().add_reader(port.fileno(), self._readable)
-        self.ctx.log.info("chassis_open", port=chassis.port, baudrate=chassis.baudrate)
+        if self.settings.value.feedback != "off":
+            self._start_reading()
+        self.ctx.log.info("chassis_open", port=settings.port, baudrate=settings.baudrate)
         now = self.ctx.clock.now()
         self.ctx.publish(
             DeviceConnected(
-                stamp=now, received=now, device_id=chassis.port, kind=DeviceKind.CHASSIS
+                stamp=now, received=now, device_id=settings.port, kind=DeviceKind.CHASSIS
             )
         )
 
     async def _drive_loop(self) -> None:
-        async for _ in ticks(self.ctx.clock, 1.0 / self.ctx.config.chassis.command_rate_hz):
+        async for _ in ticks(self.ctx.clock, lambda: self.settings.value.period_s):
             if self._lost_reason:
                 raise SerialPortError(self._lost_reason)
             self._write(*self._command_now())
@@ -156,7 +217,8 @@ class ChassisDriver(Module):
     def _command_now(self) -> tuple[int, int]:
         cmd = self._latest
         now = self.ctx.clock.now()
-        timeout = self.ctx.config.safety.reaction_timeout_s
+        settings = self.settings.value
+        timeout = settings.reaction_timeout_s
         if cmd is None or now - self._latest_rx_s > timeout:
             if not self._timed_out and cmd is not None:
                 self.ctx.log.warning(
@@ -167,14 +229,13 @@ class ChassisDriver(Module):
             self._timed_out = True
             return 0, 0
         self._timed_out = False
-        config = self.ctx.config
-        left, right = wheel_speeds(cmd.linear_mps, cmd.angular_radps, config.robot.track_width_m)
-        return wheel_command(left, right, WheelCalibration.from_config(config.chassis))
+        left, right = wheel_speeds(cmd.linear_mps, cmd.angular_radps, settings.track_width_m)
+        return wheel_command(left, right, settings.calibration)
 
     # --- port I/O -----------------------------------------------------------------------
 
     def _write(self, left: int, right: int) -> None:
-        line = format_command(left, right, LINE_ENDINGS[self.ctx.config.chassis.line_ending])
+        line = format_command(left, right, self.settings.value.line_ending)
         try:
             self._port.write(line)
             self.ctx.traffic.add_sent(TRAFFIC_ID)
@@ -183,7 +244,7 @@ class ChassisDriver(Module):
             if self.writes_stalled == 1 or self.writes_stalled % 100 == 0:
                 self.ctx.log.warning(
                     "chassis_write_stalled",
-                    port=self.ctx.config.chassis.port,
+                    port=self.settings.value.port,
                     stalled_lines=self.writes_stalled,
                 )
         except (serial.SerialException, OSError) as err:
@@ -213,8 +274,10 @@ class ChassisDriver(Module):
             self._rx.clear()
 
     def _feedback(self, line: bytes) -> None:
-        config = self.ctx.config
-        if config.chassis.feedback == "log":
+        settings = self.settings.value
+        if settings.feedback == "off":
+            return  # switched off while the line was waiting its turn
+        if settings.feedback == "log":
             self.ctx.log.info("chassis_feedback", line=line.decode(errors="replace"))
             return
         try:
@@ -226,10 +289,10 @@ class ChassisDriver(Module):
                 expected="two integers '%d %d'",
             )
             return
-        cal = WheelCalibration.from_config(config.chassis)
+        cal = settings.calibration
         left = (-left_units if cal.invert_left else left_units) / cal.scale_per_mps
         right = (-right_units if cal.invert_right else right_units) / cal.scale_per_mps
-        linear, angular = body_velocity(left, right, config.robot.track_width_m)
+        linear, angular = body_velocity(left, right, settings.track_width_m)
         now = self.ctx.clock.now()
         self.ctx.publish(
             WheelOdometry(
@@ -241,8 +304,14 @@ class ChassisDriver(Module):
             )
         )
 
+    def _start_reading(self) -> None:
+        if self._port is not None and not self._reading:
+            asyncio.get_running_loop().add_reader(self._port.fileno(), self._readable)
+            self._reading = True
+
     def _stop_reading(self) -> None:
-        if self._port is not None:
+        if self._port is not None and self._reading:
+            self._reading = False
             with contextlib.suppress(ValueError, OSError, RuntimeError):
                 asyncio.get_running_loop().remove_reader(self._port.fileno())
 
@@ -260,7 +329,7 @@ class ChassisDriver(Module):
             DeviceLost(
                 stamp=now,
                 received=now,
-                device_id=self.ctx.config.chassis.port,
+                device_id=self.settings.value.port,
                 kind=DeviceKind.CHASSIS,
                 reason=reason,
             )

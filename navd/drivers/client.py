@@ -1,31 +1,98 @@
-"""A small blocking client of the wire protocol, for the ``navd goal/cancel/status`` commands,
-tests and benchmarks. Any language can do the same in a few dozen lines (docs/protocol.md)."""
+"""navd's Python client: one connection to the daemon, blocking (``Client``) or asyncio
+(``AsyncClient``), speaking typed frames.
+
+The CLI's control commands, the simulator's sensors and clock, the benchmarks' sensor
+programs and the tests all talk to navd through these two classes; docs/protocol.md shows
+them as navd's Python API. Any other language can do the same in a few dozen lines.
+
+    with Client("127.0.0.1", 7420) as navd:
+        ack = navd.request(GoalFrame(x=2.0, y=1.5))
+"""
 
 from __future__ import annotations
 
-import json
+import asyncio
+import contextlib
 import socket
-from typing import Any
+import time
+from typing import TypeVar
 
-from navd.drivers.errors import DriverError
-from navd.drivers.wire import PROTOCOL_VERSION
+from navd.drivers.errors import DriverError, WireError
+from navd.drivers.protocol.codec import decode_reply, encode
+from navd.drivers.protocol.frames import Frame, Hello
+from navd.drivers.protocol.replies import Ack, ErrorFrame, Reply, Welcome
 
-__all__ = ["Client", "ClientError"]
+__all__ = ["AsyncClient", "Client", "ClientError", "ConnectionClosedError", "RequestRefusedError"]
+
+R = TypeVar("R", bound=Reply)
+READ_LIMIT_BYTES = 1 << 24  # longest reply line an AsyncClient reads (a status frame is ~4 KB)
 
 
 class ClientError(DriverError):
-    """The daemon refused the connection or a request, or could not be reached."""
+    """navd could not be reached, refused the connection, or answered what was not expected."""
+
+
+class ConnectionClosedError(ClientError):
+    """navd closed the connection."""
+
+
+class RequestRefusedError(ClientError):
+    """navd answered a request (or the hello) with an error frame.
+
+    Attributes:
+        error: the error frame.
+    """
+
+    def __init__(self, what: str, error: ErrorFrame) -> None:
+        super().__init__(f"navd refused the {what}: {error.describe()}")
+        self.error = error
+
+
+def _hello(role: str, device_id: str, token: str | None) -> bytes:
+    return encode(Hello(role=role, device_id=device_id, token=token))  # type: ignore[arg-type]
+
+
+def _welcome(reply: Reply) -> Welcome:
+    if isinstance(reply, Welcome):
+        return reply
+    if isinstance(reply, ErrorFrame):
+        raise RequestRefusedError("connection", reply)
+    raise ClientError(f"navd answered the hello with a {reply.type!r} frame")
+
+
+def _decode(line: bytes) -> Reply:
+    if not line:
+        raise ConnectionClosedError("navd closed the connection")
+    try:
+        return decode_reply(line)
+    except WireError as err:
+        raise ClientError(
+            f"navd sent a line this client cannot read ({err}): {line[:200]!r}"
+        ) from err
+
+
+def _answer(reply: Reply, frame: Frame) -> Ack | None:
+    """The ack of ``frame`` if ``reply`` is it; raises if ``reply`` refuses it."""
+    if isinstance(reply, ErrorFrame):
+        raise RequestRefusedError(f"{frame.type} request", reply)
+    if isinstance(reply, Ack) and reply.request == frame.type:
+        return reply
+    return None
 
 
 class Client:
-    """One connection to navd, after a successful hello.
+    """A blocking connection to navd, after a successful hello.
 
     Args:
         host, port: where navd listens.
-        role: "control" or a sensor kind.
+        role: "control", a sensor kind ("lidar", "imu", "gps", "compass",
+            "wheel_odometry"), or "clock".
         device_id: this client's name.
         token: the shared secret, when the daemon requires one.
-        timeout_s: [s] socket timeout for connecting and reading.
+        timeout_s: [s] socket timeout for connecting and each read (None: wait for ever).
+
+    Raises:
+        ClientError: navd cannot be reached or refused the hello.
     """
 
     def __init__(
@@ -36,7 +103,7 @@ class Client:
         role: str = "control",
         device_id: str = "cli",
         token: str | None = None,
-        timeout_s: float = 5.0,
+        timeout_s: float | None = 5.0,
     ) -> None:
         try:
             self.sock = socket.create_connection((host, port), timeout=timeout_s)
@@ -44,55 +111,56 @@ class Client:
             raise ClientError(f"cannot reach navd at {host}:{port}: {err}") from err
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._reader = self.sock.makefile("rb")
-        hello: dict[str, Any] = {
-            "type": "hello",
-            "protocol": PROTOCOL_VERSION,
-            "role": role,
-            "device_id": device_id,
-        }
-        if token is not None:
-            hello["token"] = token
-        self.send(hello)
-        welcome = self.receive()
-        if welcome.get("type") != "welcome":
+        try:
+            self.sock.sendall(_hello(role, device_id, token))
+            self.welcome = _welcome(self.receive())
+        except BaseException:
             self.close()
-            raise ClientError(f"navd refused the connection: {_reason(welcome)}")
-        self.welcome = welcome
+            raise
 
-    def send(self, frame: dict[str, Any]) -> None:
+    def send(self, frame: Frame) -> None:
         """Send one frame."""
-        self.sock.sendall(json.dumps(frame, separators=(",", ":")).encode() + b"\n")
+        self.send_raw(encode(frame))
 
-    def receive(self) -> dict[str, Any]:
+    def send_raw(self, data: bytes) -> None:
+        """Send bytes as they are: encoded frames (a burst of them in one write), or, in
+        tests, what a broken client would send."""
+        self.sock.sendall(data)
+
+    def receive(self) -> Reply:
         """The next frame from navd.
 
         Raises:
-            ClientError: the connection closed or timed out.
+            ConnectionClosedError: navd closed the connection.
+            ClientError: nothing came in time, or a line that is not a reply.
         """
         try:
             line = self._reader.readline()
         except TimeoutError as err:
             raise ClientError("navd did not answer in time") from err
-        if not line:
-            raise ClientError("navd closed the connection")
-        frame: dict[str, Any] = json.loads(line)
-        return frame
+        return _decode(line)
 
-    def request(self, frame: dict[str, Any]) -> dict[str, Any]:
-        """Send a request and return its ack, skipping unrelated frames (status, goal_status).
+    def receive_type(self, kind: type[R]) -> R:
+        """The next frame of ``kind``, skipping others (status, goal progress)."""
+        while True:
+            reply = self.receive()
+            if isinstance(reply, kind):
+                return reply
+
+    def request(self, frame: Frame) -> Ack:
+        """Send a request and return its ack, skipping unrelated frames.
 
         Raises:
-            ClientError: navd answered with an error.
+            RequestRefusedError: navd answered with an error.
         """
         self.send(frame)
         while True:
-            answer = self.receive()
-            if answer.get("type") == "error":
-                raise ClientError(_reason(answer))
-            if answer.get("type") == "ack" and answer.get("request") == frame["type"]:
-                return answer
+            ack = _answer(self.receive(), frame)
+            if ack is not None:
+                return ack
 
     def close(self) -> None:
+        """Close the connection."""
         self._reader.close()
         self.sock.close()
 
@@ -103,8 +171,135 @@ class Client:
         self.close()
 
 
-def _reason(frame: dict[str, Any]) -> str:
-    if frame.get("type") == "error":
-        field = frame.get("field")
-        return f"{field}: {frame.get('reason')}" if field else str(frame.get("reason"))
-    return f"unexpected frame {frame}"
+class AsyncClient:
+    """An asyncio connection to navd: ``await AsyncClient.connect(...)`` says hello and
+    returns once welcomed; ``open`` only connects (a test of the handshake says its own).
+
+    Args:
+        reader, writer: the open streams.
+        welcome: navd's answer to the hello (None before it).
+    """
+
+    def __init__(
+        self,
+        reader: asyncio.StreamReader,
+        writer: asyncio.StreamWriter,
+        welcome: Welcome | None = None,
+    ) -> None:
+        self.reader = reader
+        self.writer = writer
+        self.welcome = welcome
+
+    @classmethod
+    async def open(cls, host: str, port: int, *, ready_timeout_s: float = 0.0) -> AsyncClient:
+        """A connection that has said nothing yet.
+
+        Args:
+            ready_timeout_s: [s] keep trying this long while nobody listens yet (a daemon
+                still starting).
+
+        Raises:
+            ClientError: nobody listened in time.
+        """
+        deadline = time.monotonic() + ready_timeout_s
+        while True:
+            try:
+                reader, writer = await asyncio.open_connection(host, port, limit=READ_LIMIT_BYTES)
+            except OSError as err:
+                if time.monotonic() >= deadline:
+                    raise ClientError(f"cannot reach navd at {host}:{port}: {err}") from err
+                await asyncio.sleep(0.1)
+                continue
+            return cls(reader, writer)
+
+    @classmethod
+    async def connect(
+        cls,
+        host: str,
+        port: int,
+        *,
+        role: str = "control",
+        device_id: str = "client",
+        token: str | None = None,
+        timeout_s: float = 5.0,
+        ready_timeout_s: float = 0.0,
+    ) -> AsyncClient:
+        """Connect and say hello.
+
+        Args:
+            host, port, role, device_id, token: as for ``Client``.
+            timeout_s: [s] time navd has to answer the hello.
+            ready_timeout_s: [s] keep trying this long while nobody listens yet.
+
+        Raises:
+            ClientError: navd cannot be reached, refused the hello, or did not answer it.
+        """
+        client = await cls.open(host, port, ready_timeout_s=ready_timeout_s)
+        client.send_raw(_hello(role, device_id, token))
+        try:
+            client.welcome = _welcome(await client.receive(timeout_s))
+        except BaseException as err:
+            client.writer.close()
+            if isinstance(err, TimeoutError):
+                raise ClientError(f"navd did not answer the hello within {timeout_s} s") from err
+            raise
+        return client
+
+    def send(self, frame: Frame) -> None:
+        """Queue one frame (``drain`` waits until the kernel took it)."""
+        self.writer.write(encode(frame))
+
+    def send_raw(self, data: bytes) -> None:
+        """Queue bytes as they are (encoded frames, or a broken client's bytes in tests)."""
+        self.writer.write(data)
+
+    async def drain(self) -> None:
+        """Wait until the queued bytes are handed to the kernel."""
+        await self.writer.drain()
+
+    async def receive(self, timeout_s: float = 5.0) -> Reply:
+        """The next frame from navd.
+
+        Raises:
+            TimeoutError: nothing came within ``timeout_s``.
+            ConnectionClosedError: navd closed the connection.
+        """
+        return _decode(await asyncio.wait_for(self.reader.readline(), timeout_s))
+
+    async def receive_type(self, kind: type[R], timeout_s: float = 5.0) -> R:
+        """The next frame of ``kind`` within ``timeout_s`` [s], skipping others.
+
+        Raises:
+            TimeoutError, ConnectionClosedError: as for ``receive``.
+        """
+
+        async def find() -> R:
+            while True:
+                reply = _decode(await self.reader.readline())
+                if isinstance(reply, kind):
+                    return reply
+
+        return await asyncio.wait_for(find(), timeout_s)
+
+    async def request(self, frame: Frame, timeout_s: float = 10.0) -> Ack:
+        """Send a request and wait for its ack, skipping unrelated frames.
+
+        Raises:
+            RequestRefusedError: navd answered with an error.
+            TimeoutError: no ack within ``timeout_s``.
+        """
+        self.send(frame)
+
+        async def find() -> Ack:
+            while True:
+                ack = _answer(_decode(await self.reader.readline()), frame)
+                if ack is not None:
+                    return ack
+
+        return await asyncio.wait_for(find(), timeout_s)
+
+    async def close(self) -> None:
+        """Close the connection."""
+        self.writer.close()
+        with contextlib.suppress(ConnectionError):
+            await self.writer.wait_closed()

@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
-from navd.estimation.angles import bearing_to_yaw, wrap_angle
+from navd.config import EstimationConfig, NavdConfig, WorldConfig
+from navd.estimation.bearing import bearing_to_yaw
 from navd.estimation.errors import GeoError
 from navd.estimation.geo import GeoFrame
-from navd.estimation.history import Event, EventHistory, Insert
+from navd.estimation.history import Event, EventHistory, HistorySettings, Insert
 from navd.estimation.madgwick import MadgwickFilter
 from navd.estimation.motion_model import (
     STATE_SIZE,
@@ -34,7 +34,8 @@ from navd.estimation.motion_model import (
     Y,
     transition_matrix,
 )
-from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf
+from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, UkfSettings
+from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
     CompassHeading,
     GpsFix,
@@ -46,7 +47,7 @@ from navd.lifecycle.messages import (
 )
 from navd.logs import get_logger
 
-__all__ = ["Localization", "StateEstimator"]
+__all__ = ["EstimatorSettings", "Localization", "StateEstimator"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -72,58 +73,78 @@ class _Counts:
         self.ignored[reason] = self.ignored.get(reason, 0) + 1
 
 
+@dataclass(frozen=True, slots=True)
+class EstimatorSettings:
+    """What the estimator runs on: the estimation and world sections, frozen as they are.
+
+    Attributes:
+        estimation: gains, noises, gates, history and localization thresholds.
+        world: the geographic frame (datum, UTM zone, map rotation, declination).
+    """
+
+    estimation: EstimationConfig
+    world: WorldConfig
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> EstimatorSettings:
+        """The settings the estimation and world sections describe."""
+        return cls(config.estimation, config.world)
+
+
 class StateEstimator:
     """Fuses IMU, lidar poses, GPS, compass and wheel odometry into one pose.
 
     Args:
-        config: the whole config (estimation and world sections are used).
+        settings: the estimation and world sections; ``configure`` swaps them.
     """
 
-    def __init__(self, config: NavdConfig) -> None:
-        self.madgwick = MadgwickFilter(config.estimation)
+    def __init__(self, settings: EstimatorSettings) -> None:
+        self.settings = settings
+        self.madgwick = MadgwickFilter(settings.estimation)
         self._counts = _Counts()
         self.geo: GeoFrame | None = None
         self._last_compass_yaw: tuple[float, float, float] | None = None  # stamp, yaw, std
-        self.config = config
-        self.history = self._new_history()
-        self.configure(config)
+        est = settings.estimation
+        self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
+        self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
+        world = settings.world
+        if world.datum_latitude_deg is not None and world.datum_longitude_deg is not None:
+            self.geo = self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
 
     # --- configuration --------------------------------------------------------------------
 
-    def configure(self, config: NavdConfig) -> None:
-        """Take a new config; the filter state is kept (Merwe parameters apply on restart)."""
-        self.config = config
-        est = config.estimation
+    def configure(self, settings: EstimatorSettings) -> None:
+        """Take new settings; the filter state, the IMU orientation and the map's
+        geographic anchor are kept (a new datum or frame re-anchors the GPS conversion)."""
+        old, self.settings = self.settings, settings
+        est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.madgwick.configure(est)
-        world = config.world
-        if self.geo is None and world.datum_latitude_deg is not None:
-            assert world.datum_longitude_deg is not None  # the model requires the pair
-            self.geo = self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
-        self.history.horizon_s = est.history_horizon_s
-        self.history.max_events = est.max_events
-        self.history.reset_inflation = est.reset_inflation
+        self.history.settings = HistorySettings.of(est)
+        ukf = UkfSettings.of(est)
+        if ukf != self.history.ukf.settings:
+            self.history.ukf = PoseUkf(ukf)  # the state lives in the history, not the filter
+        if settings.world != old.world:
+            self.geo = self._regeo(settings.world)
 
-    def _new_history(self) -> EventHistory:
-        est = self.config.estimation
-        ukf = PoseUkf(
-            alpha=est.ukf_alpha,
-            beta=est.ukf_beta,
-            kappa=est.ukf_kappa,
-            linear_jerk_psd=est.accel_noise_mps2**2,
-            angular_jerk_psd=est.angular_accel_noise_radps2**2,
-        )
-        return EventHistory(
-            ukf,
-            horizon_s=est.history_horizon_s,
-            max_events=est.max_events,
-            reset_inflation=est.reset_inflation,
-        )
+    def settings_in_use(self) -> tuple[object, ...]:
+        """The settings each part holds now."""
+        history = self.history
+        return (self.settings, self.madgwick.settings, history.settings, history.ukf.settings)
+
+    def _regeo(self, world: WorldConfig) -> GeoFrame | None:
+        """The geographic frame after a change of the world section: at the configured
+        datum, or (without one) at the datum the first good fix set, in the new frame."""
+        if world.datum_latitude_deg is not None and world.datum_longitude_deg is not None:
+            return self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
+        if self.geo is None:
+            return None
+        return self._geo_frame(*self.geo.datum, self.geo.datum_map_xy_m)
 
     def _geo_frame(
         self, latitude_deg: float, longitude_deg: float, at_xy: tuple[float, float] = (0.0, 0.0)
     ) -> GeoFrame:
-        world = self.config.world
+        world = self.settings.world
         return GeoFrame(
             latitude_deg,
             longitude_deg,
@@ -151,12 +172,12 @@ class StateEstimator:
             cov,
             pose.stamp,
         )
-        gate = self.config.estimation.lidar_gate_chi2
+        gate = self.settings.estimation.lidar_gate_chi2
         return self._insert(Event(pose.stamp, pose.source, measurement, gate), now)
 
     def add_gps(self, fix: GpsFix, now: float) -> Insert | None:
         """A GNSS fix: ignored if stale, before a datum exists, or off the map."""
-        world = self.config.world
+        world = self.settings.world
         if now - fix.stamp > world.coords_lifetime_s:
             self._counts.ignore("gps_stale")
             return None
@@ -179,12 +200,12 @@ class StateEstimator:
         measurement = self._measurement(
             (Row.X, Row.Y), [x, y], np.diag([variance, variance]), fix.stamp
         )
-        gate = self.config.estimation.gps_gate_chi2
+        gate = self.settings.estimation.gps_gate_chi2
         return self._insert(Event(fix.stamp, "gps", measurement, gate), now)
 
     def _take_datum(self, fix: GpsFix) -> bool:
         """Anchor the map to ``fix`` if it is good enough; the robot keeps its map position."""
-        if fix.horizontal_accuracy_m > self.config.estimation.datum_max_accuracy_m:
+        if fix.horizontal_accuracy_m > self.settings.estimation.datum_max_accuracy_m:
             self._counts.ignore("gps_before_datum")
             return False
         at_xy = (0.0, 0.0)
@@ -200,7 +221,7 @@ class StateEstimator:
 
     def add_compass(self, heading: CompassHeading, now: float) -> Insert | None:
         """A compass bearing, converted to map yaw (never used as a yaw unconverted)."""
-        world = self.config.world
+        world = self.settings.world
         yaw = bearing_to_yaw(
             heading.bearing_deg,
             declination_deg=world.magnetic_declination_deg,
@@ -213,14 +234,14 @@ class StateEstimator:
         if not self.history.initialized:
             return None
         measurement = self._measurement((Row.YAW,), [yaw], np.array([[std * std]]), heading.stamp)
-        gate = self.config.estimation.compass_gate_chi2
+        gate = self.settings.estimation.compass_gate_chi2
         return self._insert(Event(heading.stamp, "compass", measurement, gate), now)
 
     def add_wheel_odometry(self, odom: WheelOdometry, now: float) -> Insert | None:
         """Wheel encoder velocities (only once the filter runs; they carry no position)."""
         if not self.history.initialized:
             return None
-        est = self.config.estimation
+        est = self.settings.estimation
         r = np.diag([est.wheel_linear_std_mps**2, est.wheel_angular_std_radps**2])
         measurement = self._measurement(
             (Row.VELOCITY_FORWARD, Row.YAW_RATE),
@@ -275,7 +296,7 @@ class StateEstimator:
         cov = estimate.covariance
         position_std = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2])[-1]), 0.0))
         yaw_std = math.sqrt(max(float(cov[2, 2]), 0.0))
-        est = self.config.estimation
+        est = self.settings.estimation
         if position_std > est.lost_position_std_m:
             return Localization.LOST, position_std, yaw_std
         if position_std > est.degraded_position_std_m:
@@ -325,7 +346,7 @@ class StateEstimator:
         return outcome
 
     def _start(self, stamp: float, x: float, y: float, yaw: float, cov3: FloatArray) -> None:
-        est = self.config.estimation
+        est = self.settings.estimation
         state = np.zeros(STATE_SIZE)
         state[X], state[Y], state[TH] = x, y, wrap_angle(yaw)
         variances = np.full(STATE_SIZE, est.initial_velocity_std_mps**2)
@@ -346,7 +367,7 @@ class StateEstimator:
         self, rows: tuple[Row, ...], z: list[float], r: FloatArray, stamp: float
     ) -> Measurement:
         """The sensor's rows followed by the IMU window and the no-sliding constraint."""
-        est = self.config.estimation
+        est = self.settings.estimation
         window = self.madgwick.window_mean(stamp, est.imu_window_s)
         tail_rows: tuple[Row, ...] = ()
         tail_values: tuple[float, ...] = ()

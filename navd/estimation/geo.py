@@ -79,6 +79,7 @@ class GeoFrame:
         easting, northing = self._project(datum_latitude_deg, datum_longitude_deg)
         self._anchor = _Anchor(easting, northing, datum_map_xy_m[0], datum_map_xy_m[1])
         self.datum = (datum_latitude_deg, datum_longitude_deg)
+        self.datum_map_xy_m = datum_map_xy_m
         # Grid convergence from a short step north: where true north points on the grid.
         north_e, north_n = self._project(datum_latitude_deg + 1e-4, datum_longitude_deg)
         self.grid_convergence_rad = math.pi / 2.0 - math.atan2(

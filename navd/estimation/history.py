@@ -20,10 +20,11 @@ from enum import Enum
 import numpy as np
 import numpy.typing as npt
 
+from navd.config import EstimationConfig, NavdConfig
 from navd.estimation.motion_model import STATE_SIZE, TH
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, StepOutcome
 
-__all__ = ["Event", "EventHistory", "Insert", "Snapshot"]
+__all__ = ["Event", "EventHistory", "HistorySettings", "Insert", "Snapshot"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -92,23 +93,44 @@ class Counters:
     rejected: dict[str, int] = field(default_factory=dict)
 
 
-class EventHistory:
-    """The filter driven by time-ordered events, able to rewind.
+@dataclass(frozen=True, slots=True)
+class HistorySettings:
+    """How far back the history reaches.
 
-    Args:
-        ukf: the filter to drive (its state is owned by the history from now on).
+    Attributes:
         horizon_s: [s] how far back late events are accepted.
         max_events: most events kept (and most deferred).
         reset_inflation: covariance scale when the filter is reset after a numerical failure.
     """
 
-    def __init__(
-        self, ukf: PoseUkf, *, horizon_s: float, max_events: int, reset_inflation: float
-    ) -> None:
+    horizon_s: float
+    max_events: int
+    reset_inflation: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> HistorySettings:
+        """The settings the estimation section describes."""
+        return cls.of(config.estimation)
+
+    @classmethod
+    def of(cls, est: EstimationConfig) -> HistorySettings:
+        """The settings of an estimation section."""
+        return cls(est.history_horizon_s, est.max_events, est.reset_inflation)
+
+
+class EventHistory:
+    """The filter driven by time-ordered events, able to rewind.
+
+    Args:
+        ukf: the filter to drive (its state is owned by the history from now on; ``ukf``
+            may be replaced by one with other settings at any time).
+        settings: horizon, event bound and reset inflation; ``settings`` may be replaced
+            whole at any time (events kept beyond a shorter horizon go at the next insert).
+    """
+
+    def __init__(self, ukf: PoseUkf, settings: HistorySettings) -> None:
         self.ukf = ukf
-        self.horizon_s = horizon_s
-        self.max_events = max_events
-        self.reset_inflation = reset_inflation
+        self.settings = settings
         self.counters = Counters()
         self.last_rejected_mahalanobis_sq = math.nan
         self._base: Snapshot | None = None
@@ -163,7 +185,7 @@ class EventHistory:
         if event.stamp > now + FUTURE_TOLERANCE_S:
             self._defer(event)
             return Insert.DEFERRED
-        if event.stamp < now - self.horizon_s or event.stamp < self._base.stamp:
+        if event.stamp < now - self.settings.horizon_s or event.stamp < self._base.stamp:
             self.counters.too_old += 1
             return Insert.TOO_OLD
         index = bisect.bisect_right(self._stamps, event.stamp)
@@ -193,7 +215,7 @@ class EventHistory:
     def _defer(self, event: Event) -> None:
         self.counters.deferred += 1
         heapq.heappush(self._future, (event.stamp, next(self._order), event))
-        if len(self._future) > self.max_events:
+        if len(self._future) > self.settings.max_events:
             # Keep the soonest; the farthest-future event is the least believable.
             self._future.remove(max(self._future))
             heapq.heapify(self._future)
@@ -212,7 +234,7 @@ class EventHistory:
             self.counters.resets += first
             # Keep the last good mean; a diagonal, inflated covariance is certainly valid.
             variances = np.clip(
-                np.diag(before.p) * self.reset_inflation,
+                np.diag(before.p) * self.settings.reset_inflation,
                 RESET_VARIANCE_FLOOR,
                 RESET_VARIANCE_CEILING,
             )
@@ -226,8 +248,8 @@ class EventHistory:
 
     def _prune(self, now: float) -> None:
         """Forget events older than the horizon, and the oldest beyond ``max_events``."""
-        cutoff = bisect.bisect_left(self._stamps, now - self.horizon_s)
-        excess = len(self._events) - self.max_events
+        cutoff = bisect.bisect_left(self._stamps, now - self.settings.horizon_s)
+        excess = len(self._events) - self.settings.max_events
         if excess > cutoff:
             self.counters.overflow += excess - cutoff
             cutoff = excess

@@ -9,16 +9,17 @@ base_link's (x forward, y left, z up).
 from __future__ import annotations
 
 import math
+from dataclasses import astuple, dataclass
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import EstimationConfig
+from navd.config import EstimationConfig, NavdConfig
 from navd.estimation import _madgwick_kernels as k
 from navd.lifecycle.messages import Imu, Vector3
 
-__all__ = ["GRAVITY_MPS2", "ImuWindow", "MadgwickFilter"]
+__all__ = ["GRAVITY_MPS2", "ImuWindow", "MadgwickFilter", "MadgwickSettings"]
 
 GRAVITY_MPS2 = k.GRAVITY_MPS2
 
@@ -41,6 +42,44 @@ class ImuWindow(NamedTuple):
     accel_forward_mps2: float
     accel_left_mps2: float
     samples: int
+
+
+@dataclass(frozen=True, slots=True)
+class MadgwickSettings:
+    """The filter's gains, in the order the kernels take them (``PARAM_SIZE`` values).
+
+    Attributes:
+        beta_radps: [rad/s] Madgwick gain.
+        accel_reject_mps2: [m/s^2] skip the accelerometer while |accel| is off g by more.
+        bias_gain_per_s: [1/s] how fast gyro bias is learned while still.
+        still_gyro_radps: [rad/s] below this the IMU may be still.
+        still_time_s: [s] stillness needed before bias is learned.
+        max_gap_s: [s] longer gaps between samples are integrated as this.
+    """
+
+    beta_radps: float
+    accel_reject_mps2: float
+    bias_gain_per_s: float
+    still_gyro_radps: float
+    still_time_s: float
+    max_gap_s: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> MadgwickSettings:
+        """The gains the estimation section describes."""
+        return cls.of(config.estimation)
+
+    @classmethod
+    def of(cls, est: EstimationConfig) -> MadgwickSettings:
+        """The gains of an estimation section."""
+        return cls(
+            est.madgwick_beta,
+            est.accel_reject_mps2,
+            est.gyro_bias_gain_per_s,
+            est.still_gyro_radps,
+            est.still_time_s,
+            est.imu_max_gap_s,
+        )
 
 
 class MadgwickFilter:
@@ -69,14 +108,12 @@ class MadgwickFilter:
 
     def configure(self, config: EstimationConfig) -> None:
         """Apply changed gains without losing the orientation."""
-        self._params[:] = (
-            config.madgwick_beta,
-            config.accel_reject_mps2,
-            config.gyro_bias_gain_per_s,
-            config.still_gyro_radps,
-            config.still_time_s,
-            config.imu_max_gap_s,
-        )
+        self._params[:] = astuple(MadgwickSettings.of(config))
+
+    @property
+    def settings(self) -> MadgwickSettings:
+        """The gains the kernels run with now (read back from their parameter array)."""
+        return MadgwickSettings(*(float(v) for v in self._params))
 
     def update(self, imu: Imu) -> bool:
         """Take one sample; returns False if it was not newer than the previous one."""

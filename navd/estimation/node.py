@@ -12,10 +12,9 @@ import dataclasses
 import math
 
 from navd.estimation.errors import GeoError
-from navd.estimation.estimator import Localization, StateEstimator
+from navd.estimation.estimator import EstimatorSettings, Localization, StateEstimator
 from navd.lifecycle.messages import (
     CompassHeading,
-    ConfigApplied,
     GeoGoal,
     Goal,
     GoalStatus,
@@ -50,6 +49,7 @@ class EstimationNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self.settings = ctx.settings(EstimatorSettings, self._settings_changed)
         self.estimator: StateEstimator | None = None
         self.before_ready = 0
         self._pending_pose: InitialPose | None = None
@@ -61,7 +61,6 @@ class EstimationNode(Module):
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(GeoGoal, self._on_geo_goal)
-        ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
         # Building the filter imports filterpy (and with it scipy.stats: about a second), so
@@ -69,16 +68,25 @@ class EstimationNode(Module):
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
         self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)
-        period = 1.0 / self.ctx.config.estimation.publish_rate_hz
-        self.ctx.every(period, self._publish, name="publish")
+        period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz
+        self.ctx.every(lambda: period_s, self._publish, name="publish")
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        estimator = self.estimator
+        parts = () if estimator is None else estimator.settings_in_use()
+        return (self.settings.value, *parts)
 
     def _build(self) -> None:
         try:
-            self.estimator = StateEstimator(self.ctx.config)
+            self.estimator = StateEstimator(self.settings.value)
         except Exception as err:
             self._build_error = err
             return
         self.ctx.log.info("estimator_ready", dropped_before=self.before_ready)
+
+    def _settings_changed(self, _old: EstimatorSettings, new: EstimatorSettings) -> None:
+        if self.estimator is not None:
+            self.estimator.configure(new)
 
     def _ready(self) -> StateEstimator | None:
         if self.estimator is None:
@@ -150,10 +158,6 @@ class EstimationNode(Module):
             )
         )
 
-    def _on_config(self, applied: ConfigApplied) -> None:
-        if self.estimator is not None:
-            self.estimator.configure(applied.config)
-
     def _publish(self, now: float) -> None:
         if self._build_error is not None:
             error, self._build_error = self._build_error, None
@@ -161,6 +165,9 @@ class EstimationNode(Module):
         estimator = self.estimator
         if estimator is None:
             return
+        if estimator.settings is not self.settings.value:
+            # A change that came while the filter was being built in its thread.
+            estimator.configure(self.settings.value)
         if self._pending_pose is not None:
             # Given while the filter was being built: it means "the robot is here now".
             estimator.set_pose(dataclasses.replace(self._pending_pose, stamp=now))

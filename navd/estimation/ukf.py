@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.estimation.angles import wrap_angle, wrap_angles
+from navd.config import EstimationConfig, NavdConfig
 from navd.estimation.motion_model import (
     STATE_SIZE,
     TH,
@@ -30,8 +30,9 @@ from navd.estimation.motion_model import (
     evaluate_rows,
     transition_matrix,
 )
+from navd.geometry.angles import wrap_angle, wrap_angles
 
-__all__ = ["MAX_YAW_STD_RAD", "Measurement", "PoseUkf", "StepOutcome", "angle_mean"]
+__all__ = ["MAX_YAW_STD_RAD", "Measurement", "PoseUkf", "StepOutcome", "UkfSettings", "angle_mean"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -231,24 +232,51 @@ def _bounded_yaw(p: FloatArray) -> FloatArray:
     return p
 
 
-class PoseUkf:
-    """UKF over the 9-state constant-acceleration model.
+@dataclass(frozen=True, slots=True)
+class UkfSettings:
+    """The filter's sigma points and process noise.
 
-    Args:
+    Attributes:
         alpha, beta, kappa: Merwe sigma point parameters.
         linear_jerk_psd: [m²/s⁵] process noise of x and y.
         angular_jerk_psd: [rad²/s⁵] process noise of yaw.
     """
 
-    def __init__(
-        self,
-        *,
-        alpha: float,
-        beta: float,
-        kappa: float,
-        linear_jerk_psd: float,
-        angular_jerk_psd: float,
-    ) -> None:
+    alpha: float
+    beta: float
+    kappa: float
+    linear_jerk_psd: float
+    angular_jerk_psd: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> UkfSettings:
+        """The settings the estimation section describes."""
+        return cls.of(config.estimation)
+
+    @classmethod
+    def of(cls, est: EstimationConfig) -> UkfSettings:
+        """The settings of an estimation section."""
+        return cls(
+            alpha=est.ukf_alpha,
+            beta=est.ukf_beta,
+            kappa=est.ukf_kappa,
+            linear_jerk_psd=est.accel_noise_mps2**2,
+            angular_jerk_psd=est.angular_accel_noise_radps2**2,
+        )
+
+
+class PoseUkf:
+    """UKF over the 9-state constant-acceleration model.
+
+    Args:
+        settings: sigma points and process noise (fixed for the instance: the state lives in
+            the event history, so new settings take a new PoseUkf).
+    """
+
+    def __init__(self, settings: UkfSettings) -> None:
+        self.settings = settings
+        alpha, beta, kappa = settings.alpha, settings.beta, settings.kappa
+        linear_jerk_psd, angular_jerk_psd = settings.linear_jerk_psd, settings.angular_jerk_psd
         sigma_points_class, ukf_class = _filter_classes()
         points = sigma_points_class(
             STATE_SIZE,

@@ -142,28 +142,44 @@ class Tick:
         self.skipped = skipped
 
 
-async def ticks(clock: Clock, period_s: float, limit: int | None = None) -> AsyncIterator[Tick]:
+async def ticks(
+    clock: Clock, period_s: float | Callable[[], float], limit: int | None = None
+) -> AsyncIterator[Tick]:
     """Yield ticks every ``period_s`` [s] without drift.
 
     Deadlines are ``start + k * period``; when the consumer falls more than a period behind,
-    the missed deadlines are skipped (and counted) rather than fired in a burst.
+    the missed deadlines are skipped (and counted) rather than fired in a burst. A callable
+    period is read after every tick: a new value takes effect from the next deadline, which
+    becomes the start of the new grid.
 
     Args:
         clock: the time source.
-        period_s: [s] tick period, > 0.
+        period_s: [s] tick period, > 0, or a function returning the period in force.
         limit: stop after this many ticks (for tests); None runs forever.
+
+    Raises:
+        LifecycleError: a period that is not > 0.
     """
-    if period_s <= 0.0:
-        raise LifecycleError(f"tick period must be > 0 s, got {period_s}")
+    period = period_s if callable(period_s) else (lambda: period_s)
+    step = _positive(period())
     start = clock.now()
     k = 0
     index = 0
     while limit is None or index < limit:
-        deadline = start + k * period_s
+        deadline = start + k * step
         await clock.sleep(deadline - clock.now())
         now = clock.now()
         late = now - deadline
-        skipped = int(late // period_s) if late >= period_s else 0
+        skipped = int(late // step) if late >= step else 0
         yield Tick(index, deadline, late, skipped)
         index += 1
         k += 1 + skipped
+        new_step = _positive(period())
+        if new_step != step:
+            start, k, step = start + k * step - step + new_step, 0, new_step
+
+
+def _positive(period_s: float) -> float:
+    if not period_s > 0.0:
+        raise LifecycleError(f"tick period must be > 0 s, got {period_s}")
+    return period_s

@@ -14,7 +14,7 @@ from navd.config.loader import changed_keys, check_runtime_changeable
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock
 from navd.lifecycle.messages import ConfigApplied, ConfigChange, ConfigRejected
-from navd.logs import get_logger, set_level
+from navd.logs import get_logger
 
 __all__ = ["ConfigService"]
 
@@ -70,9 +70,7 @@ class ConfigService:
     def _install(
         self, new: NavdConfig, changed: tuple[str, ...], request_id: str, source: str
     ) -> None:
-        old, self._config = self._config, new
-        if new.logging.level != old.logging.level:
-            set_level(new.logging.level)
+        self._config = new
         _log.info("config_applied", request_id=request_id, source=source, changed=changed)
         now = self._clock.now()
         self._bus.publish(

@@ -20,6 +20,7 @@ from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
+from navd.lifecycle.daemon_settings import LifecycleSettings, LoggingSettings
 from navd.lifecycle.lag import LoopLagMonitor
 from navd.lifecycle.messages import (
     ConfigApplied,
@@ -30,10 +31,11 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager
 from navd.lifecycle.sdnotify import SystemdNotifier
+from navd.lifecycle.settings import Live
 from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import WorkerPool
-from navd.logs import get_logger
+from navd.logs import current_level, get_logger, set_level
 
 __all__ = ["Daemon"]
 
@@ -89,6 +91,8 @@ class Daemon:
         self._shutdown_reason = ""
         self._started_s = self.clock.now()
         self.notifier = notifier if notifier is not None else SystemdNotifier()
+        self.lifecycle = Live(LifecycleSettings, config, self._lifecycle_changed)
+        self.logging = Live(LoggingSettings, config, self._logging_changed)
         self.bus.subscribe(ConfigApplied, self._on_config_applied, module=self.MODULE)
 
     @property
@@ -210,10 +214,26 @@ class Daemon:
             )
         )
 
+    def settings_in_use(self) -> tuple[object, ...]:
+        """The daemon's settings as its parts hold them now (read back from the bus, the
+        supervisor, the probe, the module manager and the log configuration)."""
+        return (
+            LifecycleSettings(
+                handler_budget_s=self.bus.handler_budget_s,
+                max_cascade=self.bus.max_cascade,
+                max_failures=self.supervisor.max_failures,
+                failure_window_s=self.supervisor.window_s,
+                lag_period_s=self.lag.period_s,
+                transition_timeout_s=self.manager.timeout_s,
+                status_period_s=self.lifecycle.value.status_period_s,
+            ),
+            LoggingSettings(current_level(), self.logging.value.status_log_period_s),
+        )
+
     async def _status_loop(self) -> None:
         last_logged = self.clock.now()
         while True:
-            await self.clock.sleep(1.0 / self.config.lifecycle.status_rate_hz)
+            await self.clock.sleep(self.lifecycle.value.status_period_s)
             now = self.clock.now()
             for name in self.supervisor.clear_recovered(now):
                 _log.info("module_recovered", module=name)
@@ -225,7 +245,7 @@ class Daemon:
             status = self.status()
             self.bus.publish(status)
             self.notifier.notify(_status_line(status))
-            period = self.config.logging.status_log_period_s
+            period = self.logging.value.status_log_period_s
             if period > 0 and now - last_logged >= period:
                 last_logged = now
                 _log.info(
@@ -249,13 +269,20 @@ class Daemon:
             await asyncio.sleep(period)
 
     def _on_config_applied(self, applied: ConfigApplied) -> None:
-        lc = applied.config.lifecycle
-        self.bus.handler_budget_s = lc.handler_budget_ms / 1e3
-        self.bus.max_cascade = lc.max_dispatch_cascade
-        self.supervisor.max_failures = lc.max_handler_failures
-        self.supervisor.window_s = lc.failure_window_s
-        self.lag.period_s = lc.lag_sample_period_s
-        self.manager.timeout_s = lc.transition_timeout_s
+        self.lifecycle.update(applied.config)
+        self.logging.update(applied.config)
+
+    def _lifecycle_changed(self, _old: LifecycleSettings, new: LifecycleSettings) -> None:
+        self.bus.handler_budget_s = new.handler_budget_s
+        self.bus.max_cascade = new.max_cascade
+        self.supervisor.max_failures = new.max_failures
+        self.supervisor.window_s = new.failure_window_s
+        self.lag.period_s = new.lag_period_s
+        self.manager.timeout_s = new.transition_timeout_s
+
+    def _logging_changed(self, old: LoggingSettings, new: LoggingSettings) -> None:
+        if new.level != old.level:
+            set_level(new.level)
 
     def _install_signals(self, loop: asyncio.AbstractEventLoop) -> None:
         if not self.handle_signals:

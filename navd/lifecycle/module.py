@@ -5,7 +5,8 @@ modules in the order given (configure all, then activate all) and stops them in 
 order (deactivate all, then clean up all), each transition bounded by a timeout that raises
 ``ModuleTimeoutError`` naming the module and the transition that hung. A module talks to the
 rest of the daemon only through its ``ModuleContext``: subscribe, publish, submit heavy jobs,
-spawn background tasks, read the current config.
+spawn background tasks, and hold its settings (``ctx.settings``: derived from the config,
+swapped whole on a change; see ``navd.lifecycle.settings``).
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
-from navd.lifecycle.messages import Message
+from navd.lifecycle.messages import ConfigApplied, Message
+from navd.lifecycle.settings import Live, Settings
 from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import Job, WorkerPool
 from navd.logs import get_logger
@@ -29,6 +31,7 @@ from navd.logs import get_logger
 __all__ = ["Module", "ModuleContext", "ModuleManager", "ModuleState"]
 
 M = TypeVar("M", bound=Message)
+S = TypeVar("S", bound=Settings)
 _log = get_logger("lifecycle.modules")
 
 
@@ -43,8 +46,8 @@ class ModuleState(StrEnum):
 
 
 class ModuleContext:
-    """What a module may use: the bus, the clock, the workers, the current config and the
-    line counters drivers keep per device (``traffic``, for a simulated clock).
+    """What a module may use: the bus, the clock, the workers, its settings and the line
+    counters drivers keep per device (``traffic``, for a simulated clock).
 
     Everything done through the context is attributed to the module (handler failures,
     worker slots, background tasks).
@@ -67,12 +70,36 @@ class ModuleContext:
         self.traffic = traffic if traffic is not None else Traffic()
         self.log: FilteringBoundLogger = get_logger(name)
         self._config = config
+        self._startup = config()
         self._tasks: set[asyncio.Task[None]] = set()
+        self._live: list[Live[Any]] = []
+        # Settings are swapped before any handler of the module sees the ConfigApplied, and a
+        # failing on_change counts against this module.
+        bus.subscribe(ConfigApplied, self._on_config_applied, module=name)
 
     @property
-    def config(self) -> NavdConfig:
-        """The config in force now (replaced whole when a change is applied)."""
-        return self._config()
+    def startup_config(self) -> NavdConfig:
+        """The config the daemon started with: for keys that need a restart (ports, threads,
+        a map to load), which cannot differ from it; everything else comes from
+        ``settings``."""
+        return self._startup
+
+    def settings(self, kind: type[S], on_change: Callable[[S, S], None] | None = None) -> Live[S]:
+        """Hold ``kind`` derived from the config in force; the daemon swaps it whole when a
+        config change alters it, then calls ``on_change(old, new)`` on the event loop."""
+        live = Live(kind, self._config(), on_change)
+        self._live.append(live)
+        return live
+
+    def apply_config(self, config: NavdConfig) -> list[str]:
+        """Re-derive every settings holder of the module from ``config``; returns the names
+        of the settings types that were swapped."""
+        return [live.kind.__name__ for live in self._live if live.update(config)]
+
+    def _on_config_applied(self, applied: ConfigApplied) -> None:
+        swapped = self.apply_config(applied.config)
+        if swapped:
+            self.log.info("settings_swapped", request_id=applied.request_id, settings=swapped)
 
     def subscribe(self, message_type: type[M], handler: Handler[M]) -> None:
         """Call the cheap ``handler`` on the event loop for every ``message_type``."""
@@ -105,11 +132,14 @@ class ModuleContext:
         task.add_done_callback(self._task_done)
         return task
 
-    def every(self, period_s: float, callback: Callable[[float], None], *, name: str) -> None:
-        """Call the cheap ``callback(now)`` every ``period_s`` [s] until deactivation.
+    def every(
+        self, period_s: Callable[[], float], callback: Callable[[float], None], *, name: str
+    ) -> None:
+        """Call the cheap ``callback(now)`` every ``period_s()`` [s] until deactivation.
 
-        Deadlines do not drift; ticks missed while the loop was busy are skipped. A callback
-        that raises is reported to supervision and the ticks stop.
+        The period is read before each tick, so a settings change takes effect at the next
+        one. Deadlines do not drift; ticks missed while the loop was busy are skipped. A
+        callback that raises is reported to supervision and the ticks stop.
         """
 
         async def run() -> None:
@@ -156,6 +186,12 @@ class Module:
 
     async def on_cleanup(self) -> None:
         """Release what on_configure allocated."""
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        """The settings values the module's parts hold now, each of a type with
+        ``from_config`` (read back from the parts, not from the holders, so a part that
+        missed a change shows)."""
+        return ()
 
 
 class ModuleManager:

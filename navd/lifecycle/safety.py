@@ -12,8 +12,10 @@ guard: with no fresh DriveCommand for ``safety.reaction_timeout_s`` it writes ze
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
+from navd.config import NavdConfig
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
@@ -28,7 +30,29 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["SafetyGate", "SpeedLimiter"]
+__all__ = ["GateSettings", "SafetyGate", "SpeedLimiter"]
+
+
+@dataclass(frozen=True, slots=True)
+class GateSettings:
+    """The robot's speed limits, which every command is clamped to.
+
+    Attributes:
+        max_forward_mps, max_reverse_mps: [m/s] top speeds forward and backward (>= 0).
+        max_yaw_rate_radps: [rad/s] top yaw rate either way.
+    """
+
+    max_forward_mps: float
+    max_reverse_mps: float
+    max_yaw_rate_radps: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> GateSettings:
+        """The limits the robot section describes."""
+        robot = config.robot
+        return cls(
+            robot.max_linear_speed_mps, robot.max_reverse_speed_mps, robot.max_angular_speed_radps
+        )
 
 
 class SpeedLimiter(Protocol):
@@ -48,6 +72,7 @@ class SafetyGate(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self.settings = ctx.settings(GateSettings)
         ctx.subscribe(VelocityCommand, self._on_velocity)
         ctx.subscribe(DeviceStale, self._on_stale)
         ctx.subscribe(DeviceLost, self._on_lost)
@@ -55,6 +80,9 @@ class SafetyGate(Module):
         ctx.subscribe(DeviceConnected, self._on_back)
         ctx.subscribe(SafeStop, self._on_safe_stop)
         ctx.subscribe(SafeStopCleared, self._on_cleared)
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
 
     @property
     def reasons(self) -> tuple[str, ...]:
@@ -65,19 +93,12 @@ class SafetyGate(Module):
         if self._reasons:
             self._drive(0.0, 0.0, "; ".join(self._reasons.values()))
             return
-        robot = self.ctx.config.robot
-        linear = min(max(cmd.linear_mps, -robot.max_reverse_speed_mps), robot.max_linear_speed_mps)
-        limit = robot.max_angular_speed_radps
-        angular = min(max(cmd.angular_radps, -limit), limit)
-        reasons = (
-            ["clamped to robot limits"]
-            if (linear, angular)
-            != (
-                cmd.linear_mps,
-                cmd.angular_radps,
-            )
-            else []
-        )
+        limits = self.settings.value
+        linear = min(max(cmd.linear_mps, -limits.max_reverse_mps), limits.max_forward_mps)
+        yaw_limit = limits.max_yaw_rate_radps
+        angular = min(max(cmd.angular_radps, -yaw_limit), yaw_limit)
+        clamped = (linear, angular) != (cmd.linear_mps, cmd.angular_radps)
+        reasons = ["clamped to robot limits"] if clamped else []
         for limiter in self._limiters:
             linear, angular, why = limiter.limit(linear, angular)
             if why:

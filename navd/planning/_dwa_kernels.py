@@ -20,6 +20,8 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from navd.geometry._angle_kernels import wrap
+
 __all__ = [
     "CHAMFER_RATIO",
     "CLEARANCE",
@@ -205,11 +207,6 @@ def _nearest(
 
 
 @njit(cache=True, nogil=True)
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-@njit(cache=True, nogil=True)
 def rollouts(
     pose: FloatArray,
     velocities: FloatArray,
@@ -352,7 +349,7 @@ def rollouts(
             abs(v - target[3]) / target[5] + abs(w - target[4]) / target[6] + reverse
         )
         yaw = yaw0 + w * steps * dt
-        metrics[k, HEADING] = abs(_wrap(yaw - target[2])) / (0.5 * math.pi)
+        metrics[k, HEADING] = abs(wrap(yaw - target[2])) / (0.5 * math.pi)
 
 
 @njit(cache=True, nogil=True)

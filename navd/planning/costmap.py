@@ -19,8 +19,9 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
 from navd.planning._costmap_kernels import mark_and_clear
-from navd.planning.footprint import Footprint, keep_clear_m
+from navd.planning.margins import keep_clear_m
 
 __all__ = [
     "Costmap",
@@ -224,7 +225,8 @@ class CostmapSettings:
         """The settings the planning, robot and safety sections describe."""
         planning = config.planning
         return cls(
-            robot_radius_m=Footprint.from_config(config.robot).inscribed_m + keep_clear_m(config),
+            robot_radius_m=Footprint.from_config(config.robot).inscribed_m
+            + keep_clear_m(config.safety),
             inflation_radius_m=planning.inflation_radius_m,
             cost_decay_per_m=planning.cost_decay,
             allow_unknown=planning.allow_unknown,

@@ -11,6 +11,8 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
+from navd.geometry.pose import Pose2
 from navd.planning._dwa_kernels import (
     METRICS,
     bucket_points,
@@ -18,7 +20,7 @@ from navd.planning._dwa_kernels import (
     choose,
     rollouts,
 )
-from navd.planning.footprint import Footprint, keep_clear_m
+from navd.planning.margins import keep_clear_m
 
 __all__ = ["DwaChoice", "DwaSettings", "LocalPlanner", "PathField", "Window", "path_field"]
 
@@ -73,7 +75,7 @@ class DwaSettings:
         planning, robot = config.planning, config.robot
         return cls(
             footprint=Footprint.from_config(robot),
-            margin_m=keep_clear_m(config),
+            margin_m=keep_clear_m(config.safety),
             clearance_cap_m=max(planning.inflation_radius_m, 0.1),
             horizon_s=planning.prediction_horizon_s,
             step_s=planning.sim_step_s,
@@ -231,21 +233,21 @@ class LocalPlanner:
 
     def choose(  # noqa: PLR0917 - the inputs of one cycle, each named in the docstring
         self,
-        pose: tuple[float, float, float],
+        pose: Pose2,
         current: tuple[float, float],
         obstacles_m: FloatArray,
         path: PathField,
-        target: tuple[float, float, float],
+        target: Pose2,
         window: Window,
     ) -> DwaChoice | None:
         """The best command for the next period, or None when every rollout collides.
 
         Args:
-            pose: [m, m, rad] the robot in the map frame.
+            pose: the robot in the map frame.
             current: [m/s, rad/s] the command now in force (the window's centre).
             obstacles_m: [m] M x 2 obstacle points near the robot (map frame).
             path: the global path's distance field.
-            target: [m, m, rad] the point to head for and the heading wanted there.
+            target: the point to head for and the heading wanted there.
             window: the profile's and stuck handling's limits.
         """
         s = self.settings
@@ -253,12 +255,12 @@ class LocalPlanner:
         fp = s.footprint
         reach = max(s.max_speed_mps, s.max_reverse_mps) * s.horizon_s
         half = reach + fp.circumradius_m + max(s.margin_m, s.clearance_cap_m) + 2 * LOCAL_CELL_M
-        ox, oy = pose[0] - half, pose[1] - half
+        ox, oy = pose.x - half, pose.y - half
         n = math.ceil(2 * half / LOCAL_CELL_M)
         near = _snap(
             obstacles_m[
-                (np.abs(obstacles_m[:, 0] - pose[0]) <= half)
-                & (np.abs(obstacles_m[:, 1] - pose[1]) <= half)
+                (np.abs(obstacles_m[:, 0] - pose.x) <= half)
+                & (np.abs(obstacles_m[:, 1] - pose.y) <= half)
             ]
         )
         distance = chamfer_distance(near, ox, oy, LOCAL_CELL_M, n, n)
@@ -272,9 +274,9 @@ class LocalPlanner:
         v_span = max(s.max_speed_mps + s.max_reverse_mps, 1e-6)
         targets = np.array(
             [
-                target[0],
-                target[1],
-                target[2],
+                target.x,
+                target.y,
+                target.yaw,
                 current[0],
                 current[1],
                 v_span,
@@ -323,8 +325,8 @@ def _snap(points_m: FloatArray) -> FloatArray:
     return (np.column_stack([x, y]).astype(np.float64) + 0.5) * SNAP_M
 
 
-def arc(pose: tuple[float, float, float], v: float, w: float, dt: float, steps: int) -> FloatArray:
-    """[m, m, rad] the poses after 1..steps steps of dt [s] at constant (v, ω)."""
+def arc(pose: Pose2, v: float, w: float, dt: float, steps: int) -> FloatArray:
+    """[m, m, rad] N x 3 poses after 1..steps steps of dt [s] at constant (v, ω) from ``pose``."""
     x0, y0, yaw0 = pose
     t = dt * np.arange(1, steps + 1)
     yaw = yaw0 + w * t

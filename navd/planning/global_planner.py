@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from navd.config import NavdConfig
 from navd.planning._astar_kernels import (
     MAX_GENERATION,
     astar_search,
@@ -19,7 +20,7 @@ from navd.planning._bitgrid_kernels import pack_free_cells
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
-__all__ = ["GlobalPlanner", "PlannedPath", "path_length"]
+__all__ = ["GlobalPlanner", "PlannedPath", "SearchSettings", "path_length"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -58,17 +59,34 @@ def path_length(points_m: FloatArray) -> float:
     return float(np.hypot(*np.diff(points_m, axis=0).T).sum())
 
 
-class GlobalPlanner:
-    """A* with reusable working memory.
+@dataclass(frozen=True, slots=True)
+class SearchSettings:
+    """How A* weighs and shapes a route.
 
-    Args:
+    Attributes:
         cost_weight: w in the step cost L * (1 + w * mean cell cost).
         smooth: straighten the route by line of sight.
     """
 
-    def __init__(self, *, cost_weight: float, smooth: bool) -> None:
-        self.cost_weight = cost_weight
-        self.smooth = smooth
+    cost_weight: float
+    smooth: bool
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> SearchSettings:
+        """The settings the planning section describes."""
+        return cls(config.planning.cost_weight, config.planning.smooth_path)
+
+
+class GlobalPlanner:
+    """A* with reusable working memory.
+
+    Args:
+        settings: the cost weight and smoothing; replaced whole by a settings change (the
+            working memory stays).
+    """
+
+    def __init__(self, settings: SearchSettings) -> None:
+        self.settings = settings
         self._cells = 0
         self._generation = 0
         self._g: FloatArray = np.empty(0)
@@ -118,7 +136,8 @@ class GlobalPlanner:
             )
         self._reserve(frame.rows * frame.cols)
         cols = frame.cols
-        if self.cost_weight == 0.0 or uniform_costs(costmap.cost):
+        cost_weight = self.settings.cost_weight
+        if cost_weight == 0.0 or uniform_costs(costmap.cost):
             rows_free, cols_free = pack_free_cells(costmap.cost)  # every step costs its length
         else:
             rows_free = cols_free = np.empty((0, 0), dtype=np.uint64)
@@ -126,7 +145,7 @@ class GlobalPlanner:
             costmap.cost,
             start[0] * cols + start[1],
             goal[0] * cols + goal[1],
-            self.cost_weight,
+            cost_weight,
             self._g,
             self._mark,
             self._parent,
@@ -141,7 +160,7 @@ class GlobalPlanner:
                 "no route",
             )
         cells = trace_back(self._parent, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
-        if self.smooth and cells.shape[0] > 2:
+        if self.settings.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
         if start == robot_cell:

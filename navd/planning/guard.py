@@ -18,11 +18,12 @@ import numpy.typing as npt
 from numba import njit
 
 from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
+from navd.geometry.mount import LidarMount
+from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import LaserScan
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning._dwa_kernels import footprint_distance
-from navd.planning.footprint import Footprint
-from navd.slam.scan import laser_points
 
 __all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
 
@@ -31,6 +32,8 @@ FloatArray = npt.NDArray[np.float64]
 # The sweep is sampled at least this finely [m of travel] and [rad of turn].
 SWEEP_STEP_M = 0.02
 SWEEP_STEP_RAD = 0.05
+# Only what a braking robot can reach matters: scan points farther than this are not kept [m].
+GUARD_REACH_M = 3.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,10 +48,11 @@ class GuardSettings:
     angular_decel_radps2: float
     period_s: float
     enabled: bool
+    mount: LidarMount
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> GuardSettings:
-        """The settings the safety, robot and chassis sections describe."""
+        """The settings the safety, robot, chassis and lidar sections describe."""
         safety, robot = config.safety, config.robot
         return cls(
             footprint=Footprint.from_config(robot),
@@ -59,6 +63,7 @@ class GuardSettings:
             angular_decel_radps2=robot.max_angular_accel_radps2,
             period_s=1.0 / config.chassis.command_rate_hz,
             enabled=safety.use_collisions,
+            mount=LidarMount.from_config(config.lidar),
         )
 
 
@@ -157,29 +162,26 @@ class CollisionGuard(Module):
     def __init__(self) -> None:
         super().__init__("collision_guard")
         self._points: FloatArray = np.empty((0, 2))
-        self._settings: tuple[NavdConfig, GuardSettings] | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self.settings = ctx.settings(GuardSettings)
         ctx.subscribe(LaserScan, self._on_scan)
 
     async def on_activate(self) -> None:
         # Compile (or load) the kernel now, not on the event loop nor on the first command
         # of a moving robot.
-        settings = GuardSettings.from_config(self.ctx.config)
+        settings = self.settings.value
         self.ctx.warm_up(lambda: _warm_up(settings), name="warm-up")
 
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
+
     def _on_scan(self, scan: LaserScan) -> None:
-        slam = self.ctx.config.slam
-        points = laser_points(scan, slam)
-        # Only what a braking robot can reach matters: keep the points within 3 m.
-        hits = points.hits
-        self._points = hits[np.hypot(hits[:, 0], hits[:, 1]) <= 3.0]
+        points = laser_points(scan, self.settings.value.mount, max_range_m=GUARD_REACH_M)
+        self._points = points.hits
 
     def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
         """The command scaled by the guard, and why ("" when untouched)."""
-        config = self.ctx.config
-        if self._settings is None or self._settings[0] is not config:
-            self._settings = (config, GuardSettings.from_config(config))
-        scale, reason = guard_scale(self._points, linear_mps, angular_radps, self._settings[1])
+        scale, reason = guard_scale(self._points, linear_mps, angular_radps, self.settings.value)
         return linear_mps * scale, angular_radps * scale, reason

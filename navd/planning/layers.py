@@ -10,18 +10,20 @@ only ``obstacle_persistence_s`` anyway.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import PlanningConfig
+from navd.config import NavdConfig
+from navd.geometry.pose import Pose2
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
 
-__all__ = ["FRAME_MARGIN_M", "Layers"]
+__all__ = ["FRAME_MARGIN_M", "LayerSettings", "Layers"]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-Pose = tuple[float, float, float]
+Zones = tuple[tuple[tuple[float, float], ...], ...]
 
 # Unmapped space planned through around the robot and the goal [m].
 FRAME_MARGIN_M = 3.0
@@ -29,25 +31,54 @@ FRAME_MARGIN_M = 3.0
 DEFAULT_RESOLUTION_M = 0.05
 
 
+@dataclass(frozen=True, slots=True)
+class LayerSettings:
+    """What the layers are made of.
+
+    Attributes:
+        occupied_threshold_pct: [%] map cells at or above this occupancy are obstacles.
+        obstacle_persistence_s: [s] a scan obstacle not seen again is forgotten after this.
+        keep_out_zones: [m] polygons in the map frame the robot must never enter.
+    """
+
+    occupied_threshold_pct: int
+    obstacle_persistence_s: float
+    keep_out_zones: Zones
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> LayerSettings:
+        """The settings the planning section describes."""
+        planning = config.planning
+        return cls(
+            planning.occupied_threshold_pct,
+            planning.obstacle_persistence_s,
+            planning.keep_out_zones,
+        )
+
+
 class Layers:
     """The static, obstacle and keep-out layers.
 
     Args:
-        planning: occupancy threshold, obstacle persistence and keep-out zones.
+        settings: occupancy threshold, obstacle persistence and keep-out zones.
     """
 
-    def __init__(self, planning: PlanningConfig) -> None:
-        self.planning = planning
+    def __init__(self, settings: LayerSettings) -> None:
+        self.settings = settings
         self.map: tuple[GridFrame, BoolArray, BoolArray] | None = None
+        self._occupancy: npt.NDArray[np.int8] | None = None
         self.obstacles: ObstacleLayer | None = None
         self.scan_points: FloatArray = np.empty((0, 2))
-        self._keep_out: tuple[GridFrame, object, BoolArray] | None = None
+        self._keep_out: tuple[GridFrame, Zones, BoolArray] | None = None
 
-    def configure(self, planning: PlanningConfig) -> None:
-        """Take a new planning section (runtime changes)."""
-        self.planning = planning
+    def configure(self, settings: LayerSettings) -> None:
+        """Take new settings; the map and the scan obstacles seen so far stay."""
+        old, self.settings = self.settings, settings
         if self.obstacles is not None:
-            self.obstacles.persistence_s = planning.obstacle_persistence_s
+            self.obstacles.persistence_s = settings.obstacle_persistence_s
+        threshold_moved = settings.occupied_threshold_pct != old.occupied_threshold_pct
+        if threshold_moved and self.map is not None and self._occupancy is not None:
+            self._place_map(self.map[0], self._occupancy)
 
     def set_map(
         self,
@@ -58,19 +89,22 @@ class Layers:
     ) -> None:
         """Take the SLAM map (-1 unknown, 0..100 % occupied; row = y)."""
         rows, cols = occupancy.shape
-        frame = GridFrame(resolution_m, origin_x_m, origin_y_m, rows, cols)
-        occupied, unknown = static_layer(occupancy, self.planning.occupied_threshold_pct)
+        self._place_map(GridFrame(resolution_m, origin_x_m, origin_y_m, rows, cols), occupancy)
+
+    def _place_map(self, frame: GridFrame, occupancy: npt.NDArray[np.int8]) -> None:
+        occupied, unknown = static_layer(occupancy, self.settings.occupied_threshold_pct)
+        self._occupancy = occupancy
         self.map = (frame, occupied, unknown)
 
     def add_scan(
-        self, pose: Pose, hits_robot_m: FloatArray, misses_robot_m: FloatArray, stamp: float
+        self, pose: Pose2, hits_robot_m: FloatArray, misses_robot_m: FloatArray, stamp: float
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` [m, m, rad] at ``stamp``:
-        its hits become the live obstacle points; its rays mark and clear the obstacle layer."""
-        hits = to_map(pose, hits_robot_m)
+        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``: its hits
+        become the live obstacle points; its rays mark and clear the obstacle layer."""
+        hits = pose.transform(hits_robot_m)
         self.scan_points = hits
         if self.obstacles is not None:
-            self.obstacles.add_scan((pose[0], pose[1]), hits, to_map(pose, misses_robot_m), stamp)
+            self.obstacles.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
 
     def forget_around(self, x_m: float, y_m: float, radius_m: float) -> None:
         """Forget scan obstacles within ``radius_m`` of (x_m, y_m) (stuck recovery)."""
@@ -90,33 +124,34 @@ class Layers:
             window = _placement(frame, map_frame)
             obstacles[window] = occupied
             unknown[window] = map_unknown
+        persistence_s = self.settings.obstacle_persistence_s
         if self.obstacles is None:
-            self.obstacles = ObstacleLayer(frame, self.planning.obstacle_persistence_s)
+            self.obstacles = ObstacleLayer(frame, persistence_s)
         try:
             self.obstacles.reframe(frame)
         except ValueError:
             # A map on another lattice: the short-lived marks start afresh.
-            self.obstacles = ObstacleLayer(frame, self.planning.obstacle_persistence_s)
+            self.obstacles = ObstacleLayer(frame, persistence_s)
         obstacles |= self.obstacles.active(now)
         obstacles |= self.keep_out(frame)
         return frame, obstacles, unknown
 
     def keep_out(self, frame: GridFrame) -> BoolArray:
         """The keep-out cells of ``frame``, computed once per frame and set of zones."""
-        zones = self.planning.keep_out_zones
+        zones = self.settings.keep_out_zones
         cached = self._keep_out
         if cached is None or cached[0] != frame or cached[1] != zones:
             cached = (frame, zones, keep_out_mask(frame, zones))
             self._keep_out = cached
         return cached[2]
 
-    def local_points(self, pose: Pose, radius_m: float) -> FloatArray:
+    def local_points(self, pose: Pose2, radius_m: float) -> FloatArray:
         """[m] obstacle points near the robot: live scan hits, map and keep-out cells."""
         parts = [self.scan_points]
         if self.map is not None:
             frame, occupied, _ = self.map
             parts.append(_cells_near(frame, occupied, pose, radius_m))
-        if self.planning.keep_out_zones and self.obstacles is not None:
+        if self.settings.keep_out_zones and self.obstacles is not None:
             frame = self.obstacles.frame
             parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
@@ -162,15 +197,6 @@ def _aligned(frame: GridFrame, anchor: tuple[float, float]) -> bool:
     return True
 
 
-def to_map(pose: Pose, points: FloatArray) -> FloatArray:
-    """Robot-frame points [m] seen from ``pose`` in the map frame."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    pts = points.reshape(-1, 2)
-    return np.column_stack(
-        [pose[0] + c * pts[:, 0] - s * pts[:, 1], pose[1] + s * pts[:, 0] + c * pts[:, 1]]
-    )
-
-
 def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
     """The slices of ``outer`` covering ``inner`` (same lattice, inner inside outer)."""
     r = round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m)
@@ -178,10 +204,10 @@ def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
     return slice(r, r + inner.rows), slice(c, c + inner.cols)
 
 
-def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose, radius_m: float) -> FloatArray:
+def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose2, radius_m: float) -> FloatArray:
     """[m] centres of the ``mask`` cells within a square of half-size radius_m around pose."""
-    r0, c0 = frame.cell_of(pose[0] - radius_m, pose[1] - radius_m)
-    r1, c1 = frame.cell_of(pose[0] + radius_m, pose[1] + radius_m)
+    r0, c0 = frame.cell_of(pose.x - radius_m, pose.y - radius_m)
+    r1, c1 = frame.cell_of(pose.x + radius_m, pose.y + radius_m)
     r0, c0 = max(r0, 0), max(c0, 0)
     r1, c1 = min(r1 + 1, frame.rows), min(c1 + 1, frame.cols)
     if r1 <= r0 or c1 <= c0:

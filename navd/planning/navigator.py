@@ -20,20 +20,15 @@ from enum import StrEnum
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
-from navd.planning.costmap import (
-    Costmap,
-    CostmapSettings,
-    GridFrame,
-    build_costmap,
-)
-from navd.planning.dwa import DwaSettings, LocalPlanner, Window
+from navd.geometry.angles import angle_between
+from navd.geometry.pose import Pose2
+from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
+from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import PlanningError
-from navd.planning.footprint import Footprint, keep_clear_m
 from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.layers import Layers
-from navd.planning.profile import VelocityProfile
 from navd.planning.route import Route
+from navd.planning.settings import NavigatorSettings
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
 __all__ = ["GoalState", "NavGoal", "Navigator", "PlanRequest", "Step"]
@@ -110,23 +105,24 @@ class PlanRequest:
         return planner.plan(costmap, self.start_xy_m, self.goal_xy_m)
 
 
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
 class Navigator:
     """Drives to one goal at a time.
 
     Args:
-        config: the whole config (robot, safety and planning sections).
+        settings: what the navigator and its parts run on; ``configure`` swaps them.
     """
 
-    def __init__(self, config: NavdConfig) -> None:
+    def __init__(self, settings: NavigatorSettings) -> None:
         self.goal: NavGoal | None = None
         self.state: GoalState | None = None
         self.path: PlannedPath | None = None
         self.route: Route | None = None
-        self.map_layers = Layers(config.planning)
+        self.settings = settings
+        self.map_layers = Layers(settings.layers)
+        self.stuck = StuckMonitor(settings.stuck)
+        self.global_planner = GlobalPlanner(settings.search)
+        self.profile = settings.profile
+        self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_cap)
         self._command = (0.0, 0.0)
         self._planned_at = -math.inf
         self._moving_since: float | None = None
@@ -135,29 +131,28 @@ class Navigator:
         self._stuck_replans = 0
         self._last_error = ""
         self._fail_reason = ""
-        self.configure(config)
 
-    def configure(self, config: NavdConfig) -> None:
-        """Take a new config (runtime changes); the route and goal stay."""
-        self.config = config
-        planning = config.planning
-        self.footprint = Footprint.from_config(config.robot)
-        self.costmap_settings = CostmapSettings.from_config(config)
-        self.profile = VelocityProfile.from_config(config)
-        self.local = LocalPlanner(DwaSettings.from_config(config), self.profile.yaw_rate_cap)
-        self.global_planner = GlobalPlanner(
-            cost_weight=planning.cost_weight, smooth=planning.smooth_path
+    def configure(self, settings: NavigatorSettings) -> None:
+        """Take new settings (a runtime change): each part gets its own; the goal, the
+        route, the layers' contents and the stuck watch in progress all stay."""
+        self.settings = settings
+        self.map_layers.configure(settings.layers)
+        self.stuck.configure(settings.stuck)
+        self.global_planner.settings = settings.search
+        if settings.dwa != self.local.settings or settings.profile != self.profile:
+            self.profile = settings.profile
+            self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_cap)
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        """The settings each part holds now."""
+        return (
+            self.settings,
+            self.map_layers.settings,
+            self.stuck.settings,
+            self.global_planner.settings,
+            self.profile,
+            self.local.settings,
         )
-        self.stuck = StuckMonitor(config)
-        # Map cells handed to DWA: everything its rollouts and their clearance can reach.
-        self._local_radius_m = (
-            max(config.robot.max_linear_speed_mps, config.robot.max_reverse_speed_mps)
-            * planning.prediction_horizon_s
-            + self.footprint.circumradius_m
-            + max(planning.inflation_radius_m, keep_clear_m(config))
-            + 0.5
-        )
-        self.map_layers.configure(planning)
 
     # --- inputs ----------------------------------------------------------------------------
 
@@ -195,18 +190,18 @@ class Navigator:
 
     def add_scan(
         self,
-        pose: tuple[float, float, float],
+        pose: Pose2,
         hits_robot_m: FloatArray,
         misses_robot_m: FloatArray,
         stamp: float,
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` [m, m, rad] at ``stamp``:
+        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``:
         its hits are the DWA's live obstacles; it marks and clears the obstacle layer."""
         self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp)
 
     # --- planning --------------------------------------------------------------------------
 
-    def plan_reason(self, now: float, pose: tuple[float, float, float]) -> str | None:
+    def plan_reason(self, now: float, pose: Pose2) -> str | None:
         """Why the route must be planned now, or None."""
         if self.state is not GoalState.ACTIVE or self.goal is None:
             return None
@@ -214,18 +209,19 @@ class Navigator:
             return self._plan_reason
         if self.route is None:
             return "no route yet"
-        period = self.config.planning.replan_period_s
+        s = self.settings
+        period = s.replan_period_s
         if period > 0.0 and now - self._planned_at >= period:
             return "replan timer"
         deviation = self.route.distance_to(pose)
-        if deviation > self.config.planning.max_path_deviation_m:
+        if deviation > s.max_path_deviation_m:
             return f"strayed {deviation:.2f} m from the route"
-        radius = self.footprint.inscribed_m + keep_clear_m(self.config)
+        radius = s.footprint.inscribed_m + s.keep_clear_m
         if self.route.blocked(self.map_layers.scan_points, radius, BLOCK_LOOKAHEAD_M):
             return "route blocked by an obstacle"
         return None
 
-    def plan(self, now: float, pose: tuple[float, float, float]) -> PlannedPath:
+    def plan(self, now: float, pose: Pose2) -> PlannedPath:
         """A* from ``pose`` to the goal on a costmap of the current layers (heavy).
 
         Raises:
@@ -233,7 +229,7 @@ class Navigator:
         """
         return self.request(now, pose).solve(self.global_planner)
 
-    def request(self, now: float, pose: tuple[float, float, float]) -> PlanRequest:
+    def request(self, now: float, pose: Pose2) -> PlanRequest:
         """A snapshot of what A* needs (cheap): solve it without holding the navigator.
 
         Raises:
@@ -241,17 +237,10 @@ class Navigator:
         """
         if self.goal is None:
             raise PlanningError("no goal to plan for")
-        frame, obstacles, unknown = self.map_layers.snapshot(
-            now, [(pose[0], pose[1]), (self.goal.x_m, self.goal.y_m)]
-        )
-        return PlanRequest(
-            frame,
-            obstacles,
-            unknown,
-            self.costmap_settings,
-            (pose[0], pose[1]),
-            (self.goal.x_m, self.goal.y_m),
-        )
+        start = (pose.x, pose.y)
+        goal = (self.goal.x_m, self.goal.y_m)
+        frame, obstacles, unknown = self.map_layers.snapshot(now, [start, goal])
+        return PlanRequest(frame, obstacles, unknown, self.settings.costmap, start, goal)
 
     def accept_plan(self, now: float, path: PlannedPath) -> None:
         """Follow ``path`` from now on."""
@@ -270,33 +259,33 @@ class Navigator:
         self.path = None
         self.route = None
         self._last_error = str(error)
-        if now - self._failing_since >= self.config.planning.max_stuck_time_s:
+        if now - self._failing_since >= self.settings.max_stuck_time_s:
             self.state = GoalState.FAILED
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
-    def costmap(self, now: float, pose: tuple[float, float, float]) -> Costmap:
+    def costmap(self, now: float, pose: Pose2) -> Costmap:
         """The inflated costmap of all layers now."""
-        points = [(pose[0], pose[1])]
+        points = [(pose.x, pose.y)]
         if self.goal is not None:
             points.append((self.goal.x_m, self.goal.y_m))
-        return build_costmap(*self.map_layers.snapshot(now, points), self.costmap_settings)
+        return build_costmap(*self.map_layers.snapshot(now, points), self.settings.costmap)
 
     # --- control ---------------------------------------------------------------------------
 
-    def step(self, now: float, pose: tuple[float, float, float]) -> Step:
-        """One control period at ``now`` [s] with the robot at ``pose`` [m, m, rad]."""
+    def step(self, now: float, pose: Pose2) -> Step:
+        """One control period at ``now`` [s] with the robot at ``pose``."""
         goal = self.goal
         if self.state is not GoalState.ACTIVE or goal is None:
             self._command = (0.0, 0.0)
             if self.state is GoalState.FAILED:
                 return Step(0.0, 0.0, self.state, reason=self._fail_reason)
             return Step(0.0, 0.0, self.state)
-        planning = self.config.planning
-        distance = math.hypot(goal.x_m - pose[0], goal.y_m - pose[1])
-        aligning = distance <= planning.goal_xy_tolerance_m
+        s = self.settings
+        distance = math.hypot(goal.x_m - pose.x, goal.y_m - pose.y)
+        aligning = distance <= s.goal_xy_tolerance_m
         if aligning and (
             goal.yaw_rad is None
-            or abs(_wrap(goal.yaw_rad - pose[2])) <= planning.goal_yaw_tolerance_rad
+            or angle_between(goal.yaw_rad, pose.yaw) <= s.goal_yaw_tolerance_rad
         ):
             self.state = GoalState.REACHED
             self._command = (0.0, 0.0)
@@ -309,23 +298,25 @@ class Navigator:
         if self._moving_since is None:
             self._moving_since = now
         remaining = route.remaining(pose)
-        stuck = self.stuck.update(now, *pose)
+        stuck = self.stuck.update(now, pose)
         if stuck.phase is StuckPhase.STUCK:
             return self._stuck(now, pose, remaining)
         if stuck.phase is StuckPhase.BACKED_OUT:
             self._plan_reason = "backed out"
-        carrot = route.carrot(pose, planning.lookahead_m)
+        carrot = route.carrot(pose, s.lookahead_m)
         if aligning:
-            target = (goal.x_m, goal.y_m, goal.yaw_rad if goal.yaw_rad is not None else pose[2])
+            target = Pose2(
+                goal.x_m, goal.y_m, goal.yaw_rad if goal.yaw_rad is not None else pose.yaw
+            )
             window = Window(0.0, rotate_only=True)
         else:
-            near_goal = distance <= planning.approach_distance_m and goal.yaw_rad is not None
+            near_goal = distance <= s.approach_distance_m and goal.yaw_rad is not None
             heading = (
                 goal.yaw_rad
                 if near_goal and goal.yaw_rad is not None
-                else math.atan2(carrot[1] - pose[1], carrot[0] - pose[0])
+                else math.atan2(carrot[1] - pose.y, carrot[0] - pose.x)
             )
-            target = (carrot[0], carrot[1], heading)
+            target = Pose2(carrot[0], carrot[1], heading)
             window = Window(
                 self.profile.speed_cap(remaining, now - self._moving_since),
                 min_speed_mps=stuck.min_speed_mps,
@@ -334,7 +325,7 @@ class Navigator:
         choice = self.local.choose(
             pose,
             self._command,
-            self.map_layers.local_points(pose, self._local_radius_m),
+            self.map_layers.local_points(pose, s.local_radius_m),
             route.field,
             target,
             window,
@@ -350,7 +341,7 @@ class Navigator:
                 phase=stuck.phase,
             )
         self._command = (choice.linear_mps, choice.angular_radps)
-        speed = max(abs(choice.linear_mps), planning.min_linear_speed_mps, 1e-3)
+        speed = max(abs(choice.linear_mps), s.min_linear_speed_mps, 1e-3)
         return Step(
             choice.linear_mps,
             choice.angular_radps,
@@ -360,22 +351,22 @@ class Navigator:
             phase=stuck.phase,
         )
 
-    def _stuck(self, now: float, pose: tuple[float, float, float], remaining: float) -> Step:
+    def _stuck(self, now: float, pose: Pose2, remaining: float) -> Step:
         """StuckDetected: forget nearby scan obstacles and replan, or give up."""
         self._command = (0.0, 0.0)
         self.stuck.reset()
         self._stuck_replans += 1
-        limit = self.config.planning.max_stuck_replans
+        limit = self.settings.max_stuck_replans
         if self._stuck_replans > limit:
             self.state = GoalState.FAILED
             self._fail_reason = (
                 f"stuck: no progress after {limit} replans "
-                f"(max_stuck_time_s {self.config.planning.max_stuck_time_s} s each)"
+                f"(max_stuck_time_s {self.settings.max_stuck_time_s} s each)"
             )
             return Step(
                 0.0, 0.0, self.state, remaining, reason=self._fail_reason, stuck_detected=True
             )
-        self.map_layers.forget_around(pose[0], pose[1], STUCK_CLEAR_RADIUS_M)
+        self.map_layers.forget_around(pose.x, pose.y, STUCK_CLEAR_RADIUS_M)
         self._plan_reason = "stuck recovery"
         return Step(
             0.0,

@@ -16,12 +16,16 @@ from __future__ import annotations
 
 import math
 import threading
+from dataclasses import dataclass
 
 import numpy as np
 
+from navd.config import NavdConfig
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
     CancelGoal,
-    ConfigApplied,
     Goal,
     GoalStatus,
     LaserScan,
@@ -35,14 +39,41 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
 from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
+from navd.planning.settings import NavigatorSettings
 from navd.planning.warmup import warm_up
-from navd.slam.scan import laser_points
 
-__all__ = ["PlannerNode"]
+__all__ = ["PlannerNode", "PlannerSettings"]
 
 POSE_TIMEOUT_S = 0.5
 STATUS_PERIOD_S = 0.5
 SOURCE = "planner"
+
+
+@dataclass(frozen=True, slots=True)
+class PlannerSettings:
+    """The planner module's settings.
+
+    Attributes:
+        navigator: what the navigator runs on.
+        control_period_s: [s] period of the control tick.
+        mount: where the lidar sits, for the scan obstacles.
+        obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
+    """
+
+    navigator: NavigatorSettings
+    control_period_s: float
+    mount: LidarMount
+    obstacle_range_m: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> PlannerSettings:
+        """The settings the robot, safety, planning and lidar sections describe."""
+        return cls(
+            navigator=NavigatorSettings.from_config(config),
+            control_period_s=1.0 / config.planning.control_rate_hz,
+            mount=LidarMount.from_config(config.lidar),
+            obstacle_range_m=config.planning.obstacle_range_m,
+        )
 
 
 class PlannerNode(Module):
@@ -51,7 +82,7 @@ class PlannerNode(Module):
     def __init__(self) -> None:
         super().__init__("planner")
         self._lock = threading.Lock()
-        self._pose: tuple[float, float, float] | None = None
+        self._pose: Pose2 | None = None
         self._pose_stamp = -math.inf
         self._planning = False
         self._plan_due: str | None = None
@@ -60,17 +91,26 @@ class PlannerNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.nav = Navigator(ctx.config)
+        self.settings = ctx.settings(PlannerSettings, self._settings_changed)
+        self.nav = Navigator(self.settings.value.navigator)
         ctx.subscribe(Goal, self._on_goal)
         ctx.subscribe(CancelGoal, self._on_cancel)
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
-        ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
         self.ctx.warm_up(warm_up, name="warm-up")
-        self.ctx.every(1.0 / self.ctx.config.planning.control_rate_hz, self._tick, name="control")
+        self.ctx.every(lambda: self.settings.value.control_period_s, self._tick, name="control")
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        with self._lock:
+            return (self.settings.value, *self.nav.settings_in_use())
+
+    def _settings_changed(self, old: PlannerSettings, new: PlannerSettings) -> None:
+        if new.navigator != old.navigator:
+            with self._lock:
+                self.nav.configure(new.navigator)
 
     async def on_deactivate(self) -> None:
         with self._lock:
@@ -105,7 +145,7 @@ class PlannerNode(Module):
             self.ctx.log.info("goal_canceled", goal_id=active.goal_id)
 
     def _on_pose(self, pose: PoseEstimate) -> None:
-        self._pose = (pose.x_m, pose.y_m, pose.yaw_rad)
+        self._pose = pose.pose
         self._pose_stamp = pose.stamp
 
     def _on_map(self, update: MapUpdate) -> None:
@@ -124,21 +164,14 @@ class PlannerNode(Module):
         pose = self._pose
         if pose is None:
             return
-        slam = self.ctx.config.slam
+        settings = self.settings.value
 
         def job() -> None:
-            points = laser_points(scan, slam)
+            points = laser_points(scan, settings.mount, max_range_m=settings.obstacle_range_m)
             with self._lock:
                 self.nav.add_scan(pose, points.hits, points.misses, scan.stamp)
 
         self.ctx.submit("planning_scan", job)
-
-    def _on_config(self, applied: ConfigApplied) -> None:
-        if any(
-            key.split(".")[0] in ("planning", "robot", "safety") for key in applied.changed_keys
-        ):
-            with self._lock:
-                self.nav.configure(applied.config)
 
     # --- control (event loop, then workers) ------------------------------------------------
 
@@ -160,9 +193,7 @@ class PlannerNode(Module):
             self.ctx.submit("global_plan", lambda: self._plan(now, pose, reason))
         self.ctx.submit("local_plan", lambda: self._step(now, pose))
 
-    def _plan(
-        self, now: float, pose: tuple[float, float, float], reason: str
-    ) -> tuple[Message, ...]:
+    def _plan(self, now: float, pose: Pose2, reason: str) -> tuple[Message, ...]:
         """Worker: a snapshot of the layers (under the lock), A* on it (outside), then the
         route to the navigator."""
         try:
@@ -191,7 +222,7 @@ class PlannerNode(Module):
         stamp = self.ctx.clock.now()
         return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
 
-    def _step(self, now: float, pose: tuple[float, float, float]) -> tuple[Message, ...]:
+    def _step(self, now: float, pose: Pose2) -> tuple[Message, ...]:
         """Worker: one navigator step; the command, and status when it is due."""
         with self._lock:
             goal = self.nav.goal
@@ -200,7 +231,9 @@ class PlannerNode(Module):
             step = self.nav.step(now, pose)
             replans = self.nav.stuck_replans
             # Whether A* must run is decided here, in the worker; the next tick submits it.
-            self._plan_due = self.nav.plan_reason(now, pose)
+            # While a search runs its reason still stands: asking again would plan twice.
+            if not self._planning:
+                self._plan_due = self.nav.plan_reason(now, pose)
         stamp = self.ctx.clock.now()
         messages: list[Message] = [
             VelocityCommand(
@@ -221,8 +254,8 @@ class PlannerNode(Module):
                     stamp=stamp,
                     received=stamp,
                     goal_id=goal.goal_id,
-                    x_m=pose[0],
-                    y_m=pose[1],
+                    x_m=pose.x,
+                    y_m=pose.y,
                     replans=replans,
                     giving_up=giving_up,
                 )

@@ -7,12 +7,12 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
 from navd.planning.dwa import PathField, path_field
 
 __all__ = ["Route"]
 
 FloatArray = npt.NDArray[np.float64]
-Pose = tuple[float, float, float]
 
 # Stations along the route are checked for obstacles this far apart [m].
 STATION_STEP_M = 0.1
@@ -37,15 +37,15 @@ class Route:
         """[m] the whole route's length."""
         return float(self.cumulative[-1])
 
-    def locate(self, pose: Pose) -> tuple[int, float, float]:
+    def locate(self, pose: Pose2) -> tuple[int, float, float]:
         """(segment, fraction along it, distance [m]) of the route point nearest the robot,
         searched from the last progress on (so a route that doubles back is not cut short)."""
         points = self.points_m
         if points.shape[0] == 1:
-            return 0, 0.0, float(math.hypot(points[0, 0] - pose[0], points[0, 1] - pose[1]))
+            return 0, 0.0, float(math.hypot(points[0, 0] - pose.x, points[0, 1] - pose.y))
         a = points[self.progress : -1]
         ab = points[self.progress + 1 :] - a
-        p = np.array([pose[0], pose[1]])
+        p = np.array([pose.x, pose.y])
         length2 = np.maximum((ab**2).sum(axis=1), 1e-12)
         t = np.clip(((p - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
         d = np.hypot(*(a + t[:, None] * ab - p).T)
@@ -60,11 +60,11 @@ class Route:
         start = self.cumulative[segment]
         return float(start + fraction * (self.cumulative[segment + 1] - start))
 
-    def distance_to(self, pose: Pose) -> float:
+    def distance_to(self, pose: Pose2) -> float:
         """[m] from the robot to the route."""
         return self.locate(pose)[2]
 
-    def remaining(self, pose: Pose) -> float:
+    def remaining(self, pose: Pose2) -> float:
         """[m] from the robot to the route, then along it to the goal."""
         segment, fraction, distance = self.locate(pose)
         return distance + self.length_m - self._station(segment, fraction)
@@ -78,7 +78,7 @@ class Route:
             ]
         )
 
-    def carrot(self, pose: Pose, lookahead_m: float) -> tuple[float, float]:
+    def carrot(self, pose: Pose2, lookahead_m: float) -> tuple[float, float]:
         """[m] the route point ``lookahead_m`` ahead of the robot's nearest route point."""
         here = self._station(*self.locate(pose)[:2])
         x, y = self.point_at(np.array([min(here + lookahead_m, self.length_m)]))[0]

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from enum import StrEnum
 
 from navd.config import NavdConfig
+from navd.geometry.angles import angle_between
+from navd.geometry.pose import Pose2
 
-__all__ = ["StuckMonitor", "StuckPhase", "StuckState"]
+__all__ = ["StuckMonitor", "StuckPhase", "StuckSettings", "StuckState"]
 
 
 class StuckPhase(StrEnum):
@@ -36,6 +37,45 @@ class StuckState:
     min_speed_mps: float
 
 
+@dataclass(frozen=True, slots=True)
+class StuckSettings:
+    """The stuck monitor's times, tolerances and speeds (planning and robot sections).
+
+    Attributes:
+        stuck_time_s: [s] this long without progress is stuck.
+        backward_time_s: [s] stuck this long forces backward motion.
+        max_stuck_time_s: [s] stuck this long is reported (StuckDetected).
+        min_progress_m: [m] moving this far from the reference is progress.
+        rotation_tolerance_rad: [rad] turning this far is progress too.
+        min_speed_mps, max_speed_mps: [m/s] the rising minimum goes from one to the other.
+        backup_distance_m: [m] a forced backward move goes this far.
+    """
+
+    stuck_time_s: float
+    backward_time_s: float
+    max_stuck_time_s: float
+    min_progress_m: float
+    rotation_tolerance_rad: float
+    min_speed_mps: float
+    max_speed_mps: float
+    backup_distance_m: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> StuckSettings:
+        """The settings the planning and robot sections describe."""
+        planning = config.planning
+        return cls(
+            stuck_time_s=planning.stuck_time_s,
+            backward_time_s=planning.stuck_time_force_backward_s,
+            max_stuck_time_s=planning.max_stuck_time_s,
+            min_progress_m=planning.stuck_min_progress_m,
+            rotation_tolerance_rad=planning.stuck_rotation_tolerance_rad,
+            min_speed_mps=planning.min_linear_speed_mps,
+            max_speed_mps=config.robot.max_linear_speed_mps,
+            backup_distance_m=planning.backup_distance_m,
+        )
+
+
 class StuckMonitor:
     """Watches progress: moving ``min_progress_m`` or turning ``rotation_tolerance_rad`` from
     the reference pose resets it. Once it forces backward motion it holds that until the
@@ -43,57 +83,52 @@ class StuckMonitor:
     creep back and forth in front of a dead end forever.
 
     Args:
-        config: the planning and robot sections give the times, tolerances and speeds.
+        settings: the times, tolerances and speeds; ``configure`` swaps them without
+            forgetting how long the robot has been stuck.
     """
 
-    def __init__(self, config: NavdConfig) -> None:
-        planning = config.planning
-        self.stuck_time_s = planning.stuck_time_s
-        self.backward_time_s = planning.stuck_time_force_backward_s
-        self.max_stuck_time_s = planning.max_stuck_time_s
-        self.min_progress_m = planning.stuck_min_progress_m
-        self.rotation_tolerance_rad = planning.stuck_rotation_tolerance_rad
-        self.min_speed_mps = planning.min_linear_speed_mps
-        self.max_speed_mps = config.robot.max_linear_speed_mps
-        self.backup_distance_m = planning.backup_distance_m
-        self._reference: tuple[float, float, float, float] | None = None
-        self._backing_from: tuple[float, float] | None = None
+    def __init__(self, settings: StuckSettings) -> None:
+        self.settings = settings
+        self._reference: tuple[float, Pose2] | None = None  # (since [s], pose)
+        self._backing_from: Pose2 | None = None
+
+    def configure(self, settings: StuckSettings) -> None:
+        """Take new settings; the watch in progress (its reference, backing) goes on."""
+        self.settings = settings
 
     def reset(self) -> None:
         """Forget the reference: the next update starts a fresh watch."""
         self._reference = None
         self._backing_from = None
 
-    def update(self, now: float, x_m: float, y_m: float, yaw_rad: float) -> StuckState:
+    def update(self, now: float, pose: Pose2) -> StuckState:
         """Take the robot's pose at ``now`` [s]; return how stuck it is."""
+        s = self.settings
         if self._reference is None:
-            self._reference = (now, x_m, y_m, yaw_rad)
-        since, rx, ry, ryaw = self._reference
+            self._reference = (now, pose)
+        since, reference = self._reference
         if self._backing_from is not None:
             # Once forced backwards, keep going until backed up the whole distance.
-            bx, by = self._backing_from
-            if math.hypot(x_m - bx, y_m - by) >= self.backup_distance_m:
+            if self._backing_from.distance_to(pose) >= s.backup_distance_m:
                 self.reset()
                 return StuckState(StuckPhase.BACKED_OUT, now - since, 0.0)
-            if now - since > self.max_stuck_time_s:
+            if now - since > s.max_stuck_time_s:
                 return StuckState(StuckPhase.STUCK, now - since, 0.0)
-            return StuckState(StuckPhase.BACKING, now - since, self.min_speed_mps)
-        turned = abs((yaw_rad - ryaw + math.pi) % (2.0 * math.pi) - math.pi)
-        if math.hypot(x_m - rx, y_m - ry) > self.min_progress_m or (
-            turned > self.rotation_tolerance_rad
-        ):
-            self._reference = (now, x_m, y_m, yaw_rad)
+            return StuckState(StuckPhase.BACKING, now - since, s.min_speed_mps)
+        turned = angle_between(pose.yaw, reference.yaw)
+        if reference.distance_to(pose) > s.min_progress_m or turned > s.rotation_tolerance_rad:
+            self._reference = (now, pose)
             since = now
         stuck_s = now - since
-        if stuck_s < self.stuck_time_s:
+        if stuck_s < s.stuck_time_s:
             return StuckState(StuckPhase.MOVING, stuck_s, 0.0)
-        if stuck_s > self.max_stuck_time_s:
+        if stuck_s > s.max_stuck_time_s:
             return StuckState(StuckPhase.STUCK, stuck_s, 0.0)
         # The seed's rising minimum: from min speed at 0 s to top speed at max_stuck_time.
-        rising = self.min_speed_mps + (self.max_speed_mps - self.min_speed_mps) * (
-            stuck_s / self.max_stuck_time_s
+        rising = s.min_speed_mps + (s.max_speed_mps - s.min_speed_mps) * (
+            stuck_s / s.max_stuck_time_s
         )
-        if stuck_s > self.backward_time_s:
-            self._backing_from = (x_m, y_m)
-            return StuckState(StuckPhase.BACKING, stuck_s, self.min_speed_mps)
+        if stuck_s > s.backward_time_s:
+            self._backing_from = pose
+            return StuckState(StuckPhase.BACKING, stuck_s, s.min_speed_mps)
         return StuckState(StuckPhase.PUSHING, stuck_s, rising)

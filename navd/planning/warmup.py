@@ -7,24 +7,26 @@ import math
 import numpy as np
 
 from navd.config import NavdConfig
+from navd.geometry.pose import IDENTITY
 from navd.planning._bitgrid_kernels import pack_free_cells
 from navd.planning.navigator import NavGoal, Navigator
+from navd.planning.settings import NavigatorSettings
 
 __all__ = ["warm_up"]
 
 
 def warm_up() -> None:
     """Plan and take a few steps in a small room with a throwaway navigator."""
-    nav = Navigator(NavdConfig())
+    nav = Navigator(NavigatorSettings.from_config(NavdConfig()))
     occupancy = np.zeros((60, 60), dtype=np.int8)
     occupancy[[0, -1], :] = occupancy[:, [0, -1]] = 100
     nav.set_map(occupancy, 0.05, -1.5, -1.5)
     angles = np.linspace(-math.pi, math.pi, 90, endpoint=False)
     hits = np.column_stack([1.4 * np.cos(angles), 1.4 * np.sin(angles)])
-    nav.add_scan((0.0, 0.0, 0.0), hits, np.empty((0, 2)), 0.0)
+    nav.add_scan(IDENTITY, hits, np.empty((0, 2)), 0.0)
     nav.set_goal(NavGoal("warm-up", 0.8, 0.5, 1.0))
-    nav.accept_plan(0.0, nav.plan(0.0, (0.0, 0.0, 0.0)))
+    nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
     for k in range(3):
-        nav.step(0.05 * k, (0.0, 0.0, 0.0))
+        nav.step(0.05 * k, IDENTITY)
     # The room above is inflated, so A* went cell by cell; packing is what jumping adds.
     pack_free_cells(np.zeros((60, 60), dtype=np.float32))

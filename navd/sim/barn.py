@@ -26,14 +26,15 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
 from navd.planning.navigator import GoalState, NavGoal, Navigator
+from navd.planning.settings import NavigatorSettings
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body
 from navd.sim.errors import SimError
 from navd.sim.world import World, from_shapes
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
 
 __all__ = ["BarnRun", "jackal_config", "load_cylinders", "run_barn", "run_world"]
 
@@ -70,7 +71,7 @@ def jackal_config() -> NavdConfig:
                 "max_angular_accel_radps2": 4.0,
             },
             "safety": {"collision_distance_m": 0.03, "stop_distance_m": 0.03},
-            "slam": {"laser_x_m": LIDAR_X_M},
+            "lidar": {"x_m": LIDAR_X_M},
             "planning": {
                 "angular_limit_table": [[0.0, 2.0], [1.5, 1.0]],
                 "inflation_radius_m": 0.4,
@@ -150,7 +151,7 @@ def run_world(
 ) -> BarnRun:
     """Drive one BARN world with navd's navigator in simulated time."""
     world = barn_world(cylinders)
-    nav = Navigator(config)
+    nav = Navigator(NavigatorSettings.from_config(config))
     nav.set_goal(NavGoal("barn", GOAL[0], GOAL[1]))
     body = Body(*START)
     no_discs = np.empty((0, 3))
@@ -159,20 +160,19 @@ def run_world(
     t = 0.0
     step = 0
     while t < TIME_LIMIT_S:
-        pose = (body.x_m, body.y_m, body.yaw_rad)
-        if math.hypot(GOAL[0] - pose[0], GOAL[1] - pose[1]) <= SUCCESS_RADIUS_M:
+        pose = Pose2(body.x_m, body.y_m, body.yaw_rad)
+        if math.hypot(GOAL[0] - pose.x, GOAL[1] - pose.y) <= SUCCESS_RADIUS_M:
             return _run(index, True, False, False, t, optimal_length_m)
         if step % SCAN_EVERY == 0:
-            c, s = math.cos(pose[2]), math.sin(pose[2])
-            lx, ly = pose[0] + c * LIDAR_X_M, pose[1] + s * LIDAR_X_M
+            lidar = pose.compose(LIDAR_MOUNT)
             ranges = cast_rays(
                 world.grid,
                 world.origin_x_m,
                 world.origin_y_m,
                 world.resolution_m,
-                lx,
-                ly,
-                (beams + pose[2]).astype(np.float64),
+                lidar.x,
+                lidar.y,
+                (beams + pose.yaw).astype(np.float64),
                 LIDAR_RANGE_M,
                 no_discs,
             )

@@ -11,7 +11,8 @@ import numpy.typing as npt
 
 from navd.config import NavdConfig
 from navd.drivers.kinematics import WheelCalibration, body_velocity, wheel_speeds
-from navd.planning.footprint import Footprint
+from navd.geometry.angles import wrap_angle
+from navd.geometry.footprint import Footprint
 from navd.sim._sim_kernels import footprint_contact
 from navd.sim.world import World
 
@@ -93,7 +94,7 @@ class Body:
             self.min_clearance_m = min(self.min_clearance_m, clearance)
             return
         self.x_m, self.y_m = x, y
-        self.yaw_rad = (yaw + math.pi) % (2.0 * math.pi) - math.pi
+        self.yaw_rad = wrap_angle(yaw)
         self.linear_mps, self.angular_radps = v, w
         self.min_clearance_m = min(self.min_clearance_m, clearance)
 

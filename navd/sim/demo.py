@@ -21,6 +21,15 @@ from typing import Any
 
 import numpy as np
 
+from navd.drivers.client import ClientError, ConnectionClosedError
+from navd.drivers.protocol.frames import (
+    CancelFrame,
+    GoalFrame,
+    InitialPoseFrame,
+    SaveMapFrame,
+    SubscribeFrame,
+)
+from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, StatusFrame
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
 from navd.sim.runner import Simulator
@@ -48,44 +57,46 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     result = DemoResult()
     # The start as the initial pose: SLAM starts its map there, so map and world coincide.
     x0, y0, yaw0 = world.start
-    control.send({"type": "initial_pose", "x": x0, "y": y0, "yaw": yaw0, "std_xy": 0.02})
-    control.send({"type": "subscribe", "rate_hz": 5})
+    control.send(InitialPoseFrame(x=x0, y=y0, yaw=yaw0, std_xy=0.02))
+    control.send(SubscribeFrame(rate_hz=5))
     gx, gy, gyaw = world.goal
-    control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "demo"})
-    await control.acknowledged("goal")
+    try:
+        await control.request(GoalFrame(x=gx, y=gy, yaw=gyaw, goal_id="demo"))
+    except (ClientError, TimeoutError) as err:
+        raise SimError(f"navd did not take the demo's goal: {err}") from err
     sim.release_clock()  # on simulated time, the drive starts at 0 s with the goal known
     started = sim.now()
     shown_at = -math.inf
     try:
         while sim.now() - started < limit_s:
+            s.check()
             try:
-                frame = await control.recv(1.0)
+                frame = await control.receive(1.0)
             except TimeoutError:
                 continue
-            kind = frame.get("type")
-            if kind == "eof":
+            except ConnectionClosedError:
                 result.reason = "navd closed the connection"
                 break
-            if kind == "path" and frame.get("goal_id") == "demo":
-                result.routes.append(frame["points"])
-            elif kind == "status" and frame.get("pose"):
-                pose = frame["pose"]
-                result.estimated.append((pose["x"], pose["y"], pose["yaw"]))
+            if isinstance(frame, PathFrame) and frame.goal_id == "demo":
+                result.routes.append([list(p) for p in frame.points])
+            elif isinstance(frame, StatusFrame) and frame.pose is not None:
+                pose = frame.pose
+                result.estimated.append((pose.x, pose.y, pose.yaw))
                 if progress:
                     shown_at = _progress(frame, sim.now() - started, shown_at)
             elif (
-                kind == "goal_status"
-                and frame.get("goal_id") == "demo"
-                and frame["state"] in ("reached", "failed", "canceled")
+                isinstance(frame, GoalStatusFrame)
+                and frame.goal_id == "demo"
+                and frame.state in ("reached", "failed", "canceled")
             ):
-                result.state = frame["state"]
-                result.reason = frame.get("reason", "")
+                result.state = frame.state
+                result.reason = frame.reason
                 break
         result.time_s = sim.now() - started
         if result.state == "timeout":
             result.reason = f"not there after {limit_s:.0f} s"
-            control.send({"type": "cancel"})
-        control.send({"type": "save_map", "name": "demo"})
+            control.send(CancelFrame())
+        control.send(SaveMapFrame(name="demo"))
         await asyncio.sleep(1.0)  # the map is saved in a worker
     finally:
         if progress and sys.stderr.isatty():
@@ -93,16 +104,15 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     return result
 
 
-def _progress(frame: dict[str, Any], elapsed_s: float, shown_at: float) -> float:
+def _progress(frame: StatusFrame, elapsed_s: float, shown_at: float) -> float:
     """A progress line: rewritten in place on a terminal, every 5 s otherwise."""
     terminal = sys.stderr.isatty()
     if not terminal and elapsed_s - shown_at < 5.0:
         return shown_at
-    goal = frame.get("goal") or {}
-    remaining = goal.get("distance_remaining")
+    remaining = frame.goal.distance_remaining if frame.goal is not None else None
     left = f"{remaining:5.1f} m to go" if remaining is not None else "planning"
-    safety = ", ".join(frame["diagnostics"]["safety"]) or "ok"
-    text = f"demo: {elapsed_s:5.1f} s  {frame['mode']:<10} {left}  safety: {safety}"
+    safety = ", ".join(frame.diagnostics.safety) or "ok"
+    text = f"demo: {elapsed_s:5.1f} s  {frame.mode:<10} {left}  safety: {safety}"
     print(f"\r{text:<78}" if terminal else text, end="" if terminal else "\n", file=sys.stderr)
     sys.stderr.flush()
     return elapsed_s

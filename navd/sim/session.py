@@ -12,11 +12,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import signal
 import socket
 import sys
-import time
 from collections.abc import AsyncIterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,12 +23,13 @@ from typing import Any
 import tomli_w
 
 from navd.config import NavdConfig
-from navd.drivers.wire import PROTOCOL_VERSION
+from navd.drivers.client import AsyncClient, ClientError
 from navd.sim.errors import SimError
-from navd.sim.runner import SimSettings, Simulator
+from navd.sim.runner import Simulator
+from navd.sim.settings import SimSettings
 from navd.sim.world import World
 
-__all__ = ["Control", "Session", "session"]
+__all__ = ["Session", "free_port", "session"]
 
 READY_TIMEOUT_S = 30.0
 
@@ -49,96 +48,31 @@ def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
     return merged
 
 
-class Control:
-    """A control client of the wire protocol on asyncio streams."""
-
-    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        self.reader = reader
-        self.writer = writer
-
-    @classmethod
-    async def connect(cls, port: int, device_id: str = "sim-control") -> Control:
-        """Connect and say hello, retrying until the daemon listens (READY_TIMEOUT_S).
-
-        Raises:
-            SimError: navd did not listen in time or refused the client.
-        """
-        deadline = time.monotonic() + READY_TIMEOUT_S
-        while True:
-            try:
-                reader, writer = await asyncio.open_connection("127.0.0.1", port)
-                break
-            except OSError as err:
-                if time.monotonic() > deadline:
-                    raise SimError(
-                        f"navd did not listen on port {port} within {READY_TIMEOUT_S} s "
-                        "(see its log)"
-                    ) from err
-                await asyncio.sleep(0.2)
-        control = cls(reader, writer)
-        control.send(
-            {
-                "type": "hello",
-                "protocol": PROTOCOL_VERSION,
-                "role": "control",
-                "device_id": device_id,
-            }
-        )
-        welcome = await control.recv(5.0)
-        if welcome.get("type") != "welcome":
-            raise SimError(f"navd refused the control client: {welcome}")
-        return control
-
-    def send(self, frame: Mapping[str, Any]) -> None:
-        """Queue one frame."""
-        self.writer.write(json.dumps(frame).encode() + b"\n")
-
-    async def recv(self, timeout_s: float) -> dict[str, Any]:
-        """The next frame, or {"type": "eof"} when the daemon closed the connection.
-
-        Raises:
-            TimeoutError: nothing came within ``timeout_s``.
-        """
-        line = await asyncio.wait_for(self.reader.readline(), timeout_s)
-        if not line:
-            return {"type": "eof"}
-        frame: dict[str, Any] = json.loads(line)
-        return frame
-
-    async def acknowledged(self, request: str, timeout_s: float = 10.0) -> None:
-        """Wait until navd acknowledged ``request`` ("goal"...); frames before it are skipped.
-
-        Raises:
-            SimError: navd refused it, closed, or did not answer within ``timeout_s``.
-        """
-        while True:
-            try:
-                frame = await self.recv(timeout_s)
-            except TimeoutError as err:
-                raise SimError(
-                    f"navd did not acknowledge the {request} within {timeout_s} s"
-                ) from err
-            if frame.get("type") in ("error", "eof"):
-                raise SimError(f"navd refused the {request}: {frame}")
-            if frame.get("type") == "ack" and frame.get("request") == request:
-                return
-
-    def close(self) -> None:
-        """Close the connection."""
-        self.writer.close()
-
-
 @dataclass
 class Session:
     """What a running session offers: the simulator, the control client, the daemon's port,
     process and config, and the folder its maps go to."""
 
     sim: Simulator
-    control: Control
+    control: AsyncClient
     port: int
     daemon: asyncio.subprocess.Process
     config: NavdConfig
     maps: Path
+    sim_task: asyncio.Task[None]
+
+    def check(self) -> None:
+        """Raise if the simulator or the daemon has stopped: a loop waiting for simulated
+        time to pass would otherwise wait for ever.
+
+        Raises:
+            SimError: naming what stopped and why.
+        """
+        if self.sim_task.done():
+            error = None if self.sim_task.cancelled() else self.sim_task.exception()
+            raise SimError(f"the simulator stopped: {error!r}") from error
+        if self.daemon.returncode is not None:
+            raise SimError(f"navd exited with code {self.daemon.returncode} (see its log)")
 
 
 @contextlib.asynccontextmanager
@@ -206,15 +140,20 @@ async def session(
             stdout=log,
             stderr=log,
         )
-        control: Control | None = None
+        control: AsyncClient | None = None
         try:
-            control = await Control.connect(port)
+            try:
+                control = await AsyncClient.connect(
+                    "127.0.0.1", port, device_id="sim-control", ready_timeout_s=READY_TIMEOUT_S
+                )
+            except ClientError as err:
+                raise SimError(f"{err} (see the daemon's log)") from err
             if not hold_clock:
                 sim.release_clock()
-            yield Session(sim, control, port, daemon, config, maps)
+            yield Session(sim, control, port, daemon, config, maps, sim_task)
         finally:
             if control is not None:
-                control.close()
+                await control.close()
             if lockstep:  # time stops first, so the daemon stops at a known instant
                 stop.set()
                 with contextlib.suppress(asyncio.CancelledError):

@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from navd.config import NavdConfig
-from navd.sim.runner import SimSettings, Simulator
+from navd.sim.runner import Simulator
+from navd.sim.settings import SimSettings
 from navd.sim.world import World
 
 __all__ = ["run_sim", "write_truth"]

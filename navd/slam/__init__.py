@@ -7,16 +7,13 @@ No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads
 from navd.slam.errors import LogFormatError, MapFileError, SlamError
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.settings import MapperSettings, mapper_settings
+from navd.slam.settings import MapperSettings
 
 __all__ = [
     "LogFormatError",
     "MapFileError",
     "MapperSettings",
     "OccupancyGrid",
-    "Pose2",
     "ScanMapper",
     "SlamError",
-    "mapper_settings",
 ]

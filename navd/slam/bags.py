@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from navd.geometry.pose import Pose2
 from navd.slam.errors import LogFormatError
 from navd.slam.logfiles import LogScan, OdometryTrack
-from navd.slam.pose import Pose2
 
 __all__ = ["BagLog", "inspect_bag", "is_bag", "read_bag"]
 

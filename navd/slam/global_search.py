@@ -15,10 +15,10 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, Match
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.pose import Pose2
 
 __all__ = ["global_search", "relocalize"]
 

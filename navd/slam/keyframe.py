@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from navd.slam.pose import Pose2
-from navd.slam.scan import ScanPoints
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints
 
 __all__ = ["Keyframe"]
 

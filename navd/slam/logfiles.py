@@ -18,8 +18,8 @@ from typing import TextIO
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
 from navd.slam.errors import LogFormatError
-from navd.slam.pose import Pose2
 
 __all__ = [
     "LogScan",

@@ -29,13 +29,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints
 from navd.slam.global_search import global_search
 from navd.slam.keyframe import Keyframe
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import ScanPoints, voxel_downsample
 from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
 
 __all__ = ["LoopCandidate", "LoopCloser", "LoopCounts"]
 

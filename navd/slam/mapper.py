@@ -19,14 +19,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.pose import Pose2
 from navd.slam.pose_graph import Edge, optimize
-from navd.slam.scan import ScanPoints, voxel_downsample
-from navd.slam.settings import MapperSettings, mapper_settings
+from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
 
 __all__ = ["ScanMapper", "ScanResult"]
 
@@ -89,7 +90,7 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
 class ScanMapper:
     """Builds the map and tracks the robot on it, one scan at a time."""
 
-    settings: MapperSettings = field(default_factory=mapper_settings)
+    settings: MapperSettings = field(default_factory=MapperSettings.defaults)
 
     def __post_init__(self) -> None:
         s = self.settings

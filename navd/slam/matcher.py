@@ -25,9 +25,9 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
 from navd.slam import _grid_kernels as k
 from navd.slam.occupancy import LikelihoodField
-from navd.slam.pose import Pose2
 
 __all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]
 

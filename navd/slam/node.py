@@ -17,13 +17,17 @@ from __future__ import annotations
 
 import math
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from navd.config import NavdConfig
 from navd.errors import NavdError
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
-    ConfigApplied,
     InitialPose,
     LaserScan,
     MapUpdate,
@@ -37,17 +41,49 @@ from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.map_io import load_map, save_map
 from navd.slam.mapper import ScanMapper
-from navd.slam.odometry import ScanOdometry
-from navd.slam.pose import Pose2
-from navd.slam.scan import laser_points, voxel_downsample
-from navd.slam.settings import mapper_settings
+from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
+from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
 from navd.slam.warmup import warm_up
 
-__all__ = ["SlamNode"]
+__all__ = ["SlamNode", "SlamSettings"]
 
 MAP_PERIOD_S = 1.0
 GLOBAL = "global"
 _SLOT = "scan_match"
+
+
+@dataclass(frozen=True, slots=True)
+class SlamSettings:
+    """The SLAM module's settings.
+
+    Attributes:
+        mapper: what the mapper runs on.
+        odometry: what kiss-icp runs on (without wheel odometry).
+        mount: where the lidar sits.
+        map_dir, map_name: where maps are saved, and their default name.
+        save_on_shutdown: save the map when the daemon stops.
+    """
+
+    mapper: MapperSettings
+    odometry: ScanOdometrySettings
+    mount: LidarMount
+    map_dir: str
+    map_name: str
+    save_on_shutdown: bool
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> SlamSettings:
+        """The settings the slam and lidar sections describe."""
+        slam = config.slam
+        return cls(
+            mapper=MapperSettings.from_config(config),
+            odometry=ScanOdometrySettings.from_config(config),
+            mount=LidarMount.from_config(config.lidar),
+            map_dir=slam.map_dir,
+            map_name=slam.map_name,
+            save_on_shutdown=slam.save_on_shutdown,
+        )
 
 
 class SlamNode(Module):
@@ -67,20 +103,20 @@ class SlamNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        slam = ctx.config.slam
-        self.mapper = ScanMapper(mapper_settings(slam))
-        if slam.load_map is not None:
+        self.settings = ctx.settings(SlamSettings, self._settings_changed)
+        self.mapper = ScanMapper(self.settings.value.mapper)
+        load = ctx.startup_config.slam.load_map
+        if load is not None:
             try:
-                self.mapper.grid = load_map(Path(slam.load_map))
+                self.mapper.grid = load_map(Path(load))
             except MapFileError as err:
                 raise NavdError(f"slam.load_map: {err}") from err
-            ctx.log.info("map_loaded", path=slam.load_map, cells=self.mapper.grid.logodds.shape)
+            ctx.log.info("map_loaded", path=load, cells=self.mapper.grid.logodds.shape)
             self._relocate = GLOBAL  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(SaveMapRequest, self._on_save)
-        ctx.subscribe(ConfigApplied, self._on_config)
 
     async def on_activate(self) -> None:
         # Compile (or load from the cache) the kernels before the first scan; a scan job
@@ -88,8 +124,28 @@ class SlamNode(Module):
         self.ctx.warm_up(warm_up, name="warm-up")
 
     async def on_deactivate(self) -> None:
-        if self.ctx.config.slam.save_on_shutdown and not self.mapper.grid.empty:
-            self._save(self.ctx.config.slam.map_name)
+        settings = self.settings.value
+        if settings.save_on_shutdown and not self.mapper.grid.empty:
+            self._save(settings.map_name, settings.map_dir)
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        odometry = self._scan_odometry
+        return (
+            self.settings.value,
+            self.mapper.settings,
+            *(() if odometry is None else (odometry.settings,)),
+        )
+
+    def _settings_changed(self, old: SlamSettings, new: SlamSettings) -> None:
+        """Swap the mapper's settings; rebuild kiss-icp (it is built with its settings), and
+        let the next scan start its motion prior afresh in the new odometry frame."""
+        with self._lock:
+            if new.mapper != old.mapper:
+                self.mapper.configure(new.mapper)
+            if new.odometry != old.odometry and self._scan_odometry is not None:
+                self._scan_odometry = ScanOdometry(new.odometry)
+                if not self._has_odometry:
+                    self.mapper.forget_odometry()
 
     def _on_wheels(self, odom: WheelOdometry) -> None:
         """Dead-reckon the odometry pose: the motion prior of the next scan."""
@@ -105,18 +161,15 @@ class SlamNode(Module):
         self.ctx.submit(_SLOT, lambda: self._match(scan, odom))
 
     def _match(self, scan: LaserScan, odom: Pose2 | None) -> tuple[Message, ...]:
-        slam = self.ctx.config.slam
-        points = laser_points(scan, slam)
-        if odom is None:
-            # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
-            if self._scan_odometry is None:
-                self._scan_odometry = ScanOdometry(
-                    voxel_size_m=slam.voxel_size_m,
-                    max_range_m=slam.max_range_m,
-                    min_range_m=slam.min_range_m,
-                )
-            odom = self._scan_odometry.register(points.hits)
         with self._lock:
+            settings = self.settings.value
+            mapper = settings.mapper
+            points = laser_points(scan, settings.mount, max_range_m=mapper.max_range_m)
+            if odom is None:
+                # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
+                if self._scan_odometry is None:
+                    self._scan_odometry = ScanOdometry(settings.odometry)
+                odom = self._scan_odometry.register(points.hits)
             if isinstance(self._relocate, Pose2) and self.mapper.grid.empty:
                 # No map yet: the given pose is where the new map starts.
                 self.mapper.set_pose(self._relocate)
@@ -127,9 +180,9 @@ class SlamNode(Module):
                 assert guess is None or isinstance(guess, Pose2)
                 found = relocalize(
                     self.mapper.grid,
-                    voxel_downsample(points.hits, slam.voxel_size_m),
+                    voxel_downsample(points.hits, mapper.voxel_size_m),
                     guess=guess,
-                    reach_m=slam.max_range_m,
+                    reach_m=mapper.max_range_m,
                 )
                 self.ctx.log.info(
                     "relocalized",
@@ -178,10 +231,11 @@ class SlamNode(Module):
             self._relocate = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
 
     def _on_save(self, request: SaveMapRequest) -> None:
-        name = request.name or self.ctx.config.slam.map_name
-        self.ctx.submit("map_save", lambda: self._save(name))
+        settings = self.settings.value
+        name = request.name or settings.map_name
+        self.ctx.submit("map_save", lambda: self._save(name, settings.map_dir))
 
-    def _save(self, name: str) -> None:
+    def _save(self, name: str, folder: str) -> None:
         with self._lock:
             grid = self.mapper.grid
             if grid.empty:
@@ -191,10 +245,5 @@ class SlamNode(Module):
                 grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
             )
             poses = np.array([tuple(k.pose) for k in self.mapper.keyframes]).reshape(-1, 3)
-        path = save_map(snapshot, Path(self.ctx.config.slam.map_dir), name, keyframe_poses=poses)
+        path = save_map(snapshot, Path(folder), name, keyframe_poses=poses)
         self.ctx.log.info("map_saved", path=str(path))
-
-    def _on_config(self, applied: ConfigApplied) -> None:
-        settings = mapper_settings(applied.config.slam)
-        with self._lock:
-            self.mapper.configure(settings)

@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints
 from navd.slam import _grid_kernels as k
-from navd.slam.pose import Pose2
-from navd.slam.scan import ScanPoints
 
 __all__ = ["LikelihoodField", "OccupancyGrid"]
 

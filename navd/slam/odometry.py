@@ -10,34 +10,57 @@ points are always N x 3 float64; a scan with almost no points is skipped (the po
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from navd.slam.pose import Pose2
+from navd.config import NavdConfig
+from navd.geometry.pose import Pose2
 
-__all__ = ["MIN_POINTS", "ScanOdometry"]
+__all__ = ["MIN_POINTS", "ScanOdometry", "ScanOdometrySettings"]
 
 MIN_POINTS = 20  # fewer points than this cannot constrain a 2D registration
+
+
+@dataclass(frozen=True, slots=True)
+class ScanOdometrySettings:
+    """What kiss-icp is set up with.
+
+    Attributes:
+        voxel_size_m: [m] kiss-icp's voxel size (about 0.1 m suits 2D lidars indoors).
+        max_range_m, min_range_m: [m] the ranges kiss-icp keeps.
+    """
+
+    voxel_size_m: float
+    max_range_m: float
+    min_range_m: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> ScanOdometrySettings:
+        """The settings the slam and lidar sections describe."""
+        slam = config.slam
+        return cls(slam.voxel_size_m, slam.max_range_m, config.lidar.min_range_m)
 
 
 class ScanOdometry:
     """The pose of the robot by registering each scan onto kiss-icp's local map.
 
     Args:
-        voxel_size_m: [m] kiss-icp's voxel size (about 0.1 m suits 2D lidars indoors).
-        max_range_m, min_range_m: [m] the ranges kiss-icp keeps.
+        settings: kiss-icp's voxel size and range window (fixed for the instance: kiss-icp
+            is built with them, so new settings mean a new ScanOdometry).
     """
 
-    def __init__(self, *, voxel_size_m: float, max_range_m: float, min_range_m: float) -> None:
+    def __init__(self, settings: ScanOdometrySettings) -> None:
         from kiss_icp.config.parser import load_config  # noqa: PLC0415 - heavy, first use only
         from kiss_icp.kiss_icp import KissICP  # noqa: PLC0415
 
+        self.settings = settings
         config = load_config(None)
         config.data.deskew = False  # with zero timestamps deskewing aborts the process
-        config.data.max_range = max_range_m
-        config.data.min_range = min_range_m
-        config.mapping.voxel_size = voxel_size_m
+        config.data.max_range = settings.max_range_m
+        config.data.min_range = settings.min_range_m
+        config.mapping.voxel_size = settings.voxel_size_m
         config.registration.max_num_threads = 1  # one worker thread is ours to use
         self._icp = KissICP(config=config)
         self._no_timestamps = np.zeros(0)

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import Pose2
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
 
 __all__ = ["encode_png", "map_picture"]
 

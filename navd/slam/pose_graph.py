@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.angles import wrap_angles
+
 __all__ = ["Edge", "optimize"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -70,11 +72,6 @@ def _graph(edges: list[Edge]) -> _Graph:
     )
 
 
-def _wrap(angle: FloatArray) -> FloatArray:
-    out: FloatArray = np.remainder(angle + np.pi, 2 * np.pi) - np.pi
-    return out
-
-
 def _residuals(poses: FloatArray, g: _Graph) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Weighted residuals (E x 3), and the relative pose x_i⁻¹ ⊕ x_j's translation parts."""
     a, b = poses[g.ii], poses[g.jj]
@@ -85,7 +82,7 @@ def _residuals(poses: FloatArray, g: _Graph) -> tuple[FloatArray, FloatArray, Fl
     cz, sz = np.cos(g.z[:, 2]), np.sin(g.z[:, 2])
     ux, uy = rel_x - g.z[:, 0], rel_y - g.z[:, 1]
     r = np.column_stack(
-        [cz * ux + sz * uy, -sz * ux + cz * uy, _wrap(b[:, 2] - a[:, 2] - g.z[:, 2])]
+        [cz * ux + sz * uy, -sz * ux + cz * uy, wrap_angles(b[:, 2] - a[:, 2] - g.z[:, 2])]
     )
     return r * g.w, rel_x, rel_y
 
@@ -175,6 +172,6 @@ def optimize(poses: FloatArray, edges: list[Edge], max_iterations: int = 100) ->
         damping = max(damping / 10.0, 1e-12)
         if np.abs(step).max() < STEP_TOLERANCE or drop <= COST_TOLERANCE * max(cost, 1e-300):
             break
-    x[:, 2] = _wrap(x[:, 2])
+    x[:, 2] = wrap_angles(x[:, 2])
     x[0] = poses[0]
     return x

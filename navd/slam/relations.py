@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from navd.geometry.pose import Pose2
 from navd.slam.errors import LogFormatError
-from navd.slam.pose import Pose2
 
 __all__ = ["Relation", "RelationErrors", "evaluate", "read_relations", "read_tum"]
 

@@ -3,6 +3,10 @@
 The same ScanMapper as on the robot. Written into the output folder: the map (map.yaml,
 map.pgm, map.npz), map.png (the map with the trajectory), trajectory.tum (stamp x y z qx qy
 qz qw per scan) and summary.json.
+
+Where the lidar sits on the robot, in order of precedence: a value given for the replay
+(``--laser-x`` ...), then the recording's own static transforms (a bag's /tf_static), then
+the config's ``[lidar]`` section.
 """
 
 from __future__ import annotations
@@ -10,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import statistics
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -18,16 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from navd.slam.logfiles import LogScan
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import laser_points
+from navd.lifecycle.stats import percentile
+from navd.slam.bags import inspect_bag, is_bag, read_bag
+from navd.slam.logfiles import LogScan, count_scans, open_log
 from navd.slam.map_io import save_map
 from navd.slam.mapper import ScanMapper
-from navd.slam.odometry import ScanOdometry
+from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.picture import map_picture
-from navd.slam.pose import Pose2
-from navd.slam.scan import IDENTITY, scan_points
 from navd.slam.settings import MapperSettings
 
-__all__ = ["ReplayResult", "replay", "tum_line"]
+__all__ = ["ReplayInput", "ReplayResult", "open_recording", "replay", "replay_mount", "tum_line"]
 
 Progress = Callable[[int, float], None]
 
@@ -41,6 +47,58 @@ class ReplayResult:
     summary: dict[str, object]
 
 
+@dataclass(frozen=True, slots=True)
+class ReplayInput:
+    """A recording opened for replay.
+
+    Attributes:
+        scans: the scans, in order, with the recording's odometry.
+        total: how many there are (0 if not known ahead).
+        mount: the lidar's pose on the robot as the recording gives it, or None.
+    """
+
+    scans: Iterable[LogScan]
+    total: int
+    mount: Pose2 | None
+
+
+def open_recording(
+    path: Path, *, scan_topic: str | None = None, odom_topic: str | None = None
+) -> ReplayInput:
+    """The scans of a text log (CARMEN, a ``*_scans.txt`` dump) or a ROS 1/2 bag.
+
+    Args:
+        scan_topic, odom_topic: the bag topics (default: found by message type).
+
+    Raises:
+        LogFormatError: a format navd cannot read, or a bag without a laser topic.
+        OSError: the file cannot be read.
+    """
+    if is_bag(path):
+        bag = inspect_bag(path, scan_topic=scan_topic, odom_topic=odom_topic)
+        return ReplayInput(read_bag(bag), bag.scans, bag.mount)
+    return ReplayInput(open_log(path), count_scans(path), None)
+
+
+def replay_mount(
+    configured: LidarMount,
+    recorded: Pose2 | None,
+    *,
+    x_m: float | None = None,
+    y_m: float | None = None,
+    yaw_rad: float | None = None,
+) -> LidarMount:
+    """The lidar's mount for a replay: each value given here, else the recording's own
+    transforms, else the config's (see the module docstring)."""
+    base = recorded if recorded is not None else configured.pose
+    pose = Pose2(
+        base.x if x_m is None else x_m,
+        base.y if y_m is None else y_m,
+        base.yaw if yaw_rad is None else yaw_rad,
+    )
+    return LidarMount(pose, configured.min_range_m)
+
+
 def tum_line(stamp: float, pose: Pose2) -> str:
     """One TUM trajectory line: stamp x y z qx qy qz qw (a rotation about z)."""
     half = pose.yaw / 2.0
@@ -52,8 +110,7 @@ def replay(
     out_dir: Path,
     settings: MapperSettings,
     *,
-    mount: Pose2 = IDENTITY,
-    min_range_m: float = 0.1,
+    mount: LidarMount,
     odometry: str = "log",
     progress: Progress | None = None,
 ) -> ReplayResult:
@@ -69,9 +126,7 @@ def replay(
     mapper = ScanMapper(dataclasses.replace(settings, keep_trajectory=True))
     scan_odometry = (
         ScanOdometry(
-            voxel_size_m=settings.voxel_size_m,
-            max_range_m=settings.max_range_m,
-            min_range_m=min_range_m,
+            ScanOdometrySettings(settings.voxel_size_m, settings.max_range_m, mount.min_range_m)
         )
         if odometry == "scan"
         else None
@@ -82,15 +137,7 @@ def replay(
     start = time.perf_counter()
     for scan in scans:
         t0 = time.perf_counter()
-        points = scan_points(
-            scan.ranges,
-            scan.angle_min,
-            scan.angle_increment,
-            range_min=max(scan.range_min, min_range_m),
-            range_max=scan.range_max,
-            mount=mount,
-            max_range=settings.max_range_m,
-        )
+        points = laser_points(scan, mount, max_range_m=settings.max_range_m)
         if scan_odometry is not None:
             odom: Pose2 | None = scan_odometry.register(points.hits)
         else:
@@ -117,8 +164,8 @@ def replay(
         "scans": len(stamps),
         "data_seconds": round(stamps[-1] - stamps[0], 3) if stamps else 0.0,
         "wall_seconds": round(wall, 3),
-        "ms_per_scan_p50": round(statistics.median(ms), 3),
-        "ms_per_scan_p95": round(ms[int(0.95 * (len(ms) - 1))], 3),
+        "ms_per_scan_p50": round(percentile(ms, 50), 3),
+        "ms_per_scan_p95": round(percentile(ms, 95), 3),
         "matched": counts.matched,
         "weak_matches": counts.weak_matches,
         "exploring": counts.exploring,

@@ -6,15 +6,15 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from navd.config import SlamConfig
+from navd.config import NavdConfig
 
-__all__ = ["MapperSettings", "mapper_settings"]
+__all__ = ["MapperSettings"]
 
 
 @dataclass(frozen=True, slots=True)
 class MapperSettings:
     """Plain values the mapper runs on, built from the slam config section by
-    ``mapper_settings`` (the config holds the defaults; those with defaults here are fixed)."""
+    ``from_config`` (the config holds the defaults; those with defaults here are fixed)."""
 
     resolution_m: float
     voxel_size_m: float
@@ -39,32 +39,30 @@ class MapperSettings:
     # it; a robot running for days does not (it grows with every scan).
     keep_trajectory: bool = False
 
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> MapperSettings:
+        """The settings the slam section describes."""
+        slam = config.slam
+        return cls(
+            resolution_m=slam.resolution_m,
+            voxel_size_m=slam.voxel_size_m,
+            max_range_m=slam.max_range_m,
+            search_xy_m=slam.search_xy_m,
+            search_yaw_rad=slam.search_yaw_rad,
+            blur_sigma_m=slam.blur_sigma_m,
+            keyframe_distance_m=slam.keyframe_distance_m,
+            keyframe_angle_rad=slam.keyframe_angle_rad,
+            min_score=slam.min_match_score,
+            updating_map=slam.updating_map,
+            loop_closure=slam.loop_closure,
+            loop_search_radius_m=slam.loop_search_radius_m,
+            loop_search_xy_m=slam.loop_search_xy_m,
+            loop_min_score=slam.loop_min_score,
+            prior_weight_per_m2=slam.prior_weight_per_m2,
+            prior_weight_per_rad2=slam.prior_weight_per_rad2,
+        )
 
-def mapper_settings(config: SlamConfig | None = None, **overrides: Any) -> MapperSettings:
-    """The mapper's plain values from the ``slam`` config section (default: the defaults).
-
-    ``overrides`` replace single values (tests, replays).
-    """
-    config = config or SlamConfig()
-    return dataclasses.replace(_from_config(config), **overrides)
-
-
-def _from_config(config: SlamConfig) -> MapperSettings:
-    return MapperSettings(
-        resolution_m=config.resolution_m,
-        voxel_size_m=config.voxel_size_m,
-        max_range_m=config.max_range_m,
-        search_xy_m=config.search_xy_m,
-        search_yaw_rad=config.search_yaw_rad,
-        blur_sigma_m=config.blur_sigma_m,
-        keyframe_distance_m=config.keyframe_distance_m,
-        keyframe_angle_rad=config.keyframe_angle_rad,
-        min_score=config.min_match_score,
-        updating_map=config.updating_map,
-        loop_closure=config.loop_closure,
-        loop_search_radius_m=config.loop_search_radius_m,
-        loop_search_xy_m=config.loop_search_xy_m,
-        loop_min_score=config.loop_min_score,
-        prior_weight_per_m2=config.prior_weight_per_m2,
-        prior_weight_per_rad2=config.prior_weight_per_rad2,
-    )
+    @classmethod
+    def defaults(cls, **overrides: Any) -> MapperSettings:
+        """The default config's settings with single values replaced (tests, warm-up)."""
+        return dataclasses.replace(cls.from_config(NavdConfig()), **overrides)

@@ -92,7 +92,7 @@ def test_unchanged_value_reports_no_changed_keys() -> None:
         ({}, "must name at least one key"),
         (
             {"safety.reaction_timout_s": 1.0},
-            r"safety\.reaction_timout_s: unknown key in safety \(did you mean 'reaction_timeout_s'",
+            r"safety\.reaction_timout_s: unknown key \(did you mean 'reaction_timeout_s'",
         ),
         ({"robot": 5}, r"robot: is a section; give a table of its keys"),
         ({"robot.name.first": "x"}, r"robot\.name is a value, not a section"),

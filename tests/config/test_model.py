@@ -90,8 +90,16 @@ def test_field_rules_name_the_key(data: dict[str, object], match: str) -> None:
             r"safety\.slowdown_distance_m \(0\.5\) must be at least safety\.stop_distance_m",
         ),
         (
-            {"slam": {"min_range_m": 5.0, "max_range_m": 4.0}},
-            r"slam\.min_range_m \(5\.0\) must be below slam\.max_range_m",
+            {"lidar": {"min_range_m": 5.0}, "slam": {"max_range_m": 4.0}},
+            r"lidar\.min_range_m \(5\.0\) must be below slam\.max_range_m \(4\.0\)",
+        ),
+        (
+            {"lidar": {"min_range_m": 5.0}, "planning": {"obstacle_range_m": 4.0}},
+            r"lidar\.min_range_m \(5\.0\) must be below planning\.obstacle_range_m",
+        ),
+        (
+            {"world": {"datum_latitude_deg": 85.0, "datum_longitude_deg": 10.0}},
+            r"world\.datum_latitude_deg \(85\.0\) is outside UTM's latitude range",
         ),
         (
             {"estimation": {"degraded_position_std_m": 2.0, "lost_position_std_m": 1.0}},
@@ -170,11 +178,6 @@ def test_loopback_hosts_need_no_token(host: str) -> None:
 
 def test_integers_are_accepted_where_floats_belong() -> None:
     assert parse_config({"robot": {"max_linear_speed_mps": 1}}).robot.max_linear_speed_mps == 1.0
-
-
-def test_rectangle_circumradius() -> None:
-    config = parse_config({"robot": {"footprint": "rectangle", "length_m": 0.6, "width_m": 0.8}})
-    assert config.robot.circumradius_m == pytest.approx(0.5)
 
 
 def test_config_is_frozen() -> None:

@@ -1,17 +1,18 @@
-"""An in-process daemon with the real modules on a real TCP socket, and an async client."""
+"""An in-process daemon with the real modules on a real TCP socket, and navd's own client."""
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
-import json
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
 from navd.app import build_modules
 from navd.config import parse_config
-from navd.drivers.tcp_server import TcpServer
+from navd.drivers.client import AsyncClient
+from navd.drivers.protocol.frames import Hello
+from navd.drivers.protocol.replies import Reply
+from navd.drivers.tcp.server import TcpServer
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import Message
 
@@ -46,59 +47,18 @@ def record(daemon: Daemon, message_type: type[Message]) -> list[Any]:
     return seen
 
 
-class AsyncClient:
-    """A protocol client on asyncio streams (blocking sockets would stall the daemon's loop)."""
+async def hello(
+    port: int, role: str, device_id: str, token: str | None = None
+) -> tuple[AsyncClient, Reply]:
+    """A connection that said hello, and navd's first answer (a welcome or a fatal error)."""
+    client = await AsyncClient.open("127.0.0.1", port)
+    client.send(Hello(role=role, device_id=device_id, token=token))  # type: ignore[arg-type]
+    return client, await client.receive(3.0)
 
-    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        self.reader = reader
-        self.writer = writer
 
-    @classmethod
-    async def open(cls, port: int) -> AsyncClient:
-        reader, writer = await asyncio.open_connection("127.0.0.1", port, limit=1 << 22)
-        return cls(reader, writer)
-
-    @classmethod
-    async def hello(
-        cls, port: int, role: str, device_id: str, token: str | None = None
-    ) -> tuple[AsyncClient, dict[str, Any]]:
-        client = await cls.open(port)
-        frame: dict[str, Any] = {
-            "type": "hello",
-            "protocol": 1,
-            "role": role,
-            "device_id": device_id,
-        }
-        if token is not None:
-            frame["token"] = token
-        await client.send(frame)
-        return client, await client.recv()
-
-    async def send(self, frame: dict[str, Any] | bytes) -> None:
-        data = frame if isinstance(frame, bytes) else json.dumps(frame).encode()
-        self.writer.write(data + b"\n")
-        await self.writer.drain()
-
-    async def recv(self, timeout_s: float = 3.0) -> dict[str, Any]:
-        line = await asyncio.wait_for(self.reader.readline(), timeout_s)
-        if not line:
-            return {"type": "eof"}
-        frame: dict[str, Any] = json.loads(line)
-        return frame
-
-    async def recv_type(self, frame_type: str, timeout_s: float = 3.0) -> dict[str, Any]:
-        async def find() -> dict[str, Any]:
-            while True:
-                frame = await self.recv(timeout_s)
-                if frame["type"] in (frame_type, "eof"):
-                    return frame
-
-        return await asyncio.wait_for(find(), timeout_s)
-
-    async def close(self) -> None:
-        self.writer.close()
-        with contextlib.suppress(ConnectionError):
-            await self.writer.wait_closed()
+async def connected(port: int, role: str, device_id: str) -> AsyncClient:
+    """A welcomed connection."""
+    return await AsyncClient.connect("127.0.0.1", port, role=role, device_id=device_id)
 
 
 async def until(predicate: Any, timeout_s: float = 3.0) -> None:

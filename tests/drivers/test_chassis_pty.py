@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 from navd.lifecycle.messages import (
+    ConfigChange,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -242,3 +243,35 @@ async def test_a_bug_in_the_serial_loop_stops_the_wheels_and_recovers(tmp_path: 
         await until(lambda: len(reopened) == 1)
         drive(daemon, 0.1, 0.0)  # the driver reopened and obeys fresh commands again
         await until(lambda: b"100 100\n" in stm32.since(broke))
+
+
+async def test_a_new_command_rate_applies_at_once_without_a_restart(tmp_path: Path) -> None:
+    stm32 = FakeStm32(tmp_path / "ttyNAVD")
+    chassis = {"enabled": True, "port": str(stm32.link), "command_rate_hz": 20.0}
+    try:
+        async with running_daemon(chassis=chassis, lifecycle={"clock": "simulated"}) as (
+            daemon,
+            _,
+        ):
+            await until(lambda: daemon.traffic.sent["chassis"] >= 1)  # open: "0 0" written
+            clock = daemon.clock
+
+            async def lines_in(seconds: float) -> int:
+                before = daemon.traffic.sent["chassis"]
+                await clock.run_to(clock.now() + seconds)
+                return daemon.traffic.sent["chassis"] - before
+
+            assert abs(await lines_in(1.0) - 20) <= 1
+            now = clock.now()
+            daemon.bus.publish(
+                ConfigChange(
+                    stamp=now,
+                    received=now,
+                    request_id="r",
+                    changes={"chassis.command_rate_hz": 50.0},
+                )
+            )
+            # the tick already waiting keeps the old period; the new grid starts after it
+            assert abs(await lines_in(1.0) - 50) <= 3
+    finally:
+        stm32.unplug()

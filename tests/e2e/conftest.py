@@ -15,6 +15,8 @@ from typing import Any
 
 import pytest
 
+from navd.sim.session import free_port
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -72,6 +74,16 @@ class DaemonProcess:
             if line.get("event") == event:
                 return line
 
+    def drain(self) -> list[dict[str, Any]]:
+        """Every log line that came and was not read yet."""
+        lines = []
+        while True:
+            try:
+                lines.append(self.lines.get_nowait())
+            except Empty:
+                self.seen.extend(lines)
+                return lines
+
     def stop(self) -> None:
         if self.proc.poll() is None:
             self.proc.kill()
@@ -92,14 +104,14 @@ def spawn_daemon() -> Iterator[Any]:
         daemon.stop()
 
 
-def free_port() -> int:
-    """A TCP port nobody listens on right now."""
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
+def default_config(folder: Path) -> Path:
+    """The shipped config/navd.toml with only the port changed to a free one, so the test
+    runs on the defaults and never meets a navd running on the default port."""
+    text = (REPO / "config" / "navd.toml").read_text(encoding="utf-8")
+    assert text.count("\nport = 7420\n") == 1, "config/navd.toml lost its tcp port line"
+    path = folder / "navd.toml"
+    path.write_text(text.replace("\nport = 7420\n", f"\nport = {free_port()}\n"))
+    return path
 
 
 @pytest.fixture

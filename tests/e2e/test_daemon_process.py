@@ -9,14 +9,16 @@ from typing import Any
 
 import pytest
 
-from tests.e2e.conftest import run_navd
+from tests.e2e.conftest import default_config, free_port, run_navd
 
 pytestmark = pytest.mark.e2e
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_daemon_gets_ready_idles_and_exits_0_on_signal(spawn_daemon: Any, sig: int) -> None:
-    daemon = spawn_daemon("run", "--config", "config/navd.toml")
+def test_daemon_gets_ready_idles_and_exits_0_on_signal(
+    spawn_daemon: Any, sig: int, tmp_path: Any
+) -> None:
+    daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)))
     started = time.monotonic()
     ready = daemon.wait_for("ready", timeout_s=3.0)
     assert ready["component"] == "lifecycle" and ready["level"] == "info"
@@ -37,7 +39,7 @@ def test_a_daemon_stopped_while_its_kernels_compile_exits_0_at_once(
 ) -> None:
     # An empty numba cache: the kernels take seconds to compile, in threads beside the loop.
     cold = {"NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
-    daemon = spawn_daemon("run", "--config", "config/navd.toml", env=cold)
+    daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)), env=cold)
     daemon.wait_for("ready", timeout_s=3.0)
     daemon.proc.send_signal(signal.SIGTERM)
     assert daemon.proc.wait(timeout=2.0) == 0  # not an abort from under the compiler
@@ -45,8 +47,10 @@ def test_a_daemon_stopped_while_its_kernels_compile_exits_0_at_once(
     assert daemon.wait_for("exit_without_waiting", timeout_s=1.0)["threads"]
 
 
-def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any) -> None:
-    daemon = spawn_daemon("run")
+def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any, tmp_path: Any) -> None:
+    path = tmp_path / "port-only.toml"
+    path.write_text(f"[tcp]\nport = {free_port()}\n")  # every other key at its default
+    daemon = spawn_daemon("run", "--config", str(path))
     starting = daemon.wait_for("starting", timeout_s=3.0)
     assert starting["config"]["safety"]["reaction_timeout_s"] == 0.5
     daemon.wait_for("ready", timeout_s=3.0)
@@ -62,8 +66,6 @@ def _config_status(port: int) -> dict[str, Any]:
 
 
 def test_sighup_reloads_and_rejects_on_the_real_process(spawn_daemon: Any, tmp_path: Any) -> None:
-    from tests.e2e.conftest import free_port
-
     port = free_port()
     path = tmp_path / "navd.toml"
     path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 0.5\n")
@@ -104,7 +106,7 @@ def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypa
     monkeypatch.setenv("NOTIFY_SOCKET", str(listener.path))
     monkeypatch.setenv("WATCHDOG_USEC", "200000")
     try:
-        daemon = spawn_daemon("run", "--config", "config/navd.toml")
+        daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)))
         daemon.wait_for("ready", timeout_s=3.0)
         time.sleep(1.0)
         daemon.proc.send_signal(signal.SIGTERM)
@@ -118,3 +120,20 @@ def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypa
     assert any(line.startswith("STATUS=running") and "loop lag p99" in line for line in lines)
     stopping = [i for i, line in enumerate(lines) if line.startswith("STOPPING=1")]
     assert len(stopping) == 1 and stopping[0] > lines.index("READY=1\nSTATUS=running")
+
+
+def test_a_log_level_changed_at_runtime_reaches_every_logger(daemon_on_port: Any) -> None:
+    from navd.drivers.client import Client
+    from navd.drivers.protocol.frames import ConfigFrame, GoalFrame
+    from navd.drivers.protocol.replies import ConfigAppliedFrame
+
+    daemon, port = daemon_on_port()
+    with Client("127.0.0.1", port, device_id="ui") as ui:
+        # A goal and no pose: every control tick holds the robot and says so at debug level.
+        ui.request(GoalFrame(x=1.0, y=0.0))
+        time.sleep(0.5)
+        assert not [line for line in daemon.drain() if line.get("event") == "planner_stop"]
+        ui.request(ConfigFrame(changes={"logging.level": "debug"}))
+        ui.receive_type(ConfigAppliedFrame)
+        held = daemon.wait_for("planner_stop", timeout_s=3.0)
+    assert held["level"] == "debug" and held["component"] == "planner"

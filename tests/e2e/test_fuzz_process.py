@@ -18,6 +18,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from navd.drivers.client import Client
+from navd.drivers.protocol.frames import (
+    FixFrame,
+    Frame,
+    GoalFrame,
+    HeadingFrame,
+    ImuFrame,
+    PingFrame,
+    ScanFrame,
+)
+from navd.drivers.protocol.replies import ErrorFrame, Pong
 from tests.e2e.test_tcp_process import IMU, Streamer, devices
 
 pytestmark = pytest.mark.e2e
@@ -31,19 +41,26 @@ VEC3_WRONG = ["str", [1.0, 2.0], [1.0, 2.0, 3.0, 4.0], ["a", "b", "c"], {"x": 1}
 LIST_WRONG = ["str", {"a": 1}, 5, ["x"]]
 STRING_WRONG = [5, 1.5, ["x"], {"a": "b"}]
 
+
+def _valid(frame: Frame) -> dict[str, Any]:
+    """A valid frame as the JSON object it is sent as (the fuzzer mutates it)."""
+    return frame.model_dump(mode="json", exclude_none=True)
+
+
 # role -> (a valid frame, {field: wrong values}, required fields, {field: out-of-range values})
 TEMPLATES: dict[str, tuple[dict[str, Any], dict[str, list[Any]], list[str], dict[str, list[Any]]]]
 TEMPLATES = {
     "lidar": (
-        {
-            "type": "scan",
-            "stamp": 1.0,
-            "angle_min": -1.0,
-            "angle_increment": 0.1,
-            "range_min": 0.1,
-            "range_max": 5.0,
-            "ranges": [1.0, 2.0],
-        },
+        _valid(
+            ScanFrame(
+                stamp=1.0,
+                angle_min=-1.0,
+                angle_increment=0.1,
+                range_min=0.1,
+                range_max=5.0,
+                ranges=[1.0, 2.0],
+            )
+        ),
         {
             "angle_min": NUMBER_WRONG,
             "angle_increment": NUMBER_WRONG,
@@ -56,13 +73,13 @@ TEMPLATES = {
         {"range_min": [-1.0], "angle_increment": [0.0], "range_max": [0.05], "stamp": [-5.0]},
     ),
     "imu": (
-        {"type": "imu", "angular_velocity": [0, 0, 0], "linear_acceleration": [0, 0, 9.8]},
+        _valid(ImuFrame(stamp=None, angular_velocity=(0, 0, 0), linear_acceleration=(0, 0, 9.8))),
         {"angular_velocity": VEC3_WRONG, "linear_acceleration": VEC3_WRONG, "stamp": NUMBER_WRONG},
         ["angular_velocity", "linear_acceleration"],
         {"stamp": [-1.0]},
     ),
     "gps": (
-        {"type": "fix", "latitude": 52.0, "longitude": 13.0, "horizontal_accuracy": 2.0},
+        _valid(FixFrame(stamp=None, latitude=52.0, longitude=13.0, horizontal_accuracy=2.0)),
         {
             "latitude": NUMBER_WRONG,
             "longitude": NUMBER_WRONG,
@@ -79,7 +96,7 @@ TEMPLATES = {
         },
     ),
     "compass": (
-        {"type": "heading", "bearing_deg": 10.0, "accuracy_deg": 2.0},
+        _valid(HeadingFrame(stamp=None, bearing_deg=10.0, accuracy_deg=2.0)),
         {
             "bearing_deg": NUMBER_WRONG,
             "accuracy_deg": NUMBER_WRONG,
@@ -89,7 +106,7 @@ TEMPLATES = {
         {"bearing_deg": [360.0, -0.1], "accuracy_deg": [0.0, 181.0]},
     ),
     "control": (
-        {"type": "goal", "x": 1.0, "y": 2.0},
+        _valid(GoalFrame(x=1.0, y=2.0)),
         {"x": NUMBER_WRONG, "y": NUMBER_WRONG, "goal_id": STRING_WRONG},
         ["x", "y"],
         {"goal_id": ["has space", "x" * 65]},
@@ -169,16 +186,15 @@ def test_malformed_lines_are_answered_and_harm_nobody(daemon_on_port: Any) -> No
             st.lists(bad_line(role), min_size=LINES_PER_EXAMPLE[0], max_size=LINES_PER_EXAMPLE[1])
         )
         with Client("127.0.0.1", port, role=role, device_id=f"fuzz-{role}") as client:
-            client.sock.sendall(b"".join(line + b"\n" for line in lines))
-            client.send({"type": "ping", "id": "sync"})
+            client.send_raw(b"".join(line + b"\n" for line in lines))
+            client.send(PingFrame(id="sync"))
             errors = []
-            while (frame := client.receive()) != {"type": "pong", "id": "sync"}:
+            while (frame := client.receive()) != Pong(id="sync"):
                 errors.append(frame)
         assert len(errors) == len(lines)
         for frame, line in zip(errors, lines, strict=True):
-            assert frame["type"] == "error", (line, frame)
-            assert isinstance(frame["field"], str) and frame["reason"], (line, frame)
-            assert "fatal" not in frame, (line, frame)
+            assert isinstance(frame, ErrorFrame), (line, frame)
+            assert frame.reason and not frame.fatal, (line, frame)
         thrown += len(lines)
 
     throw()
@@ -187,6 +203,6 @@ def test_malformed_lines_are_answered_and_harm_nobody(daemon_on_port: Any) -> No
     assert daemon.proc.poll() is None, "the daemon died"
     assert good.replies == [], "the well-behaved client got errors"
     listed = devices(port)
-    assert listed["good-imu"]["accepted"] == good.sent
-    assert listed["good-imu"]["rejected"] == 0
+    assert listed["good-imu"].accepted == good.sent
+    assert listed["good-imu"].rejected == 0
     time.sleep(0.1)

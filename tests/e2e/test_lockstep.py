@@ -14,7 +14,10 @@ from typing import Any
 import pytest
 import tomli_w
 
-from navd.sim.session import Control, session
+from navd.drivers.client import AsyncClient
+from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame
+from navd.drivers.protocol.replies import GoalStatusFrame
+from navd.sim.session import session
 from navd.sim.world import from_shapes
 from tests.e2e.conftest import REPO, free_port
 
@@ -30,12 +33,11 @@ HALL = {
 }
 
 
-async def _send_goal(control: Control, world: Any) -> None:
+async def _send_goal(control: AsyncClient, world: Any) -> None:
     x, y, yaw = world.start
-    control.send({"type": "initial_pose", "x": x, "y": y, "yaw": yaw, "std_xy": 0.02})
+    control.send(InitialPoseFrame(x=x, y=y, yaw=yaw, std_xy=0.02))
     gx, gy, gyaw = world.goal
-    control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "g"})
-    await control.acknowledged("goal")
+    await control.request(GoalFrame(x=gx, y=gy, yaw=gyaw, goal_id="g"))
 
 
 async def _drive(work: Path, sim_seconds: float) -> tuple[list[Any], list[Any]]:
@@ -45,8 +47,9 @@ async def _drive(work: Path, sim_seconds: float) -> tuple[list[Any], list[Any]]:
         await _send_goal(s.control, world)
         s.sim.release_clock()
         while s.sim.now() < sim_seconds:
+            s.check()
             await asyncio.sleep(0.05)
-        wheels = [w for w in s.sim.wheel_log if w[0] <= sim_seconds]
+        wheels = [w for w in s.sim.robot.wheels.log if w[0] <= sim_seconds]
         truth = [t for t in s.sim.truth if t[0] <= sim_seconds]
     return wheels, truth
 
@@ -106,18 +109,18 @@ async def test_navd_sim_drives_navd_run_as_two_programs(tmp_path: Path) -> None:
         text=True,
     )
     try:
-        control = await Control.connect(port)
+        control = await AsyncClient.connect("127.0.0.1", port, ready_timeout_s=30.0)
         await _send_goal(control, from_shapes(HALL, "hall"))
         state = ""
         for _ in range(600):  # simulated time runs while we wait: at most a minute
             try:
-                frame = await control.recv(0.1)
+                frame = await control.receive(0.1)
             except TimeoutError:
                 continue
-            if frame.get("type") == "goal_status" and frame["state"] in ("reached", "failed"):
-                state = frame["state"]
+            if isinstance(frame, GoalStatusFrame) and frame.state in ("reached", "failed"):
+                state = frame.state
                 break
-        control.close()
+        await control.close()
         assert state == "reached"
     finally:
         sim.terminate()

@@ -16,6 +16,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from navd.drivers.client import ConnectionClosedError
+from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame, SaveMapFrame, SubscribeFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, PoseInfo, StatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import World, from_shapes
 from navd.slam.map_io import load_map
@@ -35,43 +38,44 @@ async def start(s: Session, world: World, goal_id: str = "g") -> None:
     """Tell navd where the robot starts and where to go; then let (simulated) time run."""
     x, y, yaw = world.start
     assert world.goal is not None
-    s.control.send({"type": "initial_pose", "x": x, "y": y, "yaw": yaw, "std_xy": 0.02})
+    s.control.send(InitialPoseFrame(x=x, y=y, yaw=yaw, std_xy=0.02))
     gx, gy, gyaw = world.goal
-    s.control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": goal_id})
-    await s.control.acknowledged("goal")
+    await s.control.request(GoalFrame(x=gx, y=gy, yaw=gyaw, goal_id=goal_id))
     s.sim.release_clock()
 
 
-async def outcome(s: Session, goal_id: str = "g", limit_s: float = 60.0) -> dict[str, Any]:
-    """The goal's final goal_status frame (or a timeout)."""
+async def outcome(s: Session, goal_id: str = "g", limit_s: float = 60.0) -> GoalStatusFrame:
+    """The goal's final goal_status frame (or one saying "timeout" or "closed")."""
     deadline = s.sim.now() + limit_s
     while s.sim.now() < deadline:
+        s.check()
         try:
-            frame = await s.control.recv(1.0)
+            frame = await s.control.receive(1.0)
         except TimeoutError:
             continue
+        except ConnectionClosedError:
+            return GoalStatusFrame(goal_id=goal_id, state="closed")
         if (
-            frame.get("type") == "goal_status"
-            and frame.get("goal_id") == goal_id
-            and frame["state"] in ("reached", "failed", "canceled")
+            isinstance(frame, GoalStatusFrame)
+            and frame.goal_id == goal_id
+            and frame.state in ("reached", "failed", "canceled")
         ):
             return frame
-        if frame.get("type") == "eof":
-            return {"state": "eof"}
-    return {"state": "timeout"}
+    return GoalStatusFrame(goal_id=goal_id, state="timeout")
 
 
-async def latest_pose(s: Session, after_s: float) -> dict[str, float]:
+async def latest_pose(s: Session, after_s: float) -> PoseInfo:
     """The pose in the last status frame received within the next ``after_s`` seconds."""
     deadline = s.sim.now() + after_s
-    pose: dict[str, float] | None = None
+    pose: PoseInfo | None = None
     while s.sim.now() < deadline:
+        s.check()
         try:
-            frame = await s.control.recv(2.0)
+            frame = await s.control.receive(2.0)
         except TimeoutError:  # a slow moment of the machine: the deadline is simulated time
             continue
-        if frame.get("type") == "status" and frame.get("pose"):
-            pose = frame["pose"]
+        if isinstance(frame, StatusFrame) and frame.pose is not None:
+            pose = frame.pose
     assert pose is not None, "no pose in status"
     return pose
 
@@ -91,17 +95,17 @@ async def test_lidar_unplugged_stops_the_wheels_within_300_ms_and_the_drive_goes
         await start(s, world)
         await until(lambda: s.sim.body.linear_mps > 0.2, 30.0)
         unplugged_at = s.sim.now()
-        s.sim.lidar_plugged = False
+        s.sim.sensors.lidar_plugged = False
         await asyncio.sleep(1.5)
         # Every wheel line from 300 ms after the unplugging on is "0 0".
-        after = [(t, left, right) for t, left, right in s.sim.wheel_log if t >= unplugged_at]
+        after = [(t, left, right) for t, left, right in s.sim.robot.wheels.log if t >= unplugged_at]
         stopped = [t for t, left, right in after if (left, right) == (0, 0)]
         assert stopped and stopped[0] - unplugged_at <= 0.3
         assert all((left, right) == (0, 0) for t, left, right in after if t >= stopped[0])
         assert s.sim.body.linear_mps == 0.0
-        s.sim.lidar_plugged = True  # plugged back: the drive goes on to the goal
+        s.sim.sensors.lidar_plugged = True  # plugged back: the drive goes on to the goal
         result = await outcome(s)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
 
 
@@ -115,7 +119,7 @@ async def test_a_moving_obstacle_crossing_the_route_is_never_hit(tmp_path: Path)
     async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
         await start(s, world)
         result = await outcome(s, limit_s=90.0)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     assert s.sim.body.min_clearance_m > 0.0
 
@@ -125,9 +129,9 @@ async def test_a_to_b_straight_builds_a_map_that_matches_the_world(tmp_path: Pat
     async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
         await start(s, world)
         result = await outcome(s)
-        s.control.send({"type": "save_map", "name": "hall"})
+        s.control.send(SaveMapFrame(name="hall"))
         await until((s.maps / "hall.yaml").exists, 5.0)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     # A to B with the pillar off the line: straight there, no detours, stopped at B.
     truth = np.array([(x, y) for _, x, y, _ in s.sim.truth])
@@ -171,25 +175,23 @@ async def test_localizes_on_a_saved_map_from_a_wrong_start(tmp_path: Path) -> No
     world = from_shapes(HALL, "hall")
     async with session(world, tmp_path / "first", lockstep=True, hold_clock=True) as s:
         await start(s, world)
-        assert (await outcome(s))["state"] == "reached"
-        s.control.send({"type": "save_map", "name": "hall"})
+        assert (await outcome(s)).state == "reached"
+        s.control.send(SaveMapFrame(name="hall"))
         await until((s.maps / "hall.yaml").exists, 5.0)
     saved = tmp_path / "first" / "maps" / "hall.yaml"
     # Second run: the map is loaded and kept; the robot is told a start 0.5 m and 15° off.
     overrides = {"slam": {"load_map": str(saved), "updating_map": False}}
     async with session(world, tmp_path / "second", overrides=overrides, lockstep=True) as s:
         x, y, yaw = world.start
-        s.control.send(
-            {"type": "initial_pose", "x": x + 0.4, "y": y - 0.3, "yaw": yaw + math.radians(15)}
-        )
-        s.control.send({"type": "subscribe", "rate_hz": 5})
+        s.control.send(InitialPoseFrame(x=x + 0.4, y=y - 0.3, yaw=yaw + math.radians(15)))
+        s.control.send(SubscribeFrame(rate_hz=5))
         pose = await latest_pose(s, after_s=3.0)  # a few scans to find itself
-        assert math.hypot(pose["x"] - x, pose["y"] - y) < 0.1
-        assert abs(pose["yaw"] - yaw) < math.radians(3)
+        assert math.hypot(pose.x - x, pose.y - y) < 0.1
+        assert abs(pose.yaw - yaw) < math.radians(3)
         gx, gy, gyaw = world.goal or (0.0, 0.0, 0.0)
-        s.control.send({"type": "goal", "x": gx, "y": gy, "yaw": gyaw, "goal_id": "g"})
+        s.control.send(GoalFrame(x=gx, y=gy, yaw=gyaw, goal_id="g"))
         result = await outcome(s)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     end = s.sim.body
     assert math.hypot(end.x_m - gx, end.y_m - gy) <= 0.25
 
@@ -200,7 +202,7 @@ async def test_doubled_imu_noise_still_arrives(tmp_path: Path) -> None:
     async with session(world, tmp_path, sim_settings=noisy, lockstep=True, hold_clock=True) as s:
         await start(s, world)
         result = await outcome(s)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
 
 
@@ -226,7 +228,7 @@ async def test_a_maze_with_a_dead_end_is_solved_without_looping(tmp_path: Path) 
     async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
         await start(s, world)
         result = await outcome(s, limit_s=150.0)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     truth = np.array([(x, y) for _, x, y, _ in s.sim.truth])
     driven = float(np.hypot(*np.diff(truth, axis=0).T).sum())
@@ -241,8 +243,8 @@ async def test_gps_outage_indoors_does_not_stop_the_drive(tmp_path: Path) -> Non
         await start(s, world)
         await until(lambda: "sim-gps" in s.sim.connected, 10.0)
         await until(lambda: s.sim.body.x_m > 1.0, 30.0)
-        s.sim.gps_plugged = False  # under a roof: no more fixes
+        s.sim.sensors.gps_plugged = False  # under a roof: no more fixes
         result = await outcome(s)
-    assert result["state"] == "reached", result
+    assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     assert s.sim.body.x_m > 5.0

@@ -10,34 +10,44 @@ from typing import Any
 import pytest
 
 from navd.drivers.client import Client
+from navd.drivers.protocol.frames import (
+    HeadingFrame,
+    ImuFrame,
+    PingFrame,
+    ScanFrame,
+    SensorFrame,
+    SubscribeFrame,
+)
+from navd.drivers.protocol.replies import DeviceInfo, Pong, Reply, StatusFrame
 from tests.e2e.conftest import run_navd
 
 pytestmark = pytest.mark.e2e
 
-IMU = {"type": "imu", "angular_velocity": [0.0, 0.0, 0.1], "linear_acceleration": [0, 0, 9.81]}
-SCAN = {
-    "type": "scan",
-    "angle_min": -1.57,
-    "angle_increment": 0.01,
-    "range_min": 0.1,
-    "range_max": 10.0,
-    "ranges": [2.0] * 315,
-}
+IMU = ImuFrame(stamp=None, angular_velocity=(0.0, 0.0, 0.1), linear_acceleration=(0, 0, 9.81))
+SCAN = ScanFrame(
+    stamp=None,
+    angle_min=-1.57,
+    angle_increment=0.01,
+    range_min=0.1,
+    range_max=10.0,
+    ranges=[2.0] * 315,
+)
+DONE = Pong(id="done")
 
 
 class Streamer(threading.Thread):
     """A sensor client streaming one frame kind at a rate until stopped; counts replies."""
 
     def __init__(
-        self, port: int, role: str, device_id: str, frame: dict[str, Any], rate_hz: float
+        self, port: int, role: str, device_id: str, frame: SensorFrame, rate_hz: float
     ) -> None:
         super().__init__(daemon=True)
-        self.client = Client("127.0.0.1", port, role=role, device_id=device_id)
-        self.client.sock.settimeout(None)  # a good client may hear nothing for a long time
+        # a good client may hear nothing for a long time: no read timeout
+        self.client = Client("127.0.0.1", port, role=role, device_id=device_id, timeout_s=None)
         self.frame = frame
         self.period_s = 1.0 / rate_hz
         self.sent = 0
-        self.replies: list[dict[str, Any]] = []
+        self.replies: list[Reply] = []
         self._stop_event = threading.Event()
         self._reader = threading.Thread(target=self._read, daemon=True)
 
@@ -45,7 +55,7 @@ class Streamer(threading.Thread):
         self._reader.start()
         start = time.monotonic()
         while not self._stop_event.is_set():
-            self.client.send({**self.frame, "stamp": time.monotonic()})
+            self.client.send(self.frame.model_copy(update={"stamp": time.monotonic()}))
             self.sent += 1
             time.sleep(max(0.0, start + self.sent * self.period_s - time.monotonic()))
 
@@ -61,21 +71,19 @@ class Streamer(threading.Thread):
         """Stop streaming and wait until the daemon has answered everything sent."""
         self._stop_event.set()
         self.join()
-        self.client.send({"type": "ping", "id": "done"})
+        self.client.send(PingFrame(id="done"))
         deadline = time.monotonic() + 5.0
-        while {"type": "pong", "id": "done"} not in self.replies:
+        while DONE not in self.replies:
             assert time.monotonic() < deadline, "no pong"
             time.sleep(0.01)
-        self.replies.remove({"type": "pong", "id": "done"})
+        self.replies.remove(DONE)
 
 
-def devices(port: int) -> dict[str, dict[str, Any]]:
+def devices(port: int) -> dict[str, DeviceInfo]:
     with Client("127.0.0.1", port, device_id="probe") as control:
-        control.request({"type": "subscribe", "rate_hz": 10})
-        while True:
-            frame = control.receive()
-            if frame["type"] == "status":
-                return {d["device_id"]: d for d in frame["devices"] if d["device_id"] != "probe"}
+        control.request(SubscribeFrame(rate_hz=10))
+        frame = control.receive_type(StatusFrame)
+        return {d.device_id: d for d in frame.devices if d.device_id != "probe"}
 
 
 def test_reconnecting_sensor_while_another_streams(daemon_on_port: Any) -> None:
@@ -95,10 +103,10 @@ def test_reconnecting_sensor_while_another_streams(daemon_on_port: Any) -> None:
     time.sleep(0.2)
     listed = devices(port)
     assert set(listed) == {"imu0", "lidar0"}
-    assert listed["lidar0"]["accepted"] == 1  # a new session
+    assert listed["lidar0"].accepted == 1  # a new session
     imu.finish()
     assert imu.replies == []
-    assert devices(port)["imu0"]["accepted"] == imu.sent
+    assert devices(port)["imu0"].accepted == imu.sent
     lidar.close()
     daemon.wait_for("device_lost", timeout_s=2.0)
     assert daemon.proc.poll() is None
@@ -113,7 +121,7 @@ def test_status_command_shows_devices(daemon_on_port: Any) -> None:
 
         def stream() -> None:
             while not done.is_set():
-                compass.send({"type": "heading", "bearing_deg": 90.0, "accuracy_deg": 2.0})
+                compass.send(HeadingFrame(stamp=None, bearing_deg=90.0, accuracy_deg=2.0))
                 done.wait(0.1)
 
         streamer = threading.Thread(target=stream)

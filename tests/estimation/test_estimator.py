@@ -11,7 +11,7 @@ import pytest
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive, replay
 from navd.config import NavdConfig
 from navd.config.loader import apply_changes
-from navd.estimation.estimator import Localization, StateEstimator
+from navd.estimation.estimator import EstimatorSettings, Localization, StateEstimator
 from navd.lifecycle.messages import (
     CompassHeading,
     GpsFix,
@@ -39,7 +39,7 @@ def _position_rmse(estimates: list[PoseEstimate], after_s: float = 5.0) -> float
 
 
 def test_lidar_and_imu_track_a_figure_eight_within_3_cm() -> None:
-    estimator = StateEstimator(NavdConfig())
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     estimates = replay(estimator, drive(PATH, SensorSuite(), 60.0))
     assert _position_rmse(estimates) <= 0.03
     assert estimator.counters["resets"] == 0
@@ -47,7 +47,7 @@ def test_lidar_and_imu_track_a_figure_eight_within_3_cm() -> None:
 
 def test_gps_imu_and_compass_beat_the_raw_gps_by_far() -> None:
     messages = drive(PATH, SensorSuite(lidar_hz=0, gps_hz=5, compass_hz=10), 60.0)
-    estimator = StateEstimator(_config(**DATUM))
+    estimator = StateEstimator(EstimatorSettings.from_config(_config(**DATUM)))
     estimates = replay(estimator, messages)
     assert estimator.geo is not None
     raw = [
@@ -75,7 +75,7 @@ def test_outdoor_indoor_outdoor_switches_without_jumps_beyond_3_sigma() -> None:
         gps_windows=[(0.0, 20.0), (40.0, 60.0)],
         lidar_windows=[(20.0, 40.0)],
     )
-    estimates = replay(StateEstimator(_config(**DATUM)), messages)
+    estimates = replay(StateEstimator(EstimatorSettings.from_config(_config(**DATUM))), messages)
     jumps = []
     for before, after in itertools.pairwise(estimates):
         if before.stamp < 1.0:
@@ -91,8 +91,8 @@ def test_outdoor_indoor_outdoor_switches_without_jumps_beyond_3_sigma() -> None:
 
 
 def test_lidar_poses_80_ms_late_give_the_in_order_result() -> None:
-    on_time = StateEstimator(NavdConfig())
-    late = StateEstimator(NavdConfig())
+    on_time = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
+    late = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     replay(on_time, drive(PATH, SensorSuite(wheel_hz=50), 20.0))
     replay(late, drive(PATH, SensorSuite(wheel_hz=50, lidar_delay_s=0.08), 20.0))
     a, b = on_time.history.latest, late.history.latest
@@ -127,7 +127,7 @@ def _pose(t: float, x: float, y: float, yaw: float = 0.0) -> PoseMeasurement:
 
 
 def test_no_fix_is_used_before_a_good_fix_sets_the_datum() -> None:
-    estimator = StateEstimator(NavdConfig())
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     assert estimator.add_gps(_fix(0.0, 52.52, 13.405, accuracy=20.0), 0.0) is None
     assert estimator.geo is None
     assert estimator.estimate(0.0) is None
@@ -140,7 +140,7 @@ def test_no_fix_is_used_before_a_good_fix_sets_the_datum() -> None:
 
 
 def test_a_datum_taken_while_localized_keeps_the_robot_where_it_is() -> None:
-    estimator = StateEstimator(NavdConfig())
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     estimator.add_pose(_pose(0.0, 3.0, 4.0), 0.0)
     estimator.add_gps(_fix(0.1, 48.1, 11.5), 0.1)
     estimate = estimator.estimate(0.1)
@@ -151,7 +151,7 @@ def test_a_datum_taken_while_localized_keeps_the_robot_where_it_is() -> None:
 
 
 def test_stale_and_far_fixes_are_ignored_and_counted() -> None:
-    estimator = StateEstimator(_config(**DATUM))
+    estimator = StateEstimator(EstimatorSettings.from_config(_config(**DATUM)))
     estimator.add_pose(_pose(0.0, 0.0, 0.0), 0.0)
     assert estimator.add_gps(_fix(0.0, 52.52, 13.405), 5.0) is None
     assert estimator.add_gps(_fix(5.0, 53.0, 13.405), 5.0) is None
@@ -159,7 +159,7 @@ def test_stale_and_far_fixes_are_ignored_and_counted() -> None:
 
 
 def test_compass_before_the_first_fix_sets_the_starting_yaw() -> None:
-    estimator = StateEstimator(_config(**DATUM))
+    estimator = StateEstimator(EstimatorSettings.from_config(_config(**DATUM)))
     compass = CompassHeading(
         stamp=0.0, received=0.0, device_id="c", bearing_deg=0.0, accuracy_deg=2.0, true_north=True
     )
@@ -173,7 +173,7 @@ def test_compass_before_the_first_fix_sets_the_starting_yaw() -> None:
 
 
 def test_localization_degrades_then_is_lost_without_position_updates() -> None:
-    estimator = StateEstimator(NavdConfig())
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
     assert estimator.localization(estimator.estimate(0.0))[0] == Localization.UNINITIALIZED
     estimator.set_pose(
         InitialPose(stamp=0.0, received=0.0, x_m=1.0, y_m=2.0, yaw_rad=0.5, std_xy_m=0.05)

@@ -5,14 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from navd.estimation.history import Event, EventHistory, Insert
+from navd.estimation.history import Event, EventHistory, HistorySettings, Insert
 from navd.estimation.motion_model import STATE_SIZE, TH, Row, X
-from navd.estimation.ukf import Measurement, PoseUkf
+from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
 
 
 def _history(horizon_s: float = 1.0, max_events: int = 100) -> EventHistory:
-    ukf = PoseUkf(alpha=0.1, beta=2.0, kappa=6.0, linear_jerk_psd=0.25, angular_jerk_psd=1.0)
-    history = EventHistory(ukf, horizon_s=horizon_s, max_events=max_events, reset_inflation=10.0)
+    ukf = PoseUkf(
+        UkfSettings(alpha=0.1, beta=2.0, kappa=6.0, linear_jerk_psd=0.25, angular_jerk_psd=1.0)
+    )
+    history = EventHistory(ukf, HistorySettings(horizon_s, max_events, reset_inflation=10.0))
     history.initialize(0.0, np.zeros(STATE_SIZE), np.eye(STATE_SIZE) * 0.1)
     return history
 

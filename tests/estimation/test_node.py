@@ -8,6 +8,9 @@ import numpy as np
 import pytest
 from pyproj import Geod
 
+from navd.drivers.client import AsyncClient
+from navd.drivers.protocol.frames import FixFrame, GoalFrame, InitialPoseFrame, SubscribeFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 from navd.lifecycle.messages import (
     DriveCommand,
     LocalizationState,
@@ -16,7 +19,7 @@ from navd.lifecycle.messages import (
     SafeStopCleared,
     VelocityCommand,
 )
-from tests.drivers.conftest import AsyncClient, record, running_daemon, until
+from tests.drivers.conftest import connected, record, running_daemon, until
 
 LOST_FAST = {"degraded_position_std_m": 0.2, "lost_position_std_m": 0.4}
 
@@ -28,11 +31,8 @@ async def test_initial_pose_then_silence_degrades_to_lost_and_stops_the_robot() 
         stops = record(daemon, SafeStop)
         cleared = record(daemon, SafeStopCleared)
         drives = record(daemon, DriveCommand)
-        control, _ = await AsyncClient.hello(port, "control", "ui")
-        await control.send(
-            {"type": "initial_pose", "x": 2.0, "y": -1.0, "yaw": 0.5, "std_xy": 0.05}
-        )
-        await control.recv_type("ack")
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=2.0, y=-1.0, yaw=0.5, std_xy=0.05))
         await until(lambda: bool(poses))
         assert (poses[0].x_m, poses[0].y_m, poses[0].yaw_rad) == pytest.approx((2.0, -1.0, 0.5))
         # No position source: the uncertainty grows until localization is lost.
@@ -47,29 +47,36 @@ async def test_initial_pose_then_silence_degrades_to_lost_and_stops_the_robot() 
         assert (drives[-1].linear_mps, drives[-1].angular_radps) == (0.0, 0.0)
         assert "localization lost" in drives[-1].reason
         # A new pose brings localization back and releases the robot.
-        await control.send({"type": "initial_pose", "x": 0.0, "y": 0.0, "yaw": 0.0, "std_xy": 0.05})
+        control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
         await until(lambda: bool(cleared))
         assert cleared[0].key == "localization"
         status = await _status(control)
-        assert status["diagnostics"]["localization"]["state"] in ("ok", "degraded")
+        assert status.diagnostics.localization is not None
+        assert status.diagnostics.localization.state in ("ok", "degraded")
         await control.close()
 
 
-async def _status(control: AsyncClient) -> dict[str, object]:
-    await control.send({"type": "subscribe", "rate_hz": 20})
-    await control.recv_type("ack")
-    return await control.recv_type("status")
+async def _status(control: AsyncClient) -> StatusFrame:
+    await control.request(SubscribeFrame(rate_hz=20))
+    return await control.receive_type(StatusFrame)
 
 
 async def test_gps_fixes_over_tcp_land_in_the_map_frame_of_the_datum() -> None:
     datum = {"datum_latitude_deg": 48.0, "datum_longitude_deg": 11.5}
     async with running_daemon(world=datum) as (daemon, port):
         poses = record(daemon, PoseEstimate)
-        gps, _ = await AsyncClient.hello(port, "gps", "gps0")
+        gps = await connected(port, "gps", "gps0")
         lon, lat, _ = Geod(ellps="WGS84").fwd(11.5, 48.0, 0.0, 30.0)  # 30 m true north
-        fix = {"type": "fix", "latitude": lat, "longitude": lon, "altitude": 500.0}
         for i in range(3):
-            await gps.send({**fix, "stamp": 100.0 + 0.2 * i, "horizontal_accuracy": 0.5})
+            gps.send(
+                FixFrame(
+                    stamp=100.0 + 0.2 * i,
+                    latitude=lat,
+                    longitude=lon,
+                    altitude=500.0,
+                    horizontal_accuracy=0.5,
+                )
+            )
         await until(lambda: bool(poses))
         pose = poses[-1]
         assert math.hypot(pose.x_m, pose.y_m) == pytest.approx(30.0, abs=0.05)
@@ -84,11 +91,10 @@ async def test_a_latitude_longitude_goal_becomes_a_map_goal_through_the_datum() 
     datum = {"datum_latitude_deg": 48.0, "datum_longitude_deg": 11.5}
     async with running_daemon(world=datum) as (daemon, port):
         goals = record(daemon, Goal)
-        control, _ = await AsyncClient.hello(port, "control", "ui")
+        control = await connected(port, "control", "ui")
         await until(lambda: daemon_estimator_ready(daemon))
         lon, lat, _ = Geod(ellps="WGS84").fwd(11.5, 48.0, 90.0, 20.0)  # 20 m east
-        await control.send({"type": "goal", "latitude": lat, "longitude": lon, "goal_id": "east"})
-        await control.recv_type("ack")
+        await control.request(GoalFrame(latitude=lat, longitude=lon, goal_id="east"))
         await until(lambda: bool(goals))
         assert goals[0].goal_id == "east"
         # The map frame is the UTM grid (zone 32 here) shifted to the datum.
@@ -104,12 +110,12 @@ async def test_a_latitude_longitude_goal_becomes_a_map_goal_through_the_datum() 
 
 async def test_a_latitude_longitude_goal_without_a_datum_fails_with_the_reason() -> None:
     async with running_daemon() as (daemon, port):
-        control, _ = await AsyncClient.hello(port, "control", "ui")
+        control = await connected(port, "control", "ui")
         await until(lambda: daemon_estimator_ready(daemon))
-        await control.send({"type": "goal", "latitude": 48.0, "longitude": 11.5, "goal_id": "g"})
-        status = await control.recv_type("goal_status")
-        assert (status["goal_id"], status["state"]) == ("g", "failed")
-        assert "no GPS datum yet" in status["reason"]
+        control.send(GoalFrame(latitude=48.0, longitude=11.5, goal_id="g"))
+        status = await control.receive_type(GoalStatusFrame)
+        assert (status.goal_id, status.state) == ("g", "failed")
+        assert "no GPS datum yet" in status.reason
         await control.close()
 
 

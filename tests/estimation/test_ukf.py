@@ -20,11 +20,13 @@ from navd.estimation.motion_model import (
     evaluate_rows,
     transition_matrix,
 )
-from navd.estimation.ukf import Measurement, PoseUkf, StepOutcome
+from navd.estimation.ukf import Measurement, PoseUkf, StepOutcome, UkfSettings
 
 
 def _ukf(kappa: float = 6.0) -> PoseUkf:
-    return PoseUkf(alpha=0.1, beta=2.0, kappa=kappa, linear_jerk_psd=0.25, angular_jerk_psd=1.0)
+    return PoseUkf(
+        UkfSettings(alpha=0.1, beta=2.0, kappa=kappa, linear_jerk_psd=0.25, angular_jerk_psd=1.0)
+    )
 
 
 def _pose(x: float, y: float, yaw: float, std: float = 0.02) -> Measurement:

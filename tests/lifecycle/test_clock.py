@@ -1,12 +1,13 @@
 from __future__ import annotations
 
 import asyncio
+import math
 
 import pytest
 
 from navd.lifecycle.clock import SimClock, ticks
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.stats import RollingWindow
+from navd.lifecycle.stats import RollingWindow, percentile
 
 
 async def _settle() -> None:
@@ -108,6 +109,25 @@ async def test_ticks_skip_missed_deadlines_instead_of_bursting() -> None:
     assert seen == [(0, 0.0, 0), (1, 1.0, 2), (2, 4.0, 0)]
 
 
+async def test_a_new_period_starts_a_new_grid_at_the_next_deadline() -> None:
+    clock = SimClock(start_s=0.0)
+    period = [0.5]
+    seen: list[float] = []
+
+    async def consume() -> None:
+        async for tick in ticks(clock, lambda: period[0], limit=6):
+            seen.append(round(tick.scheduled_s, 9))
+            if len(seen) == 3:
+                period[0] = 0.2  # read after this tick: the next one is 0.2 s after it
+
+    task = asyncio.create_task(consume())
+    for _ in range(40):
+        await _settle()
+        clock.advance(0.05)
+    await task
+    assert seen == [0.0, 0.5, 1.0, 1.2, 1.4, 1.6]
+
+
 async def test_ticks_reject_non_positive_period() -> None:
     with pytest.raises(LifecycleError, match="period must be > 0"):
         async for _ in ticks(SimClock(), 0.0):
@@ -124,12 +144,19 @@ def test_rolling_window_keeps_only_recent_samples() -> None:
     assert window.percentile(50) == pytest.approx(2.5)
 
 
-@pytest.mark.parametrize("q", [0.0, 12.5, 50.0, 90.0, 99.0, 100.0])
-def test_percentiles_match_numpy(q: float) -> None:
+@pytest.mark.parametrize("q", [0.0, 12.5, 50.0, 90.0, 95.0, 99.0, 100.0])
+@pytest.mark.parametrize("size", [1, 2, 20, 257])
+def test_percentiles_match_numpy(q: float, size: int) -> None:
     import numpy as np
 
-    values = np.random.default_rng(3).exponential(size=257)
+    values = np.random.default_rng(3).exponential(size=size)
     window = RollingWindow(300)
     for value in values:
         window.add(float(value))
-    assert window.percentile(q) == pytest.approx(float(np.percentile(values, q)))
+    expected = float(np.percentile(values, q))
+    assert window.percentile(q) == pytest.approx(expected)
+    assert percentile(values.tolist(), q) == pytest.approx(expected)
+
+
+def test_the_percentile_of_nothing_is_nan() -> None:
+    assert math.isnan(percentile([], 50))

@@ -14,11 +14,13 @@ import numpy.typing as npt
 
 from navd.bench.room import cast
 from navd.config import NavdConfig
+from navd.geometry.angles import wrap_angle
+from navd.geometry.footprint import Footprint
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
-from navd.planning.footprint import Footprint
 from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
+from navd.planning.settings import NavigatorSettings
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -28,7 +30,7 @@ class Drive:
     """What happened on a drive."""
 
     state: GoalState | None
-    poses: list[tuple[float, float, float]] = field(default_factory=list)
+    poses: list[Pose2] = field(default_factory=list)
     commands: list[tuple[float, float]] = field(default_factory=list)
     plan_reasons: list[str] = field(default_factory=list)
     steps: list[Step] = field(default_factory=list)
@@ -51,9 +53,7 @@ def rasterize(
     return grid
 
 
-def footprint_clearance(
-    walls: FloatArray, fp: Footprint, pose: tuple[float, float, float]
-) -> float:
+def footprint_clearance(walls: FloatArray, fp: Footprint, pose: Pose2) -> float:
     """[m] distance from the footprint at ``pose`` to the nearest wall (sampled walls)."""
     if walls.shape[0] == 0:
         return math.inf
@@ -76,7 +76,7 @@ def footprint_clearance(
 def drive(
     config: NavdConfig,
     walls: FloatArray,
-    start: tuple[float, float, float],
+    start: Pose2,
     goal: NavGoal,
     *,
     max_time_s: float = 60.0,
@@ -84,7 +84,7 @@ def drive(
     map_box: tuple[float, float, float, float] = (-6.0, -4.0, 6.0, 4.0),
 ) -> Drive:
     """Drive from ``start`` to ``goal`` among ``walls``; the map shows them if ``known_map``."""
-    nav = Navigator(config)
+    nav = Navigator(NavigatorSettings.from_config(config))
     res = 0.05
     if known_map:
         lo = (map_box[0], map_box[1])
@@ -101,7 +101,7 @@ def drive(
     t = 0.0
     while t < max_time_s:
         if walls.shape[0]:
-            angle_min, increment, ranges = cast(Pose2(*pose), 360, walls)
+            angle_min, increment, ranges = cast(pose, 360, walls)
         else:
             angle_min, increment, ranges = -math.pi, 2 * math.pi / 360, np.full(360, np.inf)
         pts = scan_points(ranges, angle_min - 0.0, increment, range_min=0.05, range_max=8.0)
@@ -121,12 +121,12 @@ def drive(
         v, w = step.linear_mps, step.angular_radps
         x, y, yaw = pose
         if abs(w) < 1e-9:
-            pose = (x + v * dt * math.cos(yaw), y + v * dt * math.sin(yaw), yaw)
+            pose = Pose2(x + v * dt * math.cos(yaw), y + v * dt * math.sin(yaw), yaw)
         else:
-            pose = (
+            pose = Pose2(
                 x + v / w * (math.sin(yaw + w * dt) - math.sin(yaw)),
                 y - v / w * (math.cos(yaw + w * dt) - math.cos(yaw)),
-                (yaw + w * dt + math.pi) % (2 * math.pi) - math.pi,
+                wrap_angle(yaw + w * dt),
             )
         result.poses.append(pose)
         result.commands.append((v, w))

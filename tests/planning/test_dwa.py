@@ -10,9 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
+from navd.geometry.pose import IDENTITY, Pose2
 from navd.planning._dwa_kernels import CHAMFER_RATIO, bucket_points, chamfer_distance
 from navd.planning.dwa import SNAP_SLACK_M, DwaSettings, LocalPlanner, Window, arc, path_field
-from navd.planning.footprint import Footprint
 
 
 def brute_clearance(points: np.ndarray, fp: Footprint, pose: np.ndarray) -> float:
@@ -59,10 +60,10 @@ def test_dwa_never_chooses_a_colliding_trajectory(
     r = 3.0 * np.sqrt(rng.random(count))
     a = rng.uniform(-math.pi, math.pi, count)
     points = np.column_stack([r * np.cos(a), r * np.sin(a)])
-    pose = (0.0, 0.0, float(rng.uniform(-math.pi, math.pi)))
+    pose = Pose2(0.0, 0.0, float(rng.uniform(-math.pi, math.pi)))
     path = path_field(np.array([[0.0, 0.0], [3.0, 1.0]]))
     window = Window(0.5, min_speed_mps=0.05, backward=backward)
-    choice = lp.choose(pose, (speed, turn), points, path, (3.0, 1.0, 0.0), window)
+    choice = lp.choose(pose, (speed, turn), points, path, Pose2(3.0, 1.0, 0.0), window)
     if choice is None:
         return
     # Never closer than the margin, or (to within the point-merging slack) than the robot
@@ -80,10 +81,10 @@ def test_dwa_reports_none_when_boxed_in() -> None:
     a = np.linspace(-math.pi, math.pi, 720)
     ring = 0.3 * np.column_stack([np.cos(a), np.sin(a)])
     path = path_field(np.array([[0.0, 0.0], [3.0, 0.0]]))
-    still = lp.choose((0.0, 0.0, 0.0), (0.0, 0.0), ring, path, (3.0, 0.0, 0.0), Window(0.5))
+    still = lp.choose(IDENTITY, (0.0, 0.0), ring, path, Pose2(3.0, 0.0, 0.0), Window(0.5))
     assert still is not None and (still.linear_mps, still.angular_radps) == (0.0, 0.0)
     must_move = Window(0.5, min_speed_mps=0.02)
-    assert lp.choose((0.0, 0.0, 0.0), (0.0, 0.0), ring, path, (3.0, 0.0, 0.0), must_move) is None
+    assert lp.choose(IDENTITY, (0.0, 0.0), ring, path, Pose2(3.0, 0.0, 0.0), must_move) is None
 
 
 def test_dwa_lets_a_robot_inside_the_margin_move_away() -> None:
@@ -91,7 +92,7 @@ def test_dwa_lets_a_robot_inside_the_margin_move_away() -> None:
     wall = np.column_stack([np.full(50, 0.26), np.linspace(-1, 1, 50)])  # 0.06 m ahead: < margin
     path = path_field(np.array([[0.0, 0.0], [-3.0, 0.0]]))
     choice = lp.choose(
-        (0.0, 0.0, 0.0), (0.0, 0.0), wall, path, (-3.0, 0.0, 0.0), Window(0.5, backward=True)
+        IDENTITY, (0.0, 0.0), wall, path, Pose2(-3.0, 0.0, 0.0), Window(0.5, backward=True)
     )
     assert choice is not None and choice.linear_mps < 0.0
 
@@ -112,7 +113,7 @@ def test_dwa_window_respects_acceleration_and_the_yaw_table() -> None:
 
 @pytest.mark.parametrize(("v", "w"), [(0.5, 0.0), (0.3, 1.0), (-0.2, -0.5), (0.0, 1.2)])
 def test_arc_matches_small_step_integration(v: float, w: float) -> None:
-    poses = arc((1.0, -2.0, 0.3), v, w, 0.1, 20)
+    poses = arc(Pose2(1.0, -2.0, 0.3), v, w, 0.1, 20)
     x, y, yaw = 1.0, -2.0, 0.3
     h = 1e-4
     for _ in range(20000):  # 2 s

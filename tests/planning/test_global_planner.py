@@ -13,7 +13,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
-from navd.planning.global_planner import GlobalPlanner
+from navd.planning.global_planner import GlobalPlanner, SearchSettings
 
 RES = 0.1
 
@@ -85,7 +85,7 @@ def assert_route_matches_dijkstra(case) -> None:
     steps from the start to the goal, or the planner says "no route" where Dijkstra finds none."""
     cost, start, goal, w = case
     expected = dijkstra_cost(cost, start, goal, w)
-    planner = GlobalPlanner(cost_weight=w, smooth=False)
+    planner = GlobalPlanner(SearchSettings(cost_weight=w, smooth=False))
     if math.isinf(expected):
         with pytest.raises(GoalUnreachableError, match="no route") as info:
             planner.plan(costmap_of(cost), center(start), center(goal))
@@ -154,7 +154,7 @@ def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:
     costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings_)
     free = np.argwhere(np.isfinite(costmap.cost))
     start, goal = free[rng.integers(len(free))], free[rng.integers(len(free))]
-    planner = GlobalPlanner(cost_weight=3.0, smooth=True)
+    planner = GlobalPlanner(SearchSettings(cost_weight=3.0, smooth=True))
     try:
         path = planner.plan(costmap, center(tuple(start)), center(tuple(goal)))
     except GoalUnreachableError:
@@ -176,7 +176,9 @@ def test_inflation_keeps_routes_off_walls() -> None:
     costmap = build_costmap(
         frame, obstacles, np.zeros_like(obstacles), CostmapSettings(0.2, 1.5, 3.0, True, 0.5, 65)
     )
-    path = GlobalPlanner(cost_weight=5.0, smooth=False).plan(costmap, (0.5, 0.6), (7.5, 0.6))
+    path = GlobalPlanner(SearchSettings(cost_weight=5.0, smooth=False)).plan(
+        costmap, (0.5, 0.6), (7.5, 0.6)
+    )
     assert path.points_m[:, 1].max() > 1.3  # it moves out towards the middle (y = 1.5)
 
 
@@ -193,7 +195,9 @@ def test_unreachable_goals_raise_with_the_reason(goal, reason, match) -> None:
     cost[10, 10] = np.inf  # the goal cell itself
     cost[20:31, 20] = cost[20:31, 30] = cost[20, 20:31] = cost[30, 20:31] = np.inf  # a closed box
     with pytest.raises(GoalUnreachableError, match=match) as info:
-        GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap_of(cost), (0.5, 0.5), goal)
+        GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=True)).plan(
+            costmap_of(cost), (0.5, 0.5), goal
+        )
     assert info.value.reason == reason
 
 
@@ -205,14 +209,16 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
         frame, np.zeros((20, 20), bool), unknown, CostmapSettings(0.1, 0.3, 3.0, False, 0.5, 65)
     )
     with pytest.raises(GoalUnreachableError, match="unexplored") as info:
-        GlobalPlanner(cost_weight=1.0, smooth=True).plan(costmap, (0.5, 0.5), (1.75, 1.75))
+        GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=True)).plan(
+            costmap, (0.5, 0.5), (1.75, 1.75)
+        )
     assert info.value.reason == "unknown"
 
 
 def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
     cost = np.zeros((20, 20), np.float32)
     cost[:, :3] = np.inf
-    path = GlobalPlanner(cost_weight=1.0, smooth=False).plan(
+    path = GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=False)).plan(
         costmap_of(cost), (0.15, 1.0), (1.5, 1.0)
     )
     assert tuple(path.points_m[0]) == (0.15, 1.0)
@@ -221,7 +227,7 @@ def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
 
 def test_start_off_the_map_or_walled_in_is_refused() -> None:
     cost = np.full((20, 20), np.inf, np.float32)
-    planner = GlobalPlanner(cost_weight=1.0, smooth=False)
+    planner = GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=False))
     with pytest.raises(StartBlockedError, match="off the map"):
         planner.plan(costmap_of(cost), (-1.0, 0.5), (0.5, 0.5))
     with pytest.raises(StartBlockedError, match="no free cell"):

@@ -7,13 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from navd.config import PlanningConfig
-from navd.planning.layers import FRAME_MARGIN_M, Layers
+from navd.config import NavdConfig
+from navd.geometry.pose import IDENTITY, Pose2
+from navd.planning.layers import FRAME_MARGIN_M, Layers, LayerSettings
 from navd.planning.route import Route
 
 
 def test_the_snapshot_frame_holds_the_map_the_robot_and_the_goal() -> None:
-    layers = Layers(PlanningConfig())
+    layers = Layers(LayerSettings.from_config(NavdConfig()))
     occupancy = np.zeros((40, 60), np.int8)
     occupancy[10, 10] = 100
     layers.set_map(occupancy, 0.05, -1.0, -1.0)
@@ -27,9 +28,9 @@ def test_the_snapshot_frame_holds_the_map_the_robot_and_the_goal() -> None:
 
 
 def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> None:
-    layers = Layers(PlanningConfig())
+    layers = Layers(LayerSettings.from_config(NavdConfig()))
     layers.snapshot(0.0, [(0.0, 0.0)])  # the obstacle layer exists before any map
-    layers.add_scan((0.0, 0.0, 0.0), np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0)
+    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0)
     frame, obstacles, _ = layers.snapshot(0.1, [(0.0, 0.0), (5.0, 0.0)])
     assert obstacles[frame.cell_of(1.0, 0.0)]
     # A map whose cells are offset by half a cell from the marks' lattice.
@@ -42,12 +43,14 @@ def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> N
 def test_route_progress_remaining_carrot_and_blocking() -> None:
     route = Route(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]))
     assert route.length_m == 7.0
-    assert route.remaining((1.0, 0.5, 0.0)) == pytest.approx(0.5 + 6.0)
-    assert route.carrot((1.0, 0.5, 0.0), 1.0) == pytest.approx((2.0, 0.0))
-    assert route.carrot((3.5, 0.0, 0.0), 1.0) == pytest.approx((4.0, 0.5))
-    assert route.carrot((4.0, 2.9, 0.0), 1.0) == pytest.approx((4.0, 3.0))  # clamped at the end
+    assert route.remaining(Pose2(1.0, 0.5, 0.0)) == pytest.approx(0.5 + 6.0)
+    assert route.carrot(Pose2(1.0, 0.5, 0.0), 1.0) == pytest.approx((2.0, 0.0))
+    assert route.carrot(Pose2(3.5, 0.0, 0.0), 1.0) == pytest.approx((4.0, 0.5))
+    assert route.carrot(Pose2(4.0, 2.9, 0.0), 1.0) == pytest.approx(
+        (4.0, 3.0)
+    )  # clamped at the end
     # Progress never goes back: a pose near the start now measures from the second leg.
-    assert route.distance_to((0.0, 0.0, 0.0)) == pytest.approx(4.0)
+    assert route.distance_to(Pose2(0.0, 0.0, 0.0)) == pytest.approx(4.0)
     assert route.blocked(np.array([[4.1, 2.0]]), 0.3, 3.0)
     assert not route.blocked(np.array([[4.1, 2.0]]), 0.05, 3.0)
     assert not route.blocked(np.array([[0.0, 0.0]]), 0.3, 3.0)  # behind the robot

@@ -9,7 +9,9 @@ import pytest
 
 from navd.bench.room import WALLS
 from navd.config import NavdConfig
+from navd.geometry.pose import IDENTITY, Pose2
 from navd.planning.navigator import GoalState, NavGoal, Navigator
+from navd.planning.settings import NavigatorSettings
 from navd.planning.stuck import StuckPhase
 from tests.planning.drive import drive
 
@@ -23,9 +25,7 @@ def config(**planning: object) -> NavdConfig:
 @pytest.mark.parametrize("goal", [(3.0, 0.0), (2.0, 2.0), (-2.0, 1.0)])
 def test_reaches_a_goal_in_free_space_and_stops_within_tolerance(goal) -> None:
     cfg = config()
-    result = drive(
-        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", *goal), max_time_s=40, known_map=False
-    )
+    result = drive(cfg, NO_WALLS, IDENTITY, NavGoal("g", *goal), max_time_s=40, known_map=False)
     assert result.state is GoalState.REACHED
     x, y, _ = result.poses[-1]
     assert math.hypot(x - goal[0], y - goal[1]) <= cfg.planning.goal_xy_tolerance_m
@@ -36,7 +36,7 @@ def test_reaches_a_goal_in_free_space_and_stops_within_tolerance(goal) -> None:
 def test_turns_to_the_target_heading(yaw: float) -> None:
     cfg = config()
     result = drive(
-        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 2.0, 0.0, yaw), max_time_s=40, known_map=False
+        cfg, NO_WALLS, IDENTITY, NavGoal("g", 2.0, 0.0, yaw), max_time_s=40, known_map=False
     )
     assert result.state is GoalState.REACHED
     x, y, heading = result.poses[-1]
@@ -50,7 +50,7 @@ def test_turns_to_the_target_heading(yaw: float) -> None:
 def test_drives_through_the_room_without_touching_a_wall() -> None:
     cfg = config()
     result = drive(
-        cfg, WALLS, (-5.0, -3.0, 0.0), NavGoal("g", 0.0, 2.5, math.pi / 2), max_time_s=80
+        cfg, WALLS, Pose2(-5.0, -3.0, 0.0), NavGoal("g", 0.0, 2.5, math.pi / 2), max_time_s=80
     )
     assert result.state is GoalState.REACHED
     assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
@@ -60,9 +60,7 @@ def test_an_obstacle_missing_from_the_map_blocks_the_route_and_is_driven_around(
     # The map is empty; a wall across the straight route is only seen by the lidar.
     wall = np.array([(1.5, -1.0, 1.5, 1.0)])
     cfg = config()
-    result = drive(
-        cfg, wall, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False
-    )
+    result = drive(cfg, wall, IDENTITY, NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False)
     assert result.state is GoalState.REACHED
     assert "route blocked by an obstacle" in result.plan_reasons
     assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
@@ -86,7 +84,12 @@ def test_a_robot_facing_a_dead_end_backs_out_and_replans() -> None:
         }
     )
     result = drive(
-        cfg, pocket, (1.6, 0.0, 0.0), NavGoal("g", 3.5, 0.0), max_time_s=80, map_box=(-1, -2, 5, 2)
+        cfg,
+        pocket,
+        Pose2(1.6, 0.0, 0.0),
+        NavGoal("g", 3.5, 0.0),
+        max_time_s=80,
+        map_box=(-1, -2, 5, 2),
     )
     assert result.state is GoalState.REACHED
     phases = [s.phase for s in result.steps]
@@ -103,7 +106,7 @@ def test_an_unreachable_goal_fails_with_the_reason_after_the_patience() -> None:
     )
     cfg = config(stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=3.0)
     result = drive(
-        cfg, box, (0.0, 0.0, 0.0), NavGoal("g", 2.5, 0.0), max_time_s=20, map_box=(-1, -2, 5, 2)
+        cfg, box, IDENTITY, NavGoal("g", 2.5, 0.0), max_time_s=20, map_box=(-1, -2, 5, 2)
     )
     assert result.state is GoalState.FAILED
     assert "no route" in result.steps[-1].reason
@@ -121,7 +124,12 @@ def test_stuck_for_good_fails_after_the_allowed_replans() -> None:
         stuck_time_s=0.5, stuck_time_force_backward_s=1.0, max_stuck_time_s=1.5, max_stuck_replans=1
     )
     result = drive(
-        cfg, ring, (0.0, 0.0, math.pi / 2), NavGoal("g", 0.0, -3.0), max_time_s=20, known_map=False
+        cfg,
+        ring,
+        Pose2(0.0, 0.0, math.pi / 2),
+        NavGoal("g", 0.0, -3.0),
+        max_time_s=20,
+        known_map=False,
     )
     assert result.state is GoalState.FAILED
     assert "stuck" in result.steps[-1].reason
@@ -129,24 +137,22 @@ def test_stuck_for_good_fails_after_the_allowed_replans() -> None:
 
 
 def test_cancel_stops_the_robot() -> None:
-    nav = Navigator(config())
+    nav = Navigator(NavigatorSettings.from_config(config()))
     nav.set_goal(NavGoal("g", 3.0, 0.0))
-    nav.accept_plan(0.0, nav.plan(0.0, (0.0, 0.0, 0.0)))
+    nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
     for k in range(30):
-        step = nav.step(0.05 * k, (0.0, 0.0, 0.0))
+        step = nav.step(0.05 * k, IDENTITY)
     assert step.linear_mps > 0.0
     assert nav.cancel() == NavGoal("g", 3.0, 0.0)
-    step = nav.step(2.0, (0.0, 0.0, 0.0))
+    step = nav.step(2.0, IDENTITY)
     assert (step.linear_mps, step.angular_radps, step.state) == (0.0, 0.0, GoalState.CANCELED)
-    assert nav.plan_reason(2.0, (0.0, 0.0, 0.0)) is None
+    assert nav.plan_reason(2.0, IDENTITY) is None
 
 
 def test_keep_out_zones_are_driven_around_and_never_entered() -> None:
     zone = ((1.0, -1.0), (2.0, -1.0), (2.0, 1.0), (1.0, 1.0))
     cfg = config(keep_out_zones=[list(map(list, zone))])
-    result = drive(
-        cfg, NO_WALLS, (0.0, 0.0, 0.0), NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False
-    )
+    result = drive(cfg, NO_WALLS, IDENTITY, NavGoal("g", 3.0, 0.0), max_time_s=60, known_map=False)
     assert result.state is GoalState.REACHED
     # The footprint's centre stays out of the zone grown by the inscribed radius.
     inside = [
@@ -155,3 +161,19 @@ def test_keep_out_zones_are_driven_around_and_never_entered() -> None:
         if 1.0 - 0.15 < p[0] < 2.0 + 0.15 and -1.0 - 0.15 < p[1] < 1.0 + 0.15
     ]
     assert inside == []
+
+
+def test_a_settings_change_mid_goal_keeps_the_stuck_watch_going() -> None:
+    cfg = config(stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=4.0)
+    nav = Navigator(NavigatorSettings.from_config(cfg))
+    nav.set_goal(NavGoal("g", 3.0, 0.0))
+    nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
+    for k in range(16):  # 0.75 s of commands that move nothing: a robot held by a rug
+        nav.step(0.05 * k, IDENTITY)
+    # An operator retunes a weight meanwhile; the robot has not moved for 0.75 s all the same.
+    retuned = config(
+        stuck_time_s=1.0, stuck_time_force_backward_s=2.0, max_stuck_time_s=4.0, goal_weight=2.0
+    )
+    nav.configure(NavigatorSettings.from_config(retuned))
+    assert nav.settings.dwa.weights[0] == 2.0
+    assert nav.step(1.2, IDENTITY).phase is StuckPhase.PUSHING  # stuck since 0 s, not 0.75 s

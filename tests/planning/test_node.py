@@ -7,17 +7,21 @@ import math
 
 import numpy as np
 
+from navd.drivers.protocol.frames import CancelFrame, GoalFrame, InitialPoseFrame, ScanFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame
 from navd.lifecycle.messages import (
+    ConfigChange,
     DriveCommand,
+    Goal,
     GoalStatus,
     LaserScan,
     Path,
     VelocityCommand,
 )
-from tests.drivers.conftest import AsyncClient, record, running_daemon, until
+from tests.drivers.conftest import connected, record, running_daemon, until
 
 
-def _room_scan(stamp: float, wall_x: float | None = None) -> dict[str, object]:
+def _room_scan(stamp: float, wall_x: float | None = None) -> ScanFrame:
     """A 360-beam scan of a 10 m square room around the origin, optionally with a wall across
     x = wall_x ahead."""
     angles = -math.pi + 2 * math.pi * np.arange(360) / 360
@@ -27,15 +31,14 @@ def _room_scan(stamp: float, wall_x: float | None = None) -> dict[str, object]:
         ranges = np.where(
             ahead, np.minimum(ranges, wall_x / np.where(ahead, np.cos(angles), 1)), ranges
         )
-    return {
-        "type": "scan",
-        "stamp": stamp,
-        "angle_min": -math.pi,
-        "angle_increment": 2 * math.pi / 360,
-        "range_min": 0.05,
-        "range_max": 12.0,
-        "ranges": [round(float(r), 4) for r in ranges],
-    }
+    return ScanFrame(
+        stamp=stamp,
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / 360,
+        range_min=0.05,
+        range_max=12.0,
+        ranges=[round(float(r), 4) for r in ranges],
+    )
 
 
 async def test_a_goal_over_tcp_is_planned_and_driven_then_canceled() -> None:
@@ -43,15 +46,13 @@ async def test_a_goal_over_tcp_is_planned_and_driven_then_canceled() -> None:
         commands = record(daemon, VelocityCommand)
         paths = record(daemon, Path)
         statuses = record(daemon, GoalStatus)
-        control, _ = await AsyncClient.hello(port, "control", "ui")
-        await control.send({"type": "initial_pose", "x": 0.0, "y": 0.0, "yaw": 0.0, "std_xy": 0.05})
-        await control.recv_type("ack")
-        await control.send({"type": "goal", "x": 3.0, "y": 0.0, "goal_id": "g1"})
-        await control.recv_type("ack")
-        frame = await control.recv_type("goal_status")
-        assert (frame["goal_id"], frame["state"]) == ("g1", "active")
-        route = await control.recv_type("path")  # control clients see the route too
-        assert route["goal_id"] == "g1" and route["points"][-1] == [3.0, 0.0]
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+        frame = await control.receive_type(GoalStatusFrame)
+        assert (frame.goal_id, frame.state) == ("g1", "active")
+        route = await control.receive_type(PathFrame)  # control clients see the route too
+        assert route.goal_id == "g1" and route.points[-1] == (3.0, 0.0)
         await until(lambda: bool(paths), timeout_s=10.0)
         assert paths[0].goal_id == "g1"
         assert np.allclose(paths[0].points_m[0], (0.0, 0.0), atol=0.05)
@@ -60,8 +61,7 @@ async def test_a_goal_over_tcp_is_planned_and_driven_then_canceled() -> None:
         await until(lambda: any(c.source == "planner" and c.linear_mps > 0 for c in commands))
         planner = [c for c in commands if c.source == "planner"]
         assert all(0.0 <= c.linear_mps <= 0.5 for c in planner)
-        await control.send({"type": "cancel"})
-        await control.recv_type("ack")
+        await control.request(CancelFrame())
         await until(lambda: any(s.state == "canceled" for s in statuses))
         assert [c for c in commands if c.source == "planner"][-1].is_stop
         await control.close()
@@ -71,8 +71,8 @@ async def test_the_collision_guard_stops_a_command_towards_a_close_wall() -> Non
     async with running_daemon() as (daemon, port):
         drives = record(daemon, DriveCommand)
         scans = record(daemon, LaserScan)
-        lidar, _ = await AsyncClient.hello(port, "lidar", "front")
-        await lidar.send(_room_scan(10.0, wall_x=0.3))  # 0.1 m in front of a 0.2 m robot
+        lidar = await connected(port, "lidar", "front")
+        lidar.send(_room_scan(10.0, wall_x=0.3))  # 0.1 m in front of a 0.2 m robot
         await until(lambda: bool(scans))
 
         def command(v: float, w: float = 0.0) -> DriveCommand:
@@ -89,8 +89,31 @@ async def test_the_collision_guard_stops_a_command_towards_a_close_wall() -> Non
         assert backward.linear_mps == -0.1  # moving away is always allowed
         spin = command(0.0, 1.0)
         assert spin.angular_radps == 1.0  # a circle turning on the spot comes no closer
-        await lidar.send(_room_scan(10.1, wall_x=0.55))  # 0.35 m ahead: inside the slow zone
+        lidar.send(_room_scan(10.1, wall_x=0.55))  # 0.35 m ahead: inside the slow zone
         await until(lambda: len(scans) >= 2)
         slow = command(0.3)
         assert 0.0 < slow.linear_mps < 0.3 and "slow" in slow.reason
         await lidar.close()
+
+
+async def test_a_new_control_rate_applies_at_once_without_a_restart() -> None:
+    async with running_daemon(lifecycle={"clock": "simulated"}) as (daemon, _):
+        clock = daemon.clock
+        commands = record(daemon, VelocityCommand)
+        now = clock.now()
+        # A goal and no pose: every control tick holds the robot ("no fresh pose estimate").
+        daemon.bus.publish(Goal(stamp=now, received=now, goal_id="g", x_m=1.0, y_m=0.0))
+
+        async def ticks_in(seconds: float) -> int:
+            before = sum(c.source == "planner" for c in commands)
+            await clock.run_to(clock.now() + seconds)
+            return sum(c.source == "planner" for c in commands) - before
+
+        assert abs(await ticks_in(1.0) - 20) <= 1
+        now = clock.now()
+        daemon.bus.publish(
+            ConfigChange(
+                stamp=now, received=now, request_id="r", changes={"planning.control_rate_hz": 5.0}
+            )
+        )
+        assert abs(await ticks_in(2.0) - 10) <= 1

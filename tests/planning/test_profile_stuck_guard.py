@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from navd.config import NavdConfig
-from navd.planning.footprint import Footprint
+from navd.geometry.footprint import Footprint
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import IDENTITY, Pose2
 from navd.planning.guard import GuardSettings, guard_scale
 from navd.planning.profile import VelocityProfile
-from navd.planning.stuck import StuckMonitor, StuckPhase
+from navd.planning.stuck import StuckMonitor, StuckPhase, StuckSettings
 
 PROFILE = VelocityProfile(0.5, 0.05, 0.5, 1.0, 1.0, (0.0, 0.5), (1.5, 0.8))
 
@@ -53,23 +56,24 @@ def test_stuck_monitor_phases_follow_the_configured_times() -> None:
             }
         }
     )
-    monitor = StuckMonitor(config)
-    phases = {t: monitor.update(t, 0.0, 0.0, 0.0) for t in (0.0, 0.5, 1.5, 1.9)}
+    monitor = StuckMonitor(StuckSettings.from_config(config))
+    phases = {t: monitor.update(t, Pose2(0.0, 0.0, 0.0)) for t in (0.0, 0.5, 1.5, 1.9)}
     assert [p.phase for p in phases.values()] == [StuckPhase.MOVING] * 2 + [StuckPhase.PUSHING] * 2
     # The minimum speed rises linearly from min to max speed over max_stuck_time.
     assert phases[1.5].min_speed_mps == pytest.approx(0.05 + 0.45 * 1.5 / 4.0)
-    assert monitor.update(2.1, 0.0, 0.0, 0.0).phase is StuckPhase.BACKING
+    assert monitor.update(2.1, Pose2(0.0, 0.0, 0.0)).phase is StuckPhase.BACKING
     # Backing holds even though moving 0.1 m would count as progress, until 0.3 m.
-    assert monitor.update(2.5, -0.15, 0.0, 0.0).phase is StuckPhase.BACKING
-    assert monitor.update(3.0, -0.31, 0.0, 0.0).phase is StuckPhase.BACKED_OUT
-    assert monitor.update(3.1, -0.31, 0.0, 0.0).phase is StuckPhase.MOVING
+    assert monitor.update(2.5, Pose2(-0.15, 0.0, 0.0)).phase is StuckPhase.BACKING
+    assert monitor.update(3.0, Pose2(-0.31, 0.0, 0.0)).phase is StuckPhase.BACKED_OUT
+    assert monitor.update(3.1, Pose2(-0.31, 0.0, 0.0)).phase is StuckPhase.MOVING
     # Turning counts as progress too.
-    monitor.update(5.0, 0.0, 0.0, 0.0)
-    assert monitor.update(5.9, 0.0, 0.0, 0.6).phase is StuckPhase.MOVING
-    assert monitor.update(10.5, 0.0, 0.0, 0.6).phase is StuckPhase.STUCK
+    monitor.update(5.0, Pose2(0.0, 0.0, 0.0))
+    assert monitor.update(5.9, Pose2(0.0, 0.0, 0.6)).phase is StuckPhase.MOVING
+    assert monitor.update(10.5, Pose2(0.0, 0.0, 0.6)).phase is StuckPhase.STUCK
 
 
-GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, True)
+MOUNT = LidarMount(IDENTITY, 0.1)
+GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, True, MOUNT)
 
 
 @pytest.mark.parametrize(
@@ -90,6 +94,6 @@ def test_guard_scales_by_the_clearance_of_the_braking_sweep(wall_x, v, w, scale)
 
 
 def test_guard_passes_everything_when_collisions_are_off() -> None:
-    disabled = GuardSettings(GUARD.footprint, 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, False)
+    disabled = dataclasses.replace(GUARD, enabled=False)
     wall = np.column_stack([np.full(201, 0.25), np.linspace(-1.0, 1.0, 201)])
     assert guard_scale(wall, 0.5, 0.0, disabled) == (1.0, "")

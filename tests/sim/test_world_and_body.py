@@ -115,13 +115,13 @@ def test_the_body_stops_at_a_wall_instead_of_passing_through() -> None:
 
 
 def test_movers_turn_back_rather_than_walk_into_the_robot() -> None:
-    from navd.sim.runner import SimSettings, Simulator
+    from navd.sim.physics import SimRobot
 
     spec = {
         "walls": [[-1, -2, 5, -2]],
         "movers": [{"radius": 0.2, "speed": 1.0, "path": [[2.0, -1.5], [2.0, 1.5]]}],
     }
-    sim = Simulator(from_shapes(spec), NavdConfig(), SimSettings())
+    sim = SimRobot(from_shapes(spec), NavdConfig())
     sim.body.x_m, sim.body.y_m = 2.0, 0.0  # standing on the mover's path
     closest = math.inf
     ys = []
@@ -136,16 +136,19 @@ def test_movers_turn_back_rather_than_walk_into_the_robot() -> None:
 
 @pytest.mark.parametrize("datum", [False, True])
 def test_the_compass_reads_the_true_yaw_back_through_the_daemons_conversion(datum: bool) -> None:
-    from navd.estimation.angles import bearing_to_yaw
+    from navd.estimation.bearing import bearing_to_yaw
     from navd.estimation.geo import GeoFrame
-    from navd.sim.runner import SimSettings, Simulator
+    from navd.sim.physics import SimRobot
+    from navd.sim.sensors import SensorModels
+    from navd.sim.settings import SimSettings
 
     world_config: dict[str, object] = {"magnetic_declination_deg": 4.5, "map_rotation_rad": 0.3}
     if datum:  # off the zone's central meridian: a grid convergence near a degree
         world_config |= {"datum_latitude_deg": 60.0, "datum_longitude_deg": 14.0}
     config = NavdConfig.model_validate({"world": world_config})
     world = from_shapes({"walls": [[-1, -1, 1, -1]]})
-    sim = Simulator(world, config, SimSettings(compass_noise_deg=1e-9))
+    robot = SimRobot(world, config)
+    sensors = SensorModels(robot, config, SimSettings(compass_noise_deg=1e-9))
     convergence = 0.0
     if datum:
         geo = GeoFrame(  # the daemon's frame for that datum
@@ -158,10 +161,8 @@ def test_the_compass_reads_the_true_yaw_back_through_the_daemons_conversion(datu
         convergence = geo.grid_convergence_rad
         assert abs(convergence) > math.radians(0.5)
     for yaw in (-3.0, -1.2, 0.0, 0.7, 2.9):
-        sim.body.yaw_rad = yaw
-        frame = sim.heading_frame()
-        assert frame["type"] == "heading"
-        bearing = float(frame["bearing_deg"])  # type: ignore[arg-type]
+        robot.body.yaw_rad = yaw
+        bearing = sensors.heading(0.0).bearing_deg
         assert 0.0 <= bearing < 360.0
         back = bearing_to_yaw(
             bearing,

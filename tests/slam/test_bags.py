@@ -17,9 +17,9 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from navd.bench.room import cast
 from navd.cli import main
+from navd.geometry.pose import Pose2
 from navd.slam.bags import inspect_bag, is_bag, read_bag
 from navd.slam.errors import LogFormatError
-from navd.slam.pose import Pose2
 from navd.slam.relations import read_tum
 from tests.datasets import dataset
 

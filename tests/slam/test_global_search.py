@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k
 from navd.slam.global_search import global_search, relocalize
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points, voxel_downsample
+from navd.slam.voxel import voxel_downsample
 
 
 def _room() -> OccupancyGrid:

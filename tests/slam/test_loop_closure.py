@@ -7,12 +7,12 @@ import math
 import numpy as np
 
 from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser, passes, path_lengths
 from navd.slam.mapper import ScanMapper
-from navd.slam.pose import Pose2
-from navd.slam.scan import ScanPoints, scan_points
-from navd.slam.settings import mapper_settings
+from navd.slam.settings import MapperSettings
 
 # A corridor 2 m wide and 60 m long with bare walls: every stretch of it looks the same.
 CORRIDOR = np.array([[-30.0, -1.0, 30.0, -1.0], [-30.0, 1.0, 30.0, 1.0]])
@@ -53,7 +53,7 @@ def test_passes_split_where_keyframe_indices_jump() -> None:
 
 
 def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() -> None:
-    settings = mapper_settings(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
     first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
     detour = _detour(first[-1].pose, 120.0)
     # Back in the room after 120 m, the estimate has drifted 2.5 m and 4 degrees.
@@ -74,7 +74,7 @@ def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() 
 
 def test_the_window_grows_with_the_path_so_a_short_detour_cannot_jump_metres() -> None:
     # The same 2.5 m error after only 30 m of path is not believed: the window is 1 m wide.
-    settings = mapper_settings(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
     first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
     drift = Pose2(1.5, -2.0, math.radians(4.0))
     truth = _ellipse(12, turn0=1.0)
@@ -85,7 +85,7 @@ def test_the_window_grows_with_the_path_so_a_short_detour_cannot_jump_metres() -
 
 
 def test_a_passage_that_looks_the_same_metres_further_on_is_not_a_loop() -> None:
-    settings = mapper_settings(loop_closure=True, max_range_m=6.0, loop_search_xy_m=4.0)
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=6.0, loop_search_xy_m=4.0)
     first = [Keyframe(0.0, p, _scan(p, CORRIDOR)) for p in _line(-15.0, 15.0)]
     detour = _detour(first[-1].pose, 150.0)
     revisit = [Keyframe(0.0, p, _scan(p, CORRIDOR)) for p in _line(-3.0, 0.0)]
@@ -100,7 +100,7 @@ def _line(x0: float, x1: float) -> list[Pose2]:
 
 
 def test_with_loop_closure_a_scan_that_does_not_match_joins_the_graph_but_not_the_map() -> None:
-    settings = mapper_settings(loop_closure=True, max_range_m=12.0)
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0)
     mapper = ScanMapper(settings)
     start = Pose2(0.0, 0.0, 0.0)
     mapper.add(0.0, _scan(start), start)
@@ -115,7 +115,9 @@ def test_with_loop_closure_a_scan_that_does_not_match_joins_the_graph_but_not_th
 
 
 def test_new_settings_reach_the_loop_search() -> None:
-    mapper = ScanMapper(mapper_settings(loop_closure=True, max_range_m=12.0))
-    mapper.configure(mapper_settings(loop_closure=True, max_range_m=30.0, loop_search_xy_m=8.0))
+    mapper = ScanMapper(MapperSettings.defaults(loop_closure=True, max_range_m=12.0))
+    mapper.configure(
+        MapperSettings.defaults(loop_closure=True, max_range_m=30.0, loop_search_xy_m=8.0)
+    )
     assert mapper.loops.settings.loop_search_xy_m == 8.0
     assert mapper.loops.fine.reach_m == 15.0  # half the longest range: the rotation step

@@ -11,11 +11,11 @@ import yaml
 from PIL import Image
 
 from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import load_map, read_map_yaml, save_map
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
 
 
 def _grid() -> OccupancyGrid:

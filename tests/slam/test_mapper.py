@@ -8,11 +8,11 @@ import math
 import numpy as np
 
 from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import ScanPoints, scan_points
-from navd.slam.settings import mapper_settings
+from navd.slam.settings import MapperSettings
 
 # A corridor about 2 m wide and 40 m long, closed at both ends (walls off cell borders).
 W = 1.02
@@ -57,7 +57,7 @@ def test_a_robot_outrunning_its_map_keeps_mapping_from_odometry() -> None:
     # 3.8 m between scans with a 4 m sensor: each scan sees almost only walls the map has
     # never seen, too little to match against, from a spot the last scan saw. The mapper
     # must still grow the map down the corridor.
-    settings = mapper_settings(max_range_m=SENSOR_RANGE_M, keep_trajectory=True)
+    settings = MapperSettings.defaults(max_range_m=SENSOR_RANGE_M, keep_trajectory=True)
     mapper = ScanMapper(settings)
     truth = [Pose2(3.8 * i, 0.0, 0.0) for i in range(9)]  # 0 .. 30.4 m
     for i, pose in enumerate(truth):
@@ -76,7 +76,7 @@ def test_a_robot_outrunning_its_map_keeps_mapping_from_odometry() -> None:
 def test_a_scan_from_a_pose_off_the_mapped_ground_is_not_mapped() -> None:
     # Odometry that puts the robot 20 m beyond anything mapped is more likely wrong than new:
     # its scan is dropped rather than mapped at a doubtful pose.
-    mapper = ScanMapper(mapper_settings(max_range_m=SENSOR_RANGE_M))
+    mapper = ScanMapper(MapperSettings.defaults(max_range_m=SENSOR_RANGE_M))
     mapper.add(0.0, front_scan(Pose2(0.0, 0.0, 0.0)), Pose2(0.0, 0.0, 0.0))
     before = mapper.grid.logodds.copy()
     result = mapper.add(1.0, front_scan(Pose2(2.0, 0.0, 0.0)), Pose2(22.0, 0.0, 0.0))

@@ -10,11 +10,12 @@ import numpy.typing as npt
 import pytest
 
 from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points, voxel_downsample
+from navd.slam.voxel import voxel_downsample
 
 
 def _room_grid() -> OccupancyGrid:

@@ -7,24 +7,24 @@ import math
 from pathlib import Path
 
 from navd.bench.room import cast
+from navd.drivers.protocol.frames import InitialPoseFrame, SaveMapFrame, ScanFrame
+from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement
 from navd.slam.map_io import load_map
-from navd.slam.pose import Pose2
-from tests.drivers.conftest import AsyncClient, record, running_daemon, until
+from tests.drivers.conftest import connected, record, running_daemon, until
 
 
-def _frame(pose: Pose2, stamp: float) -> dict[str, object]:
+def _frame(pose: Pose2, stamp: float) -> ScanFrame:
     a0, inc, r = cast(pose, beams=360)
     ranges = [None if not math.isfinite(v) else round(float(v), 3) for v in r]
-    return {
-        "type": "scan",
-        "stamp": stamp,
-        "angle_min": a0,
-        "angle_increment": inc,
-        "range_min": 0.1,
-        "range_max": 30.0,
-        "ranges": ranges,
-    }
+    return ScanFrame(
+        stamp=stamp,
+        angle_min=a0,
+        angle_increment=inc,
+        range_min=0.1,
+        range_max=30.0,
+        ranges=ranges,
+    )
 
 
 async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
@@ -33,11 +33,11 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         poses = record(daemon, PoseMeasurement)
         maps = record(daemon, MapUpdate)
         estimates = record(daemon, PoseEstimate)
-        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
-        control, _ = await AsyncClient.hello(port, "control", "ui")
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
         path = [Pose2(0.04 * i, 0.02 * i, 0.01 * i) for i in range(15)]
         for i, truth in enumerate(path):
-            await lidar.send(_frame(truth, 10.0 + 0.1 * i))
+            lidar.send(_frame(truth, 10.0 + 0.1 * i))
             await until(lambda n=i: len(poses) > n, timeout_s=10.0)
             await asyncio.sleep(0.1)  # a 10 Hz lidar
         # The first scan anchors the map at the origin; the rest are matched onto it.
@@ -53,13 +53,12 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
             return any(math.hypot(e.x_m - last.x, e.y_m - last.y) < 0.05 for e in estimates[-3:])
 
         for i in range(100):
-            await lidar.send(_frame(path[-1], 11.5 + 0.1 * i))
+            lidar.send(_frame(path[-1], 11.5 + 0.1 * i))
             await asyncio.sleep(0.1)
             if settled():
                 break
         assert settled()
-        await control.send({"type": "save_map", "name": "lab"})
-        await control.recv_type("ack")
+        await control.request(SaveMapFrame(name="lab"))
         await until((tmp_path / "lab.yaml").exists, timeout_s=10.0)
         grid = load_map(tmp_path / "lab.yaml")
         assert grid.logodds.max() > 0
@@ -71,9 +70,9 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
 async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose(
     tmp_path: Path,
 ) -> None:
+    from navd.geometry.scan import scan_points
     from navd.slam.map_io import save_map
     from navd.slam.occupancy import OccupancyGrid
-    from navd.slam.scan import scan_points
 
     grid = OccupancyGrid(0.05)
     for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
@@ -83,21 +82,51 @@ async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose
     slam = {"load_map": str(path), "updating_map": False, "map_dir": str(tmp_path)}
     async with running_daemon(slam=slam) as (daemon, port):
         poses = record(daemon, PoseMeasurement)
-        lidar, _ = await AsyncClient.hello(port, "lidar", "lidar0")
-        control, _ = await AsyncClient.hello(port, "control", "ui")
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
         truth = Pose2(2.0, -2.5, 2.5)
-        await lidar.send(_frame(truth, 50.0))
+        lidar.send(_frame(truth, 50.0))
         await until(lambda: bool(poses), timeout_s=15.0)
         assert math.hypot(poses[0].x_m - truth.x, poses[0].y_m - truth.y) < 0.05
         # Kidnapped: the robot is elsewhere; a person says roughly where.
         moved = Pose2(-4.5, 0.5, -1.0)
-        await control.send(
-            {"type": "initial_pose", "x": moved.x + 0.4, "y": moved.y - 0.3, "yaw": moved.yaw + 0.2}
+        await control.request(
+            InitialPoseFrame(x=moved.x + 0.4, y=moved.y - 0.3, yaw=moved.yaw + 0.2)
         )
-        await control.recv_type("ack")
-        await lidar.send(_frame(moved, 50.1))
+        lidar.send(_frame(moved, 50.1))
         await until(lambda: len(poses) > 1, timeout_s=15.0)
         assert math.hypot(poses[1].x_m - moved.x, poses[1].y_m - moved.y) < 0.05
         assert not list(tmp_path.glob("room.2.*"))  # localizing only: the map is not saved over
+        await lidar.close()
+        await control.close()
+
+
+async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
+    from navd.drivers.protocol.frames import ConfigFrame
+    from navd.drivers.protocol.replies import ConfigAppliedFrame
+    from navd.slam.node import SlamNode
+
+    async with running_daemon(slam={"max_range_m": 20.0}) as (daemon, port):
+        (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
+        poses = record(daemon, PoseMeasurement)
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
+        path = [Pose2(0.05 * i, 0.0, 0.0) for i in range(8)]
+        for i, truth in enumerate(path[:4]):
+            lidar.send(_frame(truth, 10.0 + 0.1 * i))
+            await until(lambda n=i: len(poses) > n, timeout_s=10.0)
+        first = node._scan_odometry  # no wheel odometry: kiss-icp is the motion prior
+        assert first is not None and first.settings.voxel_size_m == 0.1
+        await control.request(ConfigFrame(changes={"slam.voxel_size_m": 0.2}))
+        await control.receive_type(ConfigAppliedFrame)
+        rebuilt = node._scan_odometry
+        assert rebuilt is not first and rebuilt is not None
+        assert rebuilt.settings.voxel_size_m == 0.2
+        # Tracking goes on across the new odometry frame: no jump from its new origin.
+        for i, truth in enumerate(path[4:], start=4):
+            lidar.send(_frame(truth, 10.0 + 0.1 * i))
+            await until(lambda n=i: len(poses) > n, timeout_s=10.0)
+        for measured, truth in zip(poses, path, strict=True):
+            assert math.hypot(measured.x_m - truth.x, measured.y_m - truth.y) < 0.05
         await lidar.close()
         await control.close()

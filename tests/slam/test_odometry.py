@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from navd.bench.room import cast
-from navd.slam.odometry import ScanOdometry
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
+from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 
 
 def _odometry() -> ScanOdometry:
-    return ScanOdometry(voxel_size_m=0.1, max_range_m=12.0, min_range_m=0.1)
+    return ScanOdometry(ScanOdometrySettings(voxel_size_m=0.1, max_range_m=12.0, min_range_m=0.1))
 
 
 def test_scan_odometry_follows_a_drive_without_wheels() -> None:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.slam.pose import Pose2
+from navd.geometry.pose import Pose2
 from navd.slam.pose_graph import Edge, _graph, _jacobian_blocks, _residuals, optimize
 
 W = (20.0, 20.0, 50.0)
@@ -65,11 +65,11 @@ def test_consistent_edges_leave_the_poses_alone() -> None:
 
 def test_the_mapper_finds_loops_when_asked() -> None:
     from navd.bench.room import cast
+    from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
-    from navd.slam.scan import scan_points
-    from navd.slam.settings import mapper_settings
+    from navd.slam.settings import MapperSettings
 
-    settings = mapper_settings(
+    settings = MapperSettings.defaults(
         loop_closure=True,
         loop_min_gap=10,
         keyframe_distance_m=0.2,

@@ -7,26 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose import Pose2
-from navd.slam.scan import scan_points, voxel_downsample
-
-
-def test_invalid_ranges_are_dropped_and_no_returns_clear_space() -> None:
-    ranges = [1.0, float("nan"), 0.05, 2.0, float("inf"), 30.0, 5.0]
-    scan = scan_points(ranges, 0.0, math.pi / 2, range_min=0.1, range_max=30.0, max_range=4.0)
-    # Beam 0 at 0 rad and beam 3 at 3pi/2 hit; 5 m (beam 6) is beyond max_range: a miss.
-    np.testing.assert_allclose(scan.hits, [[1.0, 0.0], [0.0, -2.0]], atol=1e-12)
-    # inf and 30 m (no return) and 5 m clear space up to 4 m; NaN and 0.05 m say nothing.
-    assert scan.misses.shape == (3, 2)
-    np.testing.assert_allclose(np.linalg.norm(scan.misses, axis=1), 4.0)
-
-
-def test_the_mount_pose_moves_points_into_the_robot_frame() -> None:
-    scan = scan_points(
-        [1.0], 0.0, 0.1, range_min=0.1, range_max=10.0, mount=Pose2(0.2, 0.1, math.pi / 2)
-    )
-    np.testing.assert_allclose(scan.hits, [[0.2, 1.1]], atol=1e-12)
+from navd.slam.voxel import voxel_downsample
 
 
 def test_voxel_downsample_keeps_one_point_per_cell_in_order() -> None:

@@ -1,0 +1,73 @@
+"""``navd bench NAME``: the benchmarks behind the performance figures."""
+
+from __future__ import annotations
+
+import argparse
+
+from navd.cli.common import EXIT_OK, Commands, print_figures
+
+__all__ = ["add_commands"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``bench ingest|estimation|scan|planning``."""
+    bench = commands.add_parser("bench", help="run a benchmark and print its figures")
+    names = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
+    ingest = names.add_parser(
+        "ingest", help="daemon CPU, loop lag and drops under full sensor load over TCP"
+    )
+    ingest.add_argument("--seconds", type=float, default=10.0, help="[s] streaming time")
+    ingest.add_argument("--rays", type=int, default=1440, help="lidar rays per scan")
+    ingest.add_argument("--binary", action="store_true", help="lidar ranges as base64 float32")
+    ingest.add_argument(
+        "--imu-batch", type=int, default=1, help="IMU lines per write (1: one per sample)"
+    )
+    ingest.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    ingest.set_defaults(handler=_ingest)
+    estimation = names.add_parser(
+        "estimation", help="Madgwick per sample, UKF per event, cost of a late event"
+    )
+    estimation.add_argument("--seconds", type=float, default=60.0, help="[s] synthetic drive")
+    estimation.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    estimation.set_defaults(handler=_estimation)
+    scan = names.add_parser("scan", help="ms from a 720-ray scan to an updated pose")
+    scan.add_argument("--scans", type=int, default=400, help="scans in the drive")
+    scan.add_argument("--beams", type=int, default=720, help="rays per scan")
+    scan.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    scan.set_defaults(handler=_scan)
+    planning = names.add_parser("planning", help="A* on 1000² and 2000² grids, ms per DWA cycle")
+    planning.add_argument("--repeats", type=int, default=5, help="A* searches per grid")
+    planning.add_argument("--cycles", type=int, default=200, help="DWA cycles timed")
+    planning.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    planning.set_defaults(handler=_planning)
+
+
+def _ingest(args: argparse.Namespace) -> int:
+    from navd.bench.ingest import run  # noqa: PLC0415 - each benchmark imports what it times
+
+    figures = run(
+        seconds=args.seconds, rays=args.rays, binary=args.binary, imu_batch=args.imu_batch
+    )
+    print_figures(figures, args.json)
+    return EXIT_OK
+
+
+def _estimation(args: argparse.Namespace) -> int:
+    from navd.bench.estimation import run  # noqa: PLC0415
+
+    print_figures(run(seconds=args.seconds), args.json)
+    return EXIT_OK
+
+
+def _scan(args: argparse.Namespace) -> int:
+    from navd.bench.scan import run  # noqa: PLC0415
+
+    print_figures(run(scans=args.scans, beams=args.beams), args.json)
+    return EXIT_OK
+
+
+def _planning(args: argparse.Namespace) -> int:
+    from navd.bench.planning import run  # noqa: PLC0415
+
+    print_figures(run(repeats=args.repeats, cycles=args.cycles), args.json)
+    return EXIT_OK

@@ -1,0 +1,99 @@
+"""``navd goal|cancel|status``: a control client of the running daemon."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from navd.cli.common import EXIT_FAILED, EXIT_OK, Commands, connect, connection_options
+from navd.config import ConfigError
+from navd.drivers.client import ClientError
+from navd.drivers.protocol.frames import CancelFrame, Frame, GoalFrame, SubscribeFrame
+from navd.drivers.protocol.replies import StatusFrame
+
+__all__ = ["add_commands", "format_status"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``goal``, ``cancel`` and ``status``."""
+    goal = commands.add_parser("goal", help="send a goal in the map frame")
+    goal.add_argument("x", type=float, help="[m] map x")
+    goal.add_argument("y", type=float, help="[m] map y")
+    goal.add_argument("--yaw", type=float, help="[rad] final heading (default: any)")
+    goal.add_argument("--id", dest="goal_id", help="goal id (default: chosen by navd)")
+    connection_options(goal)
+    goal.set_defaults(handler=_goal)
+
+    cancel = commands.add_parser("cancel", help="cancel the active goal")
+    cancel.add_argument("--id", dest="goal_id", help="cancel only this goal")
+    connection_options(cancel)
+    cancel.set_defaults(handler=_cancel)
+
+    status = commands.add_parser("status", help="watch the daemon's status")
+    status.add_argument("--rate", type=float, default=2.0, help="[Hz] updates per second")
+    status.add_argument("--once", action="store_true", help="print one status and exit")
+    status.add_argument("--json", action="store_true", help="print raw status frames")
+    connection_options(status)
+    status.set_defaults(handler=_status)
+
+
+def _request(args: argparse.Namespace, frame: Frame) -> int:
+    try:
+        with connect(args) as client:
+            ack = client.request(frame)
+    except (ClientError, ConfigError) as err:
+        print(f"navd {frame.type}: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(ack.model_dump_json(exclude_none=True))
+    return EXIT_OK
+
+
+def _goal(args: argparse.Namespace) -> int:
+    return _request(args, GoalFrame(x=args.x, y=args.y, yaw=args.yaw, goal_id=args.goal_id))
+
+
+def _cancel(args: argparse.Namespace) -> int:
+    return _request(args, CancelFrame(goal_id=args.goal_id))
+
+
+def _status(args: argparse.Namespace) -> int:
+    try:
+        with connect(args) as client:
+            client.request(SubscribeFrame(rate_hz=args.rate))
+            while True:
+                frame = client.receive_type(StatusFrame)
+                print(frame.model_dump_json() if args.json else format_status(frame), flush=True)
+                if args.once:
+                    return EXIT_OK
+    except (ClientError, ConfigError) as err:
+        print(f"navd status: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        return EXIT_OK
+
+
+def format_status(frame: StatusFrame) -> str:
+    """One readable line for a status frame."""
+    pose = frame.pose
+    where = (
+        f"pose ({pose.x:.2f}, {pose.y:.2f}) m {math.degrees(pose.yaw):.0f} deg"
+        if pose
+        else "pose unknown"
+    )
+    vel = frame.velocity
+    moving = f"v {vel.linear:.2f} m/s w {vel.angular:.2f} rad/s" if vel else "v -"
+    goal = frame.goal
+    target = f"goal {goal.goal_id} {goal.state}" if goal else "no goal"
+    devices = (
+        ", ".join(f"{d.device_id}({d.kind}{', STALE' if d.stale else ''})" for d in frame.devices)
+        or "none"
+    )
+    diag = frame.diagnostics
+    lag = diag.loop_lag_p99_ms
+    safety = "; ".join(diag.safety) or "ok"
+    lag_text = f"{lag:.2f} ms" if lag is not None else "-"
+    return (
+        f"{frame.robot} [{frame.mode}] {where} | {moving} | {target} | devices: {devices} | "
+        f"lag p99 {lag_text} | safety: {safety}"
+    )

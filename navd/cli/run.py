@@ -1,0 +1,64 @@
+"""``navd run``: the daemon."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load
+from navd.config import ConfigError
+from navd.errors import NavdError
+from navd.logs import configure_logging, get_logger
+
+if TYPE_CHECKING:
+    from navd.lifecycle import Daemon
+
+__all__ = ["add_commands"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``run``."""
+    run = commands.add_parser("run", help="run the daemon")
+    run.add_argument("--config", type=Path, help="TOML config file (default: built-in defaults)")
+    run.set_defaults(handler=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        config = load(args.config)
+    except ConfigError as err:
+        print(err, file=sys.stderr)
+        return EXIT_USAGE
+    configure_logging(config.logging.level, config.logging.format)
+    from navd.app import build_modules  # noqa: PLC0415 - keep `navd config` fast to start
+    from navd.lifecycle import Daemon  # noqa: PLC0415
+
+    daemon = Daemon(config, build_modules(config), config_path=args.config)
+    try:
+        if config.lifecycle.event_loop == "uvloop":
+            import uvloop  # noqa: PLC0415
+
+            uvloop.run(daemon.run())
+        else:
+            asyncio.run(daemon.run())
+    except NavdError as err:
+        get_logger("cli").error("daemon_failed", error=str(err))
+        return _exit_past_threads(daemon, EXIT_FAILED)
+    return _exit_past_threads(daemon, EXIT_OK)
+
+
+def _exit_past_threads(daemon: Daemon, code: int) -> int:
+    """Return ``code``, or end the process at once with it if a set-up thread (a kernel
+    compiling) is still running: the daemon has stopped cleanly and its files are written,
+    and letting the interpreter shut down under a running compiler can abort the process."""
+    unfinished = daemon.workers.unfinished_threads()
+    if unfinished:
+        get_logger("cli").info("exit_without_waiting", threads=unfinished)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code

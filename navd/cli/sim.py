@@ -1,0 +1,109 @@
+"""``navd demo|sim|barn``: the simulated robot with the daemon, beside it, or on BARN."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, print_figures
+from navd.config import ConfigError, load_config
+
+__all__ = ["add_commands"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``demo``, ``sim`` and ``barn``."""
+    demo = commands.add_parser(
+        "demo", help="the daemon drives a simulated robot to a goal; writes demo.png, summary.json"
+    )
+    demo.add_argument("--out", type=Path, default=Path("."), help="folder for the results (.)")
+    demo.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
+    demo.add_argument("--limit", type=float, default=180.0, help="[s] give up after this long")
+    demo.add_argument(
+        "--real-time",
+        action="store_true",
+        help="run in real time (default: simulated time in lockstep, as fast as the CPU allows)",
+    )
+    demo.set_defaults(handler=_demo)
+    sim = commands.add_parser(
+        "sim", help="play a simulated robot for a running navd (its config names the ports)"
+    )
+    sim.add_argument(
+        "--config", type=Path, required=True, help="the config file `navd run` was started with"
+    )
+    sim.add_argument("--world", type=Path, help="world TOML or map .yaml (default: the office)")
+    sim.add_argument("--seed", type=int, default=0, help="seeds every noise source (0)")
+    sim.add_argument("--truth", type=Path, help="write the ground truth CSV here at the end")
+    sim.add_argument("--limit", type=float, help="[s] stop after this much simulated time")
+    sim.set_defaults(handler=_sim)
+    barn = commands.add_parser("barn", help="the BARN benchmark on navd's planner")
+    barn.add_argument(
+        "--dataset",
+        type=Path,
+        default=Path("../shared/datasets/barn"),
+        help="folder with barn_cylinders.csv.gz and path_files/ (default ../shared/datasets/barn)",
+    )
+    barn.add_argument("--worlds", help="comma-separated world indices (default: all)")
+    barn.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    barn.set_defaults(handler=_barn)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from navd.sim.demo import run_demo  # noqa: PLC0415 - only the simulator commands need it
+    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim.world import load_world, office  # noqa: PLC0415
+
+    try:
+        world = office() if args.world is None else load_world(args.world)
+        summary = run_demo(world, args.out, limit_s=args.limit, lockstep=not args.real_time)
+    except SimError as err:
+        print(f"navd demo: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print(json.dumps(summary, indent=2))
+    print(
+        f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
+    )
+    return EXIT_OK if summary["reached"] else EXIT_FAILED
+
+
+def _sim(args: argparse.Namespace) -> int:
+    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim.standalone import run_sim  # noqa: PLC0415
+    from navd.sim.world import load_world, office  # noqa: PLC0415
+
+    try:
+        config = load_config(args.config)
+    except ConfigError as err:
+        print(f"navd sim: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        world = office() if args.world is None else load_world(args.world)
+        summary = run_sim(world, config, seed=args.seed, truth_path=args.truth, limit_s=args.limit)
+    except SimError as err:
+        print(f"navd sim: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(json.dumps(summary, indent=2))
+    return EXIT_OK
+
+
+def _barn(args: argparse.Namespace) -> int:
+    from navd.sim.barn import run_barn  # noqa: PLC0415
+    from navd.sim.errors import SimError  # noqa: PLC0415
+
+    try:
+        worlds = None if args.worlds is None else [int(w) for w in args.worlds.split(",")]
+    except ValueError:
+        print(
+            f"navd barn: --worlds must be integers separated by commas, got {args.worlds!r}",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    try:
+        summary = run_barn(args.dataset, worlds=worlds)
+    except SimError as err:
+        print(f"navd barn: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print_figures(summary, args.json)
+    return EXIT_OK

@@ -1,0 +1,143 @@
+"""``navd replay`` and ``navd eval``: SLAM over a recording, and scoring a trajectory."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load, print_figures
+from navd.config import ConfigError
+
+__all__ = ["add_commands"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``replay`` and ``eval relations``."""
+    replay = commands.add_parser("replay", help="run SLAM over a laser log, as fast as possible")
+    replay.add_argument(
+        "log",
+        type=Path,
+        help="<name>_scans.txt[.gz] dump, CARMEN .clf[.gz], ROS 1 .bag or ROS 2 bag folder",
+    )
+    replay.add_argument("--out", type=Path, required=True, help="folder for the results")
+    replay.add_argument("--config", type=Path, help="TOML config (its slam and lidar sections)")
+    replay.add_argument("--laser-x", type=float, help="[m] lidar x on the robot (lidar.x_m)")
+    replay.add_argument("--laser-y", type=float, help="[m] lidar y on the robot (lidar.y_m)")
+    replay.add_argument(
+        "--laser-yaw", type=float, help="[rad] lidar yaw on the robot (lidar.yaw_rad)"
+    )
+    replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
+    replay.add_argument(
+        "--loop-closure", action="store_true", help="close loops (slam.loop_closure = true)"
+    )
+    replay.add_argument(
+        "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
+    )
+    replay.add_argument(
+        "--odom-topic", help="bag topic of the odometry (default: the nav_msgs/Odometry one)"
+    )
+    replay.add_argument(
+        "--odometry",
+        choices=("log", "scan", "none"),
+        default="log",
+        help="motion prior: the log's odometry (default), kiss-icp scan odometry, or none",
+    )
+    replay.add_argument("--quiet", action="store_true", help="no progress line")
+    replay.set_defaults(handler=_replay)
+
+    evaluate = commands.add_parser("eval", help="score results against ground truth")
+    metrics = evaluate.add_subparsers(dest="eval_command", metavar="METRIC", required=True)
+    relations = metrics.add_parser(
+        "relations", help="Kümmerle et al. 2009 relation errors of a TUM trajectory"
+    )
+    relations.add_argument("trajectory", type=Path, help="TUM file (stamp x y z qx qy qz qw)")
+    relations.add_argument("relations", type=Path, help=".relations file (t1 t2 x y z r p y)")
+    relations.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    relations.set_defaults(handler=_relations)
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
+    from navd.slam.errors import SlamError  # noqa: PLC0415
+    from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
+    from navd.slam.settings import MapperSettings  # noqa: PLC0415
+
+    try:
+        config = load(args.config)
+    except ConfigError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    settings = MapperSettings.from_config(config)
+    if args.max_range is not None:
+        settings = dataclasses.replace(settings, max_range_m=args.max_range)
+    if args.loop_closure:
+        settings = dataclasses.replace(settings, loop_closure=True)
+    try:
+        recording = open_recording(args.log, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
+        if recording.mount is not None and not args.quiet:
+            m = recording.mount
+            print(
+                f"laser mount from the recording: x {m.x:.3f} m, y {m.y:.3f} m, "
+                f"yaw {m.yaw:.4f} rad",
+                file=sys.stderr,
+            )
+        mount = replay_mount(
+            LidarMount.from_config(config.lidar),
+            recording.mount,
+            x_m=args.laser_x,
+            y_m=args.laser_y,
+            yaw_rad=args.laser_yaw,
+        )
+        result = replay(
+            recording.scans,
+            args.out,
+            settings,
+            mount=mount,
+            odometry=args.odometry,
+            progress=None if args.quiet else _progress_line(recording.total),
+        )
+    except SlamError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if not args.quiet:
+        print(file=sys.stderr)
+    print(json.dumps(result.summary, indent=2))
+    return EXIT_OK
+
+
+def _progress_line(total: int) -> Callable[[int, float], None]:
+    step = max(1, total // 200)
+
+    def show(done: int, seconds: float) -> None:
+        if done % step and done != total:
+            return
+        width = 30
+        filled = width * done // max(total, 1)
+        rate = seconds / max(done, 1) * 1e3
+        sys.stderr.write(
+            f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} scans, {rate:.1f} ms/scan"
+        )
+        sys.stderr.flush()
+
+    return show
+
+
+def _relations(args: argparse.Namespace) -> int:
+    from navd.slam.errors import SlamError  # noqa: PLC0415
+    from navd.slam.relations import evaluate, read_relations, read_tum  # noqa: PLC0415
+
+    try:
+        stamps, poses = read_tum(args.trajectory)
+        errors = evaluate(stamps, poses, read_relations(args.relations))
+    except (SlamError, OSError) as err:
+        print(f"navd eval relations: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print_figures(errors.as_dict(), args.json)
+    return EXIT_OK if errors.used else EXIT_FAILED

@@ -1,0 +1,161 @@
+"""One line of JSON to a typed frame, and a typed frame to one line.
+
+Decoding validates with pydantic straight from the bytes; a line that fails becomes a
+``WireError`` naming the field (a dotted path into the frame) and the reason. Each role has
+its own decoder: a sensor may send only its own data frame (and ``ping``), a control client
+only requests, the clock client only clock steps.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, TypeVar, get_args
+
+from pydantic import Field, TypeAdapter, ValidationError
+
+from navd.drivers.errors import WireError
+from navd.drivers.protocol.frames import (
+    SENSOR_FRAMES,
+    ClockRequest,
+    ControlRequest,
+    Frame,
+    Hello,
+    PingFrame,
+    SensorFrame,
+)
+from navd.drivers.protocol.replies import Reply, ReplyPart
+
+__all__ = [
+    "TAGS",
+    "decode_clock",
+    "decode_control",
+    "decode_hello",
+    "decode_reply",
+    "decode_sensor",
+    "encode",
+]
+
+T = TypeVar("T")
+
+
+def _tagged(union: Any) -> Any:
+    """A union of frames told apart by their ``type``."""
+    return Annotated[union, Field(discriminator="type")]
+
+
+_HELLO: TypeAdapter[Hello] = TypeAdapter(Hello)
+_CONTROL: TypeAdapter[ControlRequest] = TypeAdapter(_tagged(ControlRequest))
+_CLOCK: TypeAdapter[ClockRequest] = TypeAdapter(_tagged(ClockRequest))
+_SENSOR: dict[str, TypeAdapter[SensorFrame | PingFrame]] = {
+    role: TypeAdapter(_tagged(frame | PingFrame)) for role, frame in SENSOR_FRAMES.items()
+}
+_REPLY: TypeAdapter[Reply] = TypeAdapter(_tagged(Reply))
+
+
+def _tags(*unions: Any) -> frozenset[str]:
+    """Every frame tag in the given unions and models, read off their ``type`` fields."""
+    tags: set[str] = set()
+    for union in unions:
+        for model in get_args(union) or (union,):
+            tags.update(get_args(model.model_fields["type"].annotation))
+    return frozenset(tags)
+
+
+# Every tag a client may send: pydantic puts the union branch first in an error's path.
+TAGS = _tags(Hello, ControlRequest, ClockRequest, *SENSOR_FRAMES.values())
+
+
+def decode_hello(line: bytes) -> Hello:
+    """Decode the first line of a connection.
+
+    Raises:
+        WireError: naming the bad field.
+    """
+    try:
+        return _HELLO.validate_json(line, context={"wire": True})
+    except ValidationError as err:
+        raise _wire_error(err, "hello") from err
+
+
+def decode_sensor(role: str, line: bytes) -> SensorFrame | PingFrame:
+    """Decode a line from a sensor of ``role`` ("lidar", "imu", ...): its data frame or a
+    ping.
+
+    Raises:
+        WireError: naming the bad field.
+    """
+    return _decode(_SENSOR[role], line, role)
+
+
+def decode_control(line: bytes) -> ControlRequest:
+    """Decode a line from a control client.
+
+    Raises:
+        WireError: naming the bad field.
+    """
+    return _decode(_CONTROL, line, "control")
+
+
+def decode_clock(line: bytes) -> ClockRequest:
+    """Decode a line from the clock client.
+
+    Raises:
+        WireError: naming the bad field.
+    """
+    return _decode(_CLOCK, line, "clock")
+
+
+def decode_reply(line: bytes) -> Reply:
+    """Decode a line from navd (the client's side).
+
+    Raises:
+        WireError: the line is not a reply this client knows.
+    """
+    return _decode(_REPLY, line, "reply")
+
+
+def encode(frame: Frame | ReplyPart) -> bytes:
+    """One frame, a request or a reply, as a JSON line.
+
+    Unset optional fields of a request, and of an ack, are left out; NaN and infinity in a
+    reply become null.
+    """
+    return frame.model_dump_json(exclude_none=frame.OMIT_NONE).encode() + b"\n"
+
+
+def _decode(adapter: TypeAdapter[T], line: bytes, role: str) -> T:
+    try:
+        return adapter.validate_json(line)
+    except ValidationError as err:
+        raise _wire_error(err, role) from err
+
+
+def _wire_error(err: ValidationError, role: str) -> WireError:
+    first = err.errors(include_url=False)[0]
+    kind = first["type"]
+    if kind == "json_invalid":
+        return WireError("", f"not valid JSON: {first['msg'].removeprefix('Invalid JSON: ')}")
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return WireError("", "a frame must be a JSON object")
+    if kind == "union_tag_not_found":
+        return WireError("type", "missing; every frame has a 'type'")
+    if kind == "union_tag_invalid":
+        expected = first.get("ctx", {}).get("expected_tags", "")
+        got = first.get("input", {})
+        tag = got.get("type") if isinstance(got, dict) else None
+        return WireError(
+            "type", f"{tag!r} is not a frame a {role} client sends; expected {expected}"
+        )
+    # drop the union branch name pydantic puts first ("scan.ranges.3" -> "ranges.3")
+    parts = [str(p) for p in first["loc"]]
+    if parts and parts[0] in TAGS:
+        parts = parts[1:]
+    field = ".".join(parts)
+    message = str(first["msg"]).removeprefix("Value error, ")
+    if kind == "extra_forbidden":
+        message = "unknown field"
+    if kind == "value_error" and not field:
+        # cross-field rules name their field as "field: reason"
+        named, sep, rest = message.partition(": ")
+        if sep and named.isidentifier():
+            field, message = named, rest
+    return WireError(field, message)

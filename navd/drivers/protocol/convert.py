@@ -1,0 +1,186 @@
+"""Frames to bus messages: sensor data stamped on the daemon clock, requests named after
+their client."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from navd.drivers.protocol.frames import (
+    CancelFrame,
+    ConfigFrame,
+    ControlRequest,
+    FixFrame,
+    GoalFrame,
+    HeadingFrame,
+    ImuFrame,
+    InitialPoseFrame,
+    OdomFrame,
+    SaveMapFrame,
+    ScanFrame,
+    SensorFrame,
+)
+from navd.lifecycle.messages import (
+    CancelGoal,
+    CompassHeading,
+    ConfigChange,
+    GeoGoal,
+    Goal,
+    GpsFix,
+    Imu,
+    InitialPose,
+    LaserScan,
+    Message,
+    SaveMapRequest,
+    Vector3,
+    WheelOdometry,
+)
+
+__all__ = ["control_message", "sensor_message"]
+
+TESLA_TO_MICROTESLA = 1e6
+
+
+def _scan(frame: ScanFrame, device_id: str, stamp: float, received: float) -> Message:
+    return LaserScan(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        angle_min=frame.angle_min,
+        angle_increment=frame.angle_increment,
+        ranges=frame.ranges_array(),
+        range_min=frame.range_min,
+        range_max=frame.range_max,
+        time_increment=frame.time_increment,
+    )
+
+
+def _imu(frame: ImuFrame, device_id: str, stamp: float, received: float) -> Message:
+    mag = frame.magnetic_field
+    return Imu(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        gyro_radps=Vector3(*frame.angular_velocity),
+        accel_mps2=Vector3(*frame.linear_acceleration),
+        mag_ut=None if mag is None else Vector3(*(c * TESLA_TO_MICROTESLA for c in mag)),
+    )
+
+
+def _fix(frame: FixFrame, device_id: str, stamp: float, received: float) -> Message | None:
+    if frame.status < 0:
+        return None  # the receiver says it has no fix: nothing to use, nothing wrong
+    return GpsFix(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        latitude_deg=frame.latitude,
+        longitude_deg=frame.longitude,
+        altitude_m=frame.altitude,
+        horizontal_accuracy_m=frame.horizontal_accuracy,
+    )
+
+
+def _heading(frame: HeadingFrame, device_id: str, stamp: float, received: float) -> Message:
+    return CompassHeading(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        bearing_deg=frame.bearing_deg,
+        accuracy_deg=frame.accuracy_deg,
+        true_north=frame.true_north,
+    )
+
+
+def _odom(frame: OdomFrame, device_id: str, stamp: float, received: float) -> Message:
+    return WheelOdometry(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        linear_mps=frame.linear_x,
+        angular_radps=frame.angular_z,
+    )
+
+
+_CONVERTERS: dict[type[Any], Callable[[Any, str, float, float], Message | None]] = {
+    ScanFrame: _scan,
+    ImuFrame: _imu,
+    FixFrame: _fix,
+    HeadingFrame: _heading,
+    OdomFrame: _odom,
+}
+
+
+def sensor_message(
+    frame: SensorFrame, device_id: str, stamp: float, received: float
+) -> Message | None:
+    """A sensor frame as its typed message; None for a GNSS frame without a fix.
+
+    Args:
+        frame: a validated sensor frame.
+        device_id: the sensor's id.
+        stamp: [s] its measurement time on the daemon clock.
+        received: [s] its arrival on the daemon clock.
+
+    Raises:
+        WireError: a field that only the conversion can check (bad base64 ranges).
+    """
+    return _CONVERTERS[type(frame)](frame, device_id, stamp, received)
+
+
+def control_message(frame: ControlRequest, client_id: str, now: float, serial: int) -> Message:
+    """A control request that becomes a bus message.
+
+    Args:
+        frame: a goal, cancel, config, initial pose or save-map request (the session's own
+            requests, subscribe, unsubscribe and ping, are not messages).
+        client_id: the control client's device id (names its goals and requests).
+        now: [s] daemon time.
+        serial: a per-client counter for ids the client did not give.
+
+    Raises:
+        TypeError: ``frame`` is a session request.
+    """
+    if isinstance(frame, GoalFrame):
+        goal_id = frame.goal_id or f"{client_id}-{serial}"
+        if frame.x is not None and frame.y is not None:
+            return Goal(
+                stamp=now,
+                received=now,
+                goal_id=goal_id,
+                x_m=frame.x,
+                y_m=frame.y,
+                yaw_rad=frame.yaw,
+            )
+        assert frame.latitude is not None and frame.longitude is not None
+        return GeoGoal(
+            stamp=now,
+            received=now,
+            goal_id=goal_id,
+            latitude_deg=frame.latitude,
+            longitude_deg=frame.longitude,
+            yaw_rad=frame.yaw,
+        )
+    if isinstance(frame, CancelFrame):
+        return CancelGoal(stamp=now, received=now, goal_id=frame.goal_id)
+    if isinstance(frame, ConfigFrame):
+        return ConfigChange(
+            stamp=now,
+            received=now,
+            request_id=frame.request_id or f"{client_id}-{serial}",
+            changes=frame.changes,
+            source=client_id,
+        )
+    if isinstance(frame, InitialPoseFrame):
+        return InitialPose(
+            stamp=now,
+            received=now,
+            x_m=frame.x,
+            y_m=frame.y,
+            yaw_rad=frame.yaw,
+            std_xy_m=frame.std_xy,
+            std_yaw_rad=frame.std_yaw,
+        )
+    if isinstance(frame, SaveMapFrame):
+        return SaveMapRequest(stamp=now, received=now, name=frame.name)
+    raise TypeError(f"{type(frame).__name__} is a session request, not a bus message")

@@ -1,0 +1,290 @@
+"""What clients send: newline-delimited JSON frames, validated by pydantic.
+
+Every frame has a ``type`` (its tag) and refuses unknown fields, so a typo never silently
+loses data. Field names and units follow ROS: sensor_msgs/LaserScan, Imu (rad/s, m/s²,
+magnetic field in tesla) and NavSatFix (degrees, metres). A frame is built in Python with
+its fields (``ScanFrame(stamp=..., ...)``: the tag is filled in) and read from a line by
+``codec``, where the tag is required.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+from typing import Annotated, Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
+
+from navd.drivers.errors import WireError
+
+__all__ = [
+    "DEVICE_ID_PATTERN",
+    "PROTOCOL_VERSION",
+    "SENSOR_FRAMES",
+    "CancelFrame",
+    "ClockFrame",
+    "ClockRequest",
+    "ConfigFrame",
+    "ControlRequest",
+    "FixFrame",
+    "Frame",
+    "GoalFrame",
+    "HeadingFrame",
+    "Hello",
+    "ImuFrame",
+    "InitialPoseFrame",
+    "OdomFrame",
+    "PingFrame",
+    "SaveMapFrame",
+    "ScanFrame",
+    "SensorFrame",
+    "SubscribeFrame",
+    "UnsubscribeFrame",
+]
+
+PROTOCOL_VERSION = 1
+MAX_RAYS = 16_384
+DEVICE_ID_PATTERN = r"^[A-Za-z0-9_.:\-]{1,64}$"
+Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control", "clock"]
+
+
+class Frame(BaseModel):
+    """Common settings of every client frame: strict types, no unknown fields, frozen, no
+    NaN or infinity (lidar ranges excepted)."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, allow_inf_nan=False)
+    # Optional fields left unset are not sent (the daemon fills in the same defaults).
+    OMIT_NONE: ClassVar[bool] = True
+
+    type: str  # each frame's tag, a Literal in every subclass
+
+
+class Hello(Frame):
+    """The first line of every connection."""
+
+    type: Literal["hello"] = "hello"
+    protocol: int = PROTOCOL_VERSION
+    role: Role
+    device_id: str = Field(pattern=DEVICE_ID_PATTERN)
+    token: str | None = Field(None, max_length=1024)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _tag_on_the_wire(cls, data: Any, info: ValidationInfo) -> Any:
+        # Built in Python the tag and version are filled in; a line must say them.
+        if info.context and info.context.get("wire") and isinstance(data, dict):
+            if "type" not in data:
+                raise ValueError("type: missing; every frame has a 'type'")
+            if "protocol" not in data:
+                raise ValueError("protocol: Field required")
+        return data
+
+    @model_validator(mode="after")
+    def _supported(self) -> Hello:
+        if self.protocol != PROTOCOL_VERSION:
+            raise ValueError(
+                f"protocol: version {self.protocol} is not supported; this daemon speaks "
+                f"{PROTOCOL_VERSION}"
+            )
+        return self
+
+
+Stamp = Annotated[float | None, Field(None, ge=0)]
+Vec3 = tuple[float, float, float]
+
+
+class ScanFrame(Frame):
+    """A lidar sweep (sensor_msgs/LaserScan); ``ranges`` or ``ranges_f32``, not both."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, allow_inf_nan=True)
+
+    type: Literal["scan"] = "scan"
+    stamp: Stamp
+    angle_min: float = Field(allow_inf_nan=False)
+    angle_increment: float = Field(allow_inf_nan=False)
+    range_min: float = Field(ge=0, allow_inf_nan=False)
+    range_max: float = Field(gt=0, allow_inf_nan=False)
+    time_increment: float = Field(0.0, ge=0, allow_inf_nan=False)
+    ranges: list[float | None] | None = Field(None, max_length=MAX_RAYS)
+    ranges_f32: str | None = Field(None, max_length=(MAX_RAYS * 4 * 4) // 3 + 4)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ScanFrame:
+        if (self.ranges is None) == (self.ranges_f32 is None):
+            raise ValueError(
+                "ranges: give exactly one of ranges (JSON numbers) and ranges_f32 (base64)"
+            )
+        if self.angle_increment == 0.0:
+            raise ValueError("angle_increment: must be non-zero")
+        if self.range_max <= self.range_min:
+            raise ValueError(
+                f"range_max: must exceed range_min ({self.range_min}), got {self.range_max}"
+            )
+        return self
+
+    def ranges_array(self) -> np.ndarray[Any, np.dtype[np.float32]]:
+        """[m] the ranges as float32; null becomes NaN (an invalid ray).
+
+        Raises:
+            WireError: ``ranges_f32`` is not base64 of whole float32 values.
+        """
+        if self.ranges is not None:
+            return np.array(self.ranges, dtype=np.float32)  # numpy turns None into NaN
+        assert self.ranges_f32 is not None
+        try:
+            raw = base64.b64decode(self.ranges_f32, validate=True)
+        except binascii.Error as err:
+            raise WireError("ranges_f32", f"not valid base64: {err}") from err
+        if len(raw) % 4:
+            raise WireError("ranges_f32", f"{len(raw)} bytes is not a whole number of float32")
+        return np.frombuffer(raw, dtype="<f4").astype(np.float32)
+
+
+class ImuFrame(Frame):
+    """An IMU sample (sensor_msgs/Imu): rad/s, m/s², and tesla for the magnetometer."""
+
+    type: Literal["imu"] = "imu"
+    stamp: Stamp
+    angular_velocity: Vec3
+    linear_acceleration: Vec3
+    magnetic_field: Vec3 | None = None
+
+
+class FixFrame(Frame):
+    """A GNSS fix (sensor_msgs/NavSatFix); ``status`` -1 means no fix (ignored, not an error)."""
+
+    type: Literal["fix"] = "fix"
+    stamp: Stamp
+    latitude: float = Field(ge=-90, le=90)
+    longitude: float = Field(ge=-180, le=180)
+    altitude: float = 0.0
+    horizontal_accuracy: float = Field(gt=0)
+    status: int = Field(0, ge=-1, le=2)
+
+
+class HeadingFrame(Frame):
+    """A compass bearing: degrees clockwise from north, as compasses report it."""
+
+    type: Literal["heading"] = "heading"
+    stamp: Stamp
+    bearing_deg: float = Field(ge=0, lt=360)
+    accuracy_deg: float = Field(gt=0, le=180)
+    true_north: bool = False
+
+
+class OdomFrame(Frame):
+    """Wheel odometry: body velocity (geometry_msgs/Twist linear.x and angular.z)."""
+
+    type: Literal["odom"] = "odom"
+    stamp: Stamp
+    linear_x: float
+    angular_z: float
+
+
+class GoalFrame(Frame):
+    """Drive to map (x, y) or to WGS84 (latitude, longitude), with an optional final yaw."""
+
+    type: Literal["goal"] = "goal"
+    goal_id: str | None = Field(None, pattern=DEVICE_ID_PATTERN)
+    x: float | None = None
+    y: float | None = None
+    latitude: float | None = Field(None, ge=-90, le=90)
+    longitude: float | None = Field(None, ge=-180, le=180)
+    yaw: float | None = None
+
+    @model_validator(mode="after")
+    def _one_position(self) -> GoalFrame:
+        local = (self.x is not None, self.y is not None)
+        geo = (self.latitude is not None, self.longitude is not None)
+        if local == (True, True) and geo == (False, False):
+            return self
+        if geo == (True, True) and local == (False, False):
+            return self
+        raise ValueError("x: give either x and y (map frame, m) or latitude and longitude (deg)")
+
+
+class CancelFrame(Frame):
+    """Stop pursuing a goal: the active one, or only ``goal_id``."""
+
+    type: Literal["cancel"] = "cancel"
+    goal_id: str | None = None
+
+
+class ConfigFrame(Frame):
+    """Change config keys at runtime: applied whole or rejected whole."""
+
+    type: Literal["config"] = "config"
+    request_id: str | None = Field(None, max_length=64)
+    changes: dict[str, Any] = Field(min_length=1)
+
+
+class InitialPoseFrame(Frame):
+    """Where the robot is, by a person: [m, m, rad] in the map, with 1-sigma errors."""
+
+    type: Literal["initial_pose"] = "initial_pose"
+    x: float
+    y: float
+    yaw: float
+    std_xy: float = Field(0.5, gt=0)
+    std_yaw: float = Field(0.3, gt=0)
+
+
+class SaveMapFrame(Frame):
+    """Save the map (under ``name``, or ``slam.map_name``)."""
+
+    type: Literal["save_map"] = "save_map"
+    name: str = Field("", pattern=r"^[A-Za-z0-9_.\-]{0,64}$")
+
+
+class SubscribeFrame(Frame):
+    """Receive status frames at ``rate_hz``."""
+
+    type: Literal["subscribe"] = "subscribe"
+    rate_hz: float = Field(1.0, gt=0, le=50)
+
+
+class UnsubscribeFrame(Frame):
+    """Stop the status frames."""
+
+    type: Literal["unsubscribe"] = "unsubscribe"
+
+
+class ClockFrame(Frame):
+    """From the clock client: take in ``frames`` lines per device, then move time to ``time``."""
+
+    type: Literal["clock"] = "clock"
+    time: float = Field(ge=0)
+    frames: dict[Annotated[str, Field(pattern=DEVICE_ID_PATTERN)], Annotated[int, Field(ge=0)]] = (
+        Field(default_factory=dict, max_length=64)
+    )
+
+
+class PingFrame(Frame):
+    """Any client: answered with a pong carrying ``id`` (after every line sent before it)."""
+
+    type: Literal["ping"] = "ping"
+    id: int | str | None = None
+
+
+SensorFrame = ScanFrame | ImuFrame | FixFrame | HeadingFrame | OdomFrame
+ControlRequest = (
+    GoalFrame
+    | CancelFrame
+    | ConfigFrame
+    | InitialPoseFrame
+    | SaveMapFrame
+    | SubscribeFrame
+    | UnsubscribeFrame
+    | PingFrame
+)
+ClockRequest = ClockFrame | PingFrame
+
+# The data frame of each sensor role.
+SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
+    "lidar": ScanFrame,
+    "imu": ImuFrame,
+    "gps": FixFrame,
+    "compass": HeadingFrame,
+    "wheel_odometry": OdomFrame,
+}

@@ -1,0 +1,150 @@
+"""The control role: goals, cancels, config changes, initial poses and map saves from a
+client, each acknowledged; status streams; goal progress and routes sent to every client.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+from navd.drivers.protocol.codec import decode_control, encode
+from navd.drivers.protocol.convert import control_message
+from navd.drivers.protocol.frames import (
+    ControlRequest,
+    PingFrame,
+    SubscribeFrame,
+    UnsubscribeFrame,
+)
+from navd.drivers.protocol.replies import (
+    Ack,
+    ConfigAppliedFrame,
+    ConfigRejectedFrame,
+    GoalStatusFrame,
+    PathFrame,
+    Pong,
+    ReplyPart,
+    StatusFrame,
+)
+from navd.drivers.tcp.session import Server, Session
+from navd.drivers.tcp.status_board import goal_info
+from navd.lifecycle.messages import (
+    CancelGoal,
+    ConfigApplied,
+    ConfigChange,
+    ConfigRejected,
+    DeviceKind,
+    GeoGoal,
+    Goal,
+    GoalStatus,
+    Path,
+)
+
+__all__ = ["ControlRole"]
+
+
+class ControlRole:
+    """Handles every control session of the server.
+
+    Args:
+        server: the server.
+        sessions: the sessions connected now (goal progress and routes go to every control
+            session among them).
+        status: builds the status frame a subscriber receives.
+    """
+
+    def __init__(
+        self,
+        server: Server,
+        sessions: Callable[[], Iterable[Session]],
+        status: Callable[[], StatusFrame],
+    ) -> None:
+        self._server = server
+        self._sessions = sessions
+        self._status = status
+        self._config_requests: dict[str, Session] = {}
+        ctx = server.ctx
+        ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(Path, self._on_path)
+        ctx.subscribe(ConfigApplied, self._on_config_answer)
+        ctx.subscribe(ConfigRejected, self._on_config_answer)
+
+    def opened(self, session: Session) -> None:
+        """Nothing to start until the client subscribes."""
+
+    def lines(self, session: Session, lines: list[bytes]) -> None:
+        for line in lines:
+            if not session.conn.open:
+                return
+            if not line or line.isspace():
+                continue  # blank lines are allowed (keep-alives, a person pressing enter)
+            try:
+                self._request(session, decode_control(line))
+            except Exception as err:
+                self._server.reject(session.conn, line, err)
+
+    def closed(self, session: Session) -> None:
+        if session.status_task is not None:
+            session.status_task.cancel()
+
+    def _request(self, session: Session, frame: ControlRequest) -> None:
+        session.accepted += 1
+        session.requests += 1
+        conn = session.conn
+        if isinstance(frame, PingFrame):
+            conn.send(Pong(id=frame.id))
+        elif isinstance(frame, SubscribeFrame):
+            if session.status_task is not None:
+                session.status_task.cancel()
+            session.status_task = self._server.ctx.spawn(
+                self._stream_status(session, frame.rate_hz), name=f"status:{session.device_id}"
+            )
+            conn.send(Ack(request=frame.type, rate_hz=frame.rate_hz))
+        elif isinstance(frame, UnsubscribeFrame):
+            if session.status_task is not None:
+                session.status_task.cancel()
+                session.status_task = None
+            conn.send(Ack(request=frame.type))
+        else:
+            now = self._server.ctx.clock.now()
+            message = control_message(frame, session.device_id, now, session.requests)
+            if isinstance(message, ConfigChange):
+                self._config_requests[message.request_id] = session
+                conn.send(Ack(request=frame.type, request_id=message.request_id))
+            else:
+                goal_id = (
+                    message.goal_id if isinstance(message, Goal | GeoGoal | CancelGoal) else None
+                )
+                conn.send(Ack(request=frame.type, goal_id=goal_id))
+            self._server.ctx.publish(message)
+
+    async def _stream_status(self, session: Session, rate_hz: float) -> None:
+        clock = self._server.ctx.clock
+        while session.conn.open:
+            session.conn.send(self._status(), droppable=True)
+            await clock.sleep(1.0 / rate_hz)
+
+    def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
+        session = self._config_requests.pop(answer.request_id, None)
+        if session is None:
+            return
+        if isinstance(answer, ConfigApplied):
+            session.conn.send(
+                ConfigAppliedFrame(request_id=answer.request_id, changed=list(answer.changed_keys))
+            )
+        else:
+            session.conn.send(
+                ConfigRejectedFrame(request_id=answer.request_id, reason=answer.reason)
+            )
+
+    def _on_goal_status(self, status: GoalStatus) -> None:
+        self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))
+
+    def _on_path(self, path: Path) -> None:
+        points = [(round(float(x), 3), round(float(y), 3)) for x, y in path.points_m]
+        self._broadcast(PathFrame(goal_id=path.goal_id, points=points))
+
+    def _broadcast(self, frame: ReplyPart) -> None:
+        """Send ``frame`` to every connected control client (encoded once)."""
+        line = encode(frame)
+        for session in self._sessions():
+            if session.kind is DeviceKind.CONTROL:
+                session.conn.send_line(line)

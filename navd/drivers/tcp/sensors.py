@@ -1,0 +1,75 @@
+"""The sensor role: lidar, IMU, GPS, compass and wheel odometry lines become bus messages.
+
+The fast path of the server. The lines of one read are counted (a simulated clock waits for
+them, see ``Traffic``) and handled together: one arrival time, one staleness check, then each
+line decoded, stamped on the daemon clock and published. A bad line is answered with an error
+naming the field; the lines around it are used.
+"""
+
+from __future__ import annotations
+
+import functools
+
+from navd.drivers.protocol.codec import decode_sensor
+from navd.drivers.protocol.convert import sensor_message
+from navd.drivers.protocol.frames import PingFrame
+from navd.drivers.protocol.replies import Pong
+from navd.drivers.tcp.session import Server, Session
+from navd.lifecycle.messages import DeviceResumed
+
+__all__ = ["SensorRole"]
+
+
+class SensorRole:
+    """Handles every sensor session of the server."""
+
+    def __init__(self, server: Server) -> None:
+        self._server = server
+
+    def opened(self, session: Session) -> None:
+        """Nothing to start: a sensor just streams."""
+
+    def lines(self, session: Session, lines: list[bytes]) -> None:
+        count = sum(1 for line in lines if line and not line.isspace())
+        handle = functools.partial(self._handle, session, lines)
+        self._server.ctx.traffic.take(session.device_id, count, handle)
+
+    def closed(self, session: Session) -> None:
+        self._server.ctx.traffic.add_received(session.device_id)  # the end counts as a line
+
+    def _handle(self, session: Session, lines: list[bytes]) -> None:
+        """Lines that arrived together (at once, or on simulated time at the next step, in
+        device order)."""
+        ctx = self._server.ctx
+        now = ctx.clock.now()
+        session.last_rx_s = now
+        if session.stale:
+            session.stale = False
+            ctx.publish(
+                DeviceResumed(
+                    stamp=now, received=now, device_id=session.device_id, kind=session.kind
+                )
+            )
+        conn, role, device_id, stamps = (
+            session.conn,
+            session.kind.value,
+            session.device_id,
+            session.stamps,
+        )
+        publish = ctx.publish
+        for line in lines:
+            if not line or line.isspace():
+                continue
+            try:
+                frame = decode_sensor(role, line)
+                if type(frame) is PingFrame:
+                    conn.send(Pong(id=frame.id))
+                    continue
+                assert not isinstance(frame, PingFrame)
+                message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
+            except Exception as err:
+                self._server.reject(conn, line, err)
+                continue
+            session.accepted += 1
+            if message is not None:
+                publish(message)

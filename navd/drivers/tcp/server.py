@@ -1,0 +1,313 @@
+"""The TCP peripheral server: sensor, control and clock clients that come and go while navd
+runs.
+
+Every connection starts with a ``hello`` naming its role and device id; the server checks it
+(token, protocol, a clock client only on simulated time), replaces an older session with the
+same id, and hands the session's lines to its role's handler (``sensors``, ``control``,
+``clock``). Hot-plug is published as DeviceConnected / DeviceLost, and a device silent for
+longer than its kind's timeout as DeviceStale (DeviceResumed when it speaks again). Every
+rejected line is answered with an error naming the field; the connection and the other
+clients carry on.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+
+from navd import __version__
+from navd.drivers.errors import DriverError, WireError
+from navd.drivers.protocol.codec import decode_hello
+from navd.drivers.protocol.frames import PROTOCOL_VERSION, SENSOR_FRAMES, Hello
+from navd.drivers.protocol.replies import DeviceInfo, ErrorFrame, StatusFrame, Welcome
+from navd.drivers.tcp.clock import ClockRole
+from navd.drivers.tcp.connection import Connection
+from navd.drivers.tcp.control import ControlRole
+from navd.drivers.tcp.sensors import SensorRole
+from navd.drivers.tcp.session import Role, Session
+from navd.drivers.tcp.settings import TcpSettings
+from navd.drivers.tcp.status_board import StatusBoard
+from navd.lifecycle.errors import MessageError
+from navd.lifecycle.messages import (
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DeviceStale,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["TcpServer"]
+
+STALE_CHECK_PERIOD_S = 0.1  # adds at most this to a timeout; each wakeup costs CPU
+STATUS_FRAME_BYTES = 4096
+
+
+class TcpServer(Module):
+    """The TCP server module ("tcp")."""
+
+    def __init__(self) -> None:
+        super().__init__("tcp")
+        self.sessions: dict[str, Session] = {}
+        self.connections: set[Connection] = set()
+        self._server: asyncio.Server | None = None
+        self.board = StatusBoard()
+
+    # --- lifecycle --------------------------------------------------------------------
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        self.settings = ctx.settings(TcpSettings, self._settings_changed)
+        self.board.subscribe(ctx)
+        self.clock_role = ClockRole(self, lambda: self.settings.value.lockstep_timeout_s)
+        control = ControlRole(self, self.sessions.values, self.status_frame)
+        sensors = SensorRole(self)
+        self._roles: dict[DeviceKind, Role] = {DeviceKind(r): sensors for r in SENSOR_FRAMES}
+        self._roles[DeviceKind.CONTROL] = control
+        self._roles[DeviceKind.CLOCK] = self.clock_role
+
+    async def on_activate(self) -> None:
+        tcp = self.settings.value
+        loop = asyncio.get_running_loop()
+        try:
+            self._server = await loop.create_server(
+                self._new_connection, host=tcp.host, port=tcp.port, reuse_address=True
+            )
+        except OSError as err:
+            raise DriverError(
+                f"tcp: cannot listen on {tcp.host}:{tcp.port}: {err.strerror or err}; is another "
+                f"navd running? (change tcp.port or tcp.host)"
+            ) from err
+        address = self._server.sockets[0].getsockname()
+        self.ctx.log.info(
+            "listening", host=address[0], port=address[1], token_required=tcp.token is not None
+        )
+        self.ctx.spawn(self._watch_staleness(), name="staleness")
+
+    async def on_deactivate(self) -> None:
+        if self._server is not None:
+            self._server.close()
+        for conn in list(self.connections):
+            conn.close(
+                "daemon stopping", ErrorFrame(field="", reason="daemon stopping", fatal=True)
+            )
+        if self._server is not None:
+            await self._server.wait_closed()
+            self._server = None
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
+
+    def _settings_changed(self, _old: TcpSettings, new: TcpSettings) -> None:
+        """Connections open now take the new limits too (a new handshake deadline applies
+        only to connections made after it)."""
+        for conn in self.connections:
+            conn.max_line_bytes = new.max_line_bytes
+            conn.write_high_bytes = new.status_queue * STATUS_FRAME_BYTES
+            session = conn.session
+            if isinstance(session, Session) and session.kind.value in SENSOR_FRAMES:
+                conn.coalesce_s = new.coalesce_s
+
+    @property
+    def port(self) -> int:
+        """The bound port (useful when the config asked for port 0 in tests)."""
+        assert self._server is not None, "server not active"
+        port: int = self._server.sockets[0].getsockname()[1]
+        return port
+
+    # --- connections (the LineSink of every Connection) ---------------------------------
+
+    def _new_connection(self) -> Connection:
+        tcp = self.settings.value
+        return Connection(
+            self,
+            max_line_bytes=tcp.max_line_bytes,
+            handshake_timeout_s=tcp.handshake_timeout_s,
+            write_high_bytes=tcp.status_queue * STATUS_FRAME_BYTES,
+        )
+
+    def on_open(self, conn: Connection) -> bool:
+        limit = self.settings.value.max_clients
+        if len(self.connections) >= limit:
+            reason = f"server full: {limit} clients connected (tcp.max_clients)"
+            conn.close("too many clients", ErrorFrame(field="", reason=reason, fatal=True))
+            self.ctx.log.warning("client_refused", peer=conn.peer, reason="server full")
+            return False
+        self.connections.add(conn)
+        return True
+
+    def on_lines(self, conn: Connection, lines: list[bytes]) -> None:
+        session = conn.session
+        if not isinstance(session, Session):
+            # the first non-blank line is the hello; what follows it belongs to the role
+            for index, line in enumerate(lines):
+                if line and not line.isspace():
+                    session = self._handshake(conn, line)
+                    lines = lines[index + 1 :]
+                    break
+            else:
+                return
+            if session is None or not lines:
+                return
+        self._roles[session.kind].lines(session, lines)
+
+    def reject(self, conn: Connection, line: bytes, err: Exception) -> None:
+        """Answer a line that could not be used; the one supervised boundary per line."""
+        session = conn.session
+        if isinstance(session, Session):
+            session.rejected += 1
+        if isinstance(err, WireError):
+            conn.send(ErrorFrame(field=err.field, reason=err.reason))
+        elif isinstance(err, MessageError):
+            conn.send(ErrorFrame(field="", reason=str(err)))
+        else:  # a bug, not bad input: counted against this module, the client is told
+            self.ctx.bus.report_failure(self.name, {"peer": conn.peer, "line": line[:200]}, err)
+            conn.send(ErrorFrame(field="", reason="internal error on this frame"))
+
+    def on_close(self, conn: Connection, reason: str) -> None:
+        self.connections.discard(conn)
+        session = conn.session
+        if not isinstance(session, Session):
+            return
+        self._roles[session.kind].closed(session)
+        if session.replaced or self.sessions.get(session.device_id) is not session:
+            return
+        del self.sessions[session.device_id]
+        if session.kind is DeviceKind.CLOCK:
+            self.ctx.log.warning(
+                "clock_client_lost",
+                device_id=session.device_id,
+                time_s=self.ctx.clock.now(),
+                effect="simulated time stands still until a clock client connects",
+            )
+        self._lost(session, reason)
+
+    # --- handshake ----------------------------------------------------------------------
+
+    def _handshake(self, conn: Connection, line: bytes) -> Session | None:
+        """The session a hello opens, or None (the connection was refused and is closing)."""
+        try:
+            hello = decode_hello(line)
+        except WireError as err:
+            conn.close("bad hello", ErrorFrame(field=err.field, reason=err.reason, fatal=True))
+            return None
+        refusal = self._refusal(hello)
+        if refusal is not None:
+            field, reason = refusal
+            conn.close(reason, ErrorFrame(field=field, reason=reason, fatal=True))
+            self.ctx.log.warning("client_refused", peer=conn.peer, reason=reason)
+            return None
+        now = self.ctx.clock.now()
+        kind = DeviceKind(hello.role)
+        old = self.sessions.get(hello.device_id)
+        if old is not None:
+            old.replaced = True
+            old.conn.close(
+                "replaced",
+                ErrorFrame(
+                    field="device_id",
+                    reason="replaced by a new connection with this id",
+                    fatal=True,
+                ),
+            )
+            self._lost(old, "replaced by a new connection")
+        session = Session(hello.device_id, kind, conn, connected_s=now, last_rx_s=now)
+        self.sessions[hello.device_id] = session
+        conn.session = session
+        conn.handshake_done()
+        if hello.role in SENSOR_FRAMES:
+            conn.coalesce_s = self.settings.value.coalesce_s
+        self._roles[kind].opened(session)
+        conn.send(
+            Welcome(
+                protocol=PROTOCOL_VERSION,
+                daemon=f"navd {__version__}",
+                device_id=hello.device_id,
+                role=hello.role,
+                max_line_bytes=self.settings.value.max_line_bytes,
+            )
+        )
+        self.ctx.log.info(
+            "device_connected",
+            device_id=hello.device_id,
+            kind=hello.role,
+            peer=conn.peer,
+            replaced=old is not None,
+        )
+        self.ctx.publish(
+            DeviceConnected(stamp=now, received=now, device_id=hello.device_id, kind=kind)
+        )
+        return session
+
+    def _refusal(self, hello: Hello) -> tuple[str, str] | None:
+        """(field, reason) if the hello may not open a session."""
+        token = self.settings.value.token
+        if token is not None and not hmac.compare_digest(
+            (hello.token or "").encode(), token.encode()
+        ):
+            return "token", "missing or wrong token"
+        if hello.role == "clock":
+            refusal = self.clock_role.refusal(hello.device_id, self.sessions.values())
+            if refusal:
+                return "role", refusal
+        return None
+
+    def _lost(self, session: Session, reason: str) -> None:
+        now = self.ctx.clock.now()
+        self.ctx.log.info(
+            "device_lost", device_id=session.device_id, kind=session.kind.value, reason=reason
+        )
+        self.ctx.publish(
+            DeviceLost(
+                stamp=now,
+                received=now,
+                device_id=session.device_id,
+                kind=session.kind,
+                reason=reason,
+            )
+        )
+
+    # --- status and staleness -----------------------------------------------------------
+
+    def status_frame(self) -> StatusFrame:
+        """The status a subscribed control client receives."""
+        now = self.ctx.clock.now()
+        devices = [
+            DeviceInfo(
+                device_id=s.device_id,
+                kind=s.kind.value,
+                connected_s=round(now - s.connected_s, 3),
+                silent_s=round(now - s.last_rx_s, 3),
+                stale=s.stale,
+                accepted=s.accepted,
+                rejected=s.rejected,
+            )
+            for s in self.sessions.values()
+        ]
+        return self.board.frame(now, self.settings.value.robot_name, devices)
+
+    async def _watch_staleness(self) -> None:
+        while True:
+            await self.ctx.clock.sleep(STALE_CHECK_PERIOD_S)
+            now = self.ctx.clock.now()
+            timeouts = dict(self.settings.value.stale_after_s)
+            for session in self.sessions.values():
+                timeout = timeouts.get(session.kind)
+                silent = now - session.last_rx_s
+                if timeout is None or session.stale or silent <= timeout:
+                    continue
+                session.stale = True
+                self.ctx.log.warning(
+                    "device_stale",
+                    device_id=session.device_id,
+                    kind=session.kind.value,
+                    silent_s=round(silent, 3),
+                )
+                self.ctx.publish(
+                    DeviceStale(
+                        stamp=now,
+                        received=now,
+                        device_id=session.device_id,
+                        kind=session.kind,
+                        silent_s=silent,
+                    )
+                )

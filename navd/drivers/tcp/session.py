@@ -1,0 +1,74 @@
+"""A client after its handshake, and what its role handler may ask of the server."""
+
+from __future__ import annotations
+
+import asyncio
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from navd.drivers.protocol.frames import ClockFrame
+from navd.drivers.tcp.connection import Connection
+from navd.drivers.timesync import StampMapper
+from navd.lifecycle.messages import DeviceKind
+from navd.lifecycle.module import ModuleContext
+
+__all__ = ["Role", "Server", "Session"]
+
+
+@dataclass
+class Session:
+    """A client that completed its handshake.
+
+    Attributes:
+        device_id, kind: who it is.
+        conn: its connection.
+        connected_s, last_rx_s: [s] daemon time it connected and last sent a line.
+        stamps: its clock mapped onto the daemon's (sensors).
+        accepted, rejected: lines used and refused.
+        stale: silent past its kind's timeout (sensors).
+        replaced: a newer connection took its device id.
+        requests: control requests made (numbers the ids it did not give).
+        status_task: its status stream (control).
+        clock_frames, clock_task: its queued clock steps and their runner (clock).
+    """
+
+    device_id: str
+    kind: DeviceKind
+    conn: Connection
+    connected_s: float
+    last_rx_s: float
+    stamps: StampMapper = field(default_factory=StampMapper)
+    accepted: int = 0
+    rejected: int = 0
+    stale: bool = False
+    replaced: bool = False
+    requests: int = 0
+    status_task: asyncio.Task[None] | None = None
+    clock_frames: asyncio.Queue[ClockFrame] | None = None
+    clock_task: asyncio.Task[None] | None = None
+
+
+class Server(Protocol):
+    """What a role handler uses of the server."""
+
+    ctx: ModuleContext
+
+    def reject(self, conn: Connection, line: bytes, err: Exception) -> None:
+        """Answer a line that could not be used (the supervised boundary per line)."""
+        ...
+
+
+class Role(Protocol):
+    """The handler of one role's sessions."""
+
+    def opened(self, session: Session) -> None:
+        """The session's handshake was accepted."""
+        ...
+
+    def lines(self, session: Session, lines: list[bytes]) -> None:
+        """Lines the session sent, in order (blank ones included)."""
+        ...
+
+    def closed(self, session: Session) -> None:
+        """The session's connection ended."""
+        ...

@@ -1,0 +1,64 @@
+"""The TCP server's settings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from navd.config import NavdConfig
+from navd.lifecycle.messages import DeviceKind
+
+__all__ = ["TcpSettings"]
+
+
+@dataclass(frozen=True, slots=True)
+class TcpSettings:
+    """What the server listens with and how it treats its clients.
+
+    Attributes:
+        host, port, token: where it listens and the shared secret (they need a restart).
+        max_clients: [clients] most connections at once.
+        max_line_bytes: [bytes] longest accepted line.
+        handshake_timeout_s: [s] a new connection has this long to say hello.
+        coalesce_s: [s] pause after reading a fast sensor connection.
+        status_queue: [frames] status frames buffered for a slow subscriber.
+        stale_after_s: [s] per sensor kind, silence that makes a device stale.
+        lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
+        robot_name: the name status frames carry.
+    """
+
+    host: str
+    port: int
+    token: str | None
+    max_clients: int
+    max_line_bytes: int
+    handshake_timeout_s: float
+    coalesce_s: float
+    status_queue: int
+    stale_after_s: tuple[tuple[DeviceKind, float], ...]
+    lockstep_timeout_s: float
+    robot_name: str
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> TcpSettings:
+        """The settings the tcp section describes (with the lifecycle's lockstep timeout and
+        the robot's name)."""
+        tcp = config.tcp
+        return cls(
+            host=tcp.host,
+            port=tcp.port,
+            token=tcp.token,
+            max_clients=tcp.max_clients,
+            max_line_bytes=tcp.max_line_bytes,
+            handshake_timeout_s=tcp.handshake_timeout_s,
+            coalesce_s=tcp.read_coalesce_ms / 1e3,
+            status_queue=tcp.status_queue,
+            stale_after_s=(
+                (DeviceKind.LIDAR, tcp.lidar_timeout_s),
+                (DeviceKind.IMU, tcp.imu_timeout_s),
+                (DeviceKind.GPS, tcp.gps_timeout_s),
+                (DeviceKind.COMPASS, tcp.compass_timeout_s),
+                (DeviceKind.WHEEL_ODOMETRY, tcp.wheel_odometry_timeout_s),
+            ),
+            lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
+            robot_name=config.robot.name,
+        )

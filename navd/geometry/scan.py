@@ -1,0 +1,103 @@
+"""A lidar sweep as points in the robot frame: invalid ranges dropped, no-returns kept apart.
+
+The meaning of the ranges is that of sensor_msgs/LaserScan: beam k points at angle_min +
+k * angle_increment in the sensor's frame; readings outside [range_min, range_max), NaN and
+inf are not hits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import IDENTITY, Pose2
+
+__all__ = ["LaserScanLike", "ScanPoints", "laser_points", "scan_points"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class ScanPoints:
+    """One scan in the robot frame.
+
+    Attributes:
+        hits: [m] N x 2 end points of the rays that hit something within range.
+        misses: [m] M x 2 points at ``max_range`` along rays that saw nothing (free space).
+    """
+
+    hits: FloatArray
+    misses: FloatArray
+
+
+class LaserScanLike(Protocol):
+    """What ``laser_points`` reads of a scan (``lifecycle.messages.LaserScan`` is one)."""
+
+    @property
+    def ranges(self) -> npt.NDArray[np.floating[Any]]: ...
+    @property
+    def angle_min(self) -> float: ...
+    @property
+    def angle_increment(self) -> float: ...
+    @property
+    def range_min(self) -> float: ...
+    @property
+    def range_max(self) -> float: ...
+
+
+def scan_points(
+    ranges: npt.ArrayLike,
+    angle_min: float,
+    angle_increment: float,
+    *,
+    range_min: float,
+    range_max: float,
+    mount: Pose2 = IDENTITY,
+    max_range: float | None = None,
+) -> ScanPoints:
+    """Ranges of a LaserScan as points in the robot frame.
+
+    Readings outside [range_min, range_max), NaN and inf are dropped as hits; readings at or
+    beyond ``max_range`` (or beyond range_max, "no return") become misses that only clear
+    space up to ``max_range``.
+
+    Args:
+        ranges: [m] one per beam.
+        angle_min, angle_increment: [rad] beam k is at angle_min + k * angle_increment.
+        range_min, range_max: [m] the sensor's valid interval.
+        mount: the sensor's pose in the robot frame.
+        max_range: [m] longest range used (default: range_max).
+    """
+    r = np.asarray(ranges, dtype=np.float64)
+    angles = angle_min + angle_increment * np.arange(r.size)
+    use_max = range_max if max_range is None else min(max_range, range_max)
+    finite = np.isfinite(r)
+    hit = finite & (r >= range_min) & (r < range_max) & (r <= use_max)
+    miss = (~finite & (r > 0)) | (finite & ((r >= range_max) | (r > use_max)))
+    hits = np.column_stack([r[hit] * np.cos(angles[hit]), r[hit] * np.sin(angles[hit])])
+    misses = np.column_stack([use_max * np.cos(angles[miss]), use_max * np.sin(angles[miss])])
+    return ScanPoints(mount.transform(hits), mount.transform(misses))
+
+
+def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) -> ScanPoints:
+    """A scan's points in the robot frame, through the lidar's mount.
+
+    Args:
+        scan: the sweep.
+        mount: where the lidar sits, and its shortest trusted range.
+        max_range_m: [m] longest range the caller uses (SLAM's matching reach, the
+            obstacle layer's, the collision guard's); farther readings become misses.
+    """
+    return scan_points(
+        scan.ranges,
+        scan.angle_min,
+        scan.angle_increment,
+        range_min=max(scan.range_min, mount.min_range_m),
+        range_max=scan.range_max,
+        mount=mount.pose,
+        max_range=max_range_m,
+    )

@@ -1,0 +1,226 @@
+"""Requests (goals, cancels, initial poses, map saves, config changes), goal progress, and
+the commands that move the robot or hold it still."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+from navd.config import NavdConfig
+from navd.geometry.pose import Pose2
+from navd.lifecycle.messages.base import (
+    Message,
+    require_finite,
+)
+
+# --- control ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Goal(Message):
+    """Drive to a pose in the map frame.
+
+    Attributes:
+        goal_id: the client's name for this goal.
+        x_m: [m] map x.
+        y_m: [m] map y.
+        yaw_rad: [rad] final yaw, or None when any heading will do.
+    """
+
+    goal_id: str
+    x_m: float
+    y_m: float
+    yaw_rad: float | None = None
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        require_finite("x_m", self.x_m)
+        require_finite("y_m", self.y_m)
+        if self.yaw_rad is not None:
+            require_finite("yaw_rad", self.yaw_rad)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class GeoGoal(Message):
+    """Drive to a WGS84 position; estimation converts it to a map-frame Goal."""
+
+    goal_id: str
+    latitude_deg: float
+    longitude_deg: float
+    yaw_rad: float | None = None
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class InitialPose(Message):
+    """Where the robot is, told by a person: re-seeds localization.
+
+    Attributes:
+        x_m, y_m: [m] map position.
+        yaw_rad: [rad] heading, counter-clockwise from +x.
+        std_xy_m: [m] 1-sigma position uncertainty.
+        std_yaw_rad: [rad] 1-sigma heading uncertainty.
+    """
+
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    std_xy_m: float = 0.5
+    std_yaw_rad: float = 0.3
+
+    @property
+    def pose(self) -> Pose2:
+        """The pose as a Pose2."""
+        return Pose2(self.x_m, self.y_m, self.yaw_rad)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SaveMapRequest(Message):
+    """Save the map now under ``name`` (the configured name when empty)."""
+
+    name: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class GoalStatus(Message):
+    """Progress towards a goal, published by the planner.
+
+    Attributes:
+        goal_id: the goal.
+        state: "active", "reached", "canceled" or "failed".
+        distance_remaining_m: [m] along the path, NaN when unknown.
+        eta_s: [s] estimated time to arrival, NaN when unknown.
+        reason: why it failed or was canceled; empty otherwise.
+    """
+
+    goal_id: str
+    state: str
+    distance_remaining_m: float = math.nan
+    eta_s: float = math.nan
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class CancelGoal(Message):
+    """Stop pursuing a goal: the one named, or whichever is active when None."""
+
+    goal_id: str | None = None
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ConfigChange(Message):
+    """A request to change the running config.
+
+    Attributes:
+        request_id: echoed in the ConfigApplied / ConfigRejected answer.
+        changes: dotted key path (``"safety.reaction_timeout_s"``) to new value. Applied whole
+            or rejected whole.
+        source: who asked (a client id, ``"sighup"``...).
+    """
+
+    request_id: str
+    changes: Mapping[str, object]
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        object.__setattr__(self, "changes", MappingProxyType(dict(self.changes)))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ConfigApplied(Message):
+    """A ConfigChange took effect.
+
+    Attributes:
+        request_id: the request's id.
+        changed_keys: the dotted keys whose value changed.
+        config: the whole config now in force.
+    """
+
+    request_id: str
+    changed_keys: tuple[str, ...]
+    config: NavdConfig
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ConfigRejected(Message):
+    """A ConfigChange was refused whole; ``reason`` names every bad key."""
+
+    request_id: str
+    reason: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class VelocityCommand(Message):
+    """A body velocity for the chassis.
+
+    Attributes:
+        linear_mps: [m/s] forward velocity.
+        angular_radps: [rad/s] yaw rate, counter-clockwise positive.
+        source: the module that decided it (``"planner"``, ``"safety"``...).
+    """
+
+    linear_mps: float
+    angular_radps: float
+    source: str
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        require_finite("linear_mps", self.linear_mps)
+        require_finite("angular_radps", self.angular_radps)
+
+    @property
+    def is_stop(self) -> bool:
+        """True for the zero command."""
+        return self.linear_mps == 0.0 and self.angular_radps == 0.0
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class DriveCommand(Message):
+    """The body velocity the chassis must execute: the safety gate's output, nothing else's.
+
+    Attributes:
+        linear_mps: [m/s] forward velocity.
+        angular_radps: [rad/s] yaw rate, counter-clockwise positive.
+        reason: why the gate changed the requested command ("" when passed through).
+    """
+
+    linear_mps: float
+    angular_radps: float
+    reason: str = ""
+
+    @property
+    def is_stop(self) -> bool:
+        """True for the zero command."""
+        return self.linear_mps == 0.0 and self.angular_radps == 0.0
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafetyState(Message):
+    """Why the safety gate holds the robot still; empty ``reasons`` means it may move."""
+
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafeStop(Message):
+    """The robot must stand still until a SafeStopCleared with the same ``key``.
+
+    Attributes:
+        reason: why, for people.
+        source: who decided ("supervisor", "collision_guard"...).
+        key: names this hold ("fault:planner"); a SafeStopCleared with it releases it.
+    """
+
+    reason: str
+    source: str
+    key: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafeStopCleared(Message):
+    """The hold named ``key`` no longer applies."""
+
+    key: str
+    source: str

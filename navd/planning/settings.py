@@ -1,0 +1,90 @@
+"""The navigator's settings: every part's own, derived from one config."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
+from navd.planning.costmap import CostmapSettings
+from navd.planning.dwa import DwaSettings
+from navd.planning.global_planner import SearchSettings
+from navd.planning.layers import LayerSettings
+from navd.planning.margins import keep_clear_m
+from navd.planning.profile import VelocityProfile
+from navd.planning.stuck import StuckSettings
+
+__all__ = ["NavigatorSettings"]
+
+
+@dataclass(frozen=True, slots=True)
+class NavigatorSettings:
+    """Everything the navigator and its parts run on, derived from one config.
+
+    Attributes:
+        footprint: the robot's shape.
+        keep_clear_m: [m] distance planned motion keeps from obstacles.
+        local_radius_m: [m] map cells within this of the robot are handed to DWA: everything
+            its rollouts and their clearance can reach.
+        costmap, dwa, profile, stuck, layers, search: the parts' own settings.
+        goal_xy_tolerance_m, goal_yaw_tolerance_rad: [m], [rad] when a goal is reached.
+        approach_distance_m: [m] the goal's heading is aimed at within this distance.
+        lookahead_m: [m] DWA aims at the route point this far ahead.
+        replan_period_s: [s] replan on this timer (0: only on events).
+        max_path_deviation_m: [m] straying farther from the route replans.
+        min_linear_speed_mps: [m/s] slowest forward speed asked for (ETA floor).
+        max_stuck_time_s: [s] no route for this long fails the goal.
+        max_stuck_replans: [count] replans after StuckDetected before the goal fails.
+    """
+
+    footprint: Footprint
+    keep_clear_m: float
+    local_radius_m: float
+    costmap: CostmapSettings
+    dwa: DwaSettings
+    profile: VelocityProfile
+    stuck: StuckSettings
+    layers: LayerSettings
+    search: SearchSettings
+    goal_xy_tolerance_m: float
+    goal_yaw_tolerance_rad: float
+    approach_distance_m: float
+    lookahead_m: float
+    replan_period_s: float
+    max_path_deviation_m: float
+    min_linear_speed_mps: float
+    max_stuck_time_s: float
+    max_stuck_replans: int
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> NavigatorSettings:
+        """The settings the robot, safety and planning sections describe."""
+        planning, robot = config.planning, config.robot
+        footprint = Footprint.from_config(robot)
+        clear_m = keep_clear_m(config.safety)
+        return cls(
+            footprint=footprint,
+            keep_clear_m=clear_m,
+            local_radius_m=(
+                max(robot.max_linear_speed_mps, robot.max_reverse_speed_mps)
+                * planning.prediction_horizon_s
+                + footprint.circumradius_m
+                + max(planning.inflation_radius_m, clear_m)
+                + 0.5
+            ),
+            costmap=CostmapSettings.from_config(config),
+            dwa=DwaSettings.from_config(config),
+            profile=VelocityProfile.from_config(config),
+            stuck=StuckSettings.from_config(config),
+            layers=LayerSettings.from_config(config),
+            search=SearchSettings.from_config(config),
+            goal_xy_tolerance_m=planning.goal_xy_tolerance_m,
+            goal_yaw_tolerance_rad=planning.goal_yaw_tolerance_rad,
+            approach_distance_m=planning.approach_distance_m,
+            lookahead_m=planning.lookahead_m,
+            replan_period_s=planning.replan_period_s,
+            max_path_deviation_m=planning.max_path_deviation_m,
+            min_linear_speed_mps=planning.min_linear_speed_mps,
+            max_stuck_time_s=planning.max_stuck_time_s,
+            max_stuck_replans=planning.max_stuck_replans,
+        )

@@ -1,0 +1,178 @@
+"""What the simulated sensors measure: typed frames from the robot's true state, with noise.
+
+A 2D lidar (ray cast against the world and its movers, Gaussian range noise), an IMU (gyro
+with bias and noise, accelerations of the true motion plus gravity), a GNSS receiver (only
+when the daemon has a datum: it is placed at map (0, 0)) and a magnetic compass (through the
+daemon's declination and grid convergence, the inverse of its conversion). Pure: every
+frame is a function of the state and the seeded noise, stamped with the time given.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from navd.config import NavdConfig
+from navd.drivers.protocol.frames import FixFrame, HeadingFrame, ImuFrame, ScanFrame, SensorFrame
+from navd.estimation.geo import GeoFrame
+from navd.geometry.pose import Pose2
+from navd.sim._sim_kernels import cast_rays
+from navd.sim.physics import SimRobot
+from navd.sim.settings import SimSettings
+
+__all__ = ["GRAVITY_MPS2", "SensorModels", "SimSensor"]
+
+GRAVITY_MPS2 = 9.80665
+LIDAR_RANGE_MIN_M = 0.05
+
+
+@dataclass
+class SimSensor:
+    """One simulated sensor: its role, device id, rate and frames, and whether a scenario
+    has it plugged in.
+
+    Attributes:
+        role, device_id: what it says in its hello.
+        rate_hz: [Hz] frames per second.
+        frame: the frame at a time [s].
+        plugged: False while a scenario has it unplugged (None: always plugged).
+    """
+
+    role: str
+    device_id: str
+    rate_hz: float
+    frame: Callable[[float], SensorFrame]
+    plugged: Callable[[], bool] | None = None
+
+    def is_plugged(self) -> bool:
+        """False while a scenario has it unplugged."""
+        return self.plugged is None or self.plugged()
+
+
+class SensorModels:
+    """The sensors of ``robot``, as ``settings`` describes them.
+
+    Args:
+        robot: the simulated robot (read, never moved).
+        config: the daemon's config (the lidar mount, the datum, the declination).
+        settings: rates, noises, seed.
+    """
+
+    def __init__(self, robot: SimRobot, config: NavdConfig, settings: SimSettings) -> None:
+        self.robot = robot
+        self.config = config
+        self.settings = settings
+        self._rng = np.random.default_rng(settings.seed)
+        world = config.world
+        self.geo: GeoFrame | None = None
+        if world.datum_latitude_deg is not None and world.datum_longitude_deg is not None:
+            self.geo = GeoFrame(
+                world.datum_latitude_deg,
+                world.datum_longitude_deg,
+                map_rotation_rad=world.map_rotation_rad,
+                zone=world.utm_zone,
+                max_distance_m=world.utm_threshold_m,
+            )
+        # Scenario controls: an unplugged sensor closes its connection until plugged back.
+        self.lidar_plugged = True
+        self.gps_plugged = True
+
+    def sensors(self) -> list[SimSensor]:
+        """The sensors this robot has."""
+        s = self.settings
+        sensors = [
+            SimSensor("lidar", "sim-lidar", s.lidar_rate_hz, self.scan, lambda: self.lidar_plugged)
+        ]
+        if s.imu_rate_hz > 0:
+            sensors.append(SimSensor("imu", "sim-imu", s.imu_rate_hz, self.imu))
+        if s.gps_rate_hz > 0 and self.geo is not None:
+            sensors.append(
+                SimSensor("gps", "sim-gps", s.gps_rate_hz, self.fix, lambda: self.gps_plugged)
+            )
+        if s.compass_rate_hz > 0:
+            sensors.append(SimSensor("compass", "sim-compass", s.compass_rate_hz, self.heading))
+        return sensors
+
+    def scan(self, now: float) -> ScanFrame:
+        """A 360° sweep from the lidar's mount, with range noise; no return is null."""
+        s, lidar = self.settings, self.config.lidar
+        b = self.robot.body
+        where = Pose2(b.x_m, b.y_m, b.yaw_rad).compose(Pose2(lidar.x_m, lidar.y_m, 0.0))
+        increment = 2.0 * math.pi / s.lidar_beams
+        local = -math.pi + increment * np.arange(s.lidar_beams)
+        angles = (local + b.yaw_rad + lidar.yaw_rad).astype(np.float64)
+        w = self.robot.world
+        ranges = cast_rays(
+            w.grid,
+            w.origin_x_m,
+            w.origin_y_m,
+            w.resolution_m,
+            where.x,
+            where.y,
+            angles,
+            s.lidar_max_range_m,
+            self.robot.discs(),
+        )
+        ranges = ranges + self._rng.normal(0.0, s.lidar_noise_m, ranges.size)
+        return ScanFrame.model_construct(
+            stamp=now,
+            angle_min=-math.pi,
+            angle_increment=increment,
+            range_min=LIDAR_RANGE_MIN_M,
+            range_max=s.lidar_max_range_m,
+            ranges=[round(float(r), 4) if math.isfinite(r) else None for r in ranges],
+        )
+
+    def imu(self, now: float) -> ImuFrame:
+        """Gyro (bias and noise) and accelerometer (true motion, gravity, noise)."""
+        s = self.settings
+        noise = self._rng.normal(0.0, 1.0, 6)
+        ax, ay = self.robot.last_accel
+        return ImuFrame(
+            stamp=now,
+            angular_velocity=(
+                float(s.gyro_noise_radps * noise[0]),
+                float(s.gyro_noise_radps * noise[1]),
+                float(
+                    self.robot.body.angular_radps
+                    + s.gyro_bias_radps
+                    + s.gyro_noise_radps * noise[2]
+                ),
+            ),
+            linear_acceleration=(
+                float(ax + s.accel_noise_mps2 * noise[3]),
+                float(ay + s.accel_noise_mps2 * noise[4]),
+                float(GRAVITY_MPS2 + s.accel_noise_mps2 * noise[5]),
+            ),
+        )
+
+    def fix(self, now: float) -> FixFrame:
+        """The body's position in WGS84, with Gaussian noise of ``gps_noise_m``."""
+        assert self.geo is not None, "a GNSS receiver needs the daemon's datum"
+        sigma = self.settings.gps_noise_m
+        dx, dy = self._rng.normal(0.0, sigma, 2)
+        lat, lon = self.geo.to_wgs84(self.robot.body.x_m + dx, self.robot.body.y_m + dy)
+        return FixFrame(
+            stamp=now,
+            latitude=float(lat),
+            longitude=float(lon),
+            altitude=0.0,
+            horizontal_accuracy=sigma,
+        )
+
+    def heading(self, now: float) -> HeadingFrame:
+        """A magnetic bearing of the true yaw: the inverse of the daemon's conversion."""
+        world = self.config.world
+        convergence = self.geo.grid_convergence_rad if self.geo is not None else 0.0
+        enu_yaw = self.robot.body.yaw_rad + world.map_rotation_rad + convergence
+        true_bearing = 90.0 - math.degrees(enu_yaw)
+        noise = self._rng.normal(0.0, self.settings.compass_noise_deg)
+        magnetic = (true_bearing - world.magnetic_declination_deg + noise) % 360.0
+        return HeadingFrame(
+            stamp=now,
+            bearing_deg=float(magnetic) if magnetic < 360.0 else 0.0,
+            accuracy_deg=self.settings.compass_noise_deg,
+        )

@@ -1,0 +1,51 @@
+"""How the simulator connects and what its sensors are like."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+__all__ = ["SimSettings"]
+
+
+@dataclass(frozen=True, slots=True)
+class SimSettings:
+    """How the simulator connects and what its sensors are like.
+
+    Attributes:
+        host, port: the daemon's TCP server; token: its ``tcp.token`` when it has one.
+        tty_link: path of the symlink to the chassis end of the pseudo-terminal.
+        lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: the 2D lidar.
+        imu_rate_hz, gyro_noise_radps, gyro_bias_radps, accel_noise_mps2: the IMU (0 Hz: none).
+        gps_rate_hz, gps_noise_m: a GNSS receiver, streaming only when the daemon's config
+            has a datum (``world.datum_latitude_deg``/``longitude_deg``, at map (0, 0)).
+        compass_rate_hz, compass_noise_deg: a magnetic compass (0 Hz: none); it reports
+            magnetic bearings, so the daemon's ``world.magnetic_declination_deg`` applies.
+        physics_rate_hz: world steps per second (in lockstep: clock steps per second; sensor
+            rates are rounded to whole steps).
+        feedback_rate_hz: encoder lines per second (0: none).
+        seed: seeds every noise source.
+        clock: "real" or "lockstep" (the simulator drives the daemon's simulated clock).
+    """
+
+    host: str = "127.0.0.1"
+    port: int = 0
+    token: str | None = None
+    tty_link: Path = Path("/tmp/navd-sim-tty")
+    lidar_beams: int = 360
+    lidar_rate_hz: float = 10.0
+    lidar_noise_m: float = 0.01
+    lidar_max_range_m: float = 12.0
+    imu_rate_hz: float = 100.0
+    gyro_noise_radps: float = 0.002
+    gyro_bias_radps: float = 0.003
+    accel_noise_mps2: float = 0.05
+    gps_rate_hz: float = 5.0
+    gps_noise_m: float = 1.0
+    compass_rate_hz: float = 10.0
+    compass_noise_deg: float = 2.0
+    physics_rate_hz: float = 100.0
+    feedback_rate_hz: float = 20.0
+    seed: int = 0
+    clock: Literal["real", "lockstep"] = "real"

@@ -1,0 +1,327 @@
+"""The TCP server in-process, on real sockets."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import json
+from typing import Any
+
+import pytest
+
+from navd.drivers.client import AsyncClient, ConnectionClosedError, RequestRefusedError
+from navd.drivers.protocol.codec import encode
+from navd.drivers.protocol.frames import (
+    CancelFrame,
+    ConfigFrame,
+    GoalFrame,
+    ImuFrame,
+    PingFrame,
+    ScanFrame,
+    SubscribeFrame,
+)
+from navd.drivers.protocol.replies import (
+    Ack,
+    ConfigAppliedFrame,
+    ConfigRejectedFrame,
+    ErrorFrame,
+    GoalStatusFrame,
+    Pong,
+    StatusFrame,
+    Welcome,
+)
+from navd.drivers.tcp.server import TcpServer
+from navd.lifecycle.messages import (
+    CancelGoal,
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DeviceResumed,
+    DeviceStale,
+    Goal,
+    GoalStatus,
+    Imu,
+    LaserScan,
+)
+from tests.drivers.conftest import connected, hello, record, running_daemon, until
+
+SCAN = ScanFrame(
+    stamp=None,
+    angle_min=-1.0,
+    angle_increment=0.5,
+    range_min=0.1,
+    range_max=5.0,
+    ranges=[1.0, 2.0, None],
+)
+IMU = ImuFrame(stamp=None, angular_velocity=(0, 0, 0.1), linear_acceleration=(0, 0, 9.81))
+
+
+def broken(**fields: Any) -> bytes:
+    """The scan frame's JSON line with ``fields`` replaced (what a faulty client sends)."""
+    return json.dumps({**SCAN.model_dump(exclude_none=True), **fields}).encode() + b"\n"
+
+
+async def test_sensor_frames_become_typed_messages_on_the_daemon_clock() -> None:
+    async with running_daemon() as (daemon, port):
+        scans = record(daemon, LaserScan)
+        imus = record(daemon, Imu)
+        lidar, welcome = await hello(port, "lidar", "lidar0")
+        assert isinstance(welcome, Welcome) and welcome.protocol == 1
+        imu = await connected(port, "imu", "imu0")
+        for i in range(5):
+            lidar.send(SCAN.model_copy(update={"stamp": 5000.0 + 0.1 * i}))
+            imu.send(IMU.model_copy(update={"stamp": 77.0 + 0.001 * i}))
+        await until(lambda: len(scans) == 5 and len(imus) == 5)
+        assert {s.device_id for s in scans} == {"lidar0"}
+        # client stamps (another clock) mapped onto the daemon clock, never after arrival
+        assert all(s.stamp <= s.received for s in scans)
+        gaps = [b.stamp - a.stamp for a, b in itertools.pairwise(scans)]
+        assert all(g <= 0.1 + 1e-9 for g in gaps)
+        await lidar.close()
+        await imu.close()
+
+
+async def test_hot_plug_is_published_and_the_device_list_follows() -> None:
+    async with running_daemon() as (daemon, port):
+        present = record(daemon, DeviceConnected)
+        lost = record(daemon, DeviceLost)
+        control = await connected(port, "control", "ui")
+        gps = await connected(port, "gps", "gps0")
+        await control.request(SubscribeFrame(rate_hz=20))
+
+        async def devices() -> set[str]:
+            frame = await control.receive_type(StatusFrame)
+            return {d.device_id for d in frame.devices}
+
+        await until(lambda: len(present) == 2)
+        assert await devices() >= {"ui", "gps0"}
+        await gps.close()
+        await until(lambda: len(lost) == 1)
+        assert (lost[0].device_id, lost[0].kind, lost[0].reason) == (
+            "gps0",
+            DeviceKind.GPS,
+            "client disconnected",
+        )
+        status_devices = await devices()
+        assert "gps0" not in status_devices
+        gps = await connected(port, "gps", "gps0")
+        await until(lambda: len(present) == 3)
+        assert "gps0" in await devices()
+        await gps.close()
+        await control.close()
+
+
+async def test_same_device_id_replaces_the_old_session() -> None:
+    async with running_daemon() as (daemon, port):
+        lost = record(daemon, DeviceLost)
+        scans = record(daemon, LaserScan)
+        old = await connected(port, "lidar", "lidar0")
+        new, welcome = await hello(port, "lidar", "lidar0")
+        assert isinstance(welcome, Welcome)
+        farewell = await old.receive()
+        assert isinstance(farewell, ErrorFrame)
+        assert farewell.field == "device_id" and farewell.fatal is True
+        with pytest.raises(ConnectionClosedError):
+            await old.receive()
+        new.send(SCAN)
+        await until(lambda: len(scans) == 1)
+        assert [m.reason for m in lost] == ["replaced by a new connection"]
+        (server,) = [m for m in daemon.manager.modules if isinstance(m, TcpServer)]
+        assert list(server.sessions) == ["lidar0"]
+        await new.close()
+
+
+async def test_silent_device_goes_stale_and_resumes() -> None:
+    async with running_daemon(tcp={"lidar_timeout_s": 0.1}) as (daemon, port):
+        stale = record(daemon, DeviceStale)
+        resumed = record(daemon, DeviceResumed)
+        lidar = await connected(port, "lidar", "lidar0")
+        lidar.send(SCAN)
+        await until(lambda: len(stale) == 1)
+        assert stale[0].device_id == "lidar0" and stale[0].silent_s > 0.1
+        lidar.send(SCAN)
+        await until(lambda: len(resumed) == 1)
+        await lidar.close()
+
+
+@pytest.mark.parametrize(
+    ("token", "accepted"),
+    [(None, False), ("wrong-token-wrong-token", False), ("the-right-secret-123", True)],
+)
+async def test_token_is_required_when_configured(token: str | None, accepted: bool) -> None:
+    async with running_daemon(tcp={"token": "the-right-secret-123"}) as (_, port):
+        client, answer = await hello(port, "imu", "imu0", token=token)
+        if accepted:
+            assert isinstance(answer, Welcome)
+        else:
+            assert isinstance(answer, ErrorFrame)
+            assert (answer.field, answer.fatal) == ("token", True)
+            with pytest.raises(ConnectionClosedError):
+                await client.receive()
+        await client.close()
+
+
+async def test_the_client_library_raises_the_refusal_with_its_reason() -> None:
+    async with running_daemon(tcp={"token": "the-right-secret-123"}) as (_, port):
+        with pytest.raises(RequestRefusedError, match="token: missing or wrong token") as info:
+            await AsyncClient.connect("127.0.0.1", port, role="imu", device_id="imu0")
+        assert info.value.error.fatal
+
+
+async def test_server_full_refuses_with_a_reason() -> None:
+    async with running_daemon(tcp={"max_clients": 2}) as (_, port):
+        a = await connected(port, "imu", "a")
+        b = await connected(port, "imu", "b")
+        c = await AsyncClient.open("127.0.0.1", port)
+        refusal = await c.receive()
+        assert isinstance(refusal, ErrorFrame)
+        assert refusal.fatal and "server full: 2 clients" in refusal.reason
+        for client in (a, b, c):
+            await client.close()
+
+
+async def test_handshake_deadline() -> None:
+    async with running_daemon(tcp={"handshake_timeout_s": 0.1}) as (_, port):
+        client = await AsyncClient.open("127.0.0.1", port)
+        answer = await client.receive()
+        assert isinstance(answer, ErrorFrame)
+        assert answer.fatal and "no hello within 0.1 s" in answer.reason
+        await client.close()
+
+
+async def test_bad_frames_are_answered_and_the_session_goes_on() -> None:
+    async with running_daemon(tcp={"max_line_bytes": 2048}) as (daemon, port):
+        scans = record(daemon, LaserScan)
+        lidar = await connected(port, "lidar", "lidar0")
+        lidar.send_raw(b"{oops\n")
+        answer = await lidar.receive()
+        assert isinstance(answer, ErrorFrame) and answer.reason.startswith("not valid JSON")
+        lidar.send_raw(b"x" * 5000 + b"\n")
+        answer = await lidar.receive()
+        assert isinstance(answer, ErrorFrame)
+        assert "longer than the limit of 2048 bytes" in answer.reason
+        lidar.send_raw(b"\n")  # blank lines are ignored
+        lidar.send_raw(broken(ranges="many"))
+        answer = await lidar.receive()
+        assert isinstance(answer, ErrorFrame) and answer.field == "ranges"
+        lidar.send(PingFrame(id=7))
+        assert await lidar.receive() == Pong(id=7)
+        lidar.send(SCAN)
+        await until(lambda: len(scans) == 1)
+        await lidar.close()
+
+
+async def test_control_requests_are_acknowledged_and_published() -> None:
+    async with running_daemon() as (daemon, port):
+        goals = record(daemon, Goal)
+        cancels = record(daemon, CancelGoal)
+        ui = await connected(port, "control", "ui")
+        ui.send(GoalFrame(x=1.5, y=-2.0, yaw=0.5, goal_id="g1"))
+        assert await ui.receive() == Ack(request="goal", goal_id="g1")
+        assert (await ui.request(CancelFrame())).request == "cancel"  # after the goal status
+        await until(lambda: len(goals) == 1 and len(cancels) == 1)
+        assert (goals[0].x_m, goals[0].y_m, goals[0].yaw_rad) == (1.5, -2.0, 0.5)
+
+        ack = await ui.request(
+            ConfigFrame(request_id="c1", changes={"safety.reaction_timeout_s": 0.3})
+        )
+        assert ack.request_id == "c1"
+        applied = await ui.receive_type(ConfigAppliedFrame)
+        assert applied.changed == ["safety.reaction_timeout_s"]
+        assert daemon.config.safety.reaction_timeout_s == 0.3
+
+        ui.send(ConfigFrame(request_id="c2", changes={"tcp.port": 1}))
+        rejected = await ui.receive_type(ConfigRejectedFrame)
+        assert "tcp.port: cannot change while navd runs" in rejected.reason
+
+        now = daemon.clock.now()
+        daemon.bus.publish(
+            GoalStatus(
+                stamp=now, received=now, goal_id="g1", state="reached", distance_remaining_m=0.0
+            )
+        )
+        progress = await ui.receive_type(GoalStatusFrame)
+        assert (progress.goal_id, progress.state, progress.eta_s) == ("g1", "reached", None)
+        await ui.close()
+
+
+async def test_shutdown_tells_clients_and_closes() -> None:
+    async with running_daemon() as (daemon, port):
+        imu = await connected(port, "imu", "imu0")
+        daemon.request_shutdown("test")
+        goodbye = await imu.receive()
+        assert isinstance(goodbye, ErrorFrame)
+        assert goodbye.fatal and goodbye.reason == "daemon stopping"
+        await asyncio.sleep(0)
+        await imu.close()
+
+
+async def test_good_and_bad_lines_in_one_write_are_answered_one_by_one() -> None:
+    async with running_daemon() as (daemon, port):
+        scans = record(daemon, LaserScan)
+        lidar = await connected(port, "lidar", "lidar0")
+        halves = [
+            b'{"type":"scan","angle_min":0,"angle_increment":0.1\n',
+            b'"range_min":0,"range_max":5,"ranges":[1]}\n',
+        ]
+        lidar.send_raw(
+            b"".join(
+                [
+                    encode(SCAN.model_copy(update={"stamp": 1.0})),
+                    *halves,  # two halves of a frame are two bad lines, never one good frame
+                    broken(ranges=["x"]),
+                    encode(SCAN.model_copy(update={"stamp": 1.1})),
+                    encode(PingFrame(id=1)),
+                ]
+            )
+        )
+        answers = [await lidar.receive() for _ in range(4)]
+        assert [a.type for a in answers] == ["error", "error", "error", "pong"]
+        assert isinstance(answers[2], ErrorFrame) and answers[2].field == "ranges.0"
+        await until(lambda: len(scans) == 2)
+        assert [s.ranges.size for s in scans] == [3, 3]
+        await lidar.close()
+
+
+async def test_status_mode_follows_safety_and_goal_progress() -> None:
+    from navd.lifecycle.messages import SafetyState
+
+    async def status_where(client: AsyncClient, predicate: Any) -> StatusFrame:
+        """The first status frame meeting ``predicate`` (frames already in flight are older)."""
+        while True:
+            status = await client.receive_type(StatusFrame)
+            if predicate(status):
+                return status
+
+    async with running_daemon(robot={"name": "rover-7"}) as (daemon, port):
+        ui = await connected(port, "control", "ui")
+        await ui.request(GoalFrame(x=1.0, y=1.0, goal_id="g1"))
+        await ui.request(SubscribeFrame(rate_hz=50))
+        status = await ui.receive_type(StatusFrame)
+        assert status.robot == "rover-7"
+        # The goal is pending until the planner takes it up (at once: it answers "active").
+        assert status.goal is not None and status.goal.goal_id == "g1"
+        assert (status.mode, status.goal.state) in (
+            ("idle", "pending"),
+            ("navigating", "active"),
+        )
+        now = daemon.clock.now()
+        daemon.bus.publish(
+            GoalStatus(
+                stamp=now,
+                received=now,
+                goal_id="g1",
+                state="active",
+                distance_remaining_m=1.4,
+                eta_s=3.0,
+            )
+        )
+        status = await asyncio.wait_for(
+            status_where(ui, lambda s: s.goal is not None and s.goal.distance_remaining == 1.4),
+            3.0,
+        )
+        assert status.mode == "navigating"
+        daemon.bus.publish(SafetyState(stamp=now, received=now, reasons=("lidar gone",)))
+        status = await asyncio.wait_for(status_where(ui, lambda s: s.diagnostics.safety), 3.0)
+        assert status.mode == "stopped" and status.diagnostics.safety == ["lidar gone"]
+        await ui.close()

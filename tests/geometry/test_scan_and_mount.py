@@ -1,0 +1,52 @@
+"""A scan as points in the robot frame, through the lidar's mount."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.config import NavdConfig
+from navd.geometry.mount import LidarMount
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import laser_points, scan_points
+from navd.lifecycle.messages import LaserScan
+
+
+def test_invalid_ranges_are_dropped_and_no_returns_clear_space() -> None:
+    ranges = [1.0, float("nan"), 0.05, 2.0, float("inf"), 30.0, 5.0]
+    scan = scan_points(ranges, 0.0, math.pi / 2, range_min=0.1, range_max=30.0, max_range=4.0)
+    # Beam 0 at 0 rad and beam 3 at 3pi/2 hit; 5 m (beam 6) is beyond max_range: a miss.
+    np.testing.assert_allclose(scan.hits, [[1.0, 0.0], [0.0, -2.0]], atol=1e-12)
+    # inf and 30 m (no return) and 5 m clear space up to 4 m; NaN and 0.05 m say nothing.
+    assert scan.misses.shape == (3, 2)
+    np.testing.assert_allclose(np.linalg.norm(scan.misses, axis=1), 4.0)
+
+
+def test_the_mount_pose_moves_points_into_the_robot_frame() -> None:
+    scan = scan_points(
+        [1.0], 0.0, 0.1, range_min=0.1, range_max=10.0, mount=Pose2(0.2, 0.1, math.pi / 2)
+    )
+    np.testing.assert_allclose(scan.hits, [[0.2, 1.1]], atol=1e-12)
+
+
+def test_laser_points_use_the_mount_and_its_shortest_range() -> None:
+    config = NavdConfig.model_validate(
+        {"lidar": {"x_m": 0.1, "yaw_rad": math.pi, "min_range_m": 0.3}}
+    )
+    mount = LidarMount.from_config(config.lidar)
+    scan = LaserScan(
+        stamp=0.0,
+        received=0.0,
+        device_id="l",
+        angle_min=0.0,
+        angle_increment=math.pi / 2,
+        ranges=np.array([0.25, 1.0, 2.0, 9.0], dtype=np.float32),
+        range_min=0.05,
+        range_max=10.0,
+    )
+    points = laser_points(scan, mount, max_range_m=5.0)
+    # A lidar facing backwards 0.1 m ahead of base_link: its +y beam points to the robot's
+    # right; 0.25 m is the robot itself; 9 m lies beyond the 5 m the caller uses.
+    np.testing.assert_allclose(points.hits, [[0.1, -1.0], [2.1, 0.0]], atol=1e-6)
+    np.testing.assert_allclose(points.misses, [[0.1, 5.0]], atol=1e-6)
