@@ -86,7 +86,7 @@ def _replay(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         mount = replay_mount(
-            LidarMount.from_config(config.lidar),
+            LidarMount.of(config.lidar),
             recording.mount,
             x_m=args.laser_x,
             y_m=args.laser_y,

@@ -80,7 +80,7 @@ class ChassisSettings:
             baudrate=chassis.baudrate,
             line_ending=LINE_ENDINGS[chassis.line_ending],
             period_s=1.0 / chassis.command_rate_hz,
-            calibration=WheelCalibration.from_config(chassis),
+            calibration=WheelCalibration.of(chassis),
             track_width_m=config.robot.track_width_m,
             reaction_timeout_s=config.safety.reaction_timeout_s,
             reconnect_initial_s=chassis.reconnect_initial_s,

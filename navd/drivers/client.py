@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 import socket
 import time
 from typing import TypeVar
 
 from navd.drivers.errors import DriverError, WireError
 from navd.drivers.protocol.codec import decode_reply, encode
-from navd.drivers.protocol.frames import Frame, Hello
+from navd.drivers.protocol.frames import Frame, Hello, Role
 from navd.drivers.protocol.replies import Ack, ErrorFrame, Reply, Welcome
 
 __all__ = ["AsyncClient", "Client", "ClientError", "ConnectionClosedError", "RequestRefusedError"]
@@ -48,8 +49,8 @@ class RequestRefusedError(ClientError):
         self.error = error
 
 
-def _hello(role: str, device_id: str, token: str | None) -> bytes:
-    return encode(Hello(role=role, device_id=device_id, token=token))  # type: ignore[arg-type]
+def _hello(role: Role, device_id: str, token: str | None) -> bytes:
+    return encode(Hello(role=role, device_id=device_id, token=token))
 
 
 def _welcome(reply: Reply) -> Welcome:
@@ -60,19 +61,32 @@ def _welcome(reply: Reply) -> Welcome:
     raise ClientError(f"navd answered the hello with a {reply.type!r} frame")
 
 
-def _decode(line: bytes) -> Reply:
+def _decode(line: bytes) -> Reply | None:
+    """The reply on ``line``; None for a kind of reply this client does not know (a newer
+    daemon's: skipped, as the protocol promises old clients).
+
+    Raises:
+        ConnectionClosedError: the line is empty (navd closed the connection).
+        ClientError: the line is not a reply at all.
+    """
     if not line:
         raise ConnectionClosedError("navd closed the connection")
     try:
         return decode_reply(line)
     except WireError as err:
+        if err.field == "type":
+            return None
         raise ClientError(
             f"navd sent a line this client cannot read ({err}): {line[:200]!r}"
         ) from err
 
 
 def _answer(reply: Reply, frame: Frame) -> Ack | None:
-    """The ack of ``frame`` if ``reply`` is it; raises if ``reply`` refuses it."""
+    """The ack of ``frame`` if ``reply`` is it; raises if ``reply`` refuses it.
+
+    An error frame answers the oldest line not yet answered: send requests one at a time
+    with ``request`` to know which one it refuses.
+    """
     if isinstance(reply, ErrorFrame):
         raise RequestRefusedError(f"{frame.type} request", reply)
     if isinstance(reply, Ack) and reply.request == frame.type:
@@ -89,7 +103,8 @@ class Client:
             "wheel_odometry"), or "clock".
         device_id: this client's name.
         token: the shared secret, when the daemon requires one.
-        timeout_s: [s] socket timeout for connecting and each read (None: wait for ever).
+        timeout_s: [s] longest wait for connecting and for each answer looked for (None: wait
+            for ever). A connection that timed out is closed.
 
     Raises:
         ClientError: navd cannot be reached or refused the hello.
@@ -100,11 +115,12 @@ class Client:
         host: str,
         port: int,
         *,
-        role: str = "control",
+        role: Role = "control",
         device_id: str = "cli",
         token: str | None = None,
         timeout_s: float | None = 5.0,
     ) -> None:
+        self.timeout_s = timeout_s
         try:
             self.sock = socket.create_connection((host, port), timeout=timeout_s)
         except OSError as err:
@@ -128,36 +144,61 @@ class Client:
         self.sock.sendall(data)
 
     def receive(self) -> Reply:
-        """The next frame from navd.
+        """The next frame from navd (kinds this client does not know are skipped).
 
         Raises:
             ConnectionClosedError: navd closed the connection.
-            ClientError: nothing came in time, or a line that is not a reply.
+            ClientError: nothing came in time, the connection broke, or a line that is not
+                a reply.
         """
-        try:
-            line = self._reader.readline()
-        except TimeoutError as err:
-            raise ClientError("navd did not answer in time") from err
-        return _decode(line)
+        while True:
+            try:
+                line = self._reader.readline()
+            except TimeoutError as err:
+                self.close()  # a timed-out socket file cannot be read again
+                raise ClientError(f"navd did not answer within {self.timeout_s} s") from err
+            except OSError as err:
+                raise ConnectionClosedError(f"the connection to navd broke: {err}") from err
+            reply = _decode(line)
+            if reply is not None:
+                return reply
 
     def receive_type(self, kind: type[R]) -> R:
-        """The next frame of ``kind``, skipping others (status, goal progress)."""
+        """The next frame of ``kind``, skipping others (status, goal progress), within
+        ``timeout_s`` in all.
+
+        Raises:
+            ClientError: as for ``receive``, or none came in time.
+        """
+        deadline = self._deadline()
         while True:
             reply = self.receive()
             if isinstance(reply, kind):
                 return reply
+            self._check(deadline, kind.__name__)
 
     def request(self, frame: Frame) -> Ack:
-        """Send a request and return its ack, skipping unrelated frames.
+        """Send a request and return its ack, skipping unrelated frames, within
+        ``timeout_s`` in all.
 
         Raises:
             RequestRefusedError: navd answered with an error.
+            ClientError: as for ``receive``, or no ack came in time.
         """
         self.send(frame)
+        deadline = self._deadline()
         while True:
             ack = _answer(self.receive(), frame)
             if ack is not None:
                 return ack
+            self._check(deadline, f"ack of the {frame.type} request")
+
+    def _deadline(self) -> float:
+        return math.inf if self.timeout_s is None else time.monotonic() + self.timeout_s
+
+    def _check(self, deadline: float, awaited: str) -> None:
+        if time.monotonic() > deadline:
+            raise ClientError(f"no {awaited} from navd within {self.timeout_s} s")
 
     def close(self) -> None:
         """Close the connection."""
@@ -218,7 +259,7 @@ class AsyncClient:
         host: str,
         port: int,
         *,
-        role: str = "control",
+        role: Role = "control",
         device_id: str = "client",
         token: str | None = None,
         timeout_s: float = 5.0,
@@ -264,7 +305,13 @@ class AsyncClient:
             TimeoutError: nothing came within ``timeout_s``.
             ConnectionClosedError: navd closed the connection.
         """
-        return _decode(await asyncio.wait_for(self.reader.readline(), timeout_s))
+
+        async def next_known() -> Reply:
+            while (reply := _decode(await self.reader.readline())) is None:
+                pass
+            return reply
+
+        return await asyncio.wait_for(next_known(), timeout_s)
 
     async def receive_type(self, kind: type[R], timeout_s: float = 5.0) -> R:
         """The next frame of ``kind`` within ``timeout_s`` [s], skipping others.
@@ -277,7 +324,7 @@ class AsyncClient:
             while True:
                 reply = _decode(await self.reader.readline())
                 if isinstance(reply, kind):
-                    return reply
+                    return reply  # (None, an unknown kind, never is)
 
         return await asyncio.wait_for(find(), timeout_s)
 
@@ -292,7 +339,8 @@ class AsyncClient:
 
         async def find() -> Ack:
             while True:
-                ack = _answer(_decode(await self.reader.readline()), frame)
+                reply = _decode(await self.reader.readline())
+                ack = None if reply is None else _answer(reply, frame)
                 if ack is not None:
                     return ack
 

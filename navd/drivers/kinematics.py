@@ -36,7 +36,8 @@ class WheelCalibration:
     invert_right: bool = False
 
     @classmethod
-    def from_config(cls, chassis: ChassisConfig) -> WheelCalibration:
+    def of(cls, chassis: ChassisConfig) -> WheelCalibration:
+        """The calibration the chassis section gives."""
         return cls(
             chassis.scale_per_mps,
             chassis.deadband,

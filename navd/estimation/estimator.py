@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -65,6 +66,14 @@ class Localization:
     LOST = "lost"
 
 
+class _CompassYaw(NamedTuple):
+    """The last compass reading as a map yaw: [s] stamp, [rad] yaw and its 1-sigma."""
+
+    stamp: float
+    yaw_rad: float
+    std_rad: float
+
+
 @dataclass
 class _Counts:
     ignored: dict[str, int] = field(default_factory=dict)
@@ -103,7 +112,7 @@ class StateEstimator:
         self.madgwick = MadgwickFilter(settings.estimation)
         self._counts = _Counts()
         self.geo: GeoFrame | None = None
-        self._last_compass_yaw: tuple[float, float, float] | None = None  # stamp, yaw, std
+        self._last_compass_yaw: _CompassYaw | None = None
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
@@ -115,8 +124,14 @@ class StateEstimator:
 
     def configure(self, settings: EstimatorSettings) -> None:
         """Take new settings; the filter state, the IMU orientation and the map's
-        geographic anchor are kept (a new datum or frame re-anchors the GPS conversion)."""
-        old, self.settings = self.settings, settings
+        geographic anchor are kept (a new datum or frame re-anchors the GPS conversion).
+
+        Raises:
+            GeoError: the new world section's datum cannot be projected (nothing changes).
+        """
+        geo = self._regeo(settings.world) if settings.world != self.settings.world else self.geo
+        self.settings = settings
+        self.geo = geo
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.madgwick.configure(est)
@@ -124,27 +139,36 @@ class StateEstimator:
         ukf = UkfSettings.of(est)
         if ukf != self.history.ukf.settings:
             self.history.ukf = PoseUkf(ukf)  # the state lives in the history, not the filter
-        if settings.world != old.world:
-            self.geo = self._regeo(settings.world)
 
     def settings_in_use(self) -> tuple[object, ...]:
         """The settings each part holds now."""
         history = self.history
-        return (self.settings, self.madgwick.settings, history.settings, history.ukf.settings)
+        parts: tuple[object, ...] = (
+            self.settings,
+            self.madgwick.settings,
+            history.settings,
+            history.ukf.settings,
+        )
+        return parts if self.geo is None else (*parts, self.geo.projection)
 
     def _regeo(self, world: WorldConfig) -> GeoFrame | None:
         """The geographic frame after a change of the world section: at the configured
         datum, or (without one) at the datum the first good fix set, in the new frame."""
         if world.datum_latitude_deg is not None and world.datum_longitude_deg is not None:
-            return self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
+            return self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg, world=world)
         if self.geo is None:
             return None
-        return self._geo_frame(*self.geo.datum, self.geo.datum_map_xy_m)
+        return self._geo_frame(*self.geo.datum, self.geo.datum_map_xy_m, world=world)
 
     def _geo_frame(
-        self, latitude_deg: float, longitude_deg: float, at_xy: tuple[float, float] = (0.0, 0.0)
+        self,
+        latitude_deg: float,
+        longitude_deg: float,
+        at_xy: tuple[float, float] = (0.0, 0.0),
+        *,
+        world: WorldConfig | None = None,
     ) -> GeoFrame:
-        world = self.settings.world
+        world = world or self.settings.world
         return GeoFrame(
             latitude_deg,
             longitude_deg,
@@ -191,8 +215,9 @@ class StateEstimator:
             return None
         variance = fix.horizontal_accuracy_m**2
         if not self.history.initialized:
-            if self._last_compass_yaw is not None and now - self._last_compass_yaw[0] < 1.0:
-                yaw, yaw_std = self._last_compass_yaw[1], self._last_compass_yaw[2]
+            compass = self._last_compass_yaw
+            if compass is not None and now - compass.stamp < 1.0:
+                yaw, yaw_std = compass.yaw_rad, compass.std_rad
             else:
                 yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
             self._start(fix.stamp, x, y, yaw, np.diag([variance, variance, yaw_std**2]))
@@ -230,7 +255,7 @@ class StateEstimator:
             map_rotation_rad=world.map_rotation_rad,
         )
         std = math.radians(heading.accuracy_deg)
-        self._last_compass_yaw = (heading.stamp, yaw, std)
+        self._last_compass_yaw = _CompassYaw(heading.stamp, yaw, std)
         if not self.history.initialized:
             return None
         measurement = self._measurement((Row.YAW,), [yaw], np.array([[std * std]]), heading.stamp)

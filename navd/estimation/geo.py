@@ -14,9 +14,28 @@ from dataclasses import dataclass
 
 from pyproj import Transformer
 
+from navd.config import NavdConfig
 from navd.estimation.errors import GeoError
 
-__all__ = ["GeoFrame", "utm_zone_for"]
+__all__ = ["GeoFrame", "MapProjection", "utm_zone_for"]
+
+
+@dataclass(frozen=True, slots=True)
+class MapProjection:
+    """How the map lies on the UTM grid, as a GeoFrame holds it.
+
+    Attributes:
+        map_rotation_rad: [rad] the map's +x axis, counter-clockwise from grid east.
+        max_distance_m: [m] fixes farther than this from the datum are refused.
+    """
+
+    map_rotation_rad: float
+    max_distance_m: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> MapProjection:
+        """The projection the world section describes."""
+        return cls(config.world.map_rotation_rad, config.world.utm_threshold_m)
 
 
 def utm_zone_for(latitude_deg: float, longitude_deg: float) -> int:
@@ -85,6 +104,11 @@ class GeoFrame:
         self.grid_convergence_rad = math.pi / 2.0 - math.atan2(
             north_n - northing, north_e - easting
         )
+
+    @property
+    def projection(self) -> MapProjection:
+        """The rotation and distance bound this frame was built with."""
+        return MapProjection(self.map_rotation_rad, self.max_distance_m)
 
     def _project(self, latitude_deg: float, longitude_deg: float) -> tuple[float, float]:
         if not (-80.0 <= latitude_deg <= 84.0):

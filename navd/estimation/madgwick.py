@@ -86,7 +86,8 @@ class MadgwickFilter:
     """Orientation from gyro + accelerometer (+ magnetometer) samples.
 
     Args:
-        config: the estimation section (gain, rejection, bias learning, history).
+        config: the estimation section: the gains (``configure`` takes new ones) and
+            ``imu_history_s``, the ring of samples kept (fixed: it needs a restart).
     """
 
     def __init__(self, config: EstimationConfig) -> None:

@@ -68,8 +68,8 @@ class EstimationNode(Module):
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
         self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)
-        period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz
-        self.ctx.every(lambda: period_s, self._publish, name="publish")
+        period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz  # needs a restart
+        self.ctx.every(period_s, self._publish, name="publish")
 
     def settings_in_use(self) -> tuple[object, ...]:
         estimator = self.estimator

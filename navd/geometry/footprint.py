@@ -39,7 +39,7 @@ class Footprint:
         return cls(RECTANGLE, length_m / 2.0, width_m / 2.0)
 
     @classmethod
-    def from_config(cls, robot: RobotConfig) -> Footprint:
+    def of(cls, robot: RobotConfig) -> Footprint:
         """The footprint the robot section describes."""
         if robot.footprint == "circle":
             return cls.circle(robot.radius_m)

@@ -23,6 +23,6 @@ class LidarMount:
     min_range_m: float
 
     @classmethod
-    def from_config(cls, lidar: LidarConfig) -> LidarMount:
+    def of(cls, lidar: LidarConfig) -> LidarMount:
         """The mount the lidar section describes."""
         return cls(Pose2(lidar.x_m, lidar.y_m, lidar.yaw_rad), lidar.min_range_m)

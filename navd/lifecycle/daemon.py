@@ -160,6 +160,7 @@ class Daemon:
         """
         loop = asyncio.get_running_loop()
         self._install_signals(loop)
+        set_level(self.logging.value.level)  # the level in force is the config's, from here on
         self._started_s = self.clock.now()
         probes = [
             loop.create_task(self.lag.run(), name="lag-probe"),

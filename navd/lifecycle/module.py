@@ -85,16 +85,31 @@ class ModuleContext:
         return self._startup
 
     def settings(self, kind: type[S], on_change: Callable[[S, S], None] | None = None) -> Live[S]:
-        """Hold ``kind`` derived from the config in force; the daemon swaps it whole when a
-        config change alters it, then calls ``on_change(old, new)`` on the event loop."""
+        """Hold ``kind`` derived from the config in force; when a config change alters it,
+        ``on_change(old, new)`` runs on the event loop and the holder is swapped whole."""
         live = Live(kind, self._config(), on_change)
         self._live.append(live)
         return live
 
     def apply_config(self, config: NavdConfig) -> list[str]:
         """Re-derive every settings holder of the module from ``config``; returns the names
-        of the settings types that were swapped."""
-        return [live.kind.__name__ for live in self._live if live.update(config)]
+        of the settings types that were swapped.
+
+        Raises:
+            Exception: the first ``on_change`` that failed, once every holder was tried
+                (the failed ones keep their old value).
+        """
+        swapped: list[str] = []
+        errors: list[Exception] = []
+        for live in self._live:
+            try:
+                if live.update(config):
+                    swapped.append(live.kind.__name__)
+            except Exception as err:  # every holder gets its turn; the first error is raised
+                errors.append(err)
+        if errors:
+            raise errors[0]
+        return swapped
 
     def _on_config_applied(self, applied: ConfigApplied) -> None:
         swapped = self.apply_config(applied.config)
@@ -133,13 +148,18 @@ class ModuleContext:
         return task
 
     def every(
-        self, period_s: Callable[[], float], callback: Callable[[float], None], *, name: str
+        self,
+        period_s: float | Callable[[], float],
+        callback: Callable[[float], None],
+        *,
+        name: str,
     ) -> None:
-        """Call the cheap ``callback(now)`` every ``period_s()`` [s] until deactivation.
+        """Call the cheap ``callback(now)`` every ``period_s`` [s] until deactivation.
 
-        The period is read before each tick, so a settings change takes effect at the next
-        one. Deadlines do not drift; ticks missed while the loop was busy are skipped. A
-        callback that raises is reported to supervision and the ticks stop.
+        A function for the period (reading a settings holder) is read after each tick, so a
+        settings change takes effect from the next deadline on. Deadlines do not drift; ticks
+        missed while the loop was busy are skipped. A callback that raises is reported to
+        supervision and the ticks stop.
         """
 
         async def run() -> None:

@@ -3,11 +3,12 @@
 A component never reads the config while it runs. It owns a settings type with a
 ``from_config(config)`` class method: a frozen value (plain numbers, or frozen config
 sections) derived once. ``ModuleContext.settings`` registers a ``Live`` holder for it; when a
-config change is applied, the daemon re-derives every holder, swaps the ones whose value
-changed, whole, and calls their ``on_change(old, new)`` on the event loop, so the component
-rebuilds what depends on them while its runtime state (stuck timers, filters, the map)
-stays. ``Module.settings_in_use`` reports the settings the module's parts hold now, so a
-test can prove that every runtime-changeable key reaches the part that uses it.
+config change is applied, the module's context re-derives every holder and, for each whose
+value changed, calls its ``on_change(old, new)`` on the event loop and swaps it whole, so the
+component rebuilds what depends on it while its runtime state (stuck timers, filters, the
+map) stays. A component that must not block the loop hands the rebuild to a worker.
+``Module.settings_in_use`` reports the settings the module's parts hold now, so a test can
+prove that every runtime-changeable key reaches the part that uses it.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ class Live(Generic[S]):
     Args:
         kind: the settings type.
         config: the config at start-up.
-        on_change: called with (old, new) after a swap, on the event loop.
+        on_change: called with (old, new) just before a swap, on the event loop.
     """
 
     def __init__(
@@ -52,7 +53,9 @@ class Live(Generic[S]):
         self._on_change = on_change
 
     def update(self, config: NavdConfig) -> bool:
-        """Re-derive from ``config``; swap and call ``on_change`` if the value differs.
+        """Re-derive from ``config``; if the value differs, call ``on_change(old, new)`` and
+        then swap. An ``on_change`` that raises leaves the old value in place (the component
+        and its holder never disagree), and the error goes to the caller.
 
         Returns:
             True if the value changed.
@@ -60,7 +63,7 @@ class Live(Generic[S]):
         new = self.kind.from_config(config)
         if new == self.value:
             return False
-        old, self.value = self.value, new
         if self._on_change is not None:
-            self._on_change(old, new)
+            self._on_change(self.value, new)
+        self.value = new
         return True

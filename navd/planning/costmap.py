@@ -225,8 +225,7 @@ class CostmapSettings:
         """The settings the planning, robot and safety sections describe."""
         planning = config.planning
         return cls(
-            robot_radius_m=Footprint.from_config(config.robot).inscribed_m
-            + keep_clear_m(config.safety),
+            robot_radius_m=Footprint.of(config.robot).inscribed_m + keep_clear_m(config.safety),
             inflation_radius_m=planning.inflation_radius_m,
             cost_decay_per_m=planning.cost_decay,
             allow_unknown=planning.allow_unknown,

@@ -74,7 +74,7 @@ class DwaSettings:
         """The settings the robot, safety and planning sections describe."""
         planning, robot = config.planning, config.robot
         return cls(
-            footprint=Footprint.from_config(robot),
+            footprint=Footprint.of(robot),
             margin_m=keep_clear_m(config.safety),
             clearance_cap_m=max(planning.inflation_radius_m, 0.1),
             horizon_s=planning.prediction_horizon_s,

@@ -78,15 +78,9 @@ class SearchSettings:
 
 
 class GlobalPlanner:
-    """A* with reusable working memory.
+    """A* with reusable working memory (one search at a time)."""
 
-    Args:
-        settings: the cost weight and smoothing; replaced whole by a settings change (the
-            working memory stays).
-    """
-
-    def __init__(self, settings: SearchSettings) -> None:
-        self.settings = settings
+    def __init__(self) -> None:
         self._cells = 0
         self._generation = 0
         self._g: FloatArray = np.empty(0)
@@ -94,9 +88,14 @@ class GlobalPlanner:
         self._parent = np.empty(0, dtype=np.int32)
 
     def plan(
-        self, costmap: Costmap, start_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
+        self,
+        costmap: Costmap,
+        start_xy_m: tuple[float, float],
+        goal_xy_m: tuple[float, float],
+        settings: SearchSettings,
     ) -> PlannedPath:
-        """The cheapest route from ``start_xy_m`` to ``goal_xy_m`` [m, map frame].
+        """The cheapest route from ``start_xy_m`` to ``goal_xy_m`` [m, map frame], weighed and
+        shaped as ``settings`` say.
 
         Raises:
             StartBlockedError: the start is off the map, or too close to obstacles with no free cell
@@ -136,7 +135,7 @@ class GlobalPlanner:
             )
         self._reserve(frame.rows * frame.cols)
         cols = frame.cols
-        cost_weight = self.settings.cost_weight
+        cost_weight = settings.cost_weight
         if cost_weight == 0.0 or uniform_costs(costmap.cost):
             rows_free, cols_free = pack_free_cells(costmap.cost)  # every step costs its length
         else:
@@ -160,7 +159,7 @@ class GlobalPlanner:
                 "no route",
             )
         cells = trace_back(self._parent, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
-        if self.settings.smooth and cells.shape[0] > 2:
+        if settings.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
         if start == robot_cell:

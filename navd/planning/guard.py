@@ -55,7 +55,7 @@ class GuardSettings:
         """The settings the safety, robot, chassis and lidar sections describe."""
         safety, robot = config.safety, config.robot
         return cls(
-            footprint=Footprint.from_config(robot),
+            footprint=Footprint.of(robot),
             stop_m=safety.stop_distance_m,
             slowdown_m=safety.slowdown_distance_m,
             slowdown_factor=safety.slowdown_factor,
@@ -63,7 +63,7 @@ class GuardSettings:
             angular_decel_radps2=robot.max_angular_accel_radps2,
             period_s=1.0 / config.chassis.command_rate_hz,
             enabled=safety.use_collisions,
-            mount=LidarMount.from_config(config.lidar),
+            mount=LidarMount.of(config.lidar),
         )
 
 

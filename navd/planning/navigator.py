@@ -25,7 +25,7 @@ from navd.geometry.pose import Pose2
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import PlanningError
-from navd.planning.global_planner import GlobalPlanner, PlannedPath
+from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
 from navd.planning.layers import Layers
 from navd.planning.route import Route
 from navd.planning.settings import NavigatorSettings
@@ -92,17 +92,18 @@ class PlanRequest:
     obstacles: npt.NDArray[np.bool_]
     unknown: npt.NDArray[np.bool_]
     settings: CostmapSettings
+    search: SearchSettings
     start_xy_m: tuple[float, float]
     goal_xy_m: tuple[float, float]
 
     def solve(self, planner: GlobalPlanner) -> PlannedPath:
-        """Inflate the layers and run A* (heavy).
+        """Inflate the layers and run A* (heavy), with the settings of when it was asked.
 
         Raises:
             GoalUnreachableError, StartBlockedError: from A*.
         """
         costmap = build_costmap(self.frame, self.obstacles, self.unknown, self.settings)
-        return planner.plan(costmap, self.start_xy_m, self.goal_xy_m)
+        return planner.plan(costmap, self.start_xy_m, self.goal_xy_m, self.search)
 
 
 class Navigator:
@@ -120,7 +121,7 @@ class Navigator:
         self.settings = settings
         self.map_layers = Layers(settings.layers)
         self.stuck = StuckMonitor(settings.stuck)
-        self.global_planner = GlobalPlanner(settings.search)
+        self.global_planner = GlobalPlanner()
         self.profile = settings.profile
         self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_cap)
         self._command = (0.0, 0.0)
@@ -138,7 +139,6 @@ class Navigator:
         self.settings = settings
         self.map_layers.configure(settings.layers)
         self.stuck.configure(settings.stuck)
-        self.global_planner.settings = settings.search
         if settings.dwa != self.local.settings or settings.profile != self.profile:
             self.profile = settings.profile
             self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_cap)
@@ -149,7 +149,6 @@ class Navigator:
             self.settings,
             self.map_layers.settings,
             self.stuck.settings,
-            self.global_planner.settings,
             self.profile,
             self.local.settings,
         )
@@ -240,7 +239,8 @@ class Navigator:
         start = (pose.x, pose.y)
         goal = (self.goal.x_m, self.goal.y_m)
         frame, obstacles, unknown = self.map_layers.snapshot(now, [start, goal])
-        return PlanRequest(frame, obstacles, unknown, self.settings.costmap, start, goal)
+        s = self.settings
+        return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal)
 
     def accept_plan(self, now: float, path: PlannedPath) -> None:
         """Follow ``path`` from now on."""

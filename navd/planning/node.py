@@ -4,9 +4,10 @@ Every ``planning.control_rate_hz`` tick (on the event loop, cheap) submits one n
 to the ``local_plan`` worker slot (goal checks, stuck handling, velocity profile, DWA; it
 returns the VelocityCommand and decides whether the route must be planned); when the last
 step said so, the tick also submits A* to the ``global_plan`` slot, which takes a snapshot of
-the layers and plans on it. Map updates and scans feed
-the layers in the ``planning_layers`` slot. The navigator is shared by these threads under one
-lock, held only for cheap work: A* runs outside it.
+the layers and plans on it. Map updates and scans feed the layers in the ``planning_map``
+and ``planning_scan`` slots. The navigator is shared by these threads under one lock, held
+only for cheap work: A* runs outside it. New settings reach the navigator under the same
+lock (its stuck watch, route and layers carry on).
 
 The robot is never driven on an old pose: when the last PoseEstimate is older than
 ``POSE_TIMEOUT_S`` the step commands zero.
@@ -71,7 +72,7 @@ class PlannerSettings:
         return cls(
             navigator=NavigatorSettings.from_config(config),
             control_period_s=1.0 / config.planning.control_rate_hz,
-            mount=LidarMount.from_config(config.lidar),
+            mount=LidarMount.of(config.lidar),
             obstacle_range_m=config.planning.obstacle_range_m,
         )
 

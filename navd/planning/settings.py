@@ -60,7 +60,7 @@ class NavigatorSettings:
     def from_config(cls, config: NavdConfig) -> NavigatorSettings:
         """The settings the robot, safety and planning sections describe."""
         planning, robot = config.planning, config.robot
-        footprint = Footprint.from_config(robot)
+        footprint = Footprint.of(robot)
         clear_m = keep_clear_m(config.safety)
         return cls(
             footprint=footprint,

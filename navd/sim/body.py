@@ -74,7 +74,7 @@ class Body:
         else:
             x = self.x_m + v / w * (math.sin(yaw) - math.sin(self.yaw_rad))
             y = self.y_m - v / w * (math.cos(yaw) - math.cos(self.yaw_rad))
-        fp = Footprint.from_config(robot)
+        fp = Footprint.of(robot)
         clearance = footprint_contact(
             world.grid,
             world.origin_x_m,
@@ -105,5 +105,5 @@ class Body:
 
 def command_velocity(left: int, right: int, config: NavdConfig) -> tuple[float, float]:
     """[m/s, rad/s] the body velocity a "%d %d" wheel command asks for."""
-    cal = WheelCalibration.from_config(config.chassis)
+    cal = WheelCalibration.of(config.chassis)
     return body_velocity(*decode_wheels(left, right, cal), config.robot.track_width_m)

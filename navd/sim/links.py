@@ -11,6 +11,7 @@ import tty
 from pathlib import Path
 
 from navd.drivers.client import AsyncClient, ClientError
+from navd.drivers.protocol.frames import Role
 from navd.sim.errors import SimError
 from navd.sim.settings import SimSettings
 
@@ -84,7 +85,7 @@ class SensorLinks:
         self.connected: set[str] = set()
         self._readers: set[asyncio.Task[None]] = set()
 
-    async def open(self, role: str, device_id: str) -> AsyncClient:
+    async def open(self, role: Role, device_id: str) -> AsyncClient:
         """One connection with a completed hello.
 
         Raises:
@@ -97,7 +98,7 @@ class SensorLinks:
         self.connected.add(device_id)
         return client
 
-    async def open_sensor(self, role: str, device_id: str) -> AsyncClient:
+    async def open_sensor(self, role: Role, device_id: str) -> AsyncClient:
         """A sensor connection whose replies are read and dropped."""
         client = await self.open(role, device_id)
         task = asyncio.get_running_loop().create_task(_drain(client.reader))
@@ -105,7 +106,7 @@ class SensorLinks:
         task.add_done_callback(self._readers.discard)
         return client
 
-    async def keep_trying(self, role: str, device_id: str, retry_s: float) -> AsyncClient:
+    async def keep_trying(self, role: Role, device_id: str, retry_s: float) -> AsyncClient:
         """A sensor connection, retried every ``retry_s`` [s] until the daemon welcomes it
         (a daemon still starting, or restarting)."""
         while True:

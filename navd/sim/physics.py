@@ -58,8 +58,8 @@ class SimRobot:
     def __init__(self, world: World, config: NavdConfig) -> None:
         self.world = world
         self.config = config
-        self.footprint = Footprint.from_config(config.robot)
-        self.calibration = WheelCalibration.from_config(config.chassis)
+        self.footprint = Footprint.of(config.robot)
+        self.calibration = WheelCalibration.of(config.chassis)
         x, y, yaw = world.start
         self.body = Body(x, y, yaw)
         self.wheels = WheelInput()

@@ -16,7 +16,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.drivers.protocol.frames import FixFrame, HeadingFrame, ImuFrame, ScanFrame, SensorFrame
+from navd.drivers.protocol.frames import (
+    FixFrame,
+    HeadingFrame,
+    ImuFrame,
+    Role,
+    ScanFrame,
+    SensorFrame,
+)
 from navd.estimation.geo import GeoFrame
 from navd.geometry.pose import Pose2
 from navd.sim._sim_kernels import cast_rays
@@ -41,7 +48,7 @@ class SimSensor:
         plugged: False while a scenario has it unplugged (None: always plugged).
     """
 
-    role: str
+    role: Role
     device_id: str
     rate_hz: float
     frame: Callable[[float], SensorFrame]

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.pose import IDENTITY, Pose2
 from navd.sim.errors import WorldError
 
 __all__ = ["Mover", "World", "load_world", "office"]
@@ -71,8 +72,8 @@ class World:
         origin_x_m, origin_y_m: [m] corner of cell (0, 0).
         resolution_m: [m] cell size.
         movers: the moving discs.
-        start: [m, m, rad] the robot's start pose.
-        goal: [m, m, rad] the scenario's goal, if it has one.
+        start: the robot's start pose.
+        goal: the scenario's goal pose, if it has one.
     """
 
     grid: npt.NDArray[np.bool_]
@@ -80,8 +81,8 @@ class World:
     origin_y_m: float
     resolution_m: float
     movers: tuple[Mover, ...] = ()
-    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    goal: tuple[float, float, float] | None = None
+    start: Pose2 = IDENTITY
+    goal: Pose2 | None = None
     name: str = field(default="world")
 
     def discs(self, t_s: float) -> FloatArray:
@@ -193,9 +194,9 @@ def _span(lo: float, hi: float, origin: float, res: float, n: int) -> tuple[int,
     )
 
 
-def _pose(value: object, key: str) -> tuple[float, float, float]:
+def _pose(value: object, key: str) -> Pose2:
     row = _pairs([value], 3, key)[0]
-    return (row[0], row[1], row[2])
+    return Pose2(row[0], row[1], row[2])
 
 
 def load_world(path: Path) -> World:

@@ -79,7 +79,7 @@ class SlamSettings:
         return cls(
             mapper=MapperSettings.from_config(config),
             odometry=ScanOdometrySettings.from_config(config),
-            mount=LidarMount.from_config(config.lidar),
+            mount=LidarMount.of(config.lidar),
             map_dir=slam.map_dir,
             map_name=slam.map_name,
             save_on_shutdown=slam.save_on_shutdown,
@@ -104,7 +104,10 @@ class SlamNode(Module):
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self.settings = ctx.settings(SlamSettings, self._settings_changed)
-        self.mapper = ScanMapper(self.settings.value.mapper)
+        # What the mapper and kiss-icp were built with: a change is applied between scans,
+        # in a worker, so one scan never mixes a new mount with an old mapper.
+        self._in_force = self.settings.value
+        self.mapper = ScanMapper(self._in_force.mapper)
         load = ctx.startup_config.slam.load_map
         if load is not None:
             try:
@@ -124,28 +127,36 @@ class SlamNode(Module):
         self.ctx.warm_up(warm_up, name="warm-up")
 
     async def on_deactivate(self) -> None:
-        settings = self.settings.value
+        settings = self.settings.value  # map_dir, map_name, save_on_shutdown: read at use
         if settings.save_on_shutdown and not self.mapper.grid.empty:
             self._save(settings.map_name, settings.map_dir)
 
     def settings_in_use(self) -> tuple[object, ...]:
         odometry = self._scan_odometry
         return (
-            self.settings.value,
+            self._in_force,
             self.mapper.settings,
             *(() if odometry is None else (odometry.settings,)),
         )
 
-    def _settings_changed(self, old: SlamSettings, new: SlamSettings) -> None:
-        """Swap the mapper's settings; rebuild kiss-icp (it is built with its settings), and
-        let the next scan start its motion prior afresh in the new odometry frame."""
+    def _settings_changed(self, _old: SlamSettings, _new: SlamSettings) -> None:
+        # The mapper is busy in a worker for up to a global search: never wait for it on the
+        # event loop. The newest settings are applied by a job of their own (latest wins).
+        self.ctx.submit("slam_settings", self._apply_settings)
+
+    def _apply_settings(self) -> None:
+        """Worker: swap the mapper's settings; rebuild kiss-icp (it is built with its
+        settings), letting the next scan start its motion prior afresh in the new odometry
+        frame."""
         with self._lock:
+            old, new = self._in_force, self.settings.value
             if new.mapper != old.mapper:
                 self.mapper.configure(new.mapper)
             if new.odometry != old.odometry and self._scan_odometry is not None:
                 self._scan_odometry = ScanOdometry(new.odometry)
                 if not self._has_odometry:
                     self.mapper.forget_odometry()
+            self._in_force = new
 
     def _on_wheels(self, odom: WheelOdometry) -> None:
         """Dead-reckon the odometry pose: the motion prior of the next scan."""
@@ -162,7 +173,7 @@ class SlamNode(Module):
 
     def _match(self, scan: LaserScan, odom: Pose2 | None) -> tuple[Message, ...]:
         with self._lock:
-            settings = self.settings.value
+            settings = self._in_force
             mapper = settings.mapper
             points = laser_points(scan, settings.mount, max_range_m=mapper.max_range_m)
             if odom is None:

@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.angles import wrap_angles
+from navd.geometry.pose import Pose2
 
 __all__ = ["Edge", "optimize"]
 
@@ -35,11 +36,11 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True, slots=True)
 class Edge:
-    """Pose ``j`` seen from pose ``i`` is ``z`` (x [m], y [m], yaw [rad]), with weights."""
+    """Pose ``j`` seen from pose ``i`` is ``z``, with weights (1/sigma of x, y, yaw)."""
 
     i: int
     j: int
-    z: tuple[float, float, float]
+    z: Pose2
     weights: tuple[float, float, float]
     robust: bool = False
 

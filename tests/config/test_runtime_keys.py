@@ -128,7 +128,6 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
     sections: dict[str, dict[str, Any]] = {
         "chassis": {"enabled": True, "port": str(link)},
         "slam": {"map_dir": str(tmp_path / "maps")},
-        "logging": {"level": "warning"},  # the level the tests' own logging runs at
     }
     try:
         async with running_daemon(**sections) as (daemon, port):
@@ -157,6 +156,7 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
                 answer = await control.receive_type(ConfigAppliedFrame | ConfigRejectedFrame)
                 assert isinstance(answer, ConfigAppliedFrame), f"{key}: {answer}"
                 assert key in answer.changed
+                await daemon.workers.wait_idle()  # changes a worker applies between jobs
                 after = in_use(daemon)
                 for owner, held in after.items():
                     for settings in held:

@@ -6,9 +6,16 @@ import asyncio
 
 import pytest
 
-from navd.drivers.client import Client, ClientError, RequestRefusedError
+from navd.drivers.client import (
+    AsyncClient,
+    Client,
+    ClientError,
+    ConnectionClosedError,
+    RequestRefusedError,
+)
+from navd.drivers.protocol.codec import encode
 from navd.drivers.protocol.frames import GoalFrame, SaveMapFrame, SubscribeFrame
-from navd.drivers.protocol.replies import Ack, GoalStatusFrame, StatusFrame
+from navd.drivers.protocol.replies import Ack, GoalStatusFrame, StatusFrame, Welcome
 from tests.drivers.conftest import running_daemon
 
 
@@ -37,3 +44,27 @@ def test_a_daemon_that_is_not_there_is_a_clear_error() -> None:
 
     with pytest.raises(ClientError, match=r"cannot reach navd at 127\.0\.0\.1:\d+"):
         Client("127.0.0.1", free_port(), timeout_s=1.0)
+
+
+async def test_replies_of_a_kind_this_client_does_not_know_are_skipped() -> None:
+    welcome = Welcome(protocol=1, daemon="navd 9", device_id="c", role="control", max_line_bytes=9)
+
+    async def newer_navd(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        await reader.readline()  # the hello
+        writer.write(
+            encode(welcome)
+            + b'{"type":"map_tile","x":1}\n'  # a reply kind added after this client
+            + encode(Ack(request="goal", goal_id="g"))
+        )
+        await writer.drain()
+        writer.close()
+
+    server = await asyncio.start_server(newer_navd, "127.0.0.1", 0)
+    port = server.sockets[0].getsockname()[1]
+    async with server:
+        client = await AsyncClient.connect("127.0.0.1", port, device_id="c")
+        assert client.welcome == welcome
+        assert await client.receive() == Ack(request="goal", goal_id="g")
+        with pytest.raises(ConnectionClosedError):
+            await client.receive(2.0)
+        await client.close()

@@ -19,7 +19,7 @@ from navd.geometry.footprint import CIRCLE, RECTANGLE, Footprint
 def test_the_robot_section_gives_the_footprint(
     robot: dict[str, object], kind: int, inscribed: float, circumradius: float
 ) -> None:
-    fp = Footprint.from_config(NavdConfig.model_validate({"robot": robot}).robot)
+    fp = Footprint.of(NavdConfig.model_validate({"robot": robot}).robot)
     assert fp.kind == kind
     assert fp.inscribed_m == pytest.approx(inscribed)
     assert fp.circumradius_m == pytest.approx(circumradius)

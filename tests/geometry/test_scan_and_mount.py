@@ -34,7 +34,7 @@ def test_laser_points_use_the_mount_and_its_shortest_range() -> None:
     config = NavdConfig.model_validate(
         {"lidar": {"x_m": 0.1, "yaw_rad": math.pi, "min_range_m": 0.3}}
     )
-    mount = LidarMount.from_config(config.lidar)
+    mount = LidarMount.of(config.lidar)
     scan = LaserScan(
         stamp=0.0,
         received=0.0,

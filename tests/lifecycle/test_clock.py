@@ -128,6 +128,28 @@ async def test_a_new_period_starts_a_new_grid_at_the_next_deadline() -> None:
     assert seen == [0.0, 0.5, 1.0, 1.2, 1.4, 1.6]
 
 
+async def test_a_new_period_after_skipped_ticks_starts_after_the_last_missed_deadline() -> None:
+    clock = SimClock(start_s=0.0)
+    period = [1.0]
+    seen: list[tuple[float, int]] = []
+
+    async def consume() -> None:
+        async for tick in ticks(clock, lambda: period[0], limit=4):
+            seen.append((round(tick.scheduled_s, 9), tick.skipped))
+            period[0] = 0.5 if len(seen) >= 2 else 1.0
+
+    task = asyncio.create_task(consume())
+    await _settle()  # tick 0 at t=0
+    clock.advance_to(3.5)  # deadline 1.0 fires 2.5 s late: 2.0 and 3.0 are skipped
+    await _settle()
+    for _ in range(4):
+        clock.advance(0.5)
+        await _settle()
+    await task
+    # After the late tick the new 0.5 s grid starts from the last deadline passed (3.0).
+    assert seen == [(0.0, 0), (1.0, 2), (3.5, 0), (4.0, 0)]
+
+
 async def test_ticks_reject_non_positive_period() -> None:
     with pytest.raises(LifecycleError, match="period must be > 0"):
         async for _ in ticks(SimClock(), 0.0):

@@ -80,9 +80,12 @@ def test_a_failing_on_change_counts_against_its_module_only(bus: Bus) -> None:
     def refuse(old: Limits, new: Limits) -> None:
         raise RuntimeError(f"cannot take {new}")
 
-    bad.settings(Limits, refuse)
+    bad_limits = bad.settings(Limits, refuse)
+    bad_after = bad.settings(Limits)  # a second holder of the failing module still swaps
     bus.publish(_applied(bus, _changed(config, {"robot.max_linear_speed_mps": 0.3})))
     assert good_limits.value == Limits(0.3)
+    assert bad_limits.value == Limits(0.5)  # refused: the holder agrees with its component
+    assert bad_after.value == Limits(0.3)
     assert bus.supervisor.record("bad").failures == 1
     assert bus.supervisor.record("good").failures == 0
 

@@ -94,7 +94,7 @@ def drive(
         )
         nav.set_map(rasterize(walls, res, lo, shape), res, lo[0], lo[1])
     nav.set_goal(goal)
-    fp = Footprint.from_config(config.robot)
+    fp = Footprint.of(config.robot)
     dt = 1.0 / config.planning.control_rate_hz
     pose = start
     result = Drive(GoalState.ACTIVE)

@@ -85,13 +85,13 @@ def assert_route_matches_dijkstra(case) -> None:
     steps from the start to the goal, or the planner says "no route" where Dijkstra finds none."""
     cost, start, goal, w = case
     expected = dijkstra_cost(cost, start, goal, w)
-    planner = GlobalPlanner(SearchSettings(cost_weight=w, smooth=False))
+    planner, search = GlobalPlanner(), SearchSettings(cost_weight=w, smooth=False)
     if math.isinf(expected):
         with pytest.raises(GoalUnreachableError, match="no route") as info:
-            planner.plan(costmap_of(cost), center(start), center(goal))
+            planner.plan(costmap_of(cost), center(start), center(goal), search)
         assert info.value.reason == "no route"
         return
-    path = planner.plan(costmap_of(cost), center(start), center(goal))
+    path = planner.plan(costmap_of(cost), center(start), center(goal), search)
     assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
     cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
     assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
@@ -154,9 +154,9 @@ def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:
     costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings_)
     free = np.argwhere(np.isfinite(costmap.cost))
     start, goal = free[rng.integers(len(free))], free[rng.integers(len(free))]
-    planner = GlobalPlanner(SearchSettings(cost_weight=3.0, smooth=True))
+    planner, search = GlobalPlanner(), SearchSettings(cost_weight=3.0, smooth=True)
     try:
-        path = planner.plan(costmap, center(tuple(start)), center(tuple(goal)))
+        path = planner.plan(costmap, center(tuple(start)), center(tuple(goal)), search)
     except GoalUnreachableError:
         return
     # Sample every segment densely: every point lies in a cell the robot's centre may use.
@@ -176,8 +176,8 @@ def test_inflation_keeps_routes_off_walls() -> None:
     costmap = build_costmap(
         frame, obstacles, np.zeros_like(obstacles), CostmapSettings(0.2, 1.5, 3.0, True, 0.5, 65)
     )
-    path = GlobalPlanner(SearchSettings(cost_weight=5.0, smooth=False)).plan(
-        costmap, (0.5, 0.6), (7.5, 0.6)
+    path = GlobalPlanner().plan(
+        costmap, (0.5, 0.6), (7.5, 0.6), SearchSettings(cost_weight=5.0, smooth=False)
     )
     assert path.points_m[:, 1].max() > 1.3  # it moves out towards the middle (y = 1.5)
 
@@ -195,8 +195,8 @@ def test_unreachable_goals_raise_with_the_reason(goal, reason, match) -> None:
     cost[10, 10] = np.inf  # the goal cell itself
     cost[20:31, 20] = cost[20:31, 30] = cost[20, 20:31] = cost[30, 20:31] = np.inf  # a closed box
     with pytest.raises(GoalUnreachableError, match=match) as info:
-        GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=True)).plan(
-            costmap_of(cost), (0.5, 0.5), goal
+        GlobalPlanner().plan(
+            costmap_of(cost), (0.5, 0.5), goal, SearchSettings(cost_weight=1.0, smooth=True)
         )
     assert info.value.reason == reason
 
@@ -209,8 +209,8 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
         frame, np.zeros((20, 20), bool), unknown, CostmapSettings(0.1, 0.3, 3.0, False, 0.5, 65)
     )
     with pytest.raises(GoalUnreachableError, match="unexplored") as info:
-        GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=True)).plan(
-            costmap, (0.5, 0.5), (1.75, 1.75)
+        GlobalPlanner().plan(
+            costmap, (0.5, 0.5), (1.75, 1.75), SearchSettings(cost_weight=1.0, smooth=True)
         )
     assert info.value.reason == "unknown"
 
@@ -218,8 +218,8 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
 def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
     cost = np.zeros((20, 20), np.float32)
     cost[:, :3] = np.inf
-    path = GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=False)).plan(
-        costmap_of(cost), (0.15, 1.0), (1.5, 1.0)
+    path = GlobalPlanner().plan(
+        costmap_of(cost), (0.15, 1.0), (1.5, 1.0), SearchSettings(cost_weight=1.0, smooth=False)
     )
     assert tuple(path.points_m[0]) == (0.15, 1.0)
     assert path.points_m[1][0] == pytest.approx(0.35)  # first free column
@@ -227,8 +227,8 @@ def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
 
 def test_start_off_the_map_or_walled_in_is_refused() -> None:
     cost = np.full((20, 20), np.inf, np.float32)
-    planner = GlobalPlanner(SearchSettings(cost_weight=1.0, smooth=False))
+    planner, search = GlobalPlanner(), SearchSettings(cost_weight=1.0, smooth=False)
     with pytest.raises(StartBlockedError, match="off the map"):
-        planner.plan(costmap_of(cost), (-1.0, 0.5), (0.5, 0.5))
+        planner.plan(costmap_of(cost), (-1.0, 0.5), (0.5, 0.5), search)
     with pytest.raises(StartBlockedError, match="no free cell"):
-        planner.plan(costmap_of(cost), (1.0, 1.0), (0.5, 0.5))
+        planner.plan(costmap_of(cost), (1.0, 1.0), (0.5, 0.5), search)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 from navd.config import NavdConfig
 from navd.drivers.protocol.codec import decode_sensor, encode
+from navd.drivers.protocol.frames import ScanFrame
 from navd.sim.physics import COMMAND_TIMEOUT_S, SimRobot
 from navd.sim.sensors import GRAVITY_MPS2, SensorModels
 from navd.sim.settings import SimSettings
@@ -52,15 +52,25 @@ def test_encoder_lines_report_the_measured_wheels() -> None:
     assert robot.encoder_line() == b"-200 200\n"
 
 
-def test_a_scan_measures_the_walls_from_the_lidar_mount() -> None:
-    config = NavdConfig.model_validate({"lidar": {"x_m": 0.5}})
+@pytest.mark.parametrize(
+    ("mount", "expected"),
+    [
+        # beams at -pi, -pi/2, 0, pi/2 of the lidar, from 0.5 m ahead of the room's centre
+        ({"x_m": 0.5}, [2.5, 2.0, 1.5, 2.0]),
+        # the same lidar turned to look backwards: its first beam looks forwards
+        ({"x_m": 0.5, "yaw_rad": math.pi}, [1.5, 2.0, 2.5, 2.0]),
+    ],
+)
+def test_a_scan_measures_the_walls_from_the_lidar_mount(
+    mount: dict[str, float], expected: list[float]
+) -> None:
+    config = NavdConfig.model_validate({"lidar": mount})
     robot = SimRobot(from_shapes(ROOM, "room"), config)
     models = SensorModels(robot, config, SimSettings(lidar_noise_m=0.0, lidar_beams=4))
-    frame = models.scan(3.0)
-    scan = decode_sensor("lidar", encode(frame))  # what the daemon reads
+    scan = decode_sensor("lidar", encode(models.scan(3.0)))  # what the daemon reads
+    assert isinstance(scan, ScanFrame)
     assert scan.stamp == 3.0 and scan.angle_min == -math.pi
-    # Beams at -pi, -pi/2, 0, pi/2 from a lidar 0.5 m ahead of the room's centre.
-    assert np.asarray(frame.ranges) == pytest.approx([2.5, 2.0, 1.5, 2.0], abs=0.06)
+    assert scan.ranges == pytest.approx(expected, abs=0.03)  # the world's 2 cm cells
 
 
 def test_the_imu_feels_gravity_and_the_turn() -> None:

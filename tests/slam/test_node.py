@@ -119,6 +119,7 @@ async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
         assert first is not None and first.settings.voxel_size_m == 0.1
         await control.request(ConfigFrame(changes={"slam.voxel_size_m": 0.2}))
         await control.receive_type(ConfigAppliedFrame)
+        await until(lambda: node._scan_odometry is not first)  # between scans, in a worker
         rebuilt = node._scan_odometry
         assert rebuilt is not first and rebuilt is not None
         assert rebuilt.settings.voxel_size_m == 0.2

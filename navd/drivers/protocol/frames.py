@@ -36,6 +36,7 @@ __all__ = [
     "InitialPoseFrame",
     "OdomFrame",
     "PingFrame",
+    "Role",
     "SaveMapFrame",
     "ScanFrame",
     "SensorFrame",

@@ -64,15 +64,7 @@ class ClockRole:
         )
 
     def lines(self, session: Session, lines: list[bytes]) -> None:
-        for line in lines:
-            if not session.conn.open:
-                return
-            if not line or line.isspace():
-                continue
-            try:
-                self._frame(session, line)
-            except Exception as err:
-                self._server.reject(session.conn, line, err)
+        self._server.each_line(session, lines, lambda line: self._frame(session, line))
 
     def closed(self, session: Session) -> None:
         if session.clock_task is not None:

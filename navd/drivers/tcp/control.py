@@ -9,7 +9,6 @@ from collections.abc import Callable, Iterable
 from navd.drivers.protocol.codec import decode_control, encode
 from navd.drivers.protocol.convert import control_message
 from navd.drivers.protocol.frames import (
-    ControlRequest,
     PingFrame,
     SubscribeFrame,
     UnsubscribeFrame,
@@ -71,21 +70,16 @@ class ControlRole:
         """Nothing to start until the client subscribes."""
 
     def lines(self, session: Session, lines: list[bytes]) -> None:
-        for line in lines:
-            if not session.conn.open:
-                return
-            if not line or line.isspace():
-                continue  # blank lines are allowed (keep-alives, a person pressing enter)
-            try:
-                self._request(session, decode_control(line))
-            except Exception as err:
-                self._server.reject(session.conn, line, err)
+        self._server.each_line(session, lines, lambda line: self._request(session, line))
 
     def closed(self, session: Session) -> None:
         if session.status_task is not None:
             session.status_task.cancel()
+        for request_id in [r for r, s in self._config_requests.items() if s is session]:
+            del self._config_requests[request_id]  # its answer has nobody to go to
 
-    def _request(self, session: Session, frame: ControlRequest) -> None:
+    def _request(self, session: Session, line: bytes) -> None:
+        frame = decode_control(line)
         session.accepted += 1
         session.requests += 1
         conn = session.conn

@@ -62,10 +62,9 @@ class SensorRole:
                 continue
             try:
                 frame = decode_sensor(role, line)
-                if type(frame) is PingFrame:
+                if isinstance(frame, PingFrame):
                     conn.send(Pong(id=frame.id))
                     continue
-                assert not isinstance(frame, PingFrame)
                 message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
             except Exception as err:
                 self._server.reject(conn, line, err)

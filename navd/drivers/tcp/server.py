@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+from collections.abc import Callable
 
 from navd import __version__
 from navd.drivers.errors import DriverError, WireError
@@ -25,7 +26,12 @@ from navd.drivers.tcp.connection import Connection
 from navd.drivers.tcp.control import ControlRole
 from navd.drivers.tcp.sensors import SensorRole
 from navd.drivers.tcp.session import Role, Session
-from navd.drivers.tcp.settings import TcpSettings
+from navd.drivers.tcp.settings import (
+    STATUS_FRAME_BYTES,
+    ConnectionLimits,
+    SensorPacing,
+    TcpSettings,
+)
 from navd.drivers.tcp.status_board import StatusBoard
 from navd.lifecycle.errors import MessageError
 from navd.lifecycle.messages import (
@@ -39,7 +45,6 @@ from navd.lifecycle.module import Module, ModuleContext
 __all__ = ["TcpServer"]
 
 STALE_CHECK_PERIOD_S = 0.1  # adds at most this to a timeout; each wakeup costs CPU
-STATUS_FRAME_BYTES = 4096
 
 
 class TcpServer(Module):
@@ -95,7 +100,13 @@ class TcpServer(Module):
             self._server = None
 
     def settings_in_use(self) -> tuple[object, ...]:
-        return (self.settings.value,)
+        """The server's settings, and what every open connection holds of them."""
+        held: list[object] = [self.settings.value]
+        for conn in self.connections:
+            held.append(ConnectionLimits(conn.max_line_bytes, conn.write_high_bytes))
+            if isinstance(conn.session, Session) and conn.session.kind.value in SENSOR_FRAMES:
+                held.append(SensorPacing(conn.coalesce_s))
+        return tuple(held)
 
     def _settings_changed(self, _old: TcpSettings, new: TcpSettings) -> None:
         """Connections open now take the new limits too (a new handshake deadline applies
@@ -141,7 +152,12 @@ class TcpServer(Module):
             # the first non-blank line is the hello; what follows it belongs to the role
             for index, line in enumerate(lines):
                 if line and not line.isspace():
-                    session = self._handshake(conn, line)
+                    try:
+                        session = self._handshake(conn, line)
+                    except Exception as err:  # a bug, not a bad hello: refuse, count, go on
+                        self.reject(conn, line, err)
+                        conn.close("handshake failed")
+                        return
                     lines = lines[index + 1 :]
                     break
             else:
@@ -149,6 +165,21 @@ class TcpServer(Module):
             if session is None or not lines:
                 return
         self._roles[session.kind].lines(session, lines)
+
+    def each_line(
+        self, session: Session, lines: list[bytes], handle: Callable[[bytes], None]
+    ) -> None:
+        """Hand each non-blank line to ``handle``; a line that raises is answered by
+        ``reject`` and the lines after it go on."""
+        for line in lines:
+            if not session.conn.open:
+                return
+            if not line or line.isspace():
+                continue  # blank lines are allowed (keep-alives, a person pressing enter)
+            try:
+                handle(line)
+            except Exception as err:  # the supervised boundary per line: see reject
+                self.reject(session.conn, line, err)
 
     def reject(self, conn: Connection, line: bytes, err: Exception) -> None:
         """Answer a line that could not be used; the one supervised boundary per line."""

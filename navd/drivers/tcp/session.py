@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -55,6 +56,13 @@ class Server(Protocol):
 
     def reject(self, conn: Connection, line: bytes, err: Exception) -> None:
         """Answer a line that could not be used (the supervised boundary per line)."""
+        ...
+
+    def each_line(
+        self, session: Session, lines: list[bytes], handle: Callable[[bytes], None]
+    ) -> None:
+        """Hand each non-blank line to ``handle``; one that raises is answered, the rest go
+        on."""
         ...
 
 

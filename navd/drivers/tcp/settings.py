@@ -7,7 +7,9 @@ from dataclasses import dataclass
 from navd.config import NavdConfig
 from navd.lifecycle.messages import DeviceKind
 
-__all__ = ["TcpSettings"]
+__all__ = ["STATUS_FRAME_BYTES", "ConnectionLimits", "SensorPacing", "TcpSettings"]
+
+STATUS_FRAME_BYTES = 4096  # [bytes] a status frame, for the output bound of a slow reader
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,3 +64,38 @@ class TcpSettings:
             lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
             robot_name=config.robot.name,
         )
+
+
+@dataclass(frozen=True, slots=True)
+class ConnectionLimits:
+    """What one connection is bounded by (every open connection holds its own copy).
+
+    Attributes:
+        max_line_bytes: [bytes] longest accepted line.
+        write_high_bytes: [bytes] output buffered beyond this drops droppable frames.
+    """
+
+    max_line_bytes: int
+    write_high_bytes: int
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> ConnectionLimits:
+        """The limits the tcp section describes."""
+        tcp = config.tcp
+        return cls(tcp.max_line_bytes, tcp.status_queue * STATUS_FRAME_BYTES)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorPacing:
+    """How a sensor connection is read.
+
+    Attributes:
+        coalesce_s: [s] pause after reading a fast stream, so it is read in batches.
+    """
+
+    coalesce_s: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> SensorPacing:
+        """The pacing the tcp section describes."""
+        return cls(config.tcp.read_coalesce_ms / 1e3)

@@ -15,6 +15,7 @@ from navd.drivers.protocol.frames import (
     CancelFrame,
     ConfigFrame,
     GoalFrame,
+    Hello,
     ImuFrame,
     PingFrame,
     ScanFrame,
@@ -325,3 +326,21 @@ async def test_status_mode_follows_safety_and_goal_progress() -> None:
         status = await asyncio.wait_for(status_where(ui, lambda s: s.diagnostics.safety), 3.0)
         assert status.mode == "stopped" and status.diagnostics.safety == ["lidar gone"]
         await ui.close()
+
+
+async def test_a_hello_and_data_in_one_write_are_both_taken() -> None:
+    async with running_daemon() as (daemon, port):
+        scans = record(daemon, LaserScan)
+        lidar = await AsyncClient.open("127.0.0.1", port)
+        lidar.send_raw(
+            encode(Hello(role="lidar", device_id="lidar0"))
+            + encode(SCAN.model_copy(update={"stamp": 1.0}))
+            + b"{broken\n"
+            + encode(PingFrame(id="after"))
+        )
+        assert isinstance(await lidar.receive(), Welcome)
+        answer = await lidar.receive()
+        assert isinstance(answer, ErrorFrame) and answer.reason.startswith("not valid JSON")
+        assert await lidar.receive() == Pong(id="after")
+        await until(lambda: len(scans) == 1)
+        await lidar.close()
