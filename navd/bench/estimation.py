@@ -20,9 +20,10 @@ import time
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
 from navd.config import NavdConfig
-from navd.estimation.estimator import EstimatorSettings, StateEstimator
+from navd.estimation.estimator import StateEstimator
 from navd.estimation.history import Insert
 from navd.estimation.madgwick import MadgwickFilter
+from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import FloatArray, Measurement, PoseUkf, StepOutcome
 from navd.lifecycle.messages import Imu, Message, PoseMeasurement, WheelOdometry
 from navd.lifecycle.stats import percentile

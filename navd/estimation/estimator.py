@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import EstimationConfig, NavdConfig, WorldConfig
+from navd.config import WorldConfig
 from navd.estimation.bearing import bearing_to_yaw
 from navd.estimation.errors import GeoError
 from navd.estimation.geo import GeoFrame
@@ -35,6 +35,7 @@ from navd.estimation.motion_model import (
     Y,
     transition_matrix,
 )
+from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, UkfSettings
 from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
@@ -48,7 +49,7 @@ from navd.lifecycle.messages import (
 )
 from navd.logs import get_logger
 
-__all__ = ["EstimatorSettings", "Localization", "StateEstimator"]
+__all__ = ["Localization", "StateEstimator"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -80,24 +81,6 @@ class _Counts:
 
     def ignore(self, reason: str) -> None:
         self.ignored[reason] = self.ignored.get(reason, 0) + 1
-
-
-@dataclass(frozen=True, slots=True)
-class EstimatorSettings:
-    """What the estimator runs on: the estimation and world sections, frozen as they are.
-
-    Attributes:
-        estimation: gains, noises, gates, history and localization thresholds.
-        world: the geographic frame (datum, UTM zone, map rotation, declination).
-    """
-
-    estimation: EstimationConfig
-    world: WorldConfig
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> EstimatorSettings:
-        """The settings the estimation and world sections describe."""
-        return cls(config.estimation, config.world)
 
 
 class StateEstimator:

@@ -12,7 +12,8 @@ import dataclasses
 import math
 
 from navd.estimation.errors import GeoError
-from navd.estimation.estimator import EstimatorSettings, Localization, StateEstimator
+from navd.estimation.estimator import Localization, StateEstimator
+from navd.estimation.settings import EstimatorSettings
 from navd.lifecycle.messages import (
     CompassHeading,
     GeoGoal,

@@ -11,7 +11,8 @@ import pytest
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive, replay
 from navd.config import NavdConfig
 from navd.config.loader import apply_changes
-from navd.estimation.estimator import EstimatorSettings, Localization, StateEstimator
+from navd.estimation.estimator import Localization, StateEstimator
+from navd.estimation.settings import EstimatorSettings
 from navd.lifecycle.messages import (
     CompassHeading,
     GpsFix,
