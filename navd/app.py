@@ -18,14 +18,15 @@ __all__ = ["build_modules"]
 def build_modules(config: NavdConfig) -> list[Module]:
     """The modules for ``config``, in start order (they stop in reverse).
 
-    The safety gate starts first and stops last, so every command passes it (and the
-    collision guard it asks); the chassis starts last and stops first, writing "0 0" before
-    anything else goes away.
+    The collision guard, then the safety gate that asks it, start first and stop last, so
+    every command passes them (the guard takes each scan before the gate sweeps the command
+    in force with it); the chassis starts last and stops first, writing "0 0" before anything
+    else goes away.
     """
     guard = CollisionGuard()
     modules: list[Module] = [
-        SafetyGate(limiters=(guard,)),
         guard,
+        SafetyGate(limiters=(guard,)),
         EstimationNode(),
         SlamNode(),
         PlannerNode(),

@@ -101,7 +101,9 @@ def _replay(args: argparse.Namespace) -> int:
             progress=None if args.quiet else _progress_line(recording.total),
         )
     except SlamError as err:
-        print(f"navd replay: {err}", file=sys.stderr)
+        said = str(err)
+        where = "" if str(args.log) in said else f"{args.log}: "
+        print(f"navd replay: {where}{said}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as err:
         print(f"navd replay: {err}", file=sys.stderr)

@@ -18,17 +18,21 @@ import tomli_w
 from pydantic import BaseModel, ValidationError
 
 from navd.config.errors import ConfigError
-from navd.config.model import NavdConfig, restart_required
+from navd.config.model import NavdConfig, is_secret, privileged, restart_required
 
 __all__ = [
     "RETIRED_KEYS",
     "apply_changes",
     "changed_keys",
     "check_runtime_changeable",
+    "check_unprivileged",
     "dump_toml",
     "load_config",
     "parse_config",
+    "redacted",
 ]
+
+REDACTED = "<redacted>"
 
 
 # Keys that moved or went away: an older config file is told where to, not just "unknown".
@@ -58,9 +62,11 @@ def load_config(path: str | Path) -> NavdConfig:
         raise ConfigError([f"{path}: cannot be read: {err}"]) from err
     try:
         data = tomllib.loads(text)
+        return parse_config(data, source=str(path))
     except tomllib.TOMLDecodeError as err:
         raise ConfigError([f"{path}: not valid TOML: {err}"]) from err
-    return parse_config(data, source=str(path))
+    except RecursionError as err:  # arrays nested thousands deep: no config looks like that
+        raise ConfigError([f"{path}: nested too deeply to be a navd config"]) from err
 
 
 def parse_config(data: Mapping[str, Any], source: str = "config") -> NavdConfig:
@@ -76,18 +82,22 @@ def parse_config(data: Mapping[str, Any], source: str = "config") -> NavdConfig:
 
 
 def apply_changes(
-    config: NavdConfig, changes: Mapping[str, object]
+    config: NavdConfig, changes: Mapping[str, object], *, may_change_privileged: bool = True
 ) -> tuple[NavdConfig, tuple[str, ...]]:
     """Apply dotted-key changes (``{"safety.reaction_timeout_s": 0.3}``) to a config.
 
     A key may also name a whole section with a table of its keys as the value.
 
+    Args:
+        may_change_privileged: the changes may touch privileged keys (False for a control
+            client the config does not grant it).
+
     Returns:
         The new config and the dotted keys whose value changed.
 
     Raises:
-        ConfigError: an unknown key, a key that needs a restart, or a value the model
-            rejects; nothing is applied.
+        ConfigError: an unknown key, a key that needs a restart, a privileged key without
+            the right, or a value the model rejects; nothing is applied.
     """
     if not changes:
         raise ConfigError(["a config change must name at least one key"])
@@ -100,6 +110,8 @@ def apply_changes(
     new = parse_config(data, source="config change")
     changed = changed_keys(config, new)
     check_runtime_changeable(changed, source="config change")
+    if not may_change_privileged:
+        check_unprivileged(changed, source="config change")
     return new, changed
 
 
@@ -117,10 +129,41 @@ def check_runtime_changeable(changed: tuple[str, ...], source: str) -> None:
         )
 
 
+def check_unprivileged(changed: tuple[str, ...], source: str) -> None:
+    """Raise if any of the dotted ``changed`` keys is privileged (a control client's change
+    where the config does not grant it).
+
+    Raises:
+        ConfigError: naming every such key.
+    """
+    blocked = [k for k in changed if privileged(*k.split(".")[:2])]
+    if blocked:
+        raise ConfigError(
+            [
+                f"{k}: a privileged key (safety, limits, paths); only the config file may "
+                f"change it unless tcp.allow_privileged_changes = true"
+                for k in blocked
+            ],
+            source=source,
+        )
+
+
 def changed_keys(old: NavdConfig, new: NavdConfig) -> tuple[str, ...]:
     """The dotted keys whose value differs between two configs, in model order."""
     before, after = _flatten(old.model_dump()), _flatten(new.model_dump())
     return tuple(k for k in after if before.get(k) != after[k])
+
+
+def redacted(config: NavdConfig) -> dict[str, Any]:
+    """The config as plain data for a log line: every secret set is replaced by a marker."""
+    data = config.model_dump(mode="json")
+    for section_name, section in data.items():
+        model = NavdConfig.model_fields[section_name].annotation
+        assert isinstance(model, type) and issubclass(model, BaseModel)
+        for name, value in section.items():
+            if value is not None and is_secret(model, name):
+                section[name] = REDACTED
+    return data
 
 
 def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
@@ -146,6 +189,8 @@ def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
             note = field.description or ""
             if restart_required(type(section), name):
                 note += " (needs a restart)"
+            elif privileged(section_name, name):
+                note += " (privileged: from the config file only, see tcp.allow_privileged_changes)"
             lines += textwrap.wrap(note, width=98, initial_indent="# ", subsequent_indent="# ")
             value = getattr(section, name)
             if value is None:
@@ -251,10 +296,24 @@ def _describe(err: ValidationError) -> list[str]:
             continue
         value = error.get("input")
         shown = "" if isinstance(value, Mapping) else f" = {value!r}"
+        if _field_secret(loc):
+            shown = f" = {REDACTED}"
         description = _field_description(loc)
         expected = f" (expected {description})" if description else ""
         problems.append(f"{key}{shown}: {message}{expected}")
     return problems
+
+
+def _field_secret(loc: tuple[int | str, ...]) -> bool:
+    """True if ``loc`` names a secret field (its value is never echoed)."""
+    parent = _model_at(loc[:-1]) if loc else None
+    name = loc[-1] if loc else None
+    return (
+        parent is not None
+        and isinstance(name, str)
+        and name in parent.model_fields
+        and is_secret(parent, name)
+    )
 
 
 def _model_at(loc: tuple[int | str, ...]) -> type[BaseModel] | None:

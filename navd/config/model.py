@@ -30,10 +30,14 @@ __all__ = [
     "SlamConfig",
     "TcpConfig",
     "WorldConfig",
+    "is_secret",
+    "privileged",
     "restart_required",
 ]
 
 STANDARD_BAUD_RATES = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600)
+# A file name in map_dir: no separators, not hidden, not "." or "..".
+MAP_NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}$"
 
 
 def _lists_to_tuples(value: Any) -> Any:
@@ -49,9 +53,51 @@ Table = Annotated[tuple[Point2, ...], BeforeValidator(_lists_to_tuples)]
 Polygons = Annotated[tuple[Polygon, ...], BeforeValidator(_lists_to_tuples)]
 
 
-def restart(description: str) -> dict[str, Any]:
-    """Field keyword arguments marking a field that only takes effect at start-up."""
-    return {"description": description, "json_schema_extra": {"restart": True}}
+def restart(description: str, *, secret: bool = False) -> dict[str, Any]:
+    """Field keyword arguments marking a field that only takes effect at start-up (and, with
+    ``secret``, one whose value is never logged or echoed in an error)."""
+    return {"description": description, "json_schema_extra": {"restart": True, "secret": secret}}
+
+
+# Keys that decide how safely the robot moves, where files go and how the daemon guards
+# itself: a control client may change them only where tcp.allow_privileged_changes says so
+# (the config file, and SIGHUP re-reading it, always may). None: every key of the section.
+PRIVILEGED: dict[str, frozenset[str] | None] = {
+    "safety": None,
+    "chassis": None,
+    "tcp": None,
+    "lifecycle": None,
+    "lidar": None,
+    "robot": frozenset(
+        {
+            "footprint",
+            "radius_m",
+            "length_m",
+            "width_m",
+            "track_width_m",
+            "max_linear_speed_mps",
+            "max_reverse_speed_mps",
+            "max_angular_speed_radps",
+            "max_linear_accel_mps2",
+            "max_angular_accel_radps2",
+        }
+    ),
+    "slam": frozenset({"map_dir", "map_name"}),
+    "planning": frozenset({"keep_out_zones", "max_goal_distance_m", "max_plan_cells"}),
+    "estimation": frozenset({"degraded_position_std_m", "lost_position_std_m"}),
+}
+
+
+def privileged(section: str, field: str) -> bool:
+    """True if ``section.field`` is a privileged key (see PRIVILEGED)."""
+    keys = PRIVILEGED.get(section, frozenset())
+    return keys is None or field in keys
+
+
+def is_secret(model: type[BaseModel], field: str) -> bool:
+    """True if ``field`` of ``model`` holds a secret."""
+    extra = model.model_fields[field].json_schema_extra
+    return isinstance(extra, dict) and bool(extra.get("secret"))
 
 
 def restart_required(model: type[BaseModel], field: str) -> bool:
@@ -63,7 +109,9 @@ def restart_required(model: type[BaseModel], field: str) -> bool:
 class Section(BaseModel):
     """Common settings of every config section."""
 
-    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(
+        strict=True, extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False
+    )
 
 
 class LifecycleConfig(Section):
@@ -253,9 +301,43 @@ class TcpConfig(Section):
         None,
         min_length=16,
         examples=["change-me-to-a-long-random-secret"],
-        **restart("shared secret clients give in hello; required beyond loopback"),
+        **restart("shared secret clients give in hello; required beyond loopback", secret=True),
     )
-    max_clients: int = Field(32, ge=1, le=1024, description="[clients] most connections at once")
+    allow_privileged_changes: bool = Field(
+        False,
+        **restart(
+            "let control clients change privileged keys (safety, speed limits, footprint, "
+            "chassis, lidar mount, paths, connection and module limits, keep-out zones, the "
+            "localization loss thresholds); the config file and SIGHUP always may"
+        ),
+    )
+    max_clients: int = Field(
+        32,
+        ge=1,
+        le=1024,
+        description="[clients] most clients connected at once (after their hello)",
+    )
+    max_pending: int = Field(
+        16,
+        ge=1,
+        le=1024,
+        description="[connections] most connections waiting to say hello; one more closes the "
+        "oldest of them (they never count against tcp.max_clients)",
+    )
+    control_idle_timeout_s: float = Field(
+        300.0,
+        ge=1,
+        le=86_400,
+        description="[s] a control client that sends nothing for this long and has no status "
+        "subscription is disconnected (a ping keeps it)",
+    )
+    slow_reader_timeout_s: float = Field(
+        10.0,
+        ge=0.5,
+        le=3600,
+        description="[s] a client that leaves its status frames unread for this long (every "
+        "one dropped) is disconnected",
+    )
     max_line_bytes: int = Field(
         262_144, ge=1024, le=16_777_216, description="[bytes] longest accepted line or frame"
     )
@@ -275,19 +357,31 @@ class TcpConfig(Section):
         8, ge=1, le=1024, description="[messages] status messages buffered per slow subscriber"
     )
     lidar_timeout_s: float = Field(
-        0.5, gt=0, le=60, description="[s] a lidar silent this long is stale"
+        0.2,
+        gt=0,
+        le=60,
+        description="[s] a lidar silent this long is stale and holds the robot; a sensor "
+        "slower than its timeout is given its own period x 1.25 + 50 ms instead",
     )
     imu_timeout_s: float = Field(
-        0.2, gt=0, le=60, description="[s] an IMU silent this long is stale"
+        0.2, gt=0, le=60, description="[s] an IMU silent this long is stale and holds the robot"
     )
     gps_timeout_s: float = Field(
-        2.0, gt=0, le=600, description="[s] a GPS silent this long is stale"
+        1.3,
+        gt=0,
+        le=600,
+        description="[s] a GPS silent this long is stale (it holds the robot only with no "
+        "lidar); a receiver faster than 1 Hz is caught sooner with a lower value",
     )
     compass_timeout_s: float = Field(
         1.0, gt=0, le=600, description="[s] a compass silent this long is stale"
     )
     wheel_odometry_timeout_s: float = Field(
-        0.3, gt=0, le=60, description="[s] wheel odometry silent this long is stale"
+        0.2,
+        gt=0,
+        le=60,
+        description="[s] wheel odometry silent this long is stale (it holds the robot only "
+        "with no lidar)",
     )
 
     @model_validator(mode="after")
@@ -407,7 +501,12 @@ class SlamConfig(Section):
         0.3, gt=0, le=3.1416, description="[rad] rotation that makes a new keyframe"
     )
     map_dir: str = Field("maps", min_length=1, description="folder where maps are saved")
-    map_name: str = Field("map", min_length=1, description="base name of saved map files")
+    map_name: str = Field(
+        "map",
+        pattern=MAP_NAME_PATTERN,
+        description="base name of saved map files: letters, digits, _ . - (no folders; they "
+        "go in map_dir)",
+    )
     load_map: str | None = Field(
         None,
         examples=["maps/office.yaml"],
@@ -679,6 +778,21 @@ class PlanningConfig(Section):
     max_stuck_replans: int = Field(
         3, ge=0, le=100, description="[count] replans after StuckDetected before the goal fails"
     )
+    max_goal_distance_m: float = Field(
+        100.0,
+        gt=0,
+        le=10_000,
+        description="[m] a goal farther than this from the robot fails at once with the reason "
+        "(give waypoints in between); bounds the area A* searches",
+    )
+    max_plan_cells: int = Field(
+        9_000_000,
+        ge=10_000,
+        le=400_000_000,
+        description="[cells] the grid A* plans on (the map, the robot and the goal with "
+        "margins) may hold at most this many cells, about 45 bytes each at its peak; a goal "
+        "needing more fails with the reason",
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> PlanningConfig:
@@ -732,7 +846,9 @@ def _check_table(table: tuple[Point2, ...]) -> None:
 class NavdConfig(BaseModel):
     """The whole configuration, one section per subsystem."""
 
-    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(
+        strict=True, extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False
+    )
 
     robot: RobotConfig = Field(default_factory=RobotConfig)
     lidar: LidarConfig = Field(default_factory=LidarConfig)

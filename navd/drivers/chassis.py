@@ -133,7 +133,7 @@ class ChassisDriver(Module):
 
     def _on_drive(self, cmd: DriveCommand) -> None:
         self._latest = cmd
-        self._latest_rx_s = self.ctx.clock.now()
+        self._latest_rx_s = cmd.stamp  # the request's time: a re-swept old command ages too
         if cmd.is_stop and self._port is not None:
             self._write_safely(0, 0)  # stopping never waits for the next tick
 

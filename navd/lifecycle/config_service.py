@@ -46,7 +46,9 @@ class ConfigService:
     def handle_change(self, change: ConfigChange) -> None:
         """Apply a ConfigChange whole, or reject it whole with the reason."""
         try:
-            new, changed = apply_changes(self._config, change.changes)
+            new, changed = apply_changes(
+                self._config, change.changes, may_change_privileged=change.privileged
+            )
         except ConfigError as err:
             self._reject(change.request_id, change.source, err)
             return

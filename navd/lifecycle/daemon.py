@@ -17,6 +17,7 @@ from pathlib import Path
 
 from navd import __version__
 from navd.config import NavdConfig
+from navd.config.loader import redacted
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
@@ -170,7 +171,7 @@ class Daemon:
             "starting",
             version=__version__,
             modules=[m.name for m in self.manager.modules],
-            config=self.config.model_dump(mode="json"),
+            config=redacted(self.config),
         )
         try:
             await self.manager.start()

@@ -2,11 +2,12 @@
 
 Modules request motion with VelocityCommand; only the gate publishes DriveCommand, the only
 message the chassis obeys. The gate holds the robot still (zero DriveCommand) while any
-reason holds: a lidar that is stale or disconnected after having been seen, or a SafeStop
-(a faulted module, later a close obstacle or lost localization) not yet cleared by its key.
-It clamps what it passes to the robot's speed limits, then lets its limiters (the collision
-guard) reduce it. The chassis driver adds the last
-guard: with no fresh DriveCommand for ``safety.reaction_timeout_s`` it writes zero itself.
+reason holds: a sensor the estimate depends on that is stale or disconnected after having
+been seen (see ``SafetyGate``), or a SafeStop (a faulted module, lost localization) not yet
+cleared by its key. It clamps what it passes to the robot's speed limits, then lets its
+limiters (the collision guard) reduce it, again at every scan while the command stands. The
+chassis driver adds the last guard: with no fresh request for ``safety.reaction_timeout_s``
+(a DriveCommand's stamp is its request's) it writes zero itself.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from navd.lifecycle.messages import (
     DeviceResumed,
     DeviceStale,
     DriveCommand,
+    LaserScan,
     SafeStop,
     SafeStopCleared,
     SafetyState,
@@ -62,20 +64,57 @@ class SpeedLimiter(Protocol):
         """The command, possibly reduced, and why ("" when untouched)."""
 
 
+# Kinds whose silence or loss holds the robot whenever one was there: the lidar sees the
+# obstacles and localizes; the IMU's rates feed every pose.
+ESSENTIAL = frozenset({DeviceKind.LIDAR, DeviceKind.IMU})
+# Kinds that hold the robot only while no lidar is there (then they are what localizes it).
+WITHOUT_LIDAR = frozenset({DeviceKind.GPS, DeviceKind.WHEEL_ODOMETRY})
+# Device holds listed one by one in the reasons; more are summed up (a bounded status frame).
+MAX_LISTED_DEVICES = 8
+
+
+@dataclass(frozen=True, slots=True)
+class _DeviceHold:
+    """A device that holds the robot still.
+
+    Attributes:
+        kind: what it was.
+        since_s: [s] daemon time it fell silent or left.
+        left: it disconnected (a silent one is still connected).
+        why: the reason as the status shows it.
+    """
+
+    kind: DeviceKind
+    since_s: float
+    left: bool
+    why: str
+
+
 class SafetyGate(Module):
-    """Turns requested VelocityCommands into DriveCommands, or zero while unsafe."""
+    """Turns requested VelocityCommands into DriveCommands, or zero while unsafe.
+
+    Device rules: a lidar or an IMU that falls silent or leaves holds the robot until it is
+    back, or, once it has left, until another of its kind connects (a sensor program
+    restarted under a new id); a GPS or wheel odometry does so only while no lidar is there.
+    A device still connected but silent holds the robot until it speaks or leaves.
+    """
 
     def __init__(self, limiters: Sequence[SpeedLimiter] = ()) -> None:
         super().__init__("safety")
-        self._reasons: dict[str, str] = {}
+        self._reasons: dict[str, str] = {}  # SafeStop holds, by key
+        self._fresh: dict[str, DeviceKind] = {}  # devices connected and speaking
+        self._device_holds: dict[str, _DeviceHold] = {}  # by device id
         self._limiters = tuple(limiters)
+        self._request: VelocityCommand | None = None  # the last command asked for
+        self._driven = (0.0, 0.0)  # [m/s, rad/s] what the gate last let through
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self.settings = ctx.settings(GateSettings)
         ctx.subscribe(VelocityCommand, self._on_velocity)
-        ctx.subscribe(DeviceStale, self._on_stale)
-        ctx.subscribe(DeviceLost, self._on_lost)
+        ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(DeviceStale, self._on_gone)
+        ctx.subscribe(DeviceLost, self._on_gone)
         ctx.subscribe(DeviceResumed, self._on_back)
         ctx.subscribe(DeviceConnected, self._on_back)
         ctx.subscribe(SafeStop, self._on_safe_stop)
@@ -86,13 +125,41 @@ class SafetyGate(Module):
 
     @property
     def reasons(self) -> tuple[str, ...]:
-        """Why the robot is held still, in the order the reasons arose."""
-        return tuple(self._reasons.values())
+        """Why the robot is held still: stops in the order they arose, then the devices."""
+        devices = [hold.why for hold in self._device_holds.values()]
+        if len(devices) > MAX_LISTED_DEVICES:
+            more = len(devices) - MAX_LISTED_DEVICES
+            devices = [*devices[:MAX_LISTED_DEVICES], f"and {more} more devices gone"]
+        return (*self._reasons.values(), *devices)
+
+    @property
+    def held(self) -> bool:
+        """True while any reason holds the robot still."""
+        return bool(self._reasons or self._device_holds)
+
+    # --- commands ---------------------------------------------------------------------------
 
     def _on_velocity(self, cmd: VelocityCommand) -> None:
-        if self._reasons:
-            self._drive(0.0, 0.0, "; ".join(self._reasons.values()))
+        self._request = cmd
+        if self.held:
+            self._drive(0.0, 0.0, "; ".join(self.reasons), cmd.stamp)
             return
+        linear, angular, why = self._limit(cmd)
+        self._drive(linear, angular, why, cmd.stamp)
+
+    def _on_scan(self, _scan: LaserScan) -> None:
+        """A new scan sweeps the command in force again: an obstacle that came into its path
+        cuts it now, not at the next request (the chassis repeats it meanwhile). It keeps
+        its request's stamp, so the chassis still stops when requests stop coming."""
+        cmd = self._request
+        if cmd is None or self.held or self._driven == (0.0, 0.0):
+            return
+        linear, angular, why = self._limit(cmd)
+        if abs(linear) < abs(self._driven[0]) or abs(angular) < abs(self._driven[1]):
+            self._drive(linear, angular, why, cmd.stamp)
+
+    def _limit(self, cmd: VelocityCommand) -> tuple[float, float, str]:
+        """The command clamped to the robot's limits, then reduced by each limiter."""
         limits = self.settings.value
         linear = min(max(cmd.linear_mps, -limits.max_reverse_mps), limits.max_forward_mps)
         yaw_limit = limits.max_yaw_rate_radps
@@ -103,46 +170,73 @@ class SafetyGate(Module):
             linear, angular, why = limiter.limit(linear, angular)
             if why:
                 reasons.append(why)
-        self._drive(linear, angular, "; ".join(reasons))
+        return linear, angular, "; ".join(reasons)
 
-    def _on_stale(self, msg: DeviceStale) -> None:
-        if msg.kind is DeviceKind.LIDAR:
-            self._hold(
-                f"lidar:{msg.device_id}", f"lidar {msg.device_id!r} silent {msg.silent_s:.2f} s"
-            )
+    # --- devices ----------------------------------------------------------------------------
 
-    def _on_lost(self, msg: DeviceLost) -> None:
-        if msg.kind is DeviceKind.LIDAR:
-            self._hold(f"lidar:{msg.device_id}", f"lidar {msg.device_id!r} lost: {msg.reason}")
+    def _on_gone(self, msg: DeviceStale | DeviceLost) -> None:
+        self._fresh.pop(msg.device_id, None)
+        holds = msg.kind in ESSENTIAL or (msg.kind in WITHOUT_LIDAR and not self._has_lidar())
+        if not holds:
+            return
+        what = (
+            f"silent {msg.silent_s:.2f} s"
+            if isinstance(msg, DeviceStale)
+            else f"lost: {msg.reason}"
+        )
+        fresh = msg.device_id not in self._device_holds
+        why = f"{msg.kind.value} {msg.device_id!r} {what}"
+        left = isinstance(msg, DeviceLost)
+        self._device_holds[msg.device_id] = _DeviceHold(msg.kind, msg.stamp, left, why)
+        if fresh:
+            self._held_now(why)
 
     def _on_back(self, msg: DeviceResumed | DeviceConnected) -> None:
-        if msg.kind is DeviceKind.LIDAR:
-            self._release(f"lidar:{msg.device_id}")
+        if msg.kind not in ESSENTIAL | WITHOUT_LIDAR:
+            return
+        self._fresh[msg.device_id] = msg.kind
+        released = [msg.device_id]
+        if isinstance(msg, DeviceConnected):
+            # one of a kind coming after another left: the same sensor under a new id
+            released += [
+                device
+                for device, hold in self._device_holds.items()
+                if hold.left and hold.kind is msg.kind and hold.since_s <= msg.stamp
+            ]
+        if msg.kind is DeviceKind.LIDAR:  # what stood in for a missing lidar matters no more
+            released += [d for d, h in self._device_holds.items() if h.kind in WITHOUT_LIDAR]
+        changed = [d for d in released if self._device_holds.pop(d, None) is not None]
+        if changed:
+            self.ctx.log.info("safety_release", devices=changed, remaining=self.reasons)
+            self._publish_state()
+
+    def _has_lidar(self) -> bool:
+        return DeviceKind.LIDAR in self._fresh.values()
+
+    # --- stops ------------------------------------------------------------------------------
 
     def _on_safe_stop(self, msg: SafeStop) -> None:
-        self._hold(msg.key, msg.reason)
+        fresh = msg.key not in self._reasons
+        self._reasons[msg.key] = msg.reason
+        if fresh:
+            self._held_now(msg.reason)
 
     def _on_cleared(self, msg: SafeStopCleared) -> None:
-        self._release(msg.key)
-
-    def _hold(self, key: str, text: str) -> None:
-        fresh = key not in self._reasons
-        self._reasons[key] = text
-        if fresh:
-            self.ctx.log.warning("safety_hold", reason=text)
-            self._drive(0.0, 0.0, text)
+        if self._reasons.pop(msg.key, None) is not None:
+            self.ctx.log.info("safety_release", reason=msg.key, remaining=self.reasons)
             self._publish_state()
 
-    def _release(self, key: str) -> None:
-        if self._reasons.pop(key, None) is not None:
-            self.ctx.log.info("safety_release", reason=key, remaining=self.reasons)
-            self._publish_state()
+    def _held_now(self, text: str) -> None:
+        self.ctx.log.warning("safety_hold", reason=text)
+        self._drive(0.0, 0.0, text, self.ctx.clock.now())
+        self._publish_state()
 
-    def _drive(self, linear: float, angular: float, reason: str) -> None:
+    def _drive(self, linear: float, angular: float, reason: str, stamp: float) -> None:
+        self._driven = (linear, angular)
         now = self.ctx.clock.now()
         self.ctx.publish(
             DriveCommand(
-                stamp=now, received=now, linear_mps=linear, angular_radps=angular, reason=reason
+                stamp=stamp, received=now, linear_mps=linear, angular_radps=angular, reason=reason
             )
         )
 

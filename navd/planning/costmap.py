@@ -137,6 +137,21 @@ class ObstacleLayer:
         mask: BoolArray = self.last_seen >= now - self.persistence_s
         return mask
 
+    def active_bounds(self, now: float) -> tuple[float, float, float, float] | None:
+        """[m] (min x, min y, max x, max y) of the cells active at ``now``, None if none."""
+        mask = self.active(now)
+        rows = np.flatnonzero(mask.any(axis=1))
+        if rows.size == 0:
+            return None
+        cols = np.flatnonzero(mask[rows[0] : rows[-1] + 1].any(axis=0))
+        f = self.frame
+        return (
+            f.origin_x_m + cols[0] * f.resolution_m,
+            f.origin_y_m + rows[0] * f.resolution_m,
+            f.origin_x_m + (cols[-1] + 1) * f.resolution_m,
+            f.origin_y_m + (rows[-1] + 1) * f.resolution_m,
+        )
+
     def clear_disc(self, x_m: float, y_m: float, radius_m: float) -> None:
         """Forget every mark within ``radius_m`` of (x_m, y_m) (stuck recovery)."""
         rows, cols = np.ogrid[: self.frame.rows, : self.frame.cols]

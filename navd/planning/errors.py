@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from navd.errors import NavdError
 
-__all__ = ["GoalUnreachableError", "PlanningError", "StartBlockedError"]
+__all__ = ["GoalRefusedError", "GoalUnreachableError", "PlanningError", "StartBlockedError"]
 
 
 class PlanningError(NavdError):
@@ -21,3 +21,8 @@ class GoalUnreachableError(PlanningError):
 
 class StartBlockedError(PlanningError):
     """The robot's own cell is off the map or too close to an obstacle to plan from."""
+
+
+class GoalRefusedError(PlanningError):
+    """The goal cannot be planned for at all (too far away, too large an area to search):
+    trying again will not help, so the goal fails at once."""

@@ -18,6 +18,7 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
+from navd.planning.errors import GoalRefusedError
 
 __all__ = ["FRAME_MARGIN_M", "LayerSettings", "Layers"]
 
@@ -39,11 +40,13 @@ class LayerSettings:
         occupied_threshold_pct: [%] map cells at or above this occupancy are obstacles.
         obstacle_persistence_s: [s] a scan obstacle not seen again is forgotten after this.
         keep_out_zones: [m] polygons in the map frame the robot must never enter.
+        max_cells: [cells] the largest snapshot A* may be given (its memory and time).
     """
 
     occupied_threshold_pct: int
     obstacle_persistence_s: float
     keep_out_zones: Zones
+    max_cells: int
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> LayerSettings:
@@ -53,6 +56,7 @@ class LayerSettings:
             planning.occupied_threshold_pct,
             planning.obstacle_persistence_s,
             planning.keep_out_zones,
+            planning.max_plan_cells,
         )
 
 
@@ -115,8 +119,21 @@ class Layers:
         self, now: float, points_m: list[tuple[float, float]]
     ) -> tuple[GridFrame, BoolArray, BoolArray]:
         """(frame, obstacle cells, unknown cells) of all layers at ``now``, on a frame holding
-        the map and ``points_m`` (the robot, the goal) with a margin."""
-        frame = self._frame(points_m)
+        the map, ``points_m`` (the robot, the goal) with a margin, and the scan obstacles
+        still remembered.
+
+        Raises:
+            GoalRefusedError: that frame would hold more than ``max_cells`` cells.
+        """
+        frame = self._frame(points_m, now)
+        limit = self.settings.max_cells
+        if frame.rows * frame.cols > limit:
+            res = frame.resolution_m
+            raise GoalRefusedError(
+                f"the area to plan over, {frame.cols * res:.0f} x {frame.rows * res:.0f} m "
+                f"(the map, the robot and the goal), is {frame.rows * frame.cols} cells of "
+                f"{res:g} m: more than planning.max_plan_cells ({limit}); give a nearer goal"
+            )
         obstacles = np.zeros(frame.shape, dtype=np.bool_)
         unknown = np.ones(frame.shape, dtype=np.bool_)
         if self.map is not None:
@@ -156,9 +173,10 @@ class Layers:
             parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
-    def _frame(self, points_m: list[tuple[float, float]]) -> GridFrame:
-        """The map's frame grown in whole cells to hold ``points_m`` with a margin, and never
-        smaller than the obstacle layer's (its marks stay)."""
+    def _frame(self, points_m: list[tuple[float, float]], now: float) -> GridFrame:
+        """The map's frame grown in whole cells to hold ``points_m`` with a margin, and the
+        scan obstacles still remembered at ``now`` (a frame grown once for a far goal
+        shrinks again when its marks expire)."""
         res = self.map[0].resolution_m if self.map is not None else DEFAULT_RESOLUTION_M
         xs = [p[0] for p in points_m]
         ys = [p[1] for p in points_m]
@@ -175,11 +193,12 @@ class Layers:
             )
         elif self.obstacles is not None:
             anchor = (self.obstacles.frame.origin_x_m, self.obstacles.frame.origin_y_m)
-        old = self.obstacles.frame if self.obstacles is not None else None
-        if old is not None and old.resolution_m == res and _aligned(old, anchor):
-            lo_x, lo_y = min(lo_x, old.origin_x_m), min(lo_y, old.origin_y_m)
-            hi_x = max(hi_x, old.origin_x_m + old.cols * res)
-            hi_y = max(hi_y, old.origin_y_m + old.rows * res)
+        layer = self.obstacles
+        if layer is not None and layer.frame.resolution_m == res and _aligned(layer.frame, anchor):
+            marks = layer.active_bounds(now)
+            if marks is not None:
+                lo_x, lo_y = min(lo_x, marks[0]), min(lo_y, marks[1])
+                hi_x, hi_y = max(hi_x, marks[2]), max(hi_y, marks[3])
         # Snap to the anchor's cell lattice so the layers line up cell for cell.
         ox = anchor[0] + math.floor(round((lo_x - anchor[0]) / res, 6)) * res
         oy = anchor[1] + math.floor(round((lo_y - anchor[1]) / res, 6)) * res

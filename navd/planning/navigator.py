@@ -24,11 +24,11 @@ from navd.geometry.angles import angle_between
 from navd.geometry.pose import Pose2
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import LocalPlanner, Window
-from navd.planning.errors import PlanningError
+from navd.planning.errors import GoalRefusedError, PlanningError
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
 from navd.planning.layers import Layers
 from navd.planning.route import Route
-from navd.planning.settings import NavigatorSettings
+from navd.planning.settings import NavigatorSettings, goal_too_far
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
 __all__ = ["GoalState", "NavGoal", "Navigator", "PlanRequest", "Step"]
@@ -233,11 +233,16 @@ class Navigator:
 
         Raises:
             PlanningError: there is no goal.
+            GoalRefusedError: the goal is too far from the robot, or the area to plan over
+                too large.
         """
         if self.goal is None:
             raise PlanningError("no goal to plan for")
         start = (pose.x, pose.y)
         goal = (self.goal.x_m, self.goal.y_m)
+        too_far = goal_too_far(self.settings, start, goal)
+        if too_far is not None:
+            raise GoalRefusedError(too_far)
         frame, obstacles, unknown = self.map_layers.snapshot(now, [start, goal])
         s = self.settings
         return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal)
@@ -251,7 +256,11 @@ class Navigator:
         self._plan_reason = None
 
     def plan_failed(self, now: float, error: PlanningError) -> None:
-        """A* found no route: keep trying until max_stuck_time_s has passed, then fail."""
+        """A* found no route: keep trying until max_stuck_time_s has passed, then fail; a
+        goal refused outright (GoalRefusedError) fails at once."""
+        if isinstance(error, GoalRefusedError):
+            self.abort(str(error))
+            return
         if self._failing_since is None:
             self._failing_since = now
         self._planned_at = now
@@ -263,6 +272,16 @@ class Navigator:
             self.state = GoalState.FAILED
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
+    def abort(self, reason: str) -> None:
+        """Fail the goal now, for ``reason`` (a goal refused, or planning that broke)."""
+        if self.state is not GoalState.ACTIVE:
+            return
+        self.state = GoalState.FAILED
+        self._fail_reason = reason
+        self._command = (0.0, 0.0)
+        self.path = None
+        self.route = None
+
     def costmap(self, now: float, pose: Pose2) -> Costmap:
         """The inflated costmap of all layers now."""
         points = [(pose.x, pose.y)]
@@ -272,8 +291,15 @@ class Navigator:
 
     # --- control ---------------------------------------------------------------------------
 
-    def step(self, now: float, pose: Pose2) -> Step:
-        """One control period at ``now`` [s] with the robot at ``pose``."""
+    def step(self, now: float, pose: Pose2, driven: tuple[float, float] | None = None) -> Step:
+        """One control period at ``now`` [s] with the robot at ``pose``.
+
+        ``driven`` [m/s, rad/s] is what the robot was last told to do, if the caller knows
+        better than this navigator's own last choice (a safety hold or a chassis outage
+        stopped it meanwhile): the acceleration limits apply from there.
+        """
+        if driven is not None:
+            self._command = driven
         goal = self.goal
         if self.state is not GoalState.ACTIVE or goal is None:
             self._command = (0.0, 0.0)
@@ -377,6 +403,11 @@ class Navigator:
             stuck_detected=True,
             phase=StuckPhase.STUCK,
         )
+
+    @property
+    def failure(self) -> str:
+        """Why the goal failed ("" unless it did)."""
+        return self._fail_reason if self.state is GoalState.FAILED else ""
 
     @property
     def stuck_replans(self) -> int:

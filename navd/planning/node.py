@@ -4,13 +4,20 @@ Every ``planning.control_rate_hz`` tick (on the event loop, cheap) submits one n
 to the ``local_plan`` worker slot (goal checks, stuck handling, velocity profile, DWA; it
 returns the VelocityCommand and decides whether the route must be planned); when the last
 step said so, the tick also submits A* to the ``global_plan`` slot, which takes a snapshot of
-the layers and plans on it. Map updates and scans feed the layers in the ``planning_map``
-and ``planning_scan`` slots. The navigator is shared by these threads under one lock, held
-only for cheap work: A* runs outside it. New settings reach the navigator under the same
-lock (its stuck watch, route and layers carry on).
+the layers and plans on it. Goals and cancels reach the navigator through the
+``planning_goals`` slot, map updates and scans through ``planning_map`` and
+``planning_scan``. The navigator is shared by these threads under one lock, held only for
+cheap work (A* runs outside it) and never taken on the event loop, so no snapshot of a large
+map can stall the loop. New settings reach the navigator under the same lock, in a worker.
+
+A goal farther than ``planning.max_goal_distance_m`` from the robot fails at once with the
+reason; one that needs a larger grid than ``planning.max_plan_cells`` fails when it is
+planned; planning that breaks in any other way fails the goal too, never the module.
 
 The robot is never driven on an old pose: when the last PoseEstimate is older than
-``POSE_TIMEOUT_S`` the step commands zero.
+``POSE_TIMEOUT_S`` the step commands zero. DWA's acceleration window starts from what the
+chassis was last told (zero after a safety hold, a chassis outage or a silent spell), not
+from the navigator's own last choice.
 """
 
 from __future__ import annotations
@@ -27,6 +34,10 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
     CancelGoal,
+    DeviceConnected,
+    DeviceKind,
+    DeviceLost,
+    DriveCommand,
     Goal,
     GoalStatus,
     LaserScan,
@@ -40,7 +51,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
 from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
-from navd.planning.settings import NavigatorSettings
+from navd.planning.settings import NavigatorSettings, goal_too_far
 from navd.planning.warmup import warm_up
 
 __all__ = ["PlannerNode", "PlannerSettings"]
@@ -59,12 +70,14 @@ class PlannerSettings:
         control_period_s: [s] period of the control tick.
         mount: where the lidar sits, for the scan obstacles.
         obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
+        reaction_timeout_s: [s] the chassis stops itself on a command older than this.
     """
 
     navigator: NavigatorSettings
     control_period_s: float
     mount: LidarMount
     obstacle_range_m: float
+    reaction_timeout_s: float
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> PlannerSettings:
@@ -74,6 +87,7 @@ class PlannerSettings:
             control_period_s=1.0 / config.planning.control_rate_hz,
             mount=LidarMount.of(config.lidar),
             obstacle_range_m=config.planning.obstacle_range_m,
+            reaction_timeout_s=config.safety.reaction_timeout_s,
         )
 
 
@@ -82,11 +96,15 @@ class PlannerNode(Module):
 
     def __init__(self) -> None:
         super().__init__("planner")
-        self._lock = threading.Lock()
-        self._pose: Pose2 | None = None
-        self._pose_stamp = -math.inf
+        self._lock = threading.Lock()  # the navigator: worker jobs only, never the event loop
+        self._flags = threading.Lock()  # the three fields below, a few lines at a time
+        self._inbox: list[Goal | CancelGoal] = []
         self._planning = False
         self._plan_due: str | None = None
+        self._pose: Pose2 | None = None
+        self._pose_stamp = -math.inf
+        self._driven: tuple[float, float] | None = None  # [m/s, rad/s] the chassis's command
+        self._driven_stamp = -math.inf
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
 
@@ -99,6 +117,9 @@ class PlannerNode(Module):
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(DriveCommand, self._on_drive)
+        ctx.subscribe(DeviceLost, self._on_chassis)
+        ctx.subscribe(DeviceConnected, self._on_chassis)
 
     async def on_activate(self) -> None:
         self.ctx.warm_up(warm_up, name="warm-up")
@@ -110,40 +131,58 @@ class PlannerNode(Module):
 
     def _settings_changed(self, old: PlannerSettings, new: PlannerSettings) -> None:
         if new.navigator != old.navigator:
-            with self._lock:
-                self.nav.configure(new.navigator)
+
+            def job() -> None:
+                with self._lock:
+                    self.nav.configure(new.navigator)
+
+            self.ctx.submit("planning_settings", job)
 
     async def on_deactivate(self) -> None:
-        with self._lock:
+        with self._lock:  # the loop waits for the navigator once: the daemon is stopping
             active = self.nav.cancel()
         if active is not None:
-            self._stop("the daemon is stopping")
-            self._status(active.goal_id, GoalState.CANCELED, reason="the daemon is stopping")
+            self.ctx.publish(self._stop_command())
+            self.ctx.publish(
+                self._status(active.goal_id, GoalState.CANCELED, "the daemon is stopping")
+            )
 
     # --- inputs (event loop) ---------------------------------------------------------------
 
     def _on_goal(self, goal: Goal) -> None:
-        with self._lock:
-            previous = self.nav.cancel()
-            self.nav.set_goal(NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad))
-            self._plan_due = "new goal"
-        if previous is not None and previous.goal_id != goal.goal_id:
-            self._status(
-                previous.goal_id, GoalState.CANCELED, reason=f"replaced by {goal.goal_id!r}"
+        pose = self._pose
+        if pose is not None:
+            refusal = goal_too_far(
+                self.settings.value.navigator, (pose.x, pose.y), (goal.x_m, goal.y_m)
             )
-        self.ctx.log.info("goal", goal_id=goal.goal_id, x=goal.x_m, y=goal.y_m, yaw=goal.yaw_rad)
-        self._status(goal.goal_id, GoalState.ACTIVE)
+            if refusal is not None:
+                self.ctx.log.warning("goal_refused", goal_id=goal.goal_id, reason=refusal)
+                self.ctx.publish(self._goal_status(goal.goal_id, GoalState.FAILED, refusal))
+                return
+        self._post(goal)
 
     def _on_cancel(self, cancel: CancelGoal) -> None:
-        with self._lock:
-            goal = self.nav.goal
-            if goal is None or (cancel.goal_id is not None and cancel.goal_id != goal.goal_id):
-                return
-            active = self.nav.cancel()
-        if active is not None:
-            self._stop("goal canceled")
-            self._status(active.goal_id, GoalState.CANCELED, reason="canceled by a client")
-            self.ctx.log.info("goal_canceled", goal_id=active.goal_id)
+        goal = self.nav.goal  # a glance without the lock: the job decides under it
+        if (
+            self.nav.state is GoalState.ACTIVE
+            and goal is not None
+            and cancel.goal_id in (None, goal.goal_id)
+        ):
+            self.ctx.publish(self._stop_command())  # stopping never waits for a worker
+        self._post(cancel)
+
+    def _post(self, request: Goal | CancelGoal) -> None:
+        with self._flags:
+            self._inbox.append(request)
+        self.ctx.submit("planning_goals", self._take_requests)
+
+    def _on_drive(self, cmd: DriveCommand) -> None:
+        self._driven = (cmd.linear_mps, cmd.angular_radps)
+        self._driven_stamp = cmd.stamp
+
+    def _on_chassis(self, msg: DeviceLost | DeviceConnected) -> None:
+        if msg.kind is DeviceKind.CHASSIS:  # the chassis stops on losing or reopening its port
+            self._driven = (0.0, 0.0)
 
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = pose.pose
@@ -174,43 +213,96 @@ class PlannerNode(Module):
 
         self.ctx.submit("planning_scan", job)
 
+    # --- goals (worker) ----------------------------------------------------------------------
+
+    def _take_requests(self) -> tuple[Message, ...]:
+        """Worker: apply the goals and cancels that came, in order."""
+        with self._flags:
+            requests, self._inbox = self._inbox, []
+        messages: list[Message] = []
+        with self._lock:
+            for request in requests:
+                if isinstance(request, Goal):
+                    messages += self._start(request)
+                else:
+                    messages += self._cancel(request)
+        return tuple(messages)
+
+    def _start(self, goal: Goal) -> list[Message]:
+        previous = self.nav.cancel()
+        self.nav.set_goal(NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad))
+        with self._flags:
+            self._plan_due = "new goal"
+        messages: list[Message] = []
+        if previous is not None and previous.goal_id != goal.goal_id:
+            why = f"replaced by {goal.goal_id!r}"
+            messages.append(self._status(previous.goal_id, GoalState.CANCELED, why))
+        self.ctx.log.info("goal", goal_id=goal.goal_id, x=goal.x_m, y=goal.y_m, yaw=goal.yaw_rad)
+        messages.append(self._status(goal.goal_id, GoalState.ACTIVE))
+        return messages
+
+    def _cancel(self, cancel: CancelGoal) -> list[Message]:
+        goal = self.nav.goal
+        if goal is None or cancel.goal_id not in (None, goal.goal_id):
+            return []
+        active = self.nav.cancel()
+        if active is None:
+            return []
+        self.ctx.log.info("goal_canceled", goal_id=active.goal_id)
+        return [
+            self._stop_command(),
+            self._status(active.goal_id, GoalState.CANCELED, "canceled by a client"),
+        ]
+
     # --- control (event loop, then workers) ------------------------------------------------
 
     def _tick(self, now: float) -> None:
         """Event loop, cheap: submit this period's step, and A* if the last step asked."""
-        pose = self._pose
-        with self._lock:
-            if self.nav.state is not GoalState.ACTIVE:
-                return
-        if pose is None or now - self._pose_stamp > POSE_TIMEOUT_S:
-            self._stop("no fresh pose estimate")
+        if self.nav.state is not GoalState.ACTIVE:  # a glance: the step decides under the lock
             return
-        with self._lock:
+        pose = self._pose
+        if pose is None or now - self._pose_stamp > POSE_TIMEOUT_S:
+            self.ctx.publish(self._stop_command())
+            self.ctx.log.debug("planner_stop", reason="no fresh pose estimate")
+            return
+        with self._flags:
             reason = None if self._planning else self._plan_due
             if reason is not None:
                 self._planning = True
                 self._plan_due = None
         if reason is not None:
             self.ctx.submit("global_plan", lambda: self._plan(now, pose, reason))
-        self.ctx.submit("local_plan", lambda: self._step(now, pose))
+        driven = self._driven
+        if driven is not None and now - self._driven_stamp > self.settings.value.reaction_timeout_s:
+            driven = (0.0, 0.0)  # the chassis has stopped itself
+        self.ctx.submit("local_plan", lambda: self._step(now, pose, driven))
 
     def _plan(self, now: float, pose: Pose2, reason: str) -> tuple[Message, ...]:
         """Worker: a snapshot of the layers (under the lock), A* on it (outside), then the
-        route to the navigator."""
+        route to the navigator. Whatever goes wrong fails or delays the goal with the reason;
+        the next goal plans afresh."""
         try:
             with self._lock:
+                goal = self.nav.goal
                 request = self.nav.request(now, pose)
             path = request.solve(self.nav.global_planner)
         except PlanningError as err:
-            with self._lock:
-                self.nav.plan_failed(now, err)
-                self._planning = False
             self.ctx.log.warning("plan_failed", reason=reason, error=str(err))
-            return ()
+            with self._lock:
+                if self.nav.goal is goal:
+                    self.nav.plan_failed(now, err)
+                return self._failed()
+        except Exception as err:  # out of memory, or a bug: the goal fails, the planner goes on
+            self.ctx.log.exception("plan_broke", reason=reason, error=f"{type(err).__name__}")
+            with self._lock:
+                if self.nav.goal is goal:
+                    self.nav.abort(f"planning failed: {type(err).__name__}: {err}")
+                return self._failed()
+        finally:
+            with self._flags:
+                self._planning = False
         with self._lock:
-            goal = self.nav.goal
-            self._planning = False
-            if goal is None or (goal.x_m, goal.y_m) != request.goal_xy_m:
+            if self.nav.goal is not goal or goal is None:
                 return ()  # the goal changed meanwhile: this route is for the old one
             self.nav.accept_plan(now, path)
         self.ctx.log.info(
@@ -223,18 +315,34 @@ class PlannerNode(Module):
         stamp = self.ctx.clock.now()
         return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
 
-    def _step(self, now: float, pose: Pose2) -> tuple[Message, ...]:
-        """Worker: one navigator step; the command, and status when it is due."""
+    def _failed(self) -> tuple[Message, ...]:
+        """Under the lock: the stop and the status of a goal that has just failed, if it has."""
+        goal = self.nav.goal
+        if goal is None or self.nav.state is not GoalState.FAILED:
+            return ()
+        failure = self.nav.failure
+        if self._last_state is GoalState.FAILED:
+            return ()
+        self.ctx.log.info("goal_done", goal_id=goal.goal_id, state="failed", reason=failure)
+        return (self._stop_command(), self._status(goal.goal_id, GoalState.FAILED, failure))
+
+    def _step(
+        self, now: float, pose: Pose2, driven: tuple[float, float] | None
+    ) -> tuple[Message, ...]:
+        """Worker: one navigator step from the command ``driven`` [m/s, rad/s] the chassis
+        was last given (None: none seen); the command, and status when it is due."""
         with self._lock:
             goal = self.nav.goal
             if goal is None or self.nav.state is not GoalState.ACTIVE:
                 return ()
-            step = self.nav.step(now, pose)
+            step = self.nav.step(now, pose, driven)
             replans = self.nav.stuck_replans
             # Whether A* must run is decided here, in the worker; the next tick submits it.
             # While a search runs its reason still stands: asking again would plan twice.
-            if not self._planning:
-                self._plan_due = self.nav.plan_reason(now, pose)
+            due = self.nav.plan_reason(now, pose)
+            with self._flags:
+                if not self._planning:
+                    self._plan_due = due
         stamp = self.ctx.clock.now()
         messages: list[Message] = [
             VelocityCommand(
@@ -286,19 +394,20 @@ class PlannerNode(Module):
             reason=step.reason,
         )
 
-    def _stop(self, why: str) -> None:
+    def _stop_command(self) -> VelocityCommand:
         now = self.ctx.clock.now()
-        self.ctx.publish(
-            VelocityCommand(
-                stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source=SOURCE
-            )
+        return VelocityCommand(
+            stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source=SOURCE
         )
-        self.ctx.log.debug("planner_stop", reason=why)
 
-    def _status(self, goal_id: str, state: GoalState, reason: str = "") -> None:
-        now = self.ctx.clock.now()
+    def _status(self, goal_id: str, state: GoalState, reason: str = "") -> GoalStatus:
+        """The status of the goal the navigator holds (remembered, so a step does not repeat
+        it)."""
+        message = self._goal_status(goal_id, state, reason)
         self._last_state = state
-        self._status_at = now
-        self.ctx.publish(
-            GoalStatus(stamp=now, received=now, goal_id=goal_id, state=str(state), reason=reason)
-        )
+        self._status_at = message.stamp
+        return message
+
+    def _goal_status(self, goal_id: str, state: GoalState, reason: str = "") -> GoalStatus:
+        now = self.ctx.clock.now()
+        return GoalStatus(stamp=now, received=now, goal_id=goal_id, state=str(state), reason=reason)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from navd.config import NavdConfig
@@ -14,7 +15,7 @@ from navd.planning.margins import keep_clear_m
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckSettings
 
-__all__ = ["NavigatorSettings"]
+__all__ = ["NavigatorSettings", "goal_too_far"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +36,7 @@ class NavigatorSettings:
         min_linear_speed_mps: [m/s] slowest forward speed asked for (ETA floor).
         max_stuck_time_s: [s] no route for this long fails the goal.
         max_stuck_replans: [count] replans after StuckDetected before the goal fails.
+        max_goal_distance_m: [m] a goal farther than this from the robot fails at once.
     """
 
     footprint: Footprint
@@ -55,6 +57,7 @@ class NavigatorSettings:
     min_linear_speed_mps: float
     max_stuck_time_s: float
     max_stuck_replans: int
+    max_goal_distance_m: float
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> NavigatorSettings:
@@ -87,4 +90,19 @@ class NavigatorSettings:
             min_linear_speed_mps=planning.min_linear_speed_mps,
             max_stuck_time_s=planning.max_stuck_time_s,
             max_stuck_replans=planning.max_stuck_replans,
+            max_goal_distance_m=planning.max_goal_distance_m,
         )
+
+
+def goal_too_far(
+    settings: NavigatorSettings, robot_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
+) -> str | None:
+    """Why a goal is refused for its distance from the robot [m, map frame], or None."""
+    distance = math.hypot(goal_xy_m[0] - robot_xy_m[0], goal_xy_m[1] - robot_xy_m[1])
+    limit = settings.max_goal_distance_m
+    if distance <= limit:
+        return None
+    return (
+        f"goal ({goal_xy_m[0]:.1f}, {goal_xy_m[1]:.1f}) m is {distance:.0f} m from the robot, "
+        f"more than planning.max_goal_distance_m ({limit:g} m); give waypoints in between"
+    )

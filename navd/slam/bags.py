@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,6 +50,29 @@ class BagLog:
     mount: Pose2 | None
 
 
+# What a bag damaged in its bytes raises while it is read: the readers' own errors, the
+# decompressor's, the message parser's asserts and index errors, a record cut short.
+DAMAGE: tuple[type[Exception], ...] = (
+    OSError,
+    EOFError,
+    ValueError,
+    KeyError,
+    IndexError,
+    AssertionError,
+    struct.error,
+)
+
+
+def _damage() -> tuple[type[Exception], ...]:
+    """DAMAGE and the rosbags readers' error types (imported only when a bag is read)."""
+    from rosbags.highlevel import AnyReaderError  # noqa: PLC0415 - replay only
+    from rosbags.rosbag1 import ReaderError as Rosbag1Error  # noqa: PLC0415
+    from rosbags.rosbag2 import ReaderError as Rosbag2Error  # noqa: PLC0415
+    from rosbags.serde import SerdeError  # noqa: PLC0415
+
+    return (*DAMAGE, AnyReaderError, Rosbag1Error, Rosbag2Error, SerdeError)
+
+
 def is_bag(path: Path) -> bool:
     """True for a ROS 1 ``.bag`` file, a ROS 2 bag folder or a file inside one."""
     if path.suffix == ".bag":
@@ -67,15 +91,18 @@ def inspect_bag(
         LogFormatError: the bag cannot be read, has no laser topic, has several and none was
             chosen, or a chosen topic is missing or of another type (topics named).
     """
-    with _reader(path) as reader:
-        connections = reader.connections
-        scan = _pick(connections, SCAN_TYPE, scan_topic, "--scan-topic")
-        if scan is None:
-            every = sorted({f"{c.topic} ({c.msgtype})" for c in connections})
-            raise LogFormatError(f"{path}: no {SCAN_TYPE} topic; the bag has {every or 'none'}")
-        odom = _pick(connections, ODOM_TYPE, odom_topic, "--odom-topic")
-        scans = sum(c.msgcount for c in connections if c.topic == scan)
-        mount = _mount(reader, scan, odom) if scans else None
+    try:
+        with _reader(path) as reader:
+            connections = reader.connections
+            scan = _pick(connections, SCAN_TYPE, scan_topic, "--scan-topic")
+            if scan is None:
+                every = sorted({f"{c.topic} ({c.msgtype})" for c in connections})
+                raise LogFormatError(f"{path}: no {SCAN_TYPE} topic; the bag has {every or 'none'}")
+            odom = _pick(connections, ODOM_TYPE, odom_topic, "--odom-topic")
+            scans = sum(c.msgcount for c in connections if c.topic == scan)
+            mount = _mount(reader, scan, odom) if scans else None
+    except _damage() as err:
+        raise LogFormatError(f"{path}: damaged ({type(err).__name__}: {err})") from err
     return BagLog(_bag_path(path), scan, odom, scans, mount)
 
 
@@ -84,22 +111,33 @@ def read_bag(log: BagLog) -> Iterator[LogScan]:
 
     Stamps are the messages' header stamps; a zero header stamp falls back to the time the bag
     received the message.
+
+    Raises:
+        LogFormatError: the bag is damaged (cut short, bytes overwritten), named with the
+            scans read before the damage.
     """
-    with _reader(log.path) as reader:
-        track = _odometry(reader, log.odom_topic)
-        wanted = [c for c in reader.connections if c.topic == log.scan_topic]
-        for connection, received_ns, raw in reader.messages(connections=wanted):
-            msg = reader.deserialize(raw, connection.msgtype)
-            stamp = _stamp(msg.header.stamp, received_ns)
-            yield LogScan(
-                stamp,
-                float(msg.angle_min),
-                float(msg.angle_increment),
-                float(msg.range_min),
-                float(msg.range_max),
-                np.asarray(msg.ranges, dtype=np.float64),
-                track.at(stamp),
-            )
+    read = 0
+    try:
+        with _reader(log.path) as reader:
+            track = _odometry(reader, log.odom_topic)
+            wanted = [c for c in reader.connections if c.topic == log.scan_topic]
+            for connection, received_ns, raw in reader.messages(connections=wanted):
+                msg = reader.deserialize(raw, connection.msgtype)
+                stamp = _stamp(msg.header.stamp, received_ns)
+                read += 1
+                yield LogScan(
+                    stamp,
+                    float(msg.angle_min),
+                    float(msg.angle_increment),
+                    float(msg.range_min),
+                    float(msg.range_max),
+                    np.asarray(msg.ranges, dtype=np.float64),
+                    track.at(stamp),
+                )
+    except _damage() as err:
+        raise LogFormatError(
+            f"{log.path}: damaged after {read} scans ({type(err).__name__}: {err})"
+        ) from err
 
 
 # --- helpers ----------------------------------------------------------------------------

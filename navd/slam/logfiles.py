@@ -10,7 +10,8 @@ from __future__ import annotations
 import bisect
 import gzip
 import math
-from collections.abc import Iterator
+import zlib
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -50,11 +51,37 @@ def _open_text(path: Path) -> TextIO:
     return path.open("r", encoding="ascii")
 
 
+def _lines(path: Path) -> Iterator[tuple[int, str]]:
+    """The numbered lines of a text log (gzipped or not).
+
+    Raises:
+        LogFormatError: the file is not ASCII text, is cut short or damaged, or cannot be
+            read (the file, and the line reached, named).
+    """
+    number = 0
+    try:
+        with _open_text(path) as f:
+            for number, line in enumerate(f, 1):
+                yield number, line
+    except UnicodeDecodeError as err:
+        raise LogFormatError(f"{path}:{number + 1}: not ASCII text ({err.reason})") from err
+    except (EOFError, gzip.BadGzipFile, zlib.error) as err:
+        raise LogFormatError(f"{path}: cut short or damaged after line {number}: {err}") from err
+    except OSError as err:
+        raise LogFormatError(f"{path}: cannot be read: {err}") from err
+
+
 def _numbers(line: str, path: Path, number: int) -> list[float]:
     try:
         return [float(v) for v in line.split()]
     except ValueError as err:
         raise LogFormatError(f"{path}:{number}: not a line of numbers: {line[:60]!r}") from err
+
+
+def _finite(values: Iterable[float], what: str, path: Path, number: int) -> None:
+    """Raise unless every value is a finite number (stamps, poses, angles; ranges may be inf)."""
+    if not all(math.isfinite(v) for v in values):
+        raise LogFormatError(f"{path}:{number}: {what} must be finite numbers")
 
 
 class OdometryTrack:
@@ -91,27 +118,27 @@ def read_text_dump(scans: Path, odom: Path | None) -> Iterator[LogScan]:
     stamps: list[float] = []
     poses: list[Pose2] = []
     if odom is not None:
-        with _open_text(odom) as f:
-            for number, line in enumerate(f, 1):
-                if line.startswith("#") or not line.strip():
-                    continue
-                v = _numbers(line, odom, number)
-                if len(v) < 4:
-                    raise LogFormatError(f"{odom}:{number}: expected stamp x y theta ...")
-                stamps.append(v[0])
-                poses.append(Pose2(v[1], v[2], v[3]))
-    odometry = OdometryTrack(stamps, poses)
-    with _open_text(scans) as f:
-        for number, line in enumerate(f, 1):
+        for number, line in _lines(odom):
             if line.startswith("#") or not line.strip():
                 continue
-            v = _numbers(line, scans, number)
-            if len(v) < 6 or len(v) != 6 + int(v[5]):
-                raise LogFormatError(
-                    f"{scans}:{number}: expected stamp angle_min angle_increment range_min "
-                    f"range_max n and n ranges"
-                )
-            yield LogScan(v[0], v[1], v[2], v[3], v[4], np.array(v[6:]), odometry.at(v[0]))
+            v = _numbers(line, odom, number)
+            if len(v) < 4:
+                raise LogFormatError(f"{odom}:{number}: expected stamp x y theta ...")
+            _finite(v[:4], "stamp x y theta", odom, number)
+            stamps.append(v[0])
+            poses.append(Pose2(v[1], v[2], v[3]))
+    odometry = OdometryTrack(stamps, poses)
+    for number, line in _lines(scans):
+        if line.startswith("#") or not line.strip():
+            continue
+        v = _numbers(line, scans, number)
+        _finite(v[:6], "stamp angle_min angle_increment range_min range_max n", scans, number)
+        if len(v) < 6 or len(v) != 6 + int(v[5]):
+            raise LogFormatError(
+                f"{scans}:{number}: expected stamp angle_min angle_increment range_min "
+                f"range_max n and n ranges"
+            )
+        yield LogScan(v[0], v[1], v[2], v[3], v[4], np.array(v[6:]), odometry.at(v[0]))
 
 
 def read_carmen(path: Path, *, range_max: float = 80.0) -> Iterator[LogScan]:
@@ -120,32 +147,44 @@ def read_carmen(path: Path, *, range_max: float = 80.0) -> Iterator[LogScan]:
     FLASER stores no field of view: 180 degrees over its beams is assumed, as CARMEN does.
     The odometry pose is the one stored in each laser line.
     """
-    with _open_text(path) as f:
-        for number, line in enumerate(f, 1):
-            words = line.split()
-            if not words or words[0] not in ("FLASER", "ROBOTLASER1"):
-                continue
-            try:
-                if words[0] == "FLASER":
-                    n = int(words[1])
-                    ranges = np.array(words[2 : 2 + n], dtype=np.float64)
-                    rest = [float(w) for w in words[2 + n : 2 + n + 7]]
-                    odom = Pose2(rest[3], rest[4], rest[5])
-                    stamp = rest[6]
-                    inc = math.pi / (n - 1)
-                    yield LogScan(stamp, -math.pi / 2, inc, 0.0, range_max, ranges, odom)
-                else:
-                    start, fov, inc, max_range = (float(w) for w in words[2:6])
-                    n = int(words[8])
-                    ranges = np.array(words[9 : 9 + n], dtype=np.float64)
-                    m = int(words[9 + n])
-                    tail = [float(w) for w in words[10 + n + m : 10 + n + m + 14]]
-                    odom = Pose2(tail[3], tail[4], tail[5])
-                    stamp = float(words[10 + n + m + 11])
-                    del fov
-                    yield LogScan(stamp, start, inc, 0.0, max_range, ranges, odom)
-            except (ValueError, IndexError) as err:
-                raise LogFormatError(f"{path}:{number}: malformed {words[0]} line") from err
+    for number, line in _lines(path):
+        words = line.split()
+        if not words or words[0] not in ("FLASER", "ROBOTLASER1"):
+            continue
+        try:
+            scan = _carmen_scan(words, range_max)
+        except (ValueError, IndexError) as err:
+            raise LogFormatError(f"{path}:{number}: malformed {words[0]} line: {err}") from err
+        _finite(
+            (scan.stamp, scan.angle_min, scan.angle_increment), "stamp and angles", path, number
+        )
+        assert scan.odom is not None
+        _finite(scan.odom, "the odometry pose", path, number)
+        yield scan
+
+
+def _carmen_scan(words: list[str], range_max: float) -> LogScan:
+    """One FLASER or ROBOTLASER1 line, split into words.
+
+    Raises:
+        ValueError, IndexError: the line does not have its fields.
+    """
+    if words[0] == "FLASER":
+        n = int(words[1])
+        if n < 2:
+            raise ValueError(f"{n} beams; a scan needs at least 2")
+        ranges = np.array(words[2 : 2 + n], dtype=np.float64)
+        rest = [float(w) for w in words[2 + n : 2 + n + 7]]
+        odom = Pose2(rest[3], rest[4], rest[5])
+        return LogScan(rest[6], -math.pi / 2, math.pi / (n - 1), 0.0, range_max, ranges, odom)
+    start, _fov, inc, max_range = (float(w) for w in words[2:6])
+    n = int(words[8])
+    ranges = np.array(words[9 : 9 + n], dtype=np.float64)
+    m = int(words[9 + n])
+    tail = [float(w) for w in words[10 + n + m : 10 + n + m + 14]]
+    odom = Pose2(tail[3], tail[4], tail[5])
+    stamp = float(words[10 + n + m + 11])
+    return LogScan(stamp, start, inc, 0.0, max_range, ranges, odom)
 
 
 def open_log(path: Path) -> Iterator[LogScan]:
@@ -176,9 +215,9 @@ def count_scans(path: Path) -> int:
     name = path.name
     if not path.exists() or path.is_dir():
         return 0
-    with _open_text(path) as f:
-        if "_scans.txt" in name:
-            return sum(1 for line in f if line.strip() and not line.startswith("#"))
-        if name.endswith((".clf", ".clf.gz", ".log", ".log.gz")):
-            return sum(1 for line in f if line.startswith(("FLASER", "ROBOTLASER1")))
-        return 0
+    lines = (line for _, line in _lines(path))
+    if "_scans.txt" in name:
+        return sum(1 for line in lines if line.strip() and not line.startswith("#"))
+    if name.endswith((".clf", ".clf.gz", ".log", ".log.gz")):
+        return sum(1 for line in lines if line.startswith(("FLASER", "ROBOTLASER1")))
+    return 0

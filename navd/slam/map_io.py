@@ -15,6 +15,7 @@ import math
 import os
 import re
 import tempfile
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,7 @@ import numpy.typing as npt
 from navd.slam.errors import MapFileError
 from navd.slam.occupancy import OccupancyGrid
 
-__all__ = ["MapYaml", "load_map", "read_map_yaml", "read_pgm", "save_map"]
+__all__ = ["MapYaml", "clean_leftovers", "load_map", "read_map_yaml", "read_pgm", "save_map"]
 
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
@@ -206,6 +207,36 @@ def _remove_old(directory: Path, name: str, keep: str) -> None:
                 p.unlink()
 
 
+def clean_leftovers(directory: Path) -> list[Path]:
+    """Remove what saves cut short left in ``directory``: temporary files of unfinished
+    writes, and revision images and states no map's YAML points to (written before a crash
+    stopped the save from committing them). Returns what was removed; a folder that does not
+    exist, or a file that cannot be read or removed, is left as it is.
+    """
+    try:
+        entries = list(directory.iterdir())
+    except OSError:
+        return []
+    removed: list[Path] = []
+    kept: dict[str, str] = {}  # map name: the stem its YAML points to
+    for p in entries:
+        if p.suffix == ".yaml":
+            with contextlib.suppress(MapFileError, OSError):
+                kept[p.stem] = Path(read_map_yaml(p).image).stem
+    for p in entries:
+        leftover = re.match(r"^\..+\.(?:pgm|npz|yaml)\.[A-Za-z0-9_]+\.tmp$", p.name) is not None
+        revision = re.match(r"^(.+)\.\d+\.(?:pgm|npz)$", p.name)
+        if revision is not None and revision.group(1) in kept:
+            leftover = p.stem != kept[revision.group(1)]
+        if leftover:
+            try:
+                p.unlink()
+            except OSError:
+                continue
+            removed.append(p)
+    return removed
+
+
 def load_map(yaml_path: Path) -> OccupancyGrid:
     """A map saved by navd (exact, from its state file) or by any map_server tool (from the image).
 
@@ -224,7 +255,7 @@ def load_map(yaml_path: Path) -> OccupancyGrid:
                     float(data["origin"][1]),
                     float(data["resolution"]),
                 )
-        except (OSError, KeyError, ValueError) as err:
+        except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as err:
             raise MapFileError(f"{state}: unreadable navd map state: {err}") from err
     if not math.isclose(meta.origin[2], 0.0, abs_tol=1e-9):
         raise MapFileError(f"{yaml_path}: rotated map origins (yaw != 0) are not supported")

@@ -30,6 +30,7 @@ from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
     InitialPose,
     LaserScan,
+    MapSaved,
     MapUpdate,
     Message,
     PoseMeasurement,
@@ -39,7 +40,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
-from navd.slam.map_io import load_map, save_map
+from navd.slam.map_io import clean_leftovers, load_map, save_map
 from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.settings import MapperSettings
@@ -125,11 +126,12 @@ class SlamNode(Module):
         # Compile (or load from the cache) the kernels before the first scan; a scan job
         # arriving meanwhile waits in its worker on numba's compile lock, not on the loop.
         self.ctx.warm_up(warm_up, name="warm-up")
+        self.ctx.submit("map_save", self._clean_map_dir)  # before any save, in their slot
 
     async def on_deactivate(self) -> None:
         settings = self.settings.value  # map_dir, map_name, save_on_shutdown: read at use
         if settings.save_on_shutdown and not self.mapper.grid.empty:
-            self._save(settings.map_name, settings.map_dir)
+            self.ctx.publish(self._save(settings.map_name, settings.map_dir))
 
     def settings_in_use(self) -> tuple[object, ...]:
         odometry = self._scan_odometry
@@ -246,15 +248,38 @@ class SlamNode(Module):
         name = request.name or settings.map_name
         self.ctx.submit("map_save", lambda: self._save(name, settings.map_dir))
 
-    def _save(self, name: str, folder: str) -> None:
+    def _save(self, name: str, folder: str) -> MapSaved:
+        """Worker (or shutdown): write the map; a disk that refuses is reported, not raised
+        (it is not a fault of the mapper, and must never stop the robot)."""
         with self._lock:
             grid = self.mapper.grid
             if grid.empty:
                 self.ctx.log.warning("map_not_saved", reason="the map is empty", name=name)
-                return
+                return self._saved(name, reason="the map is empty")
             snapshot = type(grid).from_array(
                 grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
             )
             poses = np.array([tuple(k.pose) for k in self.mapper.keyframes]).reshape(-1, 3)
-        path = save_map(snapshot, Path(folder), name, keyframe_poses=poses)
+        try:
+            path = save_map(snapshot, Path(folder), name, keyframe_poses=poses)
+        except (MapFileError, OSError) as err:
+            self.ctx.log.error("map_not_saved", name=name, folder=folder, reason=str(err))
+            return self._saved(name, reason=f"cannot write to {folder}: {err}")
         self.ctx.log.info("map_saved", path=str(path))
+        return self._saved(name, path=str(path))
+
+    def _clean_map_dir(self) -> None:
+        """Worker: remove what saves cut short by a crash or a power cut left behind."""
+        folder = Path(self.settings.value.map_dir)
+        removed = clean_leftovers(folder)
+        if removed:
+            self.ctx.log.info(
+                "map_dir_cleaned",
+                folder=str(folder),
+                removed=len(removed),
+                first=[p.name for p in removed[:10]],
+            )
+
+    def _saved(self, name: str, *, path: str = "", reason: str = "") -> MapSaved:
+        now = self.ctx.clock.now()
+        return MapSaved(stamp=now, received=now, name=name, path=path, reason=reason)

@@ -26,6 +26,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.stats import percentile
 from navd.slam.bags import inspect_bag, is_bag, read_bag
+from navd.slam.errors import LogFormatError
 from navd.slam.logfiles import LogScan, count_scans, open_log
 from navd.slam.map_io import save_map
 from navd.slam.mapper import ScanMapper
@@ -119,6 +120,9 @@ def replay(
     Args:
         odometry: the motion prior: "log" (the log's odometry), "scan" (kiss-icp on the
             scans themselves) or "none" (the last pose).
+
+    Raises:
+        LogFormatError: a scan the log cannot give, or no scan at all.
     """
     if odometry not in ("log", "scan", "none"):
         raise ValueError(f"odometry must be log, scan or none, got {odometry!r}")
@@ -149,6 +153,8 @@ def replay(
         if progress is not None:
             progress(len(stamps), time.perf_counter() - start)
     wall = time.perf_counter() - start
+    if not stamps:
+        raise LogFormatError("it holds no laser scans: nothing to map")
     # The trajectory as the final pose graph has it (loop closures correct the past too).
     poses = mapper.trajectory()
     keyframes = np.array([tuple(k.pose) for k in mapper.keyframes]).reshape(-1, 3)

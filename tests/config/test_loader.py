@@ -66,6 +66,24 @@ def test_not_utf8(tmp_path: Path) -> None:
         load_config(path)
 
 
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[planning]\nangular_limit_table = [[0.0, nan]]\n", r"angular_limit_table\.0\.1 = nan"),
+        ("[planning]\nkeep_out_zones = [[[0, 0], [1, inf], [0, 1.0]]]\n", r"zones\.0\.1\.1 = inf"),
+        ("[safety]\nreaction_timeout_s = nan\n", r"safety\.reaction_timeout_s = nan"),
+    ],
+)
+def test_nan_and_infinity_are_refused_by_key(tmp_path: Path, text: str, match: str) -> None:
+    with pytest.raises(ConfigError, match=rf"{match}: Input should be a finite number"):
+        load_config_from(tmp_path, text)
+
+
+def test_a_document_nested_thousands_deep_is_one_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="nested too deeply to be a navd config"):
+        load_config_from(tmp_path, "x = " + "[" * 3000 + "]" * 3000 + "\n")
+
+
 def test_apply_changes_returns_new_config_and_changed_keys() -> None:
     old = NavdConfig()
     new, changed = apply_changes(

@@ -128,6 +128,7 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
     sections: dict[str, dict[str, Any]] = {
         "chassis": {"enabled": True, "port": str(link)},
         "slam": {"map_dir": str(tmp_path / "maps")},
+        "tcp": {"allow_privileged_changes": True},  # every key, privileged ones too
     }
     try:
         async with running_daemon(**sections) as (daemon, port):

@@ -269,6 +269,7 @@ async def test_a_new_command_rate_applies_at_once_without_a_restart(tmp_path: Pa
                     received=now,
                     request_id="r",
                     changes={"chassis.command_rate_hz": 50.0},
+                    privileged=True,  # as the config file may
                 )
             )
             # the tick already waiting keeps the old period; the new grid starts after it

@@ -119,12 +119,41 @@ async def test_config_change_is_applied_whole_and_reaches_the_bus(config: NavdCo
             received=0,
             request_id="r1",
             changes={"lifecycle.handler_budget_ms": 4.0, "safety.reaction_timeout_s": 0.3},
+            privileged=True,
         )
     )
     (applied,) = [m for m in journal if isinstance(m, ConfigApplied)]
     assert applied.changed_keys == ("safety.reaction_timeout_s", "lifecycle.handler_budget_ms")
     assert daemon.config.safety.reaction_timeout_s == 0.3
     assert daemon.bus.handler_budget_s == pytest.approx(0.004)
+    daemon.request_shutdown("done")
+    await task
+
+
+async def test_a_privileged_change_is_refused_unless_its_source_may(config: NavdConfig) -> None:
+    journal: list[object] = []
+    daemon = Daemon(config, [Probe(journal)], clock=SimClock(), handle_signals=False)
+    task = await _started(daemon)
+    before = daemon.config
+    daemon.bus.publish(
+        ConfigChange(
+            stamp=0,
+            received=0,
+            request_id="r3",
+            changes={
+                "planning.goal_weight": 2.0,
+                "safety.use_collisions": False,
+                "robot.max_linear_speed_mps": 10.0,
+                "slam.map_name": "other",
+            },
+        )
+    )
+    (rejected,) = [m for m in journal if isinstance(m, ConfigRejected)]
+    for key in ("safety.use_collisions", "robot.max_linear_speed_mps", "slam.map_name"):
+        assert f"{key}: a privileged key" in rejected.reason
+    assert "planning.goal_weight" not in rejected.reason
+    assert "tcp.allow_privileged_changes" in rejected.reason
+    assert daemon.config is before  # whole or nothing: the harmless key did not go in alone
     daemon.request_shutdown("done")
     await task
 
@@ -140,6 +169,7 @@ async def test_invalid_config_change_is_rejected_whole(config: NavdConfig) -> No
             received=0,
             request_id="r2",
             changes={"safety.reaction_timeout_s": 0.3, "robot.max_linear_speed_mps": -1.0},
+            privileged=True,
         )
     )
     (rejected,) = [m for m in journal if isinstance(m, ConfigRejected)]

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from navd.config import NavdConfig
@@ -11,15 +12,31 @@ from navd.lifecycle.messages import (
     DeviceResumed,
     DeviceStale,
     DriveCommand,
+    LaserScan,
     SafeStop,
     SafeStopCleared,
     SafetyState,
     VelocityCommand,
 )
 from navd.lifecycle.module import ModuleContext
-from navd.lifecycle.safety import SafetyGate
+from navd.lifecycle.safety import MAX_LISTED_DEVICES, SafetyGate
 from navd.lifecycle.workers import WorkerPool
 from tests.conftest import velocity
+
+
+def scan_message(t: float) -> LaserScan:
+    """A small scan stamped at ``t`` (what the gate sweeps again with)."""
+    ranges = np.full(8, 2.0, dtype=np.float32)
+    return LaserScan(
+        stamp=t,
+        received=t,
+        device_id="lidar0",
+        angle_min=-1.0,
+        angle_increment=0.25,
+        ranges=ranges,
+        range_min=0.1,
+        range_max=10.0,
+    )
 
 
 @pytest.fixture
@@ -80,13 +97,109 @@ async def test_lidar_loss_stops_until_it_is_back(
     assert [len(s.reasons) for s in states] == [1, 0]
 
 
-async def test_other_devices_do_not_stop_the_robot(bus: Bus, gate: SafetyGate) -> None:
+def _device(cls: type, kind: DeviceKind, device_id: str, t: float = 0.0, **extra: object):  # type: ignore[no-untyped-def]
+    return cls(stamp=t, received=t, device_id=device_id, kind=kind, **extra)
+
+
+async def test_a_lost_imu_stops_until_it_is_back(bus: Bus, gate: SafetyGate) -> None:
     drives = _drives(bus)
-    bus.publish(
-        DeviceStale(stamp=0, received=0, device_id="gps0", kind=DeviceKind.GPS, silent_s=5.0)
-    )
+    bus.publish(_device(DeviceConnected, DeviceKind.IMU, "imu0"))
+    bus.publish(_device(DeviceLost, DeviceKind.IMU, "imu0", reason="unplugged"))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "imu 'imu0' lost: unplugged" in drives[-1].reason
+    bus.publish(_device(DeviceConnected, DeviceKind.IMU, "imu0", t=1.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+
+
+async def test_a_lidar_restarted_under_a_new_id_releases_the_old_ones_hold(
+    bus: Bus, gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar-1"))
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "lidar-1", t=1.0, reason="crashed"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar-2", t=2.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+    assert gate.reasons == ()
+
+
+async def test_a_second_lidar_already_there_does_not_release_a_lost_one(
+    bus: Bus, gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "front"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "rear"))
+    bus.publish(_device(DeviceStale, DeviceKind.LIDAR, "front", t=1.0, silent_s=0.3))
+    bus.publish(_device(DeviceResumed, DeviceKind.LIDAR, "rear", t=1.5))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "lidar 'front' silent" in drives[-1].reason
+    # nor does one connecting anew: the silent one is still connected, not restarted
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "rear", t=2.0, reason="blip"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "rear", t=2.5))
+    assert [r for r in gate.reasons if "front" in r]
+
+
+async def test_gps_and_wheels_hold_only_while_no_lidar_is_there(bus: Bus, gate: SafetyGate) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar0"))
+    bus.publish(_device(DeviceStale, DeviceKind.GPS, "gps0", silent_s=5.0))
+    bus.publish(_device(DeviceStale, DeviceKind.COMPASS, "compass0", silent_s=5.0))
     bus.publish(velocity(0.3))
     assert [d.linear_mps for d in drives] == [0.3]
+    # an outdoor robot with no lidar: its GPS and wheels are what localize it
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "lidar0", t=1.0, reason="unplugged"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar9", t=2.0))  # a restart
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "lidar9", t=3.0, reason="unplugged"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar8", t=4.0))
+    assert gate.reasons == ()
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "lidar8", t=5.0, reason="gone"))
+    bus.publish(_device(DeviceConnected, DeviceKind.GPS, "gps1", t=5.0))
+    bus.publish(_device(DeviceStale, DeviceKind.GPS, "gps1", t=6.0, silent_s=2.0))
+    assert any("gps 'gps1' silent" in r for r in gate.reasons)
+    bus.publish(_device(DeviceResumed, DeviceKind.GPS, "gps1", t=7.0))
+    bus.publish(_device(DeviceStale, DeviceKind.WHEEL_ODOMETRY, "wheels", t=8.0, silent_s=1.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "wheel_odometry 'wheels'" in drives[-1].reason
+
+
+async def test_many_vanished_devices_give_a_bounded_reason_list(bus: Bus, gate: SafetyGate) -> None:
+    for i in range(20_000):
+        bus.publish(_device(DeviceLost, DeviceKind.IMU, f"ghost{i}", reason="gone"))
+    reasons = gate.reasons
+    assert len(reasons) == MAX_LISTED_DEVICES + 1
+    assert reasons[-1] == f"and {20_000 - MAX_LISTED_DEVICES} more devices gone"
+    bus.publish(_device(DeviceConnected, DeviceKind.IMU, "imu-new", t=1.0))
+    assert gate.reasons == ()  # an IMU came after them all: they were one sensor restarting
+
+
+class _Wall:
+    """A limiter that stops the robot once ``blocked`` is set (an obstacle came)."""
+
+    blocked = False
+
+    def limit(self, linear: float, angular: float) -> tuple[float, float, str]:
+        return (0.0, angular, "obstacle ahead") if self.blocked else (linear, angular, "")
+
+
+async def test_each_scan_sweeps_the_command_in_force_again(bus: Bus) -> None:
+    wall = _Wall()
+    gate = SafetyGate([wall])
+    config = NavdConfig()
+    ctx = ModuleContext(
+        "safety", bus=bus, clock=bus.clock, workers=WorkerPool(bus, 1), config=lambda: config
+    )
+    await gate.on_configure(ctx)
+    drives = _drives(bus)
+    bus.publish(velocity(0.3, t=4.0))
+    assert drives[-1].linear_mps == 0.3
+    bus.publish(scan_message(t=4.1))
+    assert len(drives) == 1  # nothing changed: the command stands as it was sent
+    wall.blocked = True
+    bus.publish(scan_message(t=4.2))
+    assert (drives[-1].linear_mps, drives[-1].reason) == (0.0, "obstacle ahead")
+    # the cut keeps its request's stamp: the chassis still stops when requests stop coming
+    assert drives[-1].stamp == 4.0
 
 
 async def test_safe_stop_holds_until_cleared_by_its_key(bus: Bus, gate: SafetyGate) -> None:

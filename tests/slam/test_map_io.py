@@ -14,7 +14,7 @@ from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam.errors import MapFileError
-from navd.slam.map_io import load_map, read_map_yaml, save_map
+from navd.slam.map_io import clean_leftovers, load_map, read_map_yaml, save_map
 from navd.slam.occupancy import OccupancyGrid
 
 
@@ -133,3 +133,34 @@ def test_a_missing_or_truncated_image_is_named(tmp_path: Path) -> None:
     (tmp_path / "m.pgm").write_bytes(b"P5\n4 4\n255\n" + b"\x00" * 5)
     with pytest.raises(MapFileError, match="truncated: 5 of 16"):
         load_map(tmp_path / "m.yaml")
+
+
+def test_what_cut_saves_left_behind_is_cleaned_and_nothing_else(tmp_path: Path) -> None:
+    save_map(_grid(), tmp_path, "office")
+    save_map(_grid(), tmp_path, "office")  # revision 2 is the one office.yaml names
+    # a crash between the images and the YAML, and one in the middle of a write
+    (tmp_path / "office.3.pgm").write_bytes(b"P5\n")
+    (tmp_path / "office.3.npz").write_bytes(b"PK")
+    (tmp_path / ".office.4.pgm.k2j3h4_x.tmp").write_bytes(b"half")
+    (tmp_path / ".office.yaml.abcdefgh.tmp").write_bytes(b"half")
+    # what is not a save's: a user's files, a map with no YAML of navd's
+    for name in ("notes.txt", ".editor.tmp", "plan.1.pgm", "office.pgm"):
+        (tmp_path / name).write_bytes(b"mine")
+    removed = clean_leftovers(tmp_path)
+    assert sorted(p.name for p in removed) == [
+        ".office.4.pgm.k2j3h4_x.tmp",
+        ".office.yaml.abcdefgh.tmp",
+        "office.3.npz",
+        "office.3.pgm",
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".editor.tmp",
+        "notes.txt",
+        "office.2.npz",
+        "office.2.pgm",
+        "office.pgm",
+        "office.yaml",
+        "plan.1.pgm",
+    ]
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, _grid().logodds)
+    assert clean_leftovers(tmp_path / "absent") == []

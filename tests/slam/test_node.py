@@ -7,10 +7,12 @@ import math
 from pathlib import Path
 
 from navd.bench.room import cast
-from navd.drivers.protocol.frames import InitialPoseFrame, SaveMapFrame, ScanFrame
+from navd.drivers.protocol.frames import ConfigFrame, InitialPoseFrame, SaveMapFrame, ScanFrame
+from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame
 from navd.geometry.pose import Pose2
-from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement
+from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement, SafeStop
 from navd.slam.map_io import load_map
+from navd.slam.node import SlamNode
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 
@@ -102,10 +104,6 @@ async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose
 
 
 async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
-    from navd.drivers.protocol.frames import ConfigFrame
-    from navd.drivers.protocol.replies import ConfigAppliedFrame
-    from navd.slam.node import SlamNode
-
     async with running_daemon(slam={"max_range_m": 20.0}) as (daemon, port):
         (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
         poses = record(daemon, PoseMeasurement)
@@ -131,3 +129,38 @@ async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
             assert math.hypot(measured.x_m - truth.x, measured.y_m - truth.y) < 0.05
         await lidar.close()
         await control.close()
+
+
+async def test_a_save_the_disk_refuses_is_answered_and_stops_nothing(tmp_path: Path) -> None:
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("a file where the map folder should be")
+    slam = {"map_dir": str(blocker / "maps"), "max_range_m": 20.0}
+    async with running_daemon(slam=slam) as (daemon, port):
+        poses = record(daemon, PoseMeasurement)
+        stops = record(daemon, SafeStop)
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
+        lidar.send(_frame(Pose2(0, 0, 0), 10.0))
+        await until(lambda: len(poses) == 1, timeout_s=10.0)
+        for attempt in range(7):
+            await control.request(SaveMapFrame(name=f"try{attempt}"))
+            saved = await control.receive_type(MapSavedFrame)
+            assert (saved.name, saved.path) == (f"try{attempt}", "")
+            assert "cannot write to" in saved.reason and "not-a-folder" in saved.reason
+        assert daemon.supervisor.record("slam").failures == 0
+        assert daemon.supervisor.faulted() == {}
+        assert stops == []
+        lidar.send(_frame(Pose2(0.05, 0, 0), 10.1))  # and mapping goes on
+        await until(lambda: len(poses) == 2, timeout_s=10.0)
+        await lidar.close()
+        await control.close()
+
+
+async def test_leftovers_of_saves_cut_short_are_cleaned_at_start(tmp_path: Path) -> None:
+    leftovers = [tmp_path / ".lab.3.pgm.a1b2c3d4.tmp", tmp_path / ".lab.yaml.zz99yy88.tmp"]
+    for path in leftovers:
+        path.write_bytes(b"half a file")
+    (tmp_path / "mine.txt").write_text("not navd's")
+    async with running_daemon(slam={"map_dir": str(tmp_path)}) as _:
+        await until(lambda: not any(p.exists() for p in leftovers), timeout_s=10.0)
+        assert (tmp_path / "mine.txt").exists()

@@ -128,7 +128,9 @@ def sensor_message(
     return _CONVERTERS[type(frame)](frame, device_id, stamp, received)
 
 
-def control_message(frame: ControlRequest, client_id: str, now: float, serial: int) -> Message:
+def control_message(
+    frame: ControlRequest, client_id: str, now: float, serial: int, *, privileged: bool = False
+) -> Message:
     """A control request that becomes a bus message.
 
     Args:
@@ -137,6 +139,7 @@ def control_message(frame: ControlRequest, client_id: str, now: float, serial: i
         client_id: the control client's device id (names its goals and requests).
         now: [s] daemon time.
         serial: a per-client counter for ids the client did not give.
+        privileged: the client may change privileged config keys.
 
     Raises:
         TypeError: ``frame`` is a session request.
@@ -170,6 +173,7 @@ def control_message(frame: ControlRequest, client_id: str, now: float, serial: i
             request_id=frame.request_id or f"{client_id}-{serial}",
             changes=frame.changes,
             source=client_id,
+            privileged=privileged,
         )
     if isinstance(frame, InitialPoseFrame):
         return InitialPose(

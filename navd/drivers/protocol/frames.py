@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import math
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
@@ -47,6 +48,15 @@ __all__ = [
 PROTOCOL_VERSION = 1
 MAX_RAYS = 16_384
 DEVICE_ID_PATTERN = r"^[A-Za-z0-9_.:\-]{1,64}$"
+# Bounds of every map coordinate and heading a client sends: far beyond any robot's reach
+# (a goal is then judged by planning.max_goal_distance_m), near enough that no arithmetic
+# on them overflows.
+MAX_COORDINATE_M = 1e6
+MAX_YAW_RAD = 4 * math.pi
+MAX_STD_XY_M = 1e3
+MAX_STD_YAW_RAD = 10.0
+Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M)]
+Yaw = Annotated[float, Field(ge=-MAX_YAW_RAD, le=MAX_YAW_RAD)]
 Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control", "clock"]
 
 
@@ -188,11 +198,11 @@ class GoalFrame(Frame):
 
     type: Literal["goal"] = "goal"
     goal_id: str | None = Field(None, pattern=DEVICE_ID_PATTERN)
-    x: float | None = None
-    y: float | None = None
+    x: Coordinate | None = None
+    y: Coordinate | None = None
     latitude: float | None = Field(None, ge=-90, le=90)
     longitude: float | None = Field(None, ge=-180, le=180)
-    yaw: float | None = None
+    yaw: Yaw | None = None
 
     @model_validator(mode="after")
     def _one_position(self) -> GoalFrame:
@@ -224,18 +234,18 @@ class InitialPoseFrame(Frame):
     """Where the robot is, by a person: [m, m, rad] in the map, with 1-sigma errors."""
 
     type: Literal["initial_pose"] = "initial_pose"
-    x: float
-    y: float
-    yaw: float
-    std_xy: float = Field(0.5, gt=0)
-    std_yaw: float = Field(0.3, gt=0)
+    x: Coordinate
+    y: Coordinate
+    yaw: Yaw
+    std_xy: float = Field(0.5, gt=0, le=MAX_STD_XY_M)
+    std_yaw: float = Field(0.3, gt=0, le=MAX_STD_YAW_RAD)
 
 
 class SaveMapFrame(Frame):
     """Save the map (under ``name``, or ``slam.map_name``)."""
 
     type: Literal["save_map"] = "save_map"
-    name: str = Field("", pattern=r"^[A-Za-z0-9_.\-]{0,64}$")
+    name: str = Field("", pattern=r"^([A-Za-z0-9_][A-Za-z0-9_.\-]{0,63})?$")
 
 
 class SubscribeFrame(Frame):

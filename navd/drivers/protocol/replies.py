@@ -23,6 +23,7 @@ __all__ = [
     "ErrorFrame",
     "GoalStatusFrame",
     "LocalizationInfo",
+    "MapSavedFrame",
     "ModuleInfo",
     "PathFrame",
     "Pong",
@@ -116,6 +117,15 @@ class ConfigRejectedFrame(ReplyPart):
     type: Literal["config_rejected"] = "config_rejected"
     request_id: str
     reason: str
+
+
+class MapSavedFrame(ReplyPart):
+    """What became of a map save: the YAML written, or why nothing was."""
+
+    type: Literal["map_saved"] = "map_saved"
+    name: str
+    path: str = ""
+    reason: str = ""
 
 
 class GoalInfo(ReplyPart):
@@ -262,5 +272,6 @@ Reply = (
     | ConfigRejectedFrame
     | GoalStatusFrame
     | PathFrame
+    | MapSavedFrame
     | StatusFrame
 )

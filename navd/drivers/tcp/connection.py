@@ -3,9 +3,9 @@
 The connection knows nothing of roles or messages: it cuts the byte stream into lines and
 hands the lines of each read, in order, to its ``LineSink`` (the server). A line longer than
 the limit is answered with an error and discarded up to its newline; the connection stays
-usable. Output is bounded:
-droppable frames (status) are dropped when the client does not read fast enough, and a
-client that lets even its replies pile up past a hard cap is disconnected.
+usable. Output is bounded: droppable frames (status) are dropped when the client does not
+read fast enough; a client whose droppable frames have all been dropped for
+``slow_reader_s``, or that lets even its replies pile up past a hard cap, is disconnected.
 """
 
 from __future__ import annotations
@@ -46,6 +46,8 @@ class Connection(asyncio.Protocol):
         max_line_bytes: longest accepted line, newline excluded.
         handshake_timeout_s: [s] real time the client has before ``handshake_done``.
         write_high_bytes: output buffered beyond this drops droppable frames.
+        slow_reader_s: [s] droppable frames dropped without a break for this long close the
+            connection (the client stopped reading).
     """
 
     def __init__(
@@ -55,11 +57,14 @@ class Connection(asyncio.Protocol):
         max_line_bytes: int,
         handshake_timeout_s: float,
         write_high_bytes: int,
+        slow_reader_s: float,
     ) -> None:
         self.sink = sink
         self.max_line_bytes = max_line_bytes
         self.handshake_timeout_s = handshake_timeout_s
         self.write_high_bytes = write_high_bytes
+        self.slow_reader_s = slow_reader_s
+        self._dropping_since: float | None = None  # [s] loop time of the first unbroken drop
         self.peer = "?"
         self.dropped_frames = 0
         self.session: object = None  # the server's session, once the handshake is done
@@ -169,7 +174,16 @@ class Connection(asyncio.Protocol):
         buffered = transport.get_write_buffer_size()
         if droppable and buffered > self.write_high_bytes:
             self.dropped_frames += 1
+            now = asyncio.get_running_loop().time()
+            if self._dropping_since is None:
+                self._dropping_since = now
+            elif now - self._dropping_since > self.slow_reader_s:
+                self.close(
+                    f"client does not read: status frames dropped for {self.slow_reader_s:g} s"
+                )
             return False
+        if droppable:
+            self._dropping_since = None
         if buffered > self.write_high_bytes * HARD_CAP_FACTOR:
             self.close("client does not read its replies; output buffer full")
             return False

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_control, encode
 from navd.drivers.protocol.convert import control_message
 from navd.drivers.protocol.frames import (
@@ -18,6 +19,7 @@ from navd.drivers.protocol.replies import (
     ConfigAppliedFrame,
     ConfigRejectedFrame,
     GoalStatusFrame,
+    MapSavedFrame,
     PathFrame,
     Pong,
     ReplyPart,
@@ -34,10 +36,16 @@ from navd.lifecycle.messages import (
     GeoGoal,
     Goal,
     GoalStatus,
+    InitialPose,
+    MapSaved,
+    MapUpdate,
     Path,
 )
 
 __all__ = ["ControlRole"]
+
+# An initial pose may lie this far beyond the mapped area [m] (a robot just outside it).
+INITIAL_POSE_MARGIN_M = 20.0
 
 
 class ControlRole:
@@ -48,6 +56,7 @@ class ControlRole:
         sessions: the sessions connected now (goal progress and routes go to every control
             session among them).
         status: builds the status frame a subscriber receives.
+        allow_privileged: whether control clients may change privileged config keys now.
     """
 
     def __init__(
@@ -55,21 +64,27 @@ class ControlRole:
         server: Server,
         sessions: Callable[[], Iterable[Session]],
         status: Callable[[], StatusFrame],
+        allow_privileged: Callable[[], bool],
     ) -> None:
         self._server = server
         self._sessions = sessions
         self._status = status
+        self._allow_privileged = allow_privileged
         self._config_requests: dict[str, Session] = {}
+        self._map_area: tuple[float, float, float, float] | None = None  # [m] x0, y0, x1, y1
         ctx = server.ctx
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(Path, self._on_path)
         ctx.subscribe(ConfigApplied, self._on_config_answer)
         ctx.subscribe(ConfigRejected, self._on_config_answer)
+        ctx.subscribe(MapSaved, self._on_map_saved)
+        ctx.subscribe(MapUpdate, self._on_map)
 
     def opened(self, session: Session) -> None:
         """Nothing to start until the client subscribes."""
 
     def lines(self, session: Session, lines: list[bytes]) -> None:
+        session.heard(self._server.ctx.clock.now())  # any line, a blank one too, is not idle
         self._server.each_line(session, lines, lambda line: self._request(session, line))
 
     def closed(self, session: Session) -> None:
@@ -97,9 +112,15 @@ class ControlRole:
                 session.status_task.cancel()
                 session.status_task = None
             conn.send(Ack(request=frame.type))
+            self._server.wake_watch()  # its idle time counts from now
         else:
             now = self._server.ctx.clock.now()
-            message = control_message(frame, session.device_id, now, session.requests)
+            privileged = self._allow_privileged()
+            message = control_message(
+                frame, session.device_id, now, session.requests, privileged=privileged
+            )
+            if isinstance(message, InitialPose):
+                self._check_on_map(message)
             if isinstance(message, ConfigChange):
                 self._config_requests[message.request_id] = session
                 conn.send(Ack(request=frame.type, request_id=message.request_id))
@@ -129,8 +150,35 @@ class ControlRole:
                 ConfigRejectedFrame(request_id=answer.request_id, reason=answer.reason)
             )
 
+    def _on_map(self, update: MapUpdate) -> None:
+        rows, cols = update.occupancy.shape
+        x0, y0, res = update.origin_x_m, update.origin_y_m, update.resolution_m
+        self._map_area = (x0, y0, x0 + cols * res, y0 + rows * res)
+
+    def _check_on_map(self, pose: InitialPose) -> None:
+        """Refuse an initial pose far from the map: SLAM would search for the robot there,
+        or grow its map out to it.
+
+        Raises:
+            WireError: naming the map's extent.
+        """
+        area = self._map_area
+        if area is None:
+            return  # no map yet: the pose is where the map will start
+        x0, y0, x1, y1 = area
+        outside_m = max(x0 - pose.x_m, pose.x_m - x1, y0 - pose.y_m, pose.y_m - y1, 0.0)
+        if outside_m > INITIAL_POSE_MARGIN_M:
+            raise WireError(
+                "x",
+                f"({pose.x_m:.1f}, {pose.y_m:.1f}) m lies {outside_m:.0f} m outside the map "
+                f"(x {x0:.1f}..{x1:.1f}, y {y0:.1f}..{y1:.1f}); give a pose on the map",
+            )
+
     def _on_goal_status(self, status: GoalStatus) -> None:
         self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))
+
+    def _on_map_saved(self, saved: MapSaved) -> None:
+        self._broadcast(MapSavedFrame(name=saved.name, path=saved.path, reason=saved.reason))
 
     def _on_path(self, path: Path) -> None:
         points = [(round(float(x), 3), round(float(y), 3)) for x, y in path.points_m]

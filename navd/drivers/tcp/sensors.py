@@ -42,7 +42,7 @@ class SensorRole:
         device order)."""
         ctx = self._server.ctx
         now = ctx.clock.now()
-        session.last_rx_s = now
+        session.heard(now)
         if session.stale:
             session.stale = False
             ctx.publish(

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import math
 from collections.abc import Callable
 
 from navd import __version__
@@ -38,13 +39,17 @@ from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
     DeviceLost,
+    DeviceResumed,
     DeviceStale,
 )
 from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["TcpServer"]
 
-STALE_CHECK_PERIOD_S = 0.1  # adds at most this to a timeout; each wakeup costs CPU
+# A sensor slower than its kind's timeout is stale after its own period x factor + margin.
+OWN_PERIOD_FACTOR = 1.25
+OWN_PERIOD_MARGIN_S = 0.05
+MAX_WATCH_SLEEP_S = 1.0  # [s] the watch looks again at least this often (a clock that jumps)
 
 
 class TcpServer(Module):
@@ -56,6 +61,9 @@ class TcpServer(Module):
         self.connections: set[Connection] = set()
         self._server: asyncio.Server | None = None
         self.board = StatusBoard()
+        self._watch_wakeup = asyncio.Event()
+        self._pending: dict[Connection, None] = {}  # no hello yet, oldest first
+        self._evicted = 0
 
     # --- lifecycle --------------------------------------------------------------------
 
@@ -63,8 +71,16 @@ class TcpServer(Module):
         self.ctx = ctx
         self.settings = ctx.settings(TcpSettings, self._settings_changed)
         self.board.subscribe(ctx)
+        # a new or resumed device may fall silent before the watch's next deadline
+        ctx.subscribe(DeviceConnected, self.wake_watch)
+        ctx.subscribe(DeviceResumed, self.wake_watch)
         self.clock_role = ClockRole(self, lambda: self.settings.value.lockstep_timeout_s)
-        control = ControlRole(self, self.sessions.values, self.status_frame)
+        control = ControlRole(
+            self,
+            self.sessions.values,
+            self.status_frame,
+            lambda: self.settings.value.allow_privileged_changes,
+        )
         sensors = SensorRole(self)
         self._roles: dict[DeviceKind, Role] = {DeviceKind(r): sensors for r in SENSOR_FRAMES}
         self._roles[DeviceKind.CONTROL] = control
@@ -86,7 +102,7 @@ class TcpServer(Module):
         self.ctx.log.info(
             "listening", host=address[0], port=address[1], token_required=tcp.token is not None
         )
-        self.ctx.spawn(self._watch_staleness(), name="staleness")
+        self.ctx.spawn(self._watch_silence(), name="silence")
 
     async def on_deactivate(self) -> None:
         if self._server is not None:
@@ -103,7 +119,9 @@ class TcpServer(Module):
         """The server's settings, and what every open connection holds of them."""
         held: list[object] = [self.settings.value]
         for conn in self.connections:
-            held.append(ConnectionLimits(conn.max_line_bytes, conn.write_high_bytes))
+            held.append(
+                ConnectionLimits(conn.max_line_bytes, conn.write_high_bytes, conn.slow_reader_s)
+            )
             if isinstance(conn.session, Session) and conn.session.kind.value in SENSOR_FRAMES:
                 held.append(SensorPacing(conn.coalesce_s))
         return tuple(held)
@@ -111,9 +129,11 @@ class TcpServer(Module):
     def _settings_changed(self, _old: TcpSettings, new: TcpSettings) -> None:
         """Connections open now take the new limits too (a new handshake deadline applies
         only to connections made after it)."""
+        self.wake_watch()
         for conn in self.connections:
             conn.max_line_bytes = new.max_line_bytes
             conn.write_high_bytes = new.status_queue * STATUS_FRAME_BYTES
+            conn.slow_reader_s = new.slow_reader_s
             session = conn.session
             if isinstance(session, Session) and session.kind.value in SENSOR_FRAMES:
                 conn.coalesce_s = new.coalesce_s
@@ -134,16 +154,28 @@ class TcpServer(Module):
             max_line_bytes=tcp.max_line_bytes,
             handshake_timeout_s=tcp.handshake_timeout_s,
             write_high_bytes=tcp.status_queue * STATUS_FRAME_BYTES,
+            slow_reader_s=tcp.slow_reader_s,
         )
 
     def on_open(self, conn: Connection) -> bool:
-        limit = self.settings.value.max_clients
-        if len(self.connections) >= limit:
-            reason = f"server full: {limit} clients connected (tcp.max_clients)"
-            conn.close("too many clients", ErrorFrame(field="", reason=reason, fatal=True))
-            self.ctx.log.warning("client_refused", peer=conn.peer, reason="server full")
-            return False
+        """Take every connection; past ``tcp.max_pending`` waiting for their hello, the
+        oldest waiting one goes (a flood of silent connections never keeps a client out)."""
         self.connections.add(conn)
+        self._pending[conn] = None
+        limit = self.settings.value.max_pending
+        while len(self._pending) > limit:
+            oldest = next(iter(self._pending))
+            del self._pending[oldest]
+            reason = (
+                f"closed unauthenticated: {limit} newer connections are waiting to say hello "
+                "(tcp.max_pending); say hello at once"
+            )
+            oldest.close("evicted", ErrorFrame(field="", reason=reason, fatal=True))
+            self._evicted += 1
+            if self._evicted == 1 or self._evicted % 100 == 0:
+                self.ctx.log.warning(
+                    "client_evicted", peer=oldest.peer, evicted=self._evicted, limit=limit
+                )
         return True
 
     def on_lines(self, conn: Connection, lines: list[bytes]) -> None:
@@ -196,6 +228,7 @@ class TcpServer(Module):
 
     def on_close(self, conn: Connection, reason: str) -> None:
         self.connections.discard(conn)
+        self._pending.pop(conn, None)
         session = conn.session
         if not isinstance(session, Session):
             return
@@ -231,17 +264,20 @@ class TcpServer(Module):
         kind = DeviceKind(hello.role)
         old = self.sessions.get(hello.device_id)
         if old is not None:
+            # A device id stays with its first connection until that one leaves or falls
+            # silent: a second hello cannot cut off a working sensor.
             old.replaced = True
             old.conn.close(
                 "replaced",
                 ErrorFrame(
                     field="device_id",
-                    reason="replaced by a new connection with this id",
+                    reason="replaced by a new connection with this id after going silent",
                     fatal=True,
                 ),
             )
-            self._lost(old, "replaced by a new connection")
+            self._lost(old, "replaced by a new connection after going silent")
         session = Session(hello.device_id, kind, conn, connected_s=now, last_rx_s=now)
+        self._pending.pop(conn, None)
         self.sessions[hello.device_id] = session
         conn.session = session
         conn.handshake_done()
@@ -276,6 +312,15 @@ class TcpServer(Module):
             (hello.token or "").encode(), token.encode()
         ):
             return "token", "missing or wrong token"
+        holder = self.sessions.get(hello.device_id)
+        limit = self.settings.value.max_clients
+        if holder is None and len(self.sessions) >= limit:
+            return "", f"server full: {limit} clients connected (tcp.max_clients)"
+        if holder is not None and not holder.stale:
+            return "device_id", (
+                f"{hello.device_id!r} is in use by {holder.conn.peer} (a {holder.kind.value}); "
+                "an id stays with its connection until it leaves or falls silent"
+            )
         if hello.role == "clock":
             refusal = self.clock_role.refusal(hello.device_id, self.sessions.values())
             if refusal:
@@ -316,29 +361,87 @@ class TcpServer(Module):
         ]
         return self.board.frame(now, self.settings.value.robot_name, devices)
 
-    async def _watch_staleness(self) -> None:
+    def stale_after_s(self, session: Session) -> float | None:
+        """[s] the silence that makes this session's device stale: its kind's configured
+        timeout, or for a sensor slower than that, its own period x 1.25 + 50 ms (a 5 Hz
+        lidar is not stale between two of its scans). None: the kind never goes stale."""
+        timeout = dict(self.settings.value.stale_after_s).get(session.kind)
+        if timeout is None:
+            return None
+        gap = session.typical_gap_s()
+        if gap is None:
+            return timeout
+        return max(timeout, OWN_PERIOD_FACTOR * gap + OWN_PERIOD_MARGIN_S)
+
+    def wake_watch(self, _msg: object = None) -> None:
+        """A new or resumed device, or new timeouts: the silence watch sets its next deadline
+        anew."""
+        self._watch_wakeup.set()
+
+    async def _watch_silence(self) -> None:
+        """Mark each device stale the moment its silence passes its timeout, and close a
+        control client idle past ``tcp.control_idle_timeout_s``: sleep until the earliest
+        deadline of all sessions (not on a fixed poll, which would add its period to every
+        detection), or until a session or the timeouts change."""
         while True:
-            await self.ctx.clock.sleep(STALE_CHECK_PERIOD_S)
             now = self.ctx.clock.now()
-            timeouts = dict(self.settings.value.stale_after_s)
-            for session in self.sessions.values():
-                timeout = timeouts.get(session.kind)
-                silent = now - session.last_rx_s
-                if timeout is None or session.stale or silent <= timeout:
+            next_deadline = math.inf
+            for session in list(self.sessions.values()):
+                deadline = self._deadline(session)
+                if deadline is None:
                     continue
-                session.stale = True
-                self.ctx.log.warning(
-                    "device_stale",
-                    device_id=session.device_id,
-                    kind=session.kind.value,
-                    silent_s=round(silent, 3),
-                )
-                self.ctx.publish(
-                    DeviceStale(
-                        stamp=now,
-                        received=now,
-                        device_id=session.device_id,
-                        kind=session.kind,
-                        silent_s=silent,
-                    )
-                )
+                if now < deadline:
+                    next_deadline = min(next_deadline, deadline)
+                elif session.kind is DeviceKind.CONTROL:
+                    self._close_idle(session, now)
+                else:
+                    self._mark_stale(session, now)
+            self._watch_wakeup.clear()
+            wait_s = min(next_deadline - now, MAX_WATCH_SLEEP_S)
+            sleep = asyncio.ensure_future(self.ctx.clock.sleep(wait_s))
+            wakeup = asyncio.ensure_future(self._watch_wakeup.wait())
+            try:
+                await asyncio.wait((sleep, wakeup), return_when=asyncio.FIRST_COMPLETED)
+            finally:
+                sleep.cancel()
+                wakeup.cancel()
+
+    def _deadline(self, session: Session) -> float | None:
+        """[s] when the session's silence becomes stale (a sensor) or idle (a control client
+        without a status subscription); None when it cannot."""
+        if session.kind is DeviceKind.CONTROL:
+            if session.status_task is not None and not session.status_task.done():
+                return None
+            return session.last_rx_s + self.settings.value.control_idle_timeout_s
+        timeout = self.stale_after_s(session)
+        if timeout is None or session.stale:
+            return None
+        return session.last_rx_s + timeout
+
+    def _close_idle(self, session: Session, now: float) -> None:
+        idle_s = now - session.last_rx_s
+        reason = (
+            f"idle for {idle_s:.0f} s with no request and no status subscription "
+            "(tcp.control_idle_timeout_s); send a ping now and then to stay connected"
+        )
+        self.ctx.log.info("control_idle", device_id=session.device_id, idle_s=round(idle_s, 1))
+        session.conn.close("idle", ErrorFrame(field="", reason=reason, fatal=True))
+
+    def _mark_stale(self, session: Session, now: float) -> None:
+        session.stale = True
+        silent = now - session.last_rx_s
+        self.ctx.log.warning(
+            "device_stale",
+            device_id=session.device_id,
+            kind=session.kind.value,
+            silent_s=round(silent, 3),
+        )
+        self.ctx.publish(
+            DeviceStale(
+                stamp=now,
+                received=now,
+                device_id=session.device_id,
+                kind=session.kind,
+                silent_s=silent,
+            )
+        )

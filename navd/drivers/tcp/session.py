@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -13,7 +15,9 @@ from navd.drivers.timesync import StampMapper
 from navd.lifecycle.messages import DeviceKind
 from navd.lifecycle.module import ModuleContext
 
-__all__ = ["Role", "Server", "Session"]
+__all__ = ["ARRIVALS_KEPT", "Role", "Server", "Session"]
+
+ARRIVALS_KEPT = 17  # reads whose spacing gives a sensor's own period (16 gaps)
 
 
 @dataclass
@@ -24,6 +28,7 @@ class Session:
         device_id, kind: who it is.
         conn: its connection.
         connected_s, last_rx_s: [s] daemon time it connected and last sent a line.
+        arrivals: [s] daemon times of its recent reads (a sensor's own period).
         stamps: its clock mapped onto the daemon's (sensors).
         accepted, rejected: lines used and refused.
         stale: silent past its kind's timeout (sensors).
@@ -47,6 +52,19 @@ class Session:
     status_task: asyncio.Task[None] | None = None
     clock_frames: asyncio.Queue[ClockFrame] | None = None
     clock_task: asyncio.Task[None] | None = None
+    arrivals: deque[float] = field(default_factory=lambda: deque(maxlen=ARRIVALS_KEPT))
+
+    def heard(self, now: float) -> None:
+        """Lines arrived at ``now`` [s] (one read: its lines share an arrival time)."""
+        self.last_rx_s = now
+        self.arrivals.append(now)
+
+    def typical_gap_s(self) -> float | None:
+        """[s] the median time between the recent reads, or None before there are three."""
+        if len(self.arrivals) < 3:
+            return None
+        gaps = sorted(b - a for a, b in itertools.pairwise(self.arrivals))
+        return gaps[len(gaps) // 2]
 
 
 class Server(Protocol):
@@ -63,6 +81,10 @@ class Server(Protocol):
     ) -> None:
         """Hand each non-blank line to ``handle``; one that raises is answered, the rest go
         on."""
+        ...
+
+    def wake_watch(self, _msg: object = None) -> None:
+        """Have the silence watch look at every session's deadline again."""
         ...
 
 

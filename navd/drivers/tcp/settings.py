@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from navd.config import NavdConfig
 from navd.lifecycle.messages import DeviceKind
@@ -18,11 +18,16 @@ class TcpSettings:
 
     Attributes:
         host, port, token: where it listens and the shared secret (they need a restart).
-        max_clients: [clients] most connections at once.
+        allow_privileged_changes: control clients may change privileged keys (a restart).
+        max_clients: [clients] most clients connected at once (after their hello).
+        max_pending: [connections] most connections waiting to say hello.
+        control_idle_timeout_s: [s] a control client silent and unsubscribed this long is
+            disconnected.
         max_line_bytes: [bytes] longest accepted line.
         handshake_timeout_s: [s] a new connection has this long to say hello.
         coalesce_s: [s] pause after reading a fast sensor connection.
         status_queue: [frames] status frames buffered for a slow subscriber.
+        slow_reader_s: [s] a client whose status frames all drop this long is disconnected.
         stale_after_s: [s] per sensor kind, silence that makes a device stale.
         lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
         robot_name: the name status frames carry.
@@ -30,12 +35,16 @@ class TcpSettings:
 
     host: str
     port: int
-    token: str | None
+    token: str | None = field(repr=False)
+    allow_privileged_changes: bool
     max_clients: int
+    max_pending: int
+    control_idle_timeout_s: float
     max_line_bytes: int
     handshake_timeout_s: float
     coalesce_s: float
     status_queue: int
+    slow_reader_s: float
     stale_after_s: tuple[tuple[DeviceKind, float], ...]
     lockstep_timeout_s: float
     robot_name: str
@@ -49,11 +58,15 @@ class TcpSettings:
             host=tcp.host,
             port=tcp.port,
             token=tcp.token,
+            allow_privileged_changes=tcp.allow_privileged_changes,
             max_clients=tcp.max_clients,
+            max_pending=tcp.max_pending,
+            control_idle_timeout_s=tcp.control_idle_timeout_s,
             max_line_bytes=tcp.max_line_bytes,
             handshake_timeout_s=tcp.handshake_timeout_s,
             coalesce_s=tcp.read_coalesce_ms / 1e3,
             status_queue=tcp.status_queue,
+            slow_reader_s=tcp.slow_reader_timeout_s,
             stale_after_s=(
                 (DeviceKind.LIDAR, tcp.lidar_timeout_s),
                 (DeviceKind.IMU, tcp.imu_timeout_s),
@@ -73,16 +86,20 @@ class ConnectionLimits:
     Attributes:
         max_line_bytes: [bytes] longest accepted line.
         write_high_bytes: [bytes] output buffered beyond this drops droppable frames.
+        slow_reader_s: [s] droppable frames dropped without a break for this long close it.
     """
 
     max_line_bytes: int
     write_high_bytes: int
+    slow_reader_s: float
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> ConnectionLimits:
         """The limits the tcp section describes."""
         tcp = config.tcp
-        return cls(tcp.max_line_bytes, tcp.status_queue * STATUS_FRAME_BYTES)
+        return cls(
+            tcp.max_line_bytes, tcp.status_queue * STATUS_FRAME_BYTES, tcp.slow_reader_timeout_s
+        )
 
 
 @dataclass(frozen=True, slots=True)

@@ -83,6 +83,26 @@ class SaveMapRequest(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class MapSaved(Message):
+    """What became of a map save: written to ``path``, or not, and why.
+
+    Attributes:
+        name: the map's name.
+        path: the YAML written ("" when nothing was).
+        reason: why nothing was written ("" when it was).
+    """
+
+    name: str
+    path: str = ""
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """True if the map was written."""
+        return not self.reason
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class GoalStatus(Message):
     """Progress towards a goal, published by the planner.
 
@@ -117,11 +137,14 @@ class ConfigChange(Message):
         changes: dotted key path (``"safety.reaction_timeout_s"``) to new value. Applied whole
             or rejected whole.
         source: who asked (a client id, ``"sighup"``...).
+        privileged: the source may change privileged keys (the config file, or a control
+            client where ``tcp.allow_privileged_changes`` says so).
     """
 
     request_id: str
     changes: Mapping[str, object]
     source: str = ""
+    privileged: bool = False
 
     def __post_init__(self) -> None:
         Message.__post_init__(self)

@@ -62,7 +62,13 @@ class Sink:
 @pytest.fixture
 async def wired() -> tuple[Connection, FakeTransport, Sink]:
     sink = Sink()
-    conn = Connection(sink, max_line_bytes=16, handshake_timeout_s=60.0, write_high_bytes=100)
+    conn = Connection(
+        sink,
+        max_line_bytes=16,
+        handshake_timeout_s=60.0,
+        write_high_bytes=100,
+        slow_reader_s=0.2,
+    )
     transport = FakeTransport()
     conn.connection_made(transport)
     conn.handshake_done()
@@ -121,4 +127,25 @@ async def test_slow_reader_loses_droppable_frames_only(wired: Any) -> None:
     assert conn.send(ErrorFrame(field="", reason="x"))  # replies go out below the hard cap
     transport.buffered = 401  # beyond 4x the high-water mark: the client is not reading
     assert not conn.send(ErrorFrame(field="", reason="x"))
+    assert transport.closed
+
+
+async def test_a_client_whose_status_frames_all_drop_for_long_is_disconnected(
+    wired: Any,
+) -> None:
+    conn, transport, _ = wired
+    transport.buffered = 150  # the client reads nothing: every status frame is dropped
+    assert not conn.send(Pong(id=1), droppable=True)
+    await asyncio.sleep(0.1)
+    assert not conn.send(Pong(id=2), droppable=True)
+    assert not transport.closed  # 0.1 s of drops is a slow moment, not a dead reader
+    transport.buffered = 50  # it read: a frame goes out and the drop spell ends
+    assert conn.send(Pong(id=3), droppable=True)
+    transport.buffered = 150
+    assert not conn.send(Pong(id=4), droppable=True)
+    await asyncio.sleep(0.15)
+    assert not conn.send(Pong(id=5), droppable=True)
+    assert not transport.closed  # 0.15 s since the spell began anew
+    await asyncio.sleep(0.1)
+    assert not conn.send(Pong(id=6), droppable=True)
     assert transport.closed
