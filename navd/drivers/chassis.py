@@ -1,11 +1,14 @@
 """The STM32 chassis on a UART: one "%d %d" line of wheel commands per period.
 
 The driver obeys only DriveCommand (the safety gate's output). At a fixed rate it writes the
-latest command, or "0 0" when none came for ``safety.reaction_timeout_s``. It writes "0 0"
-when it starts, when it stops, at once on a SafeStop, and first thing after reopening a lost
-port; a command received before the loss is never replayed. A lost port (USB unplugged, pty
-closed) is reported as DeviceLost and reopened with exponential backoff. Lines the STM32
-sends back are logged or, if configured, parsed as measured wheel speeds into WheelOdometry.
+latest command, or "0 0" when none came for ``safety.reaction_timeout_s``. What it writes
+speeds up no faster than the robot's acceleration limits from what it wrote last (after a
+stop or a reopened port, from zero), whatever it is told; slowing down is never delayed. It
+writes "0 0" when it starts, when it stops, at once on a SafeStop, and first thing after
+reopening a lost port; a command received before the loss is never replayed. A lost port
+(USB unplugged, pty closed) is reported as DeviceLost and reopened with exponential backoff.
+Lines the STM32 sends back are logged or, if configured, parsed as measured wheel speeds into
+WheelOdometry.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from navd.drivers.kinematics import (
     WheelCalibration,
     body_velocity,
     format_command,
+    ramp,
     wheel_command,
     wheel_speeds,
 )
@@ -56,6 +60,8 @@ class ChassisSettings:
         calibration: wheel speeds to the STM32's integers and back.
         track_width_m: [m] between the wheels.
         reaction_timeout_s: [s] no fresh command for this long writes "0 0".
+        max_linear_accel_mps2, max_angular_accel_radps2: [m/s², rad/s²] the fastest the
+            written command speeds up.
         reconnect_initial_s, reconnect_max_s: [s] the backoff reopening a lost port.
         feedback: "off", "log" or "encoders" (what the lines the STM32 sends are).
     """
@@ -67,6 +73,8 @@ class ChassisSettings:
     calibration: WheelCalibration
     track_width_m: float
     reaction_timeout_s: float
+    max_linear_accel_mps2: float
+    max_angular_accel_radps2: float
     reconnect_initial_s: float
     reconnect_max_s: float
     feedback: str
@@ -83,6 +91,8 @@ class ChassisSettings:
             calibration=WheelCalibration.of(chassis),
             track_width_m=config.robot.track_width_m,
             reaction_timeout_s=config.safety.reaction_timeout_s,
+            max_linear_accel_mps2=config.robot.max_linear_accel_mps2,
+            max_angular_accel_radps2=config.robot.max_angular_accel_radps2,
             reconnect_initial_s=chassis.reconnect_initial_s,
             reconnect_max_s=chassis.reconnect_max_s,
             feedback=chassis.feedback,
@@ -97,6 +107,7 @@ class ChassisDriver(Module):
         self._port: Any = None
         self._latest: DriveCommand | None = None
         self._latest_rx_s = 0.0
+        self._written = (0.0, 0.0)  # [m/s, rad/s] the body velocity written last
         self._timed_out = True
         self._lost_reason = ""
         self._rx = bytearray()
@@ -134,11 +145,14 @@ class ChassisDriver(Module):
     def _on_drive(self, cmd: DriveCommand) -> None:
         self._latest = cmd
         self._latest_rx_s = cmd.stamp  # the request's time: a re-swept old command ages too
-        if cmd.is_stop and self._port is not None:
-            self._write_safely(0, 0)  # stopping never waits for the next tick
+        if cmd.is_stop:
+            self._written = (0.0, 0.0)
+            if self._port is not None:
+                self._write_safely(0, 0)  # stopping never waits for the next tick
 
     def _on_safe_stop(self, stop: SafeStop) -> None:
         self._latest = None
+        self._written = (0.0, 0.0)
         if self._port is not None:
             self._write_safely(0, 0)
 
@@ -196,6 +210,7 @@ class ChassisDriver(Module):
         self._port = port
         self._lost_reason = ""
         self._latest = None  # never replay a command from before the port was (re)opened
+        self._written = (0.0, 0.0)
         self._rx.clear()
         self._write(0, 0)
         if self.settings.value.feedback != "off":
@@ -227,9 +242,16 @@ class ChassisDriver(Module):
                     timeout_s=timeout,
                 )
             self._timed_out = True
+            self._written = (0.0, 0.0)
             return 0, 0
         self._timed_out = False
-        left, right = wheel_speeds(cmd.linear_mps, cmd.angular_radps, settings.track_width_m)
+        period = settings.period_s
+        linear = ramp(self._written[0], cmd.linear_mps, settings.max_linear_accel_mps2 * period)
+        angular = ramp(
+            self._written[1], cmd.angular_radps, settings.max_angular_accel_radps2 * period
+        )
+        self._written = (linear, angular)
+        left, right = wheel_speeds(linear, angular, settings.track_width_m)
         return wheel_command(left, right, settings.calibration)
 
     # --- port I/O -----------------------------------------------------------------------

@@ -15,7 +15,14 @@ from dataclasses import dataclass
 
 from navd.config import ChassisConfig
 
-__all__ = ["WheelCalibration", "body_velocity", "format_command", "wheel_command", "wheel_speeds"]
+__all__ = [
+    "WheelCalibration",
+    "body_velocity",
+    "format_command",
+    "ramp",
+    "wheel_command",
+    "wheel_speeds",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +65,16 @@ def wheel_speeds(
 def body_velocity(left_mps: float, right_mps: float, track_width_m: float) -> tuple[float, float]:
     """([m/s], [rad/s]) body velocity from wheel ground speeds."""
     return (left_mps + right_mps) / 2.0, (right_mps - left_mps) / track_width_m
+
+
+def ramp(current: float, target: float, max_step: float) -> float:
+    """One period's move from ``current`` toward ``target`` (a speed): slowing down, to zero
+    or through it, happens at once; speeding up by at most ``max_step``."""
+    if target * current < 0.0:
+        current = 0.0  # reversing: the braking part is immediate
+    if abs(target) <= abs(current):
+        return target
+    return current + math.copysign(min(abs(target - current), max_step), target)
 
 
 def _round_half_away(value: float) -> int:

@@ -15,9 +15,9 @@ reason; one that needs a larger grid than ``planning.max_plan_cells`` fails when
 planned; planning that breaks in any other way fails the goal too, never the module.
 
 The robot is never driven on an old pose: when the last PoseEstimate is older than
-``POSE_TIMEOUT_S`` the step commands zero. DWA's acceleration window starts from what the
-chassis was last told (zero after a safety hold, a chassis outage or a silent spell), not
-from the navigator's own last choice.
+``POSE_TIMEOUT_S`` the step commands zero. DWA's acceleration window starts from zero
+whenever the robot was stopped meanwhile (a safety hold, a chassis that reopened its port, a
+silence long enough for the chassis to stop itself), not from the navigator's last choice.
 """
 
 from __future__ import annotations
@@ -103,8 +103,10 @@ class PlannerNode(Module):
         self._plan_due: str | None = None
         self._pose: Pose2 | None = None
         self._pose_stamp = -math.inf
-        self._driven: tuple[float, float] | None = None  # [m/s, rad/s] the chassis's command
-        self._driven_stamp = -math.inf
+        # Whether the robot stands still though the navigator may think otherwise: the gate
+        # passed a stop, or the chassis (re)opened its port; and when the gate last spoke.
+        self._stopped = False
+        self._drive_stamp = -math.inf
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
 
@@ -177,12 +179,12 @@ class PlannerNode(Module):
         self.ctx.submit("planning_goals", self._take_requests)
 
     def _on_drive(self, cmd: DriveCommand) -> None:
-        self._driven = (cmd.linear_mps, cmd.angular_radps)
-        self._driven_stamp = cmd.stamp
+        self._stopped = cmd.is_stop
+        self._drive_stamp = cmd.stamp
 
     def _on_chassis(self, msg: DeviceLost | DeviceConnected) -> None:
         if msg.kind is DeviceKind.CHASSIS:  # the chassis stops on losing or reopening its port
-            self._driven = (0.0, 0.0)
+            self._stopped = True
 
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = pose.pose
@@ -272,9 +274,11 @@ class PlannerNode(Module):
                 self._plan_due = None
         if reason is not None:
             self.ctx.submit("global_plan", lambda: self._plan(now, pose, reason))
-        driven = self._driven
-        if driven is not None and now - self._driven_stamp > self.settings.value.reaction_timeout_s:
-            driven = (0.0, 0.0)  # the chassis has stopped itself
+        silent = now - self._drive_stamp > self.settings.value.reaction_timeout_s
+        # From a standstill the ramp starts at zero, whatever the navigator last chose (the
+        # gate held the robot, the chassis reopened, or stopped itself for want of commands).
+        driven = (0.0, 0.0) if self._stopped or silent else None
+        self._stopped = False
         self.ctx.submit("local_plan", lambda: self._step(now, pose, driven))
 
     def _plan(self, now: float, pose: Pose2, reason: str) -> tuple[Message, ...]:
@@ -329,8 +333,9 @@ class PlannerNode(Module):
     def _step(
         self, now: float, pose: Pose2, driven: tuple[float, float] | None
     ) -> tuple[Message, ...]:
-        """Worker: one navigator step from the command ``driven`` [m/s, rad/s] the chassis
-        was last given (None: none seen); the command, and status when it is due."""
+        """Worker: one navigator step, from ``driven`` [m/s, rad/s] when the robot is known to
+        do that rather than what the navigator chose last (None); the command, and status
+        when it is due."""
         with self._lock:
             goal = self.nav.goal
             if goal is None or self.nav.state is not GoalState.ACTIVE:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import os
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -72,9 +73,17 @@ class FakeStm32:
         return [line for stamp, line in self.lines if stamp >= t]
 
 
+# A robot that reaches every command of these tests within one period, so that each line
+# shows its command (the ramp has tests of its own).
+QUICK = {"max_linear_accel_mps2": 20.0, "max_angular_accel_radps2": 50.0}
+
+
 @asynccontextmanager
 async def chassis_daemon(
-    tmp_path: Path, reaction_s: float = REACTION_S, **chassis: Any
+    tmp_path: Path,
+    reaction_s: float = REACTION_S,
+    robot: dict[str, float] | None = None,
+    **chassis: Any,
 ) -> AsyncIterator[tuple[Any, FakeStm32]]:
     stm32 = FakeStm32(tmp_path / "ttyNAVD")
     settings = {
@@ -86,7 +95,9 @@ async def chassis_daemon(
         **chassis,
     }
     async with running_daemon(
-        chassis=settings, safety={"reaction_timeout_s": reaction_s}, robot={"track_width_m": 0.3}
+        chassis=settings,
+        safety={"reaction_timeout_s": reaction_s},
+        robot={"track_width_m": 0.3, **(QUICK if robot is None else robot)},
     ) as (daemon, _):
         try:
             await until(lambda: len(stm32.lines) >= 1)  # the port is open: "0 0" came first
@@ -276,3 +287,48 @@ async def test_a_new_command_rate_applies_at_once_without_a_restart(tmp_path: Pa
             assert abs(await lines_in(1.0) - 50) <= 3
     finally:
         stm32.unplug()
+
+
+def _wheels(line: bytes) -> tuple[int, int]:
+    left, right = line.split()
+    return int(left), int(right)
+
+
+async def test_what_is_written_speeds_up_within_the_limits_even_after_an_outage(
+    tmp_path: Path,
+) -> None:
+    # 0.5 m/s^2 at 50 Hz: at most 10 units (0.01 m/s) more per line; stopping is immediate
+    robot = {"max_linear_accel_mps2": 0.5, "max_angular_accel_radps2": 2.0}
+    async with chassis_daemon(tmp_path, robot=robot) as (daemon, stm32):
+        connected = record(daemon, DeviceConnected)
+
+        async def keep_driving(seconds: float) -> None:
+            loop = asyncio.get_running_loop()
+            end = loop.time() + seconds
+            while loop.time() < end:  # a planner at 20 Hz asking for full speed
+                drive(daemon, 0.5, 0.0)
+                await asyncio.sleep(0.05)
+
+        def steps(lines: list[bytes]) -> list[int]:
+            speeds = [_wheels(line)[0] for line in lines]
+            return [b - a for a, b in itertools.pairwise(speeds)]
+
+        await keep_driving(0.6)
+        first = [line for _, line in stm32.lines]
+        assert max(steps(first)) <= 10
+        assert _wheels(first[-1])[0] >= 250  # it did speed up meanwhile
+        # the UART goes away for a second while the planner keeps asking for full speed
+        stm32.unplug()
+        await keep_driving(1.0)
+        stm32.lines.clear()
+        stm32.plug()
+        await until(lambda: len(connected) == 1)
+        await keep_driving(0.4)
+        after = [line for _, line in stm32.lines]
+        assert after[0] == b"0 0\n"
+        assert max(steps(after)) <= 10  # from a standstill again, not from before the outage
+        assert _wheels(after[-1])[0] > 0
+        loop = asyncio.get_running_loop()
+        stopped = loop.time()
+        drive(daemon, 0.0, 0.0)
+        await until(lambda: b"0 0\n" in stm32.since(stopped))

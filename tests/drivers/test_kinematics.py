@@ -6,6 +6,7 @@ from navd.drivers.kinematics import (
     WheelCalibration,
     body_velocity,
     format_command,
+    ramp,
     wheel_command,
     wheel_speeds,
 )
@@ -53,3 +54,20 @@ def test_wheel_command(
 def test_format_is_two_integers_and_the_line_ending() -> None:
     assert format_command(-12, 345) == b"-12 345\n"
     assert format_command(0, 0, "\r\n") == b"0 0\r\n"
+
+
+@pytest.mark.parametrize(
+    ("current", "target", "step", "expected"),
+    [
+        (0.0, 0.5, 0.1, 0.1),  # speeding up: one step
+        (0.45, 0.5, 0.1, 0.5),  # the last bit
+        (0.5, 0.1, 0.1, 0.1),  # slowing down: at once
+        (0.5, 0.0, 0.1, 0.0),  # stopping: at once
+        (0.3, -0.3, 0.1, -0.1),  # reversing: braking at once, then one step the other way
+        (-0.2, -0.6, 0.1, -0.3),
+    ],
+)
+def test_ramp_limits_speeding_up_only(
+    current: float, target: float, step: float, expected: float
+) -> None:
+    assert ramp(current, target, step) == pytest.approx(expected)

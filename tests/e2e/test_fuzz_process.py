@@ -185,7 +185,9 @@ def test_malformed_lines_are_answered_and_harm_nobody(daemon_on_port: Any) -> No
         lines = data.draw(
             st.lists(bad_line(role), min_size=LINES_PER_EXAMPLE[0], max_size=LINES_PER_EXAMPLE[1])
         )
-        with Client("127.0.0.1", port, role=role, device_id=f"fuzz-{role}") as client:
+        # a fresh id each time: the last example's connection may not have been seen to
+        # close yet, and a sensor's id stays with its connection until it has
+        with Client("127.0.0.1", port, role=role, device_id=f"fuzz-{role}-{thrown}") as client:
             client.send_raw(b"".join(line + b"\n" for line in lines))
             client.send(PingFrame(id="sync"))
             errors = []

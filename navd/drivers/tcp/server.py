@@ -264,18 +264,17 @@ class TcpServer(Module):
         kind = DeviceKind(hello.role)
         old = self.sessions.get(hello.device_id)
         if old is not None:
-            # A device id stays with its first connection until that one leaves or falls
-            # silent: a second hello cannot cut off a working sensor.
-            old.replaced = True
-            old.conn.close(
-                "replaced",
-                ErrorFrame(
-                    field="device_id",
-                    reason="replaced by a new connection with this id after going silent",
-                    fatal=True,
-                ),
+            # A sensor's id stays with its first connection until that one leaves or falls
+            # silent (a second hello cannot cut off a working sensor); a control client's
+            # goes to the newest (a user interface reconnecting over a link that died).
+            why = (
+                "replaced by a new connection after going silent"
+                if old.kind is not DeviceKind.CONTROL
+                else "replaced by a new connection with this id"
             )
-            self._lost(old, "replaced by a new connection after going silent")
+            old.replaced = True
+            old.conn.close("replaced", ErrorFrame(field="device_id", reason=why, fatal=True))
+            self._lost(old, why)
         session = Session(hello.device_id, kind, conn, connected_s=now, last_rx_s=now)
         self._pending.pop(conn, None)
         self.sessions[hello.device_id] = session
@@ -316,10 +315,10 @@ class TcpServer(Module):
         limit = self.settings.value.max_clients
         if holder is None and len(self.sessions) >= limit:
             return "", f"server full: {limit} clients connected (tcp.max_clients)"
-        if holder is not None and not holder.stale:
+        if holder is not None and not holder.stale and holder.kind is not DeviceKind.CONTROL:
             return "device_id", (
                 f"{hello.device_id!r} is in use by {holder.conn.peer} (a {holder.kind.value}); "
-                "an id stays with its connection until it leaves or falls silent"
+                "a sensor's id stays with its connection until it leaves or falls silent"
             )
         if hello.role == "clock":
             refusal = self.clock_role.refusal(hello.device_id, self.sessions.values())

@@ -148,6 +148,18 @@ async def test_a_device_id_stays_with_its_first_connection_until_it_falls_silent
         await new.close()
 
 
+async def test_a_control_clients_id_goes_to_its_newest_connection() -> None:
+    # a user interface reconnecting over a link that died is not kept out by its old self
+    async with running_daemon() as (_, port):
+        old = await connected(port, "control", "tablet")
+        new, welcome = await hello(port, "control", "tablet")
+        assert isinstance(welcome, Welcome)
+        farewell = await old.receive()
+        assert isinstance(farewell, ErrorFrame) and farewell.field == "device_id"
+        await old.close()
+        await new.close()
+
+
 async def test_a_slow_sensor_is_not_stale_between_its_own_frames() -> None:
     # a 4 Hz lidar against a 0.1 s timeout: its own period (x 1.25 + 50 ms) is what counts
     async with running_daemon(tcp={"lidar_timeout_s": 0.1}) as (daemon, port):
