@@ -390,6 +390,10 @@ async def test_status_mode_follows_safety_and_goal_progress() -> None:
             ("idle", "pending"),
             ("navigating", "active"),
         )
+        status = await asyncio.wait_for(
+            status_where(ui, lambda s: s.goal is not None and s.goal.state == "active"), 3.0
+        )
+        assert status.mode == "navigating"
         now = daemon.clock.now()
         daemon.bus.publish(
             GoalStatus(
