@@ -6,18 +6,32 @@ import argparse
 import math
 import sys
 
-from navd.cli.common import EXIT_FAILED, EXIT_OK, Commands, connect, connection_options
+from pydantic import ValidationError
+
+from navd.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    Commands,
+    connect,
+    connection_options,
+)
 from navd.config import ConfigError
-from navd.drivers.client import ClientError
+from navd.drivers.client import Client, ClientError
 from navd.drivers.protocol.frames import CancelFrame, Frame, GoalFrame, SubscribeFrame
-from navd.drivers.protocol.replies import StatusFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 
 __all__ = ["add_commands", "format_status"]
+
+GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
 
 
 def add_commands(commands: Commands) -> None:
     """Add ``goal``, ``cancel`` and ``status``."""
-    goal = commands.add_parser("goal", help="send a goal in the map frame")
+    goal = commands.add_parser(
+        "goal",
+        help="send a goal in the map frame (exit 1 with the reason if navd refuses it at once)",
+    )
     goal.add_argument("x", type=float, help="[m] map x")
     goal.add_argument("y", type=float, help="[m] map y")
     goal.add_argument("--yaw", type=float, help="[rad] final heading (default: any)")
@@ -50,7 +64,38 @@ def _request(args: argparse.Namespace, frame: Frame) -> int:
 
 
 def _goal(args: argparse.Namespace) -> int:
-    return _request(args, GoalFrame(x=args.x, y=args.y, yaw=args.yaw, goal_id=args.goal_id))
+    try:
+        frame = GoalFrame(x=args.x, y=args.y, yaw=args.yaw, goal_id=args.goal_id)
+    except ValidationError as err:
+        problem = err.errors()[0]
+        where = ".".join(str(p) for p in problem["loc"]) or "goal"
+        print(f"navd goal: {where}: {problem['msg']}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        with connect(args) as client:
+            ack = client.request(frame)
+            print(ack.model_dump_json(exclude_none=True), flush=True)
+            verdict = _first_status(client, ack.goal_id)
+    except (ClientError, ConfigError) as err:
+        print(f"navd goal: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if verdict is not None and verdict.state == "failed":
+        print(f"navd goal: {verdict.goal_id} failed: {verdict.reason}", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _first_status(client: Client, goal_id: str | None) -> GoalStatusFrame | None:
+    """The goal's first progress report within GOAL_VERDICT_S, or None (none came yet)."""
+    client.timeout_s = GOAL_VERDICT_S
+    client.sock.settimeout(GOAL_VERDICT_S)
+    try:
+        while True:
+            status = client.receive_type(GoalStatusFrame)
+            if status.goal_id == goal_id:
+                return status
+    except ClientError:
+        return None
 
 
 def _cancel(args: argparse.Namespace) -> int:

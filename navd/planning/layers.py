@@ -162,15 +162,23 @@ class Layers:
             self._keep_out = cached
         return cached[2]
 
-    def local_points(self, pose: Pose2, radius_m: float) -> FloatArray:
-        """[m] obstacle points near the robot: live scan hits, map and keep-out cells."""
+    def local_points(self, pose: Pose2, radius_m: float, now: float) -> FloatArray:
+        """[m] obstacle points near the robot: live scan hits, the scan obstacles still
+        remembered at ``now`` (what the lidar saw and sees no more: behind a robot whose
+        lidar does not see all around, the way it backs out), map and keep-out cells."""
         parts = [self.scan_points]
         if self.map is not None:
             frame, occupied, _ = self.map
             parts.append(_cells_near(frame, occupied, pose, radius_m))
-        if self.settings.keep_out_zones and self.obstacles is not None:
-            frame = self.obstacles.frame
-            parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
+        layer = self.obstacles
+        if layer is not None:
+            window = _window(layer.frame, pose, radius_m)
+            if window is not None:
+                remembered = layer.last_seen[window] >= now - layer.persistence_s
+                parts.append(_cells_of(layer.frame, remembered, window))
+            if self.settings.keep_out_zones:
+                frame = layer.frame
+                parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
     def _frame(self, points_m: list[tuple[float, float]], now: float) -> GridFrame:
@@ -223,13 +231,26 @@ def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
     return slice(r, r + inner.rows), slice(c, c + inner.cols)
 
 
-def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose2, radius_m: float) -> FloatArray:
-    """[m] centres of the ``mask`` cells within a square of half-size radius_m around pose."""
+def _window(frame: GridFrame, pose: Pose2, radius_m: float) -> tuple[slice, slice] | None:
+    """The cells of ``frame`` in a square of half-size radius_m around pose (None if none)."""
     r0, c0 = frame.cell_of(pose.x - radius_m, pose.y - radius_m)
     r1, c1 = frame.cell_of(pose.x + radius_m, pose.y + radius_m)
     r0, c0 = max(r0, 0), max(c0, 0)
     r1, c1 = min(r1 + 1, frame.rows), min(c1 + 1, frame.cols)
     if r1 <= r0 or c1 <= c0:
-        return np.empty((0, 2))
-    cells = np.argwhere(mask[r0:r1, c0:c1]) + np.array([r0, c0])
+        return None
+    return slice(r0, r1), slice(c0, c1)
+
+
+def _cells_of(frame: GridFrame, mask: BoolArray, window: tuple[slice, slice]) -> FloatArray:
+    """[m] centres of the cells set in ``mask``, the ``window`` of ``frame`` it covers."""
+    cells = np.argwhere(mask) + np.array([window[0].start, window[1].start])
     return frame.centers_of(cells.astype(np.int64))
+
+
+def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose2, radius_m: float) -> FloatArray:
+    """[m] centres of the ``mask`` cells within a square of half-size radius_m around pose."""
+    window = _window(frame, pose, radius_m)
+    if window is None:
+        return np.empty((0, 2))
+    return _cells_of(frame, mask[window], window)

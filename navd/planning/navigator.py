@@ -351,7 +351,7 @@ class Navigator:
         choice = self.local.choose(
             pose,
             self._command,
-            self.map_layers.local_points(pose, s.local_radius_m),
+            self.map_layers.local_points(pose, s.local_radius_m, now),
             route.field,
             target,
             window,

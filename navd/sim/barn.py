@@ -8,8 +8,9 @@ one) is success · T* / clip(t, 2 T*, 8 T*), with T* the reference path's length
 
 As in the challenge, the robot knows its odometry (here exact) and sees the world through its
 lidar only: no map is given. The runs use navd's navigator (the same costmap, A*, DWA,
-velocity profile and stuck handling the daemon runs), a body that follows its commands within
-the acceleration limits, and simulated time, as fast as the CPU allows.
+velocity profile and stuck handling the daemon runs), the collision guard the safety gate
+asks about every command, a body that follows its commands within the acceleration limits,
+and simulated time, as fast as the CPU allows.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
+from navd.planning.guard import GUARD_REACH_M, GuardSettings, guard_scale
 from navd.planning.navigator import GoalState, NavGoal, Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.sim._sim_kernels import cast_rays
@@ -70,7 +72,13 @@ def jackal_config() -> NavdConfig:
                 "max_linear_accel_mps2": 2.0,
                 "max_angular_accel_radps2": 4.0,
             },
-            "safety": {"collision_distance_m": 0.03, "stop_distance_m": 0.03},
+            # BARN's fields leave a few centimetres on either side: no slow-down band, the
+            # guard stops what would come within DWA's own margin
+            "safety": {
+                "collision_distance_m": 0.03,
+                "stop_distance_m": 0.03,
+                "slowdown_distance_m": 0.03,
+            },
             "lidar": {"x_m": LIDAR_X_M},
             "planning": {
                 "angular_limit_table": [[0.0, 2.0], [1.5, 1.0]],
@@ -153,6 +161,9 @@ def run_world(
     world = barn_world(cylinders)
     nav = Navigator(NavigatorSettings.from_config(config))
     nav.set_goal(NavGoal("barn", GOAL[0], GOAL[1]))
+    guard = GuardSettings.from_config(config)
+    near = np.empty((0, 2))  # [m] the latest scan's hits within the guard's reach
+    driven: tuple[float, float] | None = None
     body = Body(*START)
     no_discs = np.empty((0, 3))
     beams = -LIDAR_FOV_RAD / 2 + LIDAR_FOV_RAD * np.arange(LIDAR_BEAMS) / (LIDAR_BEAMS - 1)
@@ -185,22 +196,21 @@ def run_world(
                 mount=LIDAR_MOUNT,
             )
             nav.add_scan(pose, points.hits, points.misses, t)
+            near = points.hits[np.hypot(*points.hits.T) <= GUARD_REACH_M]
         if nav.plan_reason(t, pose) is not None:
             try:
                 nav.accept_plan(t, nav.plan(t, pose))
             except PlanningError as err:
                 nav.plan_failed(t, err)
-        result = nav.step(t, pose)
+        result = nav.step(t, pose, driven)
         if result.state is GoalState.FAILED:
             break  # the navigator gave up: the run times out, still and safe
+        # the safety gate's guard, as in the daemon; after a stop the ramp starts at zero
+        scale, _ = guard_scale(near, result.linear_mps, result.angular_radps, guard)
+        command = (result.linear_mps * scale, result.angular_radps * scale)
+        driven = (0.0, 0.0) if command == (0.0, 0.0) else None
         for _ in range(PHYSICS_SUBSTEPS):
-            body.step(
-                CONTROL_DT_S / PHYSICS_SUBSTEPS,
-                (result.linear_mps, result.angular_radps),
-                config,
-                world,
-                no_discs,
-            )
+            body.step(CONTROL_DT_S / PHYSICS_SUBSTEPS, command, config, world, no_discs)
             if body.collisions:
                 return _run(index, False, True, False, t, optimal_length_m)
         t += CONTROL_DT_S

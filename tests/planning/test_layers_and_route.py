@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
+from navd.planning.errors import GoalRefusedError
 from navd.planning.layers import FRAME_MARGIN_M, Layers, LayerSettings
 from navd.planning.route import Route
 
@@ -38,6 +40,30 @@ def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> N
     frame, obstacles, _ = layers.snapshot(0.2, [(0.0, 0.0)])
     assert not obstacles.any()  # the marks were dropped, not misplaced
     assert math.isclose((frame.origin_x_m + 0.525) / 0.05, round((frame.origin_x_m + 0.525) / 0.05))
+
+
+def test_what_the_lidar_saw_stays_an_obstacle_near_the_robot_until_forgotten() -> None:
+    layers = Layers(LayerSettings.from_config(NavdConfig()))  # persistence 2 s
+    layers.snapshot(0.0, [(0.0, 0.0)])
+    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0)
+    # the robot turned away: the next scan sees nothing there, nor clears it
+    layers.add_scan(Pose2(0.0, 0.0, math.pi), np.empty((0, 2)), np.empty((0, 2)), 0.5)
+    assert layers.scan_points.shape[0] == 0
+    near = layers.local_points(IDENTITY, 2.0, now=1.0)
+    assert np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) < 0.05
+    assert layers.local_points(IDENTITY, 2.0, now=2.5).shape[0] == 0  # forgotten after 2 s
+    assert layers.local_points(Pose2(10.0, 0.0, 0.0), 2.0, now=1.0).shape[0] == 0  # far
+
+
+def test_a_far_goal_does_not_grow_every_later_snapshot_nor_exceed_the_cell_limit() -> None:
+    settings = LayerSettings.from_config(NavdConfig())
+    layers = Layers(settings)
+    far, _, _ = layers.snapshot(0.0, [(0.0, 0.0), (60.0, 0.0)])
+    near, _, _ = layers.snapshot(1.0, [(0.0, 0.0), (2.0, 0.0)])
+    assert near.cols * near.resolution_m < 10.0 < far.cols * far.resolution_m
+    small = Layers(dataclasses.replace(settings, max_cells=100_000))
+    with pytest.raises(GoalRefusedError, match=r"more than planning\.max_plan_cells \(100000\)"):
+        small.snapshot(0.0, [(0.0, 0.0), (60.0, 0.0)])
 
 
 def test_route_progress_remaining_carrot_and_blocking() -> None:

@@ -10,6 +10,7 @@ import pytest
 from navd.bench.room import WALLS
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
+from navd.planning.errors import GoalRefusedError
 from navd.planning.navigator import GoalState, NavGoal, Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.planning.stuck import StuckPhase
@@ -112,6 +113,19 @@ def test_an_unreachable_goal_fails_with_the_reason_after_the_patience() -> None:
     assert "no route" in result.steps[-1].reason
     assert all(c == (0.0, 0.0) for c in result.commands)
     assert result.time_s == pytest.approx(3.0, abs=0.1)
+
+
+def test_a_goal_beyond_the_distance_limit_fails_at_once_with_the_reason() -> None:
+    nav = Navigator(NavigatorSettings.from_config(config(max_goal_distance_m=50.0)))
+    nav.set_goal(NavGoal("g", 40.0, 40.0))
+    with pytest.raises(GoalRefusedError) as refused:
+        nav.request(0.0, IDENTITY)
+    nav.plan_failed(0.0, refused.value)
+    assert nav.state is GoalState.FAILED
+    assert "is 57 m from the robot" in nav.failure  # hypot(40, 40)
+    assert "planning.max_goal_distance_m (50 m)" in nav.failure
+    step = nav.step(0.1, IDENTITY)
+    assert (step.linear_mps, step.angular_radps, step.reason) == (0.0, 0.0, nav.failure)
 
 
 def test_stuck_for_good_fails_after_the_allowed_replans() -> None:

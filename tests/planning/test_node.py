@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from navd.drivers.protocol.frames import CancelFrame, GoalFrame, InitialPoseFrame, ScanFrame
 from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame
@@ -18,6 +19,7 @@ from navd.lifecycle.messages import (
     Path,
     VelocityCommand,
 )
+from navd.planning.global_planner import GlobalPlanner
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 
@@ -117,3 +119,30 @@ async def test_a_new_control_rate_applies_at_once_without_a_restart() -> None:
             )
         )
         assert abs(await ticks_in(2.0) - 10) <= 1
+
+
+async def test_planning_that_breaks_fails_its_goal_and_the_next_goal_plans(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    real_plan = GlobalPlanner.plan
+
+    def out_of_memory(*args: object, **kwargs: object) -> object:
+        raise MemoryError("a 200270 x 200235 grid")
+
+    async with running_daemon() as (daemon, port):
+        paths = record(daemon, Path)
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        monkeypatch.setattr(GlobalPlanner, "plan", out_of_memory)
+        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+        while (frame := await control.receive_type(GoalStatusFrame)).state == "active":
+            pass
+        assert (frame.goal_id, frame.state) == ("g1", "failed")
+        assert frame.reason == "planning failed: MemoryError: a 200270 x 200235 grid"
+        monkeypatch.setattr(GlobalPlanner, "plan", real_plan)
+        await control.request(GoalFrame(x=2.0, y=1.0, goal_id="g2"))
+        route = await control.receive_type(PathFrame)
+        assert route.goal_id == "g2"
+        assert [p.goal_id for p in paths] == ["g2"]
+        assert daemon.supervisor.faulted() == {}
+        await control.close()

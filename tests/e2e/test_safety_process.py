@@ -1,0 +1,115 @@
+"""Safety on the real daemon process, on the shipped defaults: goals too far to plan for,
+secrets in the log."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from navd.drivers.client import Client
+from navd.drivers.protocol.frames import GoalFrame, ScanFrame, SubscribeFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, Reply, StatusFrame
+from tests.e2e.conftest import default_config, run_navd
+
+
+def room_scan(stamp: float) -> ScanFrame:
+    """What a lidar in the middle of an 8 m square room sees."""
+    angles = [-math.pi + 2 * math.pi * k / 360 for k in range(360)]
+    ranges = [4.0 / max(abs(math.cos(a)), abs(math.sin(a))) for a in angles]
+    return ScanFrame(
+        stamp=stamp,
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / 360,
+        range_min=0.05,
+        range_max=12.0,
+        ranges=ranges,
+    )
+
+
+class Lidar(threading.Thread):
+    """A lidar streaming the room at 10 Hz until stopped."""
+
+    def __init__(self, port: int) -> None:
+        super().__init__(daemon=True)
+        self.port = port
+        self.halt = threading.Event()
+
+    def run(self) -> None:
+        with Client("127.0.0.1", self.port, role="lidar", device_id="lidar0") as lidar:
+            while not self.halt.wait(0.1):
+                lidar.send(room_scan(time.monotonic()))
+
+
+def started(spawn_daemon: Any, tmp_path: Path) -> int:
+    config = default_config(tmp_path)
+    daemon = spawn_daemon("run", "--config", str(config))
+    daemon.wait_for("ready", timeout_s=20.0)
+    port: int = tomllib.loads(config.read_text())["tcp"]["port"]
+    return port
+
+
+def first(ui: Client, wanted: Any, timeout_s: float) -> Reply:
+    """The first frame meeting ``wanted`` within ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        frame = ui.receive()
+        if wanted(frame):
+            return frame
+    raise AssertionError(f"nothing wanted came within {timeout_s} s")
+
+
+def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
+    spawn_daemon: Any, tmp_path: Path
+) -> None:
+    port = started(spawn_daemon, tmp_path)
+    lidar = Lidar(port)
+    lidar.start()
+    try:
+        with Client("127.0.0.1", port, device_id="ui", timeout_s=10.0) as ui:
+            ui.request(SubscribeFrame(rate_hz=10))
+            first(ui, lambda f: isinstance(f, StatusFrame) and f.pose is not None, 20.0)
+            for goal_id, x, y in (("huge", 1e4, 1e4), ("far", 300.0, 300.0)):
+                sent = time.monotonic()
+                ui.send(GoalFrame(x=x, y=y, goal_id=goal_id))
+                verdict = first(
+                    ui,
+                    lambda f, g=goal_id: isinstance(f, GoalStatusFrame)  # type: ignore[misc]
+                    and f.goal_id == g
+                    and f.state != "active",
+                    5.0,
+                )
+                assert time.monotonic() - sent < 1.0
+                assert isinstance(verdict, GoalStatusFrame) and verdict.state == "failed"
+                assert "planning.max_goal_distance_m (100 m)" in verdict.reason
+            status = first(ui, lambda f: isinstance(f, StatusFrame), 5.0)
+            assert isinstance(status, StatusFrame)
+            assert status.diagnostics.loop_lag_p99_ms <= 20.0
+            ui.send(GoalFrame(x=1.0, y=0.5, goal_id="near"))
+            route = first(ui, lambda f: isinstance(f, PathFrame) and f.goal_id == "near", 10.0)
+            assert isinstance(route, PathFrame) and len(route.points) >= 2
+        # the command a user types says so too
+        typed = run_navd("goal", "300", "300", "--port", str(port))
+        assert typed.returncode == 1
+        assert "planning.max_goal_distance_m" in typed.stderr
+        nonsense = run_navd("goal", "nan", "0", "--port", str(port))
+        assert nonsense.returncode == 2
+        assert nonsense.stderr.startswith("navd goal: x:")
+    finally:
+        lidar.halt.set()
+        lidar.join(5.0)
+
+
+def test_the_token_never_reaches_the_log(spawn_daemon: Any, tmp_path: Path) -> None:
+    secret = "s3cret-s3cret-s3cret"
+    config = default_config(tmp_path)
+    config.write_text(config.read_text().replace("\n[tcp]\n", f'\n[tcp]\ntoken = "{secret}"\n'))
+    daemon = spawn_daemon("run", "--config", str(config))
+    start = daemon.wait_for("starting", timeout_s=20.0)
+    assert start["config"]["tcp"]["token"] == "<redacted>"
+    daemon.wait_for("ready", timeout_s=20.0)
+    daemon.stop()
+    assert all(secret not in str(line) for line in [*daemon.seen, *daemon.drain()])
