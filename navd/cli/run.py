@@ -36,6 +36,7 @@ def _run(args: argparse.Namespace) -> int:
     configure_logging(config.logging.level, config.logging.format)
     from navd.app import build_modules  # noqa: PLC0415 - keep `navd config` fast to start
     from navd.lifecycle import Daemon  # noqa: PLC0415
+    from navd.slam.errors import MapFileError  # noqa: PLC0415
 
     daemon = Daemon(config, build_modules(config), config_path=args.config)
     try:
@@ -45,6 +46,9 @@ def _run(args: argparse.Namespace) -> int:
             uvloop.run(daemon.run())
         else:
             asyncio.run(daemon.run())
+    except MapFileError as err:  # the map the config names cannot be used: fix the input
+        get_logger("cli").error("daemon_failed", error=str(err))
+        return _exit_past_threads(daemon, EXIT_USAGE)
     except NavdError as err:
         get_logger("cli").error("daemon_failed", error=str(err))
         return _exit_past_threads(daemon, EXIT_FAILED)

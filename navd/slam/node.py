@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.errors import NavdError
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
@@ -113,8 +112,8 @@ class SlamNode(Module):
         if load is not None:
             try:
                 self.mapper.grid = load_map(Path(load))
-            except MapFileError as err:
-                raise NavdError(f"slam.load_map: {err}") from err
+            except MapFileError as err:  # the file the config names: a user's input
+                raise MapFileError(f"slam.load_map: {err}") from err
             ctx.log.info("map_loaded", path=load, cells=self.mapper.grid.logodds.shape)
             self._relocate = GLOBAL  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)

@@ -113,3 +113,24 @@ def test_the_token_never_reaches_the_log(spawn_daemon: Any, tmp_path: Path) -> N
     daemon.wait_for("ready", timeout_s=20.0)
     daemon.stop()
     assert all(secret not in str(line) for line in [*daemon.seen, *daemon.drain()])
+
+
+def test_a_map_to_load_with_its_state_cut_short_is_one_line_and_exit_2(
+    spawn_daemon: Any, tmp_path: Path
+) -> None:
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    (maps / "lab.yaml").write_text("image: lab.1.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    (maps / "lab.1.pgm").write_bytes(b"P5\n2 2\n255\n" + bytes([0, 254, 254, 205]))
+    (maps / "lab.1.npz").write_bytes(b"PK\x03\x04 cut short by a power loss")
+    config = default_config(tmp_path)
+    config.write_text(
+        config.read_text().replace(
+            "\n[slam]\n", f'\n[slam]\nload_map = "{maps / "lab.yaml"}"\n'
+        )
+    )
+    daemon = spawn_daemon("run", "--config", str(config))
+    assert daemon.proc.wait(timeout=20.0) == 2
+    failed = daemon.wait_for("daemon_failed", timeout_s=5.0)
+    assert str(maps / "lab.1.npz") in failed["error"]
+    assert all(line.get("event") != "non-json" for line in [*daemon.seen, *daemon.drain()])
