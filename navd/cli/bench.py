@@ -10,7 +10,7 @@ __all__ = ["add_commands"]
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``bench ingest|estimation|scan|planning``."""
+    """Add ``bench ingest|estimation|scan|planning|safety``."""
     bench = commands.add_parser("bench", help="run a benchmark and print its figures")
     names = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
     ingest = names.add_parser(
@@ -40,6 +40,12 @@ def add_commands(commands: Commands) -> None:
     planning.add_argument("--cycles", type=int, default=200, help="DWA cycles timed")
     planning.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     planning.set_defaults(handler=_planning)
+    safety = names.add_parser(
+        "safety", help="ms from a lidar or IMU going silent or away to the wheels stopping"
+    )
+    safety.add_argument("--trials", type=int, default=10, help="trials of each case")
+    safety.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    safety.set_defaults(handler=_safety)
 
 
 def _ingest(args: argparse.Namespace) -> int:
@@ -70,4 +76,11 @@ def _planning(args: argparse.Namespace) -> int:
     from navd.bench.planning import run  # noqa: PLC0415
 
     print_figures(run(repeats=args.repeats, cycles=args.cycles), args.json)
+    return EXIT_OK
+
+
+def _safety(args: argparse.Namespace) -> int:
+    from navd.bench.safety import run  # noqa: PLC0415
+
+    print_figures(run(trials=args.trials), args.json)
     return EXIT_OK

@@ -126,8 +126,9 @@ class Lockstep:
                 sensor.role, sensor.device_id
             )
         every = _steps_per_sample(self.settings.physics_rate_hz, sensor.rate_hz)
-        if client is not None and self.steps % every == 0:
+        if client is not None and self.steps % every == 0 and not sensor.is_silent():
             client.send(sensor.frame(self.time_s))
+            sensor.last_sent_s = self.time_s
             self._sent[sensor.device_id] += 1
             await client.drain()
 

@@ -155,7 +155,11 @@ class Simulator:
             try:
                 while sensor.is_plugged():
                     await asyncio.sleep(period)
-                    client.send(sensor.frame(self.now()))
+                    if sensor.is_silent():
+                        continue
+                    now = self.now()
+                    client.send(sensor.frame(now))
+                    sensor.last_sent_s = now
                     await client.drain()
             except (ConnectionError, OSError):
                 pass

@@ -46,6 +46,8 @@ class SimSensor:
         rate_hz: [Hz] frames per second.
         frame: the frame at a time [s].
         plugged: False while a scenario has it unplugged (None: always plugged).
+        silent: True while a scenario has it connected but sending nothing (a hung driver).
+        last_sent_s: [s] simulation time it last sent a frame.
     """
 
     role: Role
@@ -53,10 +55,16 @@ class SimSensor:
     rate_hz: float
     frame: Callable[[float], SensorFrame]
     plugged: Callable[[], bool] | None = None
+    silent: Callable[[], bool] | None = None
+    last_sent_s: float = -math.inf
 
     def is_plugged(self) -> bool:
         """False while a scenario has it unplugged."""
         return self.plugged is None or self.plugged()
+
+    def is_silent(self) -> bool:
+        """True while a scenario keeps it connected but quiet."""
+        return self.silent is not None and self.silent()
 
 
 class SensorModels:
@@ -83,18 +91,55 @@ class SensorModels:
                 zone=world.utm_zone,
                 max_distance_m=world.utm_threshold_m,
             )
-        # Scenario controls: an unplugged sensor closes its connection until plugged back.
+        # Scenario controls: an unplugged sensor closes its connection until plugged back;
+        # a silent one stays connected and sends nothing.
         self.lidar_plugged = True
         self.gps_plugged = True
+        self.imu_plugged = True
+        self.lidar_silent = False
+        self.imu_silent = False
+        self._sensors: list[SimSensor] | None = None
 
     def sensors(self) -> list[SimSensor]:
-        """The sensors this robot has."""
+        """The sensors this robot has (the same objects on every call)."""
+        if self._sensors is None:
+            self._sensors = self._make_sensors()
+        return self._sensors
+
+    def sensor(self, role: Role) -> SimSensor:
+        """The sensor of ``role``.
+
+        Raises:
+            KeyError: the robot has none.
+        """
+        for sensor in self.sensors():
+            if sensor.role == role:
+                return sensor
+        raise KeyError(f"the simulated robot has no {role}")
+
+    def _make_sensors(self) -> list[SimSensor]:
         s = self.settings
         sensors = [
-            SimSensor("lidar", "sim-lidar", s.lidar_rate_hz, self.scan, lambda: self.lidar_plugged)
+            SimSensor(
+                "lidar",
+                "sim-lidar",
+                s.lidar_rate_hz,
+                self.scan,
+                lambda: self.lidar_plugged,
+                lambda: self.lidar_silent,
+            )
         ]
         if s.imu_rate_hz > 0:
-            sensors.append(SimSensor("imu", "sim-imu", s.imu_rate_hz, self.imu))
+            sensors.append(
+                SimSensor(
+                    "imu",
+                    "sim-imu",
+                    s.imu_rate_hz,
+                    self.imu,
+                    lambda: self.imu_plugged,
+                    lambda: self.imu_silent,
+                )
+            )
         if s.gps_rate_hz > 0 and self.geo is not None:
             sensors.append(
                 SimSensor("gps", "sim-gps", s.gps_rate_hz, self.fix, lambda: self.gps_plugged)

@@ -4,12 +4,18 @@ At least 10,000 lines, each invalid by construction (garbage, broken JSON, frame
 field removed, retyped, pushed out of range or renamed, frames of the wrong role, lines over
 the size limit), are thrown at the real daemon process over real sockets. Every one must be
 answered with exactly one error frame, the daemon must stay up, and a well-behaved IMU
-streaming on another connection all the while must see every frame accepted.
+streaming on another connection all the while must see every frame accepted. Control frames
+include goals, initial poses and map saves pushed past their bounds (coordinates, headings,
+uncertainties, map names that leave the map folder). A flood of connections that never say
+hello must never keep an authenticated client out.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import socket
+import threading
 import time
 from typing import Any
 
@@ -24,10 +30,13 @@ from navd.drivers.protocol.frames import (
     GoalFrame,
     HeadingFrame,
     ImuFrame,
+    InitialPoseFrame,
     PingFrame,
+    SaveMapFrame,
     ScanFrame,
+    SubscribeFrame,
 )
-from navd.drivers.protocol.replies import ErrorFrame, Pong
+from navd.drivers.protocol.replies import ErrorFrame, Pong, StatusFrame
 from tests.e2e.test_tcp_process import IMU, Streamer, devices
 
 pytestmark = pytest.mark.e2e
@@ -106,10 +115,39 @@ TEMPLATES = {
         {"bearing_deg": [360.0, -0.1], "accuracy_deg": [0.0, 181.0]},
     ),
     "control": (
-        _valid(GoalFrame(x=1.0, y=2.0)),
-        {"x": NUMBER_WRONG, "y": NUMBER_WRONG, "goal_id": STRING_WRONG},
+        _valid(GoalFrame(x=1.0, y=2.0, yaw=0.5)),
+        {"x": NUMBER_WRONG, "y": NUMBER_WRONG, "yaw": NUMBER_WRONG, "goal_id": STRING_WRONG},
         ["x", "y"],
-        {"goal_id": ["has space", "x" * 65]},
+        {
+            "goal_id": ["has space", "x" * 65],
+            "x": [1e7, -2e6, 1e300],
+            "y": [1e6 + 1, -1e300],
+            "yaw": [13.0, -100.0],
+        },
+    ),
+    "control:initial_pose": (
+        _valid(InitialPoseFrame(x=1.0, y=2.0, yaw=0.5)),
+        {
+            "x": NUMBER_WRONG,
+            "y": NUMBER_WRONG,
+            "yaw": NUMBER_WRONG,
+            "std_xy": NUMBER_WRONG,
+            "std_yaw": NUMBER_WRONG,
+        },
+        ["x", "y", "yaw"],
+        {
+            "x": [1e300, -1e7],
+            "y": [2e6],
+            "yaw": [13.0, -1e9],
+            "std_xy": [0.0, -1.0, 1e4],
+            "std_yaw": [0.0, 11.0],
+        },
+    ),
+    "control:save_map": (
+        _valid(SaveMapFrame(name="lab")),
+        {"name": STRING_WRONG},
+        [],
+        {"name": ["../x", "/etc/passwd", ".hidden", "a/b", "x" * 65]},
     ),
 }
 OTHER_TYPES = ["hello", "scan", "imu", "fix", "heading", "odom", "goal", "status", "welcome", ""]
@@ -125,13 +163,12 @@ def _is_bad_json(data: bytes) -> bool:
 
 
 @st.composite
-def bad_line(draw: st.DrawFn, role: str) -> bytes:
-    frame, wrong, required, out_of_range = TEMPLATES[role]
-    kind = draw(
-        st.sampled_from(
-            ["garbage", "bytes", "drop", "retype", "range", "extra", "role", "nan", "huge"]
-        )
-    )
+def bad_line(draw: st.DrawFn, template: str) -> bytes:
+    frame, wrong, required, out_of_range = TEMPLATES[template]
+    kinds = ["garbage", "bytes", "drop", "retype", "range", "extra", "role", "nan", "huge"]
+    if not required:  # nothing to leave out, no number to spoil
+        kinds = [k for k in kinds if k not in ("drop", "nan")]
+    kind = draw(st.sampled_from(kinds))
     if kind == "garbage":
         text = draw(
             st.text(
@@ -181,9 +218,12 @@ def test_malformed_lines_are_answered_and_harm_nobody(daemon_on_port: Any) -> No
     @given(data=st.data())
     def throw(data: st.DataObject) -> None:
         nonlocal thrown
-        role = data.draw(st.sampled_from(sorted(TEMPLATES)))
+        template = data.draw(st.sampled_from(sorted(TEMPLATES)))
+        role = template.split(":")[0]  # "control:initial_pose" is a control client's frame
         lines = data.draw(
-            st.lists(bad_line(role), min_size=LINES_PER_EXAMPLE[0], max_size=LINES_PER_EXAMPLE[1])
+            st.lists(
+                bad_line(template), min_size=LINES_PER_EXAMPLE[0], max_size=LINES_PER_EXAMPLE[1]
+            )
         )
         # a fresh id each time: the last example's connection may not have been seen to
         # close yet, and a sensor's id stays with its connection until it has
@@ -208,3 +248,34 @@ def test_malformed_lines_are_answered_and_harm_nobody(daemon_on_port: Any) -> No
     assert listed["good-imu"].accepted == good.sent
     assert listed["good-imu"].rejected == 0
     time.sleep(0.1)
+
+
+def test_a_flood_of_connections_that_never_say_hello_keeps_no_client_out(
+    daemon_on_port: Any,
+) -> None:
+    daemon, port = daemon_on_port()
+    halt = threading.Event()
+    flood: list[socket.socket] = []
+
+    def open_silently() -> None:
+        while not halt.is_set():  # about 100 new connections a second, none saying hello
+            with contextlib.suppress(OSError):
+                flood.append(socket.create_connection(("127.0.0.1", port), timeout=1.0))
+            time.sleep(0.01)
+
+    flooder = threading.Thread(target=open_silently, daemon=True)
+    flooder.start()
+    try:
+        time.sleep(0.5)  # far more silent connections than tcp.max_pending by now
+        for i in range(11):
+            with Client("127.0.0.1", port, device_id=f"status-{i}") as ui:
+                ui.request(SubscribeFrame(rate_hz=10))
+                assert isinstance(ui.receive_type(StatusFrame), StatusFrame)
+            time.sleep(0.1)
+    finally:
+        halt.set()
+        flooder.join(5.0)
+        for sock in flood:
+            sock.close()
+    assert len(flood) > 100
+    assert daemon.proc.poll() is None

@@ -77,9 +77,11 @@ def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
                 ui.send(GoalFrame(x=x, y=y, goal_id=goal_id))
                 verdict = first(
                     ui,
-                    lambda f, g=goal_id: isinstance(f, GoalStatusFrame)  # type: ignore[misc]
-                    and f.goal_id == g
-                    and f.state != "active",
+                    lambda f, g=goal_id: (
+                        isinstance(f, GoalStatusFrame)  # type: ignore[misc]
+                        and f.goal_id == g
+                        and f.state != "active"
+                    ),
                     5.0,
                 )
                 assert time.monotonic() - sent < 1.0
@@ -125,9 +127,7 @@ def test_a_map_to_load_with_its_state_cut_short_is_one_line_and_exit_2(
     (maps / "lab.1.npz").write_bytes(b"PK\x03\x04 cut short by a power loss")
     config = default_config(tmp_path)
     config.write_text(
-        config.read_text().replace(
-            "\n[slam]\n", f'\n[slam]\nload_map = "{maps / "lab.yaml"}"\n'
-        )
+        config.read_text().replace("\n[slam]\n", f'\n[slam]\nload_map = "{maps / "lab.yaml"}"\n')
     )
     daemon = spawn_daemon("run", "--config", str(config))
     assert daemon.proc.wait(timeout=20.0) == 2

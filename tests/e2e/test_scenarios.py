@@ -109,6 +109,33 @@ async def test_lidar_unplugged_stops_the_wheels_within_300_ms_and_the_drive_goes
     assert s.sim.body.collisions == 0
 
 
+@pytest.mark.parametrize(
+    ("role", "control"),
+    [("lidar", "lidar_silent"), ("imu", "imu_silent"), ("imu", "imu_plugged")],
+)
+async def test_a_sensor_that_falls_silent_or_is_lost_stops_the_wheels_within_300_ms(
+    tmp_path: Path, role: str, control: str
+) -> None:
+    # On simulated time in lockstep: the daemon's clock is the simulator's, so the figure is
+    # exact and the same on any machine.
+    world = from_shapes(HALL, "hall")
+    async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
+        await start(s, world)
+        await until(lambda: s.sim.body.linear_mps > 0.2, 30.0)
+        sensor = s.sim.sensors.sensor(role)  # type: ignore[arg-type]
+        wheels = s.sim.robot.wheels.log
+        setattr(s.sim.sensors, control, control.endswith("silent"))
+        cut = s.sim.now()
+        await until(lambda: s.sim.now() > cut + 1.0, 30.0)
+        stops = [t for t, left, right in wheels if t >= cut and (left, right) == (0, 0)]
+        assert stops and stops[0] - sensor.last_sent_s <= 0.3
+        assert all((left, right) == (0, 0) for t, left, right in wheels if t >= stops[0])
+        setattr(s.sim.sensors, control, not control.endswith("silent"))  # back: it goes on
+        result = await outcome(s)
+    assert result.state == "reached", result
+    assert s.sim.body.collisions == 0
+
+
 async def test_a_moving_obstacle_crossing_the_route_is_never_hit(tmp_path: Path) -> None:
     # A person walking back and forth across the straight route beyond the pillar, leaving
     # over a metre of the hall free (one sweeping the whole width would be mapped as a wall
