@@ -7,6 +7,7 @@ inf are not hits.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -16,9 +17,52 @@ import numpy.typing as npt
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import IDENTITY, Pose2
 
-__all__ = ["LaserScanLike", "ScanPoints", "laser_points", "scan_points"]
+__all__ = [
+    "ALL_AROUND",
+    "FieldOfView",
+    "LaserScanLike",
+    "ScanPoints",
+    "laser_points",
+    "scan_points",
+]
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+@dataclass(frozen=True, slots=True)
+class FieldOfView:
+    """The bearings a scan's rays cover, in the robot frame: from the lidar at (x_m, y_m),
+    counter-clockwise from ``first_rad`` through ``span_rad``; the rest is the lidar's blind
+    sector (behind a 270° lidar, say).
+
+    Attributes:
+        x_m, y_m: [m] the lidar in the robot frame.
+        first_rad: [rad] bearing of the first ray (counter-clockwise order).
+        span_rad: [rad] from the first ray to the last, one ray's width added.
+    """
+
+    x_m: float
+    y_m: float
+    first_rad: float
+    span_rad: float
+
+    @property
+    def all_around(self) -> bool:
+        """True when the rays cover every bearing."""
+        return self.span_rad >= 2.0 * math.pi - 1e-9
+
+    def unseen(self, points_m: FloatArray) -> BoolArray:
+        """Which of N x 2 points [m, robot frame] lie in the blind sector."""
+        if self.all_around:
+            return np.zeros(points_m.shape[0], dtype=np.bool_)
+        bearing = np.arctan2(points_m[:, 1] - self.y_m, points_m[:, 0] - self.x_m)
+        offset = np.mod(bearing - self.first_rad, 2.0 * math.pi)
+        unseen: BoolArray = offset > self.span_rad
+        return unseen
+
+
+ALL_AROUND = FieldOfView(0.0, 0.0, -math.pi, 2.0 * math.pi)
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,10 +72,12 @@ class ScanPoints:
     Attributes:
         hits: [m] N x 2 end points of the rays that hit something within range.
         misses: [m] M x 2 points at ``max_range`` along rays that saw nothing (free space).
+        view: the bearings its rays cover.
     """
 
     hits: FloatArray
     misses: FloatArray
+    view: FieldOfView = ALL_AROUND
 
 
 class LaserScanLike(Protocol):
@@ -80,7 +126,12 @@ def scan_points(
     miss = (~finite & (r > 0)) | (finite & ((r >= range_max) | (r > use_max)))
     hits = np.column_stack([r[hit] * np.cos(angles[hit]), r[hit] * np.sin(angles[hit])])
     misses = np.column_stack([use_max * np.cos(angles[miss]), use_max * np.sin(angles[miss])])
-    return ScanPoints(mount.transform(hits), mount.transform(misses))
+    step = abs(angle_increment)
+    lowest = angle_min + min(angle_increment * (r.size - 1), 0.0)
+    view = FieldOfView(
+        mount.x, mount.y, lowest + mount.yaw - step / 2, min(step * r.size, 2.0 * math.pi)
+    )
+    return ScanPoints(mount.transform(hits), mount.transform(misses), view)
 
 
 def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) -> ScanPoints:

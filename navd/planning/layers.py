@@ -17,6 +17,7 @@ import numpy.typing as npt
 
 from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
+from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
 from navd.planning.errors import GoalRefusedError
 
@@ -73,6 +74,7 @@ class Layers:
         self._occupancy: npt.NDArray[np.int8] | None = None
         self.obstacles: ObstacleLayer | None = None
         self.scan_points: FloatArray = np.empty((0, 2))
+        self.view = ALL_AROUND  # what the latest scan covered
         self._keep_out: tuple[GridFrame, Zones, BoolArray] | None = None
 
     def configure(self, settings: LayerSettings) -> None:
@@ -101,12 +103,19 @@ class Layers:
         self.map = (frame, occupied, unknown)
 
     def add_scan(
-        self, pose: Pose2, hits_robot_m: FloatArray, misses_robot_m: FloatArray, stamp: float
+        self,
+        pose: Pose2,
+        hits_robot_m: FloatArray,
+        misses_robot_m: FloatArray,
+        stamp: float,
+        view: FieldOfView = ALL_AROUND,
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``: its hits
-        become the live obstacle points; its rays mark and clear the obstacle layer."""
+        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``, its rays
+        covering ``view``: its hits become the live obstacle points; its rays mark and clear
+        the obstacle layer."""
         hits = pose.transform(hits_robot_m)
         self.scan_points = hits
+        self.view = view
         if self.obstacles is not None:
             self.obstacles.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
 
@@ -163,9 +172,10 @@ class Layers:
         return cached[2]
 
     def local_points(self, pose: Pose2, radius_m: float, now: float) -> FloatArray:
-        """[m] obstacle points near the robot: live scan hits, the scan obstacles still
-        remembered at ``now`` (what the lidar saw and sees no more: behind a robot whose
-        lidar does not see all around, the way it backs out), map and keep-out cells."""
+        """[m] obstacle points near the robot: live scan hits; the scan obstacles still
+        remembered at ``now`` in the latest scan's blind sector (what a lidar that does not
+        see all around saw on the way in, and sees no more as the robot backs out); map and
+        keep-out cells."""
         parts = [self.scan_points]
         if self.map is not None:
             frame, occupied, _ = self.map
@@ -173,9 +183,10 @@ class Layers:
         layer = self.obstacles
         if layer is not None:
             window = _window(layer.frame, pose, radius_m)
-            if window is not None:
+            if window is not None and not self.view.all_around:
                 remembered = layer.last_seen[window] >= now - layer.persistence_s
-                parts.append(_cells_of(layer.frame, remembered, window))
+                marks = _cells_of(layer.frame, remembered, window)
+                parts.append(marks[self.view.unseen(pose.inverse().transform(marks))])
             if self.settings.keep_out_zones:
                 frame = layer.frame
                 parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))

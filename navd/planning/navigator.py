@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from navd.geometry.angles import angle_between
 from navd.geometry.pose import Pose2
+from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError
@@ -193,10 +194,12 @@ class Navigator:
         hits_robot_m: FloatArray,
         misses_robot_m: FloatArray,
         stamp: float,
+        view: FieldOfView = ALL_AROUND,
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``:
-        its hits are the DWA's live obstacles; it marks and clears the obstacle layer."""
-        self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp)
+        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``, its rays
+        covering ``view``: its hits are the DWA's live obstacles; it marks and clears the
+        obstacle layer."""
+        self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp, view)
 
     # --- planning --------------------------------------------------------------------------
 

@@ -211,7 +211,7 @@ class PlannerNode(Module):
         def job() -> None:
             points = laser_points(scan, settings.mount, max_range_m=settings.obstacle_range_m)
             with self._lock:
-                self.nav.add_scan(pose, points.hits, points.misses, scan.stamp)
+                self.nav.add_scan(pose, points.hits, points.misses, scan.stamp, points.view)
 
         self.ctx.submit("planning_scan", job)
 

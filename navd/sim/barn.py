@@ -195,7 +195,7 @@ def run_world(
                 range_max=LIDAR_RANGE_M,
                 mount=LIDAR_MOUNT,
             )
-            nav.add_scan(pose, points.hits, points.misses, t)
+            nav.add_scan(pose, points.hits, points.misses, t, points.view)
             near = points.hits[np.hypot(*points.hits.T) <= GUARD_REACH_M]
         if nav.plan_reason(t, pose) is not None:
             try:

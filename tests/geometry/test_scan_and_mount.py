@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from navd.config import NavdConfig
 from navd.geometry.mount import LidarMount
@@ -50,3 +51,26 @@ def test_laser_points_use_the_mount_and_its_shortest_range() -> None:
     # right; 0.25 m is the robot itself; 9 m lies beyond the 5 m the caller uses.
     np.testing.assert_allclose(points.hits, [[0.1, -1.0], [2.1, 0.0]], atol=1e-6)
     np.testing.assert_allclose(points.misses, [[0.1, 5.0]], atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("angle_min", "increment", "beams", "all_around"),
+    [
+        (-math.pi, 2 * math.pi / 360, 360, True),  # a 360° lidar
+        (-0.75 * math.pi, 1.5 * math.pi / 719, 720, False),  # 270°, counter-clockwise
+        (0.75 * math.pi, -1.5 * math.pi / 719, 720, False),  # the same, clockwise
+    ],
+)
+def test_a_scan_knows_the_bearings_its_rays_cover(
+    angle_min: float, increment: float, beams: int, all_around: bool
+) -> None:
+    mount = Pose2(-0.1, 0.0, 0.0)
+    points = scan_points(
+        np.full(beams, 2.0), angle_min, increment, range_min=0.1, range_max=10.0, mount=mount
+    )
+    assert points.view.all_around is all_around
+    behind = np.array([[-1.0, 0.0]])  # straight behind the lidar
+    ahead = np.array([[1.0, 0.5]])
+    assert bool(points.view.unseen(behind)[0]) is not all_around
+    assert not points.view.unseen(ahead)[0]
+    assert not points.view.unseen(points.hits).any()  # every ray's end is in view

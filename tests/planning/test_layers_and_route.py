@@ -10,6 +10,7 @@ import pytest
 
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry.scan import FieldOfView
 from navd.planning.errors import GoalRefusedError
 from navd.planning.layers import FRAME_MARGIN_M, Layers, LayerSettings
 from navd.planning.route import Route
@@ -42,17 +43,22 @@ def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> N
     assert math.isclose((frame.origin_x_m + 0.525) / 0.05, round((frame.origin_x_m + 0.525) / 0.05))
 
 
-def test_what_the_lidar_saw_stays_an_obstacle_near_the_robot_until_forgotten() -> None:
+def test_what_a_270_degree_lidar_saw_stays_an_obstacle_in_its_blind_sector() -> None:
+    ahead = FieldOfView(0.0, 0.0, -0.75 * math.pi, 1.5 * math.pi)  # blind behind the robot
     layers = Layers(LayerSettings.from_config(NavdConfig()))  # persistence 2 s
     layers.snapshot(0.0, [(0.0, 0.0)])
-    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0)
-    # the robot turned away: the next scan sees nothing there, nor clears it
-    layers.add_scan(Pose2(0.0, 0.0, math.pi), np.empty((0, 2)), np.empty((0, 2)), 0.5)
+    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, ahead)
+    # the robot turned round: the obstacle is behind it now, where its lidar cannot see
+    turned = Pose2(0.0, 0.0, math.pi)
+    layers.add_scan(turned, np.empty((0, 2)), np.empty((0, 2)), 0.5, ahead)
     assert layers.scan_points.shape[0] == 0
-    near = layers.local_points(IDENTITY, 2.0, now=1.0)
-    assert np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) < 0.05
-    assert layers.local_points(IDENTITY, 2.0, now=2.5).shape[0] == 0  # forgotten after 2 s
-    assert layers.local_points(Pose2(10.0, 0.0, 0.0), 2.0, now=1.0).shape[0] == 0  # far
+    near = layers.local_points(turned, 2.0, now=1.0)
+    assert near.shape[0] > 0 and np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) < 0.05
+    assert layers.local_points(turned, 2.0, now=2.5).shape[0] == 0  # forgotten after 2 s
+    assert layers.local_points(IDENTITY, 2.0, now=1.0).shape[0] == 0  # in view: the scan rules
+    # a lidar that sees all around would see it if it were there: nothing is added
+    layers.add_scan(turned, np.empty((0, 2)), np.empty((0, 2)), 0.6)
+    assert layers.local_points(turned, 2.0, now=1.0).shape[0] == 0
 
 
 def test_a_far_goal_does_not_grow_every_later_snapshot_nor_exceed_the_cell_limit() -> None:
