@@ -11,7 +11,9 @@ read fast enough; a client whose droppable frames have all been dropped for
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
+import socket
 from typing import Protocol, cast
 
 from navd.drivers.protocol.codec import encode
@@ -20,6 +22,11 @@ from navd.drivers.protocol.replies import ErrorFrame, ReplyPart
 __all__ = ["Connection", "LineSink"]
 
 HARD_CAP_FACTOR = 4
+# The kernel may hold this much unsent output per connection [bytes] (it doubles it); left to
+# its autotuning it grows to megabytes, and a client that stopped reading would keep its slot
+# for minutes before navd's own bound on output ever saw a byte pile up.
+SEND_BUFFER_BYTES = 64 * 1024
+CLOSE_GRACE_S = 2.0  # [s] a closing connection's output has this long to drain
 
 
 class LineSink(Protocol):
@@ -82,6 +89,10 @@ class Connection(asyncio.Protocol):
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         # uvloop's transports implement the asyncio.Transport interface without subclassing it
         self._transport = cast(asyncio.Transport, transport)
+        sock = transport.get_extra_info("socket")
+        if sock is not None:
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER_BYTES)
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         if not self.sink.on_open(self):
@@ -191,7 +202,9 @@ class Connection(asyncio.Protocol):
         return True
 
     def close(self, reason: str, error: ErrorFrame | None = None) -> None:
-        """Close, optionally sending a last (fatal) error frame first."""
+        """Close, optionally sending a last (fatal) error frame first. What is still
+        buffered goes out first, for at most ``CLOSE_GRACE_S``: a client that does not read
+        is then cut off, so its slot is free either way."""
         transport = self._transport
         if transport is None or transport.is_closing():
             return
@@ -199,6 +212,11 @@ class Connection(asyncio.Protocol):
         if error is not None:
             transport.write(encode(error))
         transport.close()
+        asyncio.get_running_loop().call_later(CLOSE_GRACE_S, self._abort, transport)
+
+    def _abort(self, transport: asyncio.Transport) -> None:
+        if self._transport is transport:  # still not gone: its output never drained
+            transport.abort()
 
     def _too_long(self) -> None:
         self.send(

@@ -5,8 +5,10 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import socket
 from typing import Any
 
+import numpy as np
 import pytest
 
 from navd.drivers.client import AsyncClient, ConnectionClosedError, RequestRefusedError
@@ -17,6 +19,7 @@ from navd.drivers.protocol.frames import (
     GoalFrame,
     Hello,
     ImuFrame,
+    InitialPoseFrame,
     PingFrame,
     SaveMapFrame,
     ScanFrame,
@@ -43,7 +46,9 @@ from navd.lifecycle.messages import (
     Goal,
     GoalStatus,
     Imu,
+    InitialPose,
     LaserScan,
+    MapUpdate,
 )
 from tests.drivers.conftest import connected, hello, record, running_daemon, until
 
@@ -467,3 +472,47 @@ async def test_a_map_name_cannot_leave_the_map_folder(name: str) -> None:
         answer = await ui.receive_type(ConfigAppliedFrame | ConfigRejectedFrame)
         assert isinstance(answer, ConfigRejectedFrame) and "slam.map_name" in answer.reason
         await ui.close()
+
+
+async def test_an_initial_pose_far_out_or_off_the_map_is_refused_with_the_reason() -> None:
+    async with running_daemon() as (daemon, port):
+        poses = record(daemon, InitialPose)
+        ui = await connected(port, "control", "ui")
+        with pytest.raises(RequestRefusedError, match=r"x: Input should be less than or equal"):
+            await ui.request(InitialPoseFrame(x=0, y=0, yaw=0).model_copy(update={"x": 1e300}))
+        await ui.request(InitialPoseFrame(x=500.0, y=0.0, yaw=0.0))  # no map yet: it starts one
+        now = daemon.clock.now()
+        occupancy = np.zeros((100, 200), dtype=np.int8)  # 10 m x 5 m from (-1, -1)
+        daemon.bus.publish(
+            MapUpdate(
+                stamp=now,
+                received=now,
+                revision=1,
+                resolution_m=0.05,
+                origin_x_m=-1.0,
+                origin_y_m=-1.0,
+                occupancy=occupancy,
+            )
+        )
+        with pytest.raises(RequestRefusedError, match=r"lies 491 m outside the map \(x -1.0..9.0"):
+            await ui.request(InitialPoseFrame(x=500.0, y=0.0, yaw=0.0))
+        await ui.request(InitialPoseFrame(x=12.0, y=-3.0, yaw=0.0))  # just off its edge: fine
+        await until(lambda: len(poses) == 2)
+        assert [(p.x_m, p.y_m) for p in poses] == [(500.0, 0.0), (12.0, -3.0)]
+        await ui.close()
+
+
+async def test_a_subscriber_that_never_reads_is_disconnected() -> None:
+    tcp = {"slow_reader_timeout_s": 1.0, "status_queue": 1}
+    async with running_daemon(tcp=tcp) as (daemon, port):
+        lost = record(daemon, DeviceLost)
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # a small window: no slack
+        sock.setblocking(False)
+        await asyncio.get_running_loop().sock_connect(sock, ("127.0.0.1", port))
+        sock.send(encode(Hello(role="control", device_id="deaf")))
+        sock.send(encode(SubscribeFrame(rate_hz=50)))  # then never read a byte
+        # its status frames pile up, are dropped for 1 s, then the connection is cut off
+        await until(lambda: [m.device_id for m in lost] == ["deaf"], timeout_s=15.0)
+        assert "does not read" in lost[0].reason
+        sock.close()
