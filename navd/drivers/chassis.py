@@ -6,7 +6,8 @@ speeds up no faster than the robot's acceleration limits from what it wrote last
 stop or a reopened port, from zero), whatever it is told; slowing down is never delayed. It
 writes "0 0" when it starts, when it stops, at once on a SafeStop, and first thing after
 reopening a lost port; a command received before the loss is never replayed. A lost port
-(USB unplugged, pty closed) is reported as DeviceLost and reopened with exponential backoff.
+(USB unplugged, pty closed) is reported as DeviceLost and reopened with exponential backoff,
+in real time on either clock.
 Lines the STM32 sends back are logged or, if configured, parsed as measured wheel speeds into
 WheelOdometry.
 """
@@ -174,7 +175,9 @@ class ChassisDriver(Module):
                     )
                     self._publish_lost(str(err))
                     reported_down = True
-                await self.ctx.clock.sleep(backoff)
+                # Real time, on either clock: a port comes back in the world, not in a
+                # simulation whose time may stand still until the wheels answer.
+                await asyncio.sleep(backoff)
                 backoff = min(backoff * 2.0, self.settings.value.reconnect_max_s)
                 continue
             backoff = self.settings.value.reconnect_initial_s
@@ -191,7 +194,7 @@ class ChassisDriver(Module):
                 with contextlib.suppress(Exception):
                     self._write(0, 0)
                 self._publish_lost(f"driver error: {type(err).__name__}: {err}")
-                await self.ctx.clock.sleep(backoff)
+                await asyncio.sleep(backoff)
             self._close()
             reported_down = True
 

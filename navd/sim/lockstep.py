@@ -88,7 +88,10 @@ class Lockstep:
                 await self._read_chassis(ack.sent.get("chassis", 0))
                 for sensor in sensors:
                     await self._step_sensor(sensor)
-                if feedback_every and self.steps % feedback_every == 0:
+                # The STM32 speaks once navd has spoken to it: lines written before navd
+                # opened its end would be flushed by the open, and never counted by navd.
+                heard = self.robot.wheels.lines > 0
+                if heard and feedback_every and self.steps % feedback_every == 0:
                     self.chassis.write(self.robot.encoder_line())
                     self._sent["chassis"] += 1
                 self.robot.step(t, dt)
