@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 import numpy.typing as npt
@@ -27,12 +26,13 @@ from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_cos
 from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
+from navd.planning.goal import GoalState, NavGoal, Step
 from navd.planning.layers import Layers
 from navd.planning.route import Route
 from navd.planning.settings import NavigatorSettings, goal_too_far
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
-__all__ = ["GoalState", "NavGoal", "Navigator", "PlanRequest", "Step"]
+__all__ = ["Navigator", "PlanRequest"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -40,49 +40,6 @@ FloatArray = npt.NDArray[np.float64]
 BLOCK_LOOKAHEAD_M = 3.0
 # Stuck recovery forgets scan obstacles this far around the robot [m].
 STUCK_CLEAR_RADIUS_M = 1.5
-
-
-class GoalState(StrEnum):
-    """Where a goal stands (GoalStatus.state)."""
-
-    ACTIVE = "active"
-    REACHED = "reached"
-    FAILED = "failed"
-    CANCELED = "canceled"
-
-
-@dataclass(frozen=True, slots=True)
-class NavGoal:
-    """A goal in the map frame: [m, m], and [rad] or None for any heading."""
-
-    goal_id: str
-    x_m: float
-    y_m: float
-    yaw_rad: float | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class Step:
-    """What one control step decided.
-
-    Attributes:
-        linear_mps, angular_radps: the command.
-        state: the goal's state after the step (None without a goal).
-        remaining_m: [m] route length left (NaN while unknown).
-        eta_s: [s] estimated time to arrival (NaN while unknown).
-        reason: why the goal failed, or what the robot is waiting for.
-        stuck_detected: the robot was stuck for max_stuck_time (StuckDetected).
-        phase: the stuck monitor's phase.
-    """
-
-    linear_mps: float
-    angular_radps: float
-    state: GoalState | None
-    remaining_m: float = math.nan
-    eta_s: float = math.nan
-    reason: str = ""
-    stuck_detected: bool = False
-    phase: StuckPhase = StuckPhase.MOVING
 
 
 @dataclass(frozen=True, slots=True)

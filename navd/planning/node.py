@@ -24,12 +24,9 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
 
 import numpy as np
 
-from navd.config import NavdConfig
-from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
@@ -50,45 +47,16 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
-from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
-from navd.planning.settings import NavigatorSettings, goal_too_far
+from navd.planning.goal import GoalState, NavGoal, Step
+from navd.planning.navigator import Navigator
+from navd.planning.settings import PlannerSettings, goal_too_far
 from navd.planning.warmup import warm_up
 
-__all__ = ["PlannerNode", "PlannerSettings"]
+__all__ = ["PlannerNode"]
 
 POSE_TIMEOUT_S = 0.5
 STATUS_PERIOD_S = 0.5
 SOURCE = "planner"
-
-
-@dataclass(frozen=True, slots=True)
-class PlannerSettings:
-    """The planner module's settings.
-
-    Attributes:
-        navigator: what the navigator runs on.
-        control_period_s: [s] period of the control tick.
-        mount: where the lidar sits, for the scan obstacles.
-        obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
-        reaction_timeout_s: [s] the chassis stops itself on a command older than this.
-    """
-
-    navigator: NavigatorSettings
-    control_period_s: float
-    mount: LidarMount
-    obstacle_range_m: float
-    reaction_timeout_s: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> PlannerSettings:
-        """The settings the robot, safety, planning and lidar sections describe."""
-        return cls(
-            navigator=NavigatorSettings.from_config(config),
-            control_period_s=1.0 / config.planning.control_rate_hz,
-            mount=LidarMount.of(config.lidar),
-            obstacle_range_m=config.planning.obstacle_range_m,
-            reaction_timeout_s=config.safety.reaction_timeout_s,
-        )
 
 
 class PlannerNode(Module):

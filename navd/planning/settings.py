@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
+from navd.geometry.mount import LidarMount
 from navd.planning.costmap import CostmapSettings
 from navd.planning.dwa import DwaSettings
 from navd.planning.global_planner import SearchSettings
@@ -15,7 +16,7 @@ from navd.planning.margins import keep_clear_m
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckSettings
 
-__all__ = ["NavigatorSettings", "goal_too_far"]
+__all__ = ["NavigatorSettings", "PlannerSettings", "goal_too_far"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,6 +92,36 @@ class NavigatorSettings:
             max_stuck_time_s=planning.max_stuck_time_s,
             max_stuck_replans=planning.max_stuck_replans,
             max_goal_distance_m=planning.max_goal_distance_m,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class PlannerSettings:
+    """The planner module's settings.
+
+    Attributes:
+        navigator: what the navigator runs on.
+        control_period_s: [s] period of the control tick.
+        mount: where the lidar sits, for the scan obstacles.
+        obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
+        reaction_timeout_s: [s] the chassis stops itself on a command older than this.
+    """
+
+    navigator: NavigatorSettings
+    control_period_s: float
+    mount: LidarMount
+    obstacle_range_m: float
+    reaction_timeout_s: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> PlannerSettings:
+        """The settings the robot, safety, planning and lidar sections describe."""
+        return cls(
+            navigator=NavigatorSettings.from_config(config),
+            control_period_s=1.0 / config.planning.control_rate_hz,
+            mount=LidarMount.of(config.lidar),
+            obstacle_range_m=config.planning.obstacle_range_m,
+            reaction_timeout_s=config.safety.reaction_timeout_s,
         )
 
 

@@ -9,7 +9,8 @@ import numpy as np
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY
 from navd.planning._bitgrid_kernels import pack_free_cells
-from navd.planning.navigator import NavGoal, Navigator
+from navd.planning.goal import NavGoal
+from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 
 __all__ = ["warm_up"]

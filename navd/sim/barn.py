@@ -30,8 +30,9 @@ from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
+from navd.planning.goal import GoalState, NavGoal
 from navd.planning.guard import GUARD_REACH_M, GuardSettings, guard_scale
-from navd.planning.navigator import GoalState, NavGoal, Navigator
+from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body

@@ -19,7 +19,8 @@ from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
-from navd.planning.navigator import GoalState, NavGoal, Navigator, Step
+from navd.planning.goal import GoalState, NavGoal, Step
+from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 
 FloatArray = npt.NDArray[np.float64]

@@ -11,7 +11,8 @@ from navd.bench.room import WALLS
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.planning.errors import GoalRefusedError
-from navd.planning.navigator import GoalState, NavGoal, Navigator
+from navd.planning.goal import GoalState, NavGoal
+from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.planning.stuck import StuckPhase
 from tests.planning.drive import drive

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import asyncio
 import hmac
-import math
 from collections.abc import Callable
 
 from navd import __version__
@@ -34,22 +33,17 @@ from navd.drivers.tcp.settings import (
     TcpSettings,
 )
 from navd.drivers.tcp.status_board import StatusBoard
+from navd.drivers.tcp.watch import SilenceWatch
 from navd.lifecycle.errors import MessageError
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
     DeviceLost,
     DeviceResumed,
-    DeviceStale,
 )
 from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["TcpServer"]
-
-# A sensor slower than its kind's timeout is stale after its own period x factor + margin.
-OWN_PERIOD_FACTOR = 1.25
-OWN_PERIOD_MARGIN_S = 0.05
-MAX_WATCH_SLEEP_S = 1.0  # [s] the watch looks again at least this often (a clock that jumps)
 
 
 class TcpServer(Module):
@@ -61,7 +55,6 @@ class TcpServer(Module):
         self.connections: set[Connection] = set()
         self._server: asyncio.Server | None = None
         self.board = StatusBoard()
-        self._watch_wakeup = asyncio.Event()
         self._pending: dict[Connection, None] = {}  # no hello yet, oldest first
         self._evicted = 0
 
@@ -70,6 +63,7 @@ class TcpServer(Module):
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self.settings = ctx.settings(TcpSettings, self._settings_changed)
+        self.watch = SilenceWatch(ctx, self.sessions.values, lambda: self.settings.value)
         self.board.subscribe(ctx)
         # a new or resumed device may fall silent before the watch's next deadline
         ctx.subscribe(DeviceConnected, self.wake_watch)
@@ -102,7 +96,7 @@ class TcpServer(Module):
         self.ctx.log.info(
             "listening", host=address[0], port=address[1], token_required=tcp.token is not None
         )
-        self.ctx.spawn(self._watch_silence(), name="silence")
+        self.ctx.spawn(self.watch.run(), name="silence")
 
     async def on_deactivate(self) -> None:
         if self._server is not None:
@@ -341,7 +335,7 @@ class TcpServer(Module):
             )
         )
 
-    # --- status and staleness -----------------------------------------------------------
+    # --- status ---------------------------------------------------------------------------
 
     def status_frame(self) -> StatusFrame:
         """The status a subscribed control client receives."""
@@ -360,87 +354,7 @@ class TcpServer(Module):
         ]
         return self.board.frame(now, self.settings.value.robot_name, devices)
 
-    def stale_after_s(self, session: Session) -> float | None:
-        """[s] the silence that makes this session's device stale: its kind's configured
-        timeout, or for a sensor slower than that, its own period x 1.25 + 50 ms (a 5 Hz
-        lidar is not stale between two of its scans). None: the kind never goes stale."""
-        timeout = dict(self.settings.value.stale_after_s).get(session.kind)
-        if timeout is None:
-            return None
-        gap = session.typical_gap_s()
-        if gap is None:
-            return timeout
-        return max(timeout, OWN_PERIOD_FACTOR * gap + OWN_PERIOD_MARGIN_S)
-
     def wake_watch(self, _msg: object = None) -> None:
         """A new or resumed device, or new timeouts: the silence watch sets its next deadline
         anew."""
-        self._watch_wakeup.set()
-
-    async def _watch_silence(self) -> None:
-        """Mark each device stale the moment its silence passes its timeout, and close a
-        control client idle past ``tcp.control_idle_timeout_s``: sleep until the earliest
-        deadline of all sessions (not on a fixed poll, which would add its period to every
-        detection), or until a session or the timeouts change."""
-        while True:
-            now = self.ctx.clock.now()
-            next_deadline = math.inf
-            for session in list(self.sessions.values()):
-                deadline = self._deadline(session)
-                if deadline is None:
-                    continue
-                if now < deadline:
-                    next_deadline = min(next_deadline, deadline)
-                elif session.kind is DeviceKind.CONTROL:
-                    self._close_idle(session, now)
-                else:
-                    self._mark_stale(session, now)
-            self._watch_wakeup.clear()
-            wait_s = min(next_deadline - now, MAX_WATCH_SLEEP_S)
-            sleep = asyncio.ensure_future(self.ctx.clock.sleep(wait_s))
-            wakeup = asyncio.ensure_future(self._watch_wakeup.wait())
-            try:
-                await asyncio.wait((sleep, wakeup), return_when=asyncio.FIRST_COMPLETED)
-            finally:
-                sleep.cancel()
-                wakeup.cancel()
-
-    def _deadline(self, session: Session) -> float | None:
-        """[s] when the session's silence becomes stale (a sensor) or idle (a control client
-        without a status subscription); None when it cannot."""
-        if session.kind is DeviceKind.CONTROL:
-            if session.status_task is not None and not session.status_task.done():
-                return None
-            return session.last_rx_s + self.settings.value.control_idle_timeout_s
-        timeout = self.stale_after_s(session)
-        if timeout is None or session.stale:
-            return None
-        return session.last_rx_s + timeout
-
-    def _close_idle(self, session: Session, now: float) -> None:
-        idle_s = now - session.last_rx_s
-        reason = (
-            f"idle for {idle_s:.0f} s with no request and no status subscription "
-            "(tcp.control_idle_timeout_s); send a ping now and then to stay connected"
-        )
-        self.ctx.log.info("control_idle", device_id=session.device_id, idle_s=round(idle_s, 1))
-        session.conn.close("idle", ErrorFrame(field="", reason=reason, fatal=True))
-
-    def _mark_stale(self, session: Session, now: float) -> None:
-        session.stale = True
-        silent = now - session.last_rx_s
-        self.ctx.log.warning(
-            "device_stale",
-            device_id=session.device_id,
-            kind=session.kind.value,
-            silent_s=round(silent, 3),
-        )
-        self.ctx.publish(
-            DeviceStale(
-                stamp=now,
-                received=now,
-                device_id=session.device_id,
-                kind=session.kind,
-                silent_s=silent,
-            )
-        )
+        self.watch.wake()

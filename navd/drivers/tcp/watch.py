@@ -1,0 +1,130 @@
+"""The silence watch: a sensor silent past its timeout is stale, a control client idle past
+``tcp.control_idle_timeout_s`` is disconnected.
+
+It sleeps until the earliest deadline of all sessions, not on a fixed poll (which would add
+its period to every detection): a lidar falls stale the moment its silence passes its
+timeout. A new or resumed device, or new timeouts, wake it to set its next deadline anew.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable, Iterable
+
+from navd.drivers.protocol.replies import ErrorFrame
+from navd.drivers.tcp.session import Session
+from navd.drivers.tcp.settings import TcpSettings
+from navd.lifecycle.messages import DeviceKind, DeviceStale
+from navd.lifecycle.module import ModuleContext
+
+__all__ = ["SilenceWatch", "stale_after_s"]
+
+# A sensor slower than its kind's timeout is stale after its own period x factor + margin.
+OWN_PERIOD_FACTOR = 1.25
+OWN_PERIOD_MARGIN_S = 0.05
+MAX_SLEEP_S = 1.0  # [s] the watch looks again at least this often (a clock that jumps)
+
+
+def stale_after_s(session: Session, settings: TcpSettings) -> float | None:
+    """[s] the silence that makes this session's device stale: its kind's configured
+    timeout, or for a sensor slower than that, its own period x 1.25 + 50 ms (a 5 Hz lidar is
+    not stale between two of its scans). None: the kind never goes stale."""
+    timeout = dict(settings.stale_after_s).get(session.kind)
+    if timeout is None:
+        return None
+    gap = session.typical_gap_s()
+    if gap is None:
+        return timeout
+    return max(timeout, OWN_PERIOD_FACTOR * gap + OWN_PERIOD_MARGIN_S)
+
+
+class SilenceWatch:
+    """Watches every session's silence.
+
+    Args:
+        ctx: the server's context (clock, log, bus).
+        sessions: the sessions connected now.
+        settings: the server's settings in force.
+    """
+
+    def __init__(
+        self,
+        ctx: ModuleContext,
+        sessions: Callable[[], Iterable[Session]],
+        settings: Callable[[], TcpSettings],
+    ) -> None:
+        self.ctx = ctx
+        self._sessions = sessions
+        self._settings = settings
+        self._wakeup = asyncio.Event()
+
+    def wake(self) -> None:
+        """Look at every session's deadline again (one is new, or the timeouts changed)."""
+        self._wakeup.set()
+
+    async def run(self) -> None:
+        """Mark stale and close idle sessions as their deadlines pass, for ever."""
+        while True:
+            now = self.ctx.clock.now()
+            next_deadline = math.inf
+            for session in list(self._sessions()):
+                deadline = self._deadline(session)
+                if deadline is None:
+                    continue
+                if now < deadline:
+                    next_deadline = min(next_deadline, deadline)
+                elif session.kind is DeviceKind.CONTROL:
+                    self._close_idle(session, now)
+                else:
+                    self._mark_stale(session, now)
+            self._wakeup.clear()
+            sleep = asyncio.ensure_future(
+                self.ctx.clock.sleep(min(next_deadline - now, MAX_SLEEP_S))
+            )
+            wakeup = asyncio.ensure_future(self._wakeup.wait())
+            try:
+                await asyncio.wait((sleep, wakeup), return_when=asyncio.FIRST_COMPLETED)
+            finally:
+                sleep.cancel()
+                wakeup.cancel()
+
+    def _deadline(self, session: Session) -> float | None:
+        """[s] when the session's silence becomes stale (a sensor) or idle (a control client
+        without a status subscription); None when it cannot."""
+        if session.kind is DeviceKind.CONTROL:
+            if session.status_task is not None and not session.status_task.done():
+                return None
+            return session.last_rx_s + self._settings().control_idle_timeout_s
+        timeout = stale_after_s(session, self._settings())
+        if timeout is None or session.stale:
+            return None
+        return session.last_rx_s + timeout
+
+    def _close_idle(self, session: Session, now: float) -> None:
+        idle_s = now - session.last_rx_s
+        reason = (
+            f"idle for {idle_s:.0f} s with no request and no status subscription "
+            "(tcp.control_idle_timeout_s); send a ping now and then to stay connected"
+        )
+        self.ctx.log.info("control_idle", device_id=session.device_id, idle_s=round(idle_s, 1))
+        session.conn.close("idle", ErrorFrame(field="", reason=reason, fatal=True))
+
+    def _mark_stale(self, session: Session, now: float) -> None:
+        session.stale = True
+        silent = now - session.last_rx_s
+        self.ctx.log.warning(
+            "device_stale",
+            device_id=session.device_id,
+            kind=session.kind.value,
+            silent_s=round(silent, 3),
+        )
+        self.ctx.publish(
+            DeviceStale(
+                stamp=now,
+                received=now,
+                device_id=session.device_id,
+                kind=session.kind,
+                silent_s=silent,
+            )
+        )
