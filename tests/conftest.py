@@ -1,12 +1,14 @@
-"""Shared test helpers: a bus on simulated time and message factories."""
+"""Shared test helpers: a bus on simulated time and message and frame factories."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 
+from navd.drivers.protocol.frames import ScanFrame
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.messages import Message, VelocityCommand
@@ -17,6 +19,20 @@ def velocity(linear: float = 0.1, angular: float = 0.0, t: float = 0.0) -> Veloc
     """A VelocityCommand stamped at ``t``."""
     return VelocityCommand(
         stamp=t, received=t, linear_mps=linear, angular_radps=angular, source="test"
+    )
+
+
+def room_scan(stamp: float) -> ScanFrame:
+    """What a 360-ray lidar in the middle of an 8 m square room sees, stamped ``stamp``."""
+    angles = [-math.pi + 2 * math.pi * k / 360 for k in range(360)]
+    ranges = [4.0 / max(abs(math.cos(a)), abs(math.sin(a))) for a in angles]
+    return ScanFrame(
+        stamp=stamp,
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / 360,
+        range_min=0.05,
+        range_max=12.0,
+        ranges=ranges,
     )
 
 

@@ -9,7 +9,6 @@ equal what its type derives from the config now, and at least one of them must h
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -19,12 +18,13 @@ from pydantic import BaseModel
 
 from navd.config import ConfigError, NavdConfig, apply_changes
 from navd.config.model import restart_required
-from navd.drivers.protocol.frames import ConfigFrame, ScanFrame
+from navd.drivers.protocol.frames import ConfigFrame
 from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFrame
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import PoseMeasurement
 from navd.slam.node import SlamNode
+from tests.conftest import room_scan
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 # Keys changed together with their partner (the model requires them as a pair).
@@ -99,19 +99,6 @@ def in_use(daemon: Daemon) -> dict[str, tuple[object, ...]]:
     return held
 
 
-def _scan(stamp: float) -> ScanFrame:
-    angles = [-math.pi + 2 * math.pi * k / 360 for k in range(360)]
-    ranges = [4.0 / max(abs(math.cos(a)), abs(math.sin(a))) for a in angles]  # an 8 m room
-    return ScanFrame(
-        stamp=stamp,
-        angle_min=-math.pi,
-        angle_increment=2 * math.pi / 360,
-        range_min=0.05,
-        range_max=12.0,
-        ranges=ranges,
-    )
-
-
 def test_the_walk_covers_the_keys_users_tune() -> None:
     keys = runtime_keys()
     assert len(keys) > 100
@@ -136,7 +123,7 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
             lidar = await connected(port, "lidar", "lidar0")
             control = await connected(port, "control", "ui")
             for i in range(3):  # kiss-icp odometry exists once scans came without wheels
-                lidar.send(_scan(1.0 + 0.1 * i))
+                lidar.send(room_scan(1.0 + 0.1 * i))
                 await until(lambda n=i: len(poses) > n, timeout_s=10.0)
             await until(
                 lambda: all(

@@ -3,7 +3,6 @@ secrets in the log."""
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 import tomllib
@@ -11,23 +10,10 @@ from pathlib import Path
 from typing import Any
 
 from navd.drivers.client import Client
-from navd.drivers.protocol.frames import GoalFrame, ScanFrame, SubscribeFrame
+from navd.drivers.protocol.frames import GoalFrame, SubscribeFrame
 from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, Reply, StatusFrame
+from tests.conftest import room_scan
 from tests.e2e.conftest import default_config, run_navd
-
-
-def room_scan(stamp: float) -> ScanFrame:
-    """What a lidar in the middle of an 8 m square room sees."""
-    angles = [-math.pi + 2 * math.pi * k / 360 for k in range(360)]
-    ranges = [4.0 / max(abs(math.cos(a)), abs(math.sin(a))) for a in angles]
-    return ScanFrame(
-        stamp=stamp,
-        angle_min=-math.pi,
-        angle_increment=2 * math.pi / 360,
-        range_min=0.05,
-        range_max=12.0,
-        ranges=ranges,
-    )
 
 
 class Lidar(threading.Thread):
