@@ -14,6 +14,7 @@ import math
 from navd.estimation.errors import GeoError
 from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.settings import EstimatorSettings
+from navd.estimation.warmup import warm_up
 from navd.lifecycle.messages import (
     CompassHeading,
     GeoGoal,
@@ -79,6 +80,9 @@ class EstimationNode(Module):
 
     def _build(self) -> None:
         try:
+            # the kernels first: samples are dropped until the estimator exists, never
+            # compiled for on the event loop
+            warm_up(self.settings.value.estimation)
             self.estimator = StateEstimator(self.settings.value)
         except Exception as err:
             self._build_error = err

@@ -7,8 +7,9 @@ step said so, the tick also submits A* to the ``global_plan`` slot, which takes 
 the layers and plans on it. Goals and cancels reach the navigator through the
 ``planning_goals`` slot, map updates and scans through ``planning_map`` and
 ``planning_scan``. The navigator is shared by these threads under one lock, held only for
-cheap work (A* runs outside it) and never taken on the event loop, so no snapshot of a large
-map can stall the loop. New settings reach the navigator under the same lock, in a worker.
+cheap work (A* runs outside it) and never taken on the event loop while the daemon runs, so
+no snapshot of a large map can stall the loop. New settings reach the navigator under the
+same lock, in a worker.
 
 A goal farther than ``planning.max_goal_distance_m`` from the robot fails at once with the
 reason; one that needs a larger grid than ``planning.max_plan_cells`` fails when it is
@@ -96,7 +97,7 @@ class PlannerNode(Module):
         self.ctx.every(lambda: self.settings.value.control_period_s, self._tick, name="control")
 
     def settings_in_use(self) -> tuple[object, ...]:
-        with self._lock:
+        with self._lock:  # a check's question (tests), not the running daemon's
             return (self.settings.value, *self.nav.settings_in_use())
 
     def _settings_changed(self, old: PlannerSettings, new: PlannerSettings) -> None:

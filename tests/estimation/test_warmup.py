@@ -1,0 +1,48 @@
+"""The estimation warm-up compiles exactly what the daemon's IMU path then runs: in a fresh
+process, feeding samples decoded from the wire after it compiles nothing more (a compile on
+the event loop stalled it for a second on a cold cache)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+SCRIPT = textwrap.dedent(
+    """
+    from navd.config import NavdConfig
+    from navd.drivers.protocol.codec import decode_sensor
+    from navd.drivers.protocol.convert import sensor_message
+    from navd.estimation import _madgwick_kernels as k
+    from navd.estimation.estimator import StateEstimator
+    from navd.estimation.settings import EstimatorSettings
+    from navd.estimation.warmup import warm_up
+
+    kernels = [getattr(k, n) for n in dir(k) if hasattr(getattr(k, n), "signatures")]
+    config = NavdConfig()
+    warm_up(config.estimation)
+    warmed = {f.__name__: len(f.signatures) for f in kernels}
+    estimator = StateEstimator(EstimatorSettings.from_config(config))
+    for i, line in enumerate([
+        b'{"type":"imu","stamp":1.0,"angular_velocity":[0,0,0.1],"linear_acceleration":[0,0,9.8]}',
+        b'{"type":"imu","stamp":1.01,"angular_velocity":[0,0,0.1],"linear_acceleration":[0,0,9.8],'
+        b'"magnetic_field":[2e-5,0,-4e-5]}',
+        b'{"type":"imu","angular_velocity":[1,2,3],"linear_acceleration":[0.5,0,9.7]}',
+    ]):
+        frame = decode_sensor("imu", line)
+        estimator.add_imu(sensor_message(frame, "imu0", 1.0 + 0.01 * i, 1.02 + 0.01 * i))
+    estimator.madgwick.window_mean(1.03, 0.05)
+    after = {f.__name__: len(f.signatures) for f in kernels}
+    assert warmed["madgwick_ingest"] and warmed["imu_window_mean"], warmed
+    assert after == warmed, (warmed, after)
+    print("ok")
+    """
+)
+
+
+def test_the_warm_up_leaves_nothing_for_the_first_samples_to_compile() -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "ok"
