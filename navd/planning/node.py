@@ -253,7 +253,10 @@ class PlannerNode(Module):
     def _plan(self, now: float, pose: Pose2, reason: str) -> tuple[Message, ...]:
         """Worker: a snapshot of the layers (under the lock), A* on it (outside), then the
         route to the navigator. Whatever goes wrong fails or delays the goal with the reason;
-        the next goal plans afresh."""
+        the next goal plans afresh. The search counts as over only once its outcome is in the
+        navigator (under its lock): a step in between would see the reason it answered still
+        standing and ask for the same search again."""
+        goal = None
         try:
             with self._lock:
                 goal = self.nav.goal
@@ -264,20 +267,23 @@ class PlannerNode(Module):
             with self._lock:
                 if self.nav.goal is goal:
                     self.nav.plan_failed(now, err)
+                self._planned()
                 return self._failed()
         except Exception as err:  # out of memory, or a bug: the goal fails, the planner goes on
             self.ctx.log.exception("plan_broke", reason=reason, error=f"{type(err).__name__}")
             with self._lock:
                 if self.nav.goal is goal:
                     self.nav.abort(f"planning failed: {type(err).__name__}: {err}")
+                self._planned()
                 return self._failed()
+        else:
+            with self._lock:
+                self._planned()
+                if self.nav.goal is not goal or goal is None:
+                    return ()  # the goal changed meanwhile: this route is for the old one
+                self.nav.accept_plan(now, path)
         finally:
-            with self._flags:
-                self._planning = False
-        with self._lock:
-            if self.nav.goal is not goal or goal is None:
-                return ()  # the goal changed meanwhile: this route is for the old one
-            self.nav.accept_plan(now, path)
+            self._planned()  # whatever happened, the planner is free for the next search
         self.ctx.log.info(
             "planned",
             reason=reason,
@@ -287,6 +293,10 @@ class PlannerNode(Module):
         )
         stamp = self.ctx.clock.now()
         return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
+
+    def _planned(self) -> None:
+        with self._flags:
+            self._planning = False
 
     def _failed(self) -> tuple[Message, ...]:
         """Under the lock: the stop and the status of a goal that has just failed, if it has."""

@@ -3,7 +3,10 @@ protocol."""
 
 from __future__ import annotations
 
+import asyncio
 import math
+import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -20,6 +23,7 @@ from navd.lifecycle.messages import (
     VelocityCommand,
 )
 from navd.planning.global_planner import GlobalPlanner
+from navd.planning.node import PlannerNode
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 
@@ -145,4 +149,28 @@ async def test_planning_that_breaks_fails_its_goal_and_the_next_goal_plans(
         assert route.goal_id == "g2"
         assert [p.goal_id for p in paths] == ["g2"]
         assert daemon.supervisor.faulted() == {}
+        await control.close()
+
+
+async def test_one_goal_on_a_still_map_is_searched_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    searches: list[GlobalPlanner] = []
+    real_plan = GlobalPlanner.plan
+
+    def counted(self: GlobalPlanner, *args: Any, **kwargs: Any) -> Any:
+        searches.append(self)
+        time.sleep(0.08)  # a search that takes a while, as on an inflated map: steps go on
+        return real_plan(self, *args, **kwargs)
+
+    monkeypatch.setattr(GlobalPlanner, "plan", counted)
+    async with running_daemon() as (daemon, port):
+        (planner,) = [m for m in daemon.manager.modules if isinstance(m, PlannerNode)]
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+        await control.receive_type(PathFrame)
+        await asyncio.sleep(1.5)  # thirty control steps; the replan timer is 5 s away
+        # (the warm-up's throwaway navigator searched too, with a planner of its own)
+        assert [s for s in searches if s is planner.nav.global_planner] == [
+            planner.nav.global_planner
+        ]
         await control.close()
