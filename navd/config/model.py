@@ -83,7 +83,19 @@ PRIVILEGED: dict[str, frozenset[str] | None] = {
         }
     ),
     "slam": frozenset({"map_dir", "map_name"}),
-    "planning": frozenset({"keep_out_zones", "max_goal_distance_m", "max_plan_cells"}),
+    "planning": frozenset(
+        {
+            "keep_out_zones",
+            "max_goal_distance_m",
+            "max_plan_cells",
+            # what each control step costs
+            "control_rate_hz",
+            "linear_samples",
+            "angular_samples",
+            "prediction_horizon_s",
+            "sim_step_s",
+        }
+    ),
     "estimation": frozenset({"degraded_position_std_m", "lost_position_std_m"}),
 }
 
@@ -330,6 +342,14 @@ class TcpConfig(Section):
         le=86_400,
         description="[s] a control client that sends nothing for this long and has no status "
         "subscription is disconnected (a ping keeps it)",
+    )
+    sensor_idle_timeout_s: float = Field(
+        60.0,
+        ge=1,
+        le=86_400,
+        description="[s] a sensor that sends nothing, not even a ping, for this long is "
+        "disconnected (it frees its slot; it stays stale, and holds the robot, until it "
+        "sends data)",
     )
     slow_reader_timeout_s: float = Field(
         10.0,

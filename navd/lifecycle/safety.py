@@ -94,15 +94,18 @@ class SafetyGate(Module):
     """Turns requested VelocityCommands into DriveCommands, or zero while unsafe.
 
     Device rules: a lidar or an IMU that falls silent or leaves holds the robot until it is
-    back, or, once it has left, until another of its kind connects (a sensor program
-    restarted under a new id); a GPS or wheel odometry does so only while no lidar is there.
-    A device still connected but silent holds the robot until it speaks or leaves.
+    back, or, once it has left, until as many of its kind speak as ever did at once (the
+    same sensor restarted under a new id, on a robot with one; on a robot with two, a
+    second one connecting does not stand in for the first); a GPS or wheel odometry does so
+    only while no lidar is there. A device still connected but silent holds the robot until
+    it speaks or leaves.
     """
 
     def __init__(self, limiters: Sequence[SpeedLimiter] = ()) -> None:
         super().__init__("safety")
         self._reasons: dict[str, str] = {}  # SafeStop holds, by key
         self._fresh: dict[str, DeviceKind] = {}  # devices connected and speaking
+        self._most: dict[DeviceKind, int] = {}  # the most of each kind that spoke at once
         self._device_holds: dict[str, _DeviceHold] = {}  # by device id
         self._limiters = tuple(limiters)
         self._request: VelocityCommand | None = None  # the last command asked for
@@ -192,20 +195,21 @@ class SafetyGate(Module):
             self._held_now(why)
 
     def _on_back(self, msg: DeviceResumed | DeviceConnected) -> None:
-        if msg.kind not in ESSENTIAL | WITHOUT_LIDAR:
+        kind = msg.kind
+        if kind not in ESSENTIAL | WITHOUT_LIDAR:
             return
-        self._fresh[msg.device_id] = msg.kind
-        released = [msg.device_id]
-        if isinstance(msg, DeviceConnected):
-            # one of a kind coming after another left: the same sensor under a new id
-            released += [
-                device
-                for device, hold in self._device_holds.items()
-                if hold.left and hold.kind is msg.kind and hold.since_s <= msg.stamp
-            ]
-        if msg.kind is DeviceKind.LIDAR:  # what stood in for a missing lidar matters no more
+        self._fresh[msg.device_id] = kind
+        speaking = sum(1 for k in self._fresh.values() if k is kind)
+        self._most[kind] = max(self._most.get(kind, 0), speaking)
+        own = self._device_holds.get(msg.device_id)
+        released = [msg.device_id] if own is not None and own.kind is kind else []
+        if speaking >= self._most[kind]:
+            # as many of its kind speak as ever did at once: those that left were replaced
+            # (a sensor program restarted under a new id), not lost beside the others
+            released += [d for d, h in self._device_holds.items() if h.left and h.kind is kind]
+        if kind is DeviceKind.LIDAR:  # what stood in for a missing lidar matters no more
             released += [d for d, h in self._device_holds.items() if h.kind in WITHOUT_LIDAR]
-        changed = [d for d in released if self._device_holds.pop(d, None) is not None]
+        changed = [d for d in dict.fromkeys(released) if self._device_holds.pop(d, None)]
         if changed:
             self.ctx.log.info("safety_release", devices=changed, remaining=self.reasons)
             self._publish_state()

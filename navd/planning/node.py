@@ -78,6 +78,7 @@ class PlannerNode(Module):
         self._drive_stamp = -math.inf
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
+        self._broken: Exception | None = None  # a search that broke, not yet reported
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -229,6 +230,9 @@ class PlannerNode(Module):
 
     def _tick(self, now: float) -> None:
         """Event loop, cheap: submit this period's step, and A* if the last step asked."""
+        broken, self._broken = self._broken, None
+        if broken is not None:  # supervision hears of a search that broke (it failed its goal)
+            self.ctx.bus.report_failure(self.name, {"job": "global_plan"}, broken)
         if self.nav.state is not GoalState.ACTIVE:  # a glance: the step decides under the lock
             return
         pose = self._pose
@@ -271,6 +275,7 @@ class PlannerNode(Module):
                 return self._failed()
         except Exception as err:  # out of memory, or a bug: the goal fails, the planner goes on
             self.ctx.log.exception("plan_broke", reason=reason, error=f"{type(err).__name__}")
+            self._broken = err  # counted against the module at the next tick, on the loop
             with self._lock:
                 if self.nav.goal is goal:
                     self.nav.abort(f"planning failed: {type(err).__name__}: {err}")

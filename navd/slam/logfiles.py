@@ -173,6 +173,11 @@ def _carmen_scan(words: list[str], range_max: float) -> LogScan:
         n = int(words[1])
         if n < 2:
             raise ValueError(f"{n} beams; a scan needs at least 2")
+        if len(words) < 2 + n + 7:
+            raise ValueError(
+                f"it says {n} beams, then has {len(words) - 2} values for them, the pose, the "
+                "odometry and the time: it should have n + 7"
+            )
         ranges = np.array(words[2 : 2 + n], dtype=np.float64)
         rest = [float(w) for w in words[2 + n : 2 + n + 7]]
         odom = Pose2(rest[3], rest[4], rest[5])
@@ -180,6 +185,8 @@ def _carmen_scan(words: list[str], range_max: float) -> LogScan:
     start, _fov, inc, max_range = (float(w) for w in words[2:6])
     n = int(words[8])
     ranges = np.array(words[9 : 9 + n], dtype=np.float64)
+    if ranges.size != n:
+        raise ValueError(f"it says {n} ranges and has {ranges.size}")
     m = int(words[9 + n])
     tail = [float(w) for w in words[10 + n + m : 10 + n + m + 14]]
     odom = Pose2(tail[3], tail[4], tail[5])

@@ -210,8 +210,9 @@ def _remove_old(directory: Path, name: str, keep: str) -> None:
 def clean_leftovers(directory: Path) -> list[Path]:
     """Remove what saves cut short left in ``directory``: temporary files of unfinished
     writes, and revision images and states no map's YAML points to (written before a crash
-    stopped the save from committing them). Returns what was removed; a folder that does not
-    exist, or a file that cannot be read or removed, is left as it is.
+    stopped the save from committing them). A file any YAML here points to always stays.
+    Returns what was removed; a folder that does not exist, or a file that cannot be read or
+    removed, is left as it is.
     """
     try:
         entries = list(directory.iterdir())
@@ -219,16 +220,19 @@ def clean_leftovers(directory: Path) -> list[Path]:
         return []
     removed: list[Path] = []
     kept: dict[str, str] = {}  # map name: the stem its YAML points to
+    used: set[str] = set()  # every file a YAML here points to, and its state beside it
     for p in entries:
         if p.suffix == ".yaml":
             with contextlib.suppress(MapFileError, OSError):
-                kept[p.stem] = Path(read_map_yaml(p).image).stem
+                image = Path(read_map_yaml(p).image)
+                kept[p.stem] = image.stem
+                used.update((image.name, image.with_suffix(".npz").name))
     for p in entries:
         leftover = re.match(r"^\..+\.(?:pgm|npz|yaml)\.[A-Za-z0-9_]+\.tmp$", p.name) is not None
         revision = re.match(r"^(.+)\.\d+\.(?:pgm|npz)$", p.name)
         if revision is not None and revision.group(1) in kept:
             leftover = p.stem != kept[revision.group(1)]
-        if leftover:
+        if leftover and p.name not in used:
             try:
                 p.unlink()
             except OSError:

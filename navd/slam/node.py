@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,6 +48,8 @@ from navd.slam.voxel import voxel_downsample
 from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode", "SlamSettings"]
+
+MAX_WAITING_SAVES = 8  # save requests waiting at once; more are answered at once, refused
 
 MAP_PERIOD_S = 1.0
 GLOBAL = "global"
@@ -100,6 +103,7 @@ class SlamNode(Module):
         # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
         self._relocate: Pose2 | str | None = None
         self._scan_odometry: ScanOdometry | None = None
+        self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -245,7 +249,21 @@ class SlamNode(Module):
     def _on_save(self, request: SaveMapRequest) -> None:
         settings = self.settings.value
         name = request.name or settings.map_name
-        self.ctx.submit("map_save", lambda: self._save(name, settings.map_dir))
+        if len(self._saves) >= MAX_WAITING_SAVES:
+            reason = f"{MAX_WAITING_SAVES} saves are waiting already; ask again when one is done"
+            self.ctx.publish(self._saved(name, reason=reason))
+            return
+        self._saves.append((name, settings.map_dir))
+        # the slot keeps one waiting job, and each job saves every request waiting
+        self.ctx.submit("map_save", self._save_waiting)
+
+    def _save_waiting(self) -> tuple[MapSaved, ...]:
+        """Worker: every save asked for since the last job, each answered."""
+        answers: list[MapSaved] = []
+        while self._saves:
+            name, folder = self._saves.popleft()
+            answers.append(self._save(name, folder))
+        return tuple(answers)
 
     def _save(self, name: str, folder: str) -> MapSaved:
         """Worker (or shutdown): write the map; a disk that refuses is reported, not raised

@@ -140,6 +140,30 @@ async def test_a_second_lidar_already_there_does_not_release_a_lost_one(
     assert [r for r in gate.reasons if "front" in r]
 
 
+async def test_on_a_robot_with_two_lidars_one_back_does_not_stand_in_for_the_other(
+    bus: Bus, gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "front"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "rear"))
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "front", t=1.0, reason="unplugged"))
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "rear", t=1.5, reason="a blip"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "rear", t=2.0))  # back, alone
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "lidar 'front' lost: unplugged" in drives[-1].reason
+    # the front one's program restarted under a new id: two speak again
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "front-2", t=3.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+
+
+async def test_a_hold_is_released_only_by_its_own_kind(bus: Bus, gate: SafetyGate) -> None:
+    bus.publish(_device(DeviceConnected, DeviceKind.IMU, "imu0"))
+    bus.publish(_device(DeviceLost, DeviceKind.IMU, "imu0", t=1.0, reason="gone"))
+    bus.publish(_device(DeviceConnected, DeviceKind.GPS, "imu0", t=2.0))  # the id, not an IMU
+    assert gate.reasons == ("imu 'imu0' lost: gone",)
+
+
 async def test_gps_and_wheels_hold_only_while_no_lidar_is_there(bus: Bus, gate: SafetyGate) -> None:
     drives = _drives(bus)
     bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar0"))

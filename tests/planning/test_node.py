@@ -119,7 +119,11 @@ async def test_a_new_control_rate_applies_at_once_without_a_restart() -> None:
         now = clock.now()
         daemon.bus.publish(
             ConfigChange(
-                stamp=now, received=now, request_id="r", changes={"planning.control_rate_hz": 5.0}
+                stamp=now,
+                received=now,
+                request_id="r",
+                changes={"planning.control_rate_hz": 5.0},
+                privileged=True,  # as the config file may
             )
         )
         assert abs(await ticks_in(2.0) - 10) <= 1
@@ -149,6 +153,7 @@ async def test_planning_that_breaks_fails_its_goal_and_the_next_goal_plans(
         assert route.goal_id == "g2"
         assert [p.goal_id for p in paths] == ["g2"]
         assert daemon.supervisor.faulted() == {}
+        assert daemon.supervisor.record("planner").failures == 1  # counted, not fatal
         await control.close()
 
 

@@ -31,6 +31,7 @@ def _replayed(path: Path, out: Path, capsys: pytest.CaptureFixture[str]) -> tupl
         ("nan-pose.log", "FLASER 3 1 1 1 0 0 0 nan 0 0 1.0 host 1.0\n", "odometry pose"),
         ("inf-stamp.clf", "FLASER 3 1 1 1 0 0 0 0 0 0 inf host 1.0\n", "must be finite"),
         ("short.log", "FLASER 3 1 1\n", "malformed FLASER line"),
+        ("huge-count.log", "FLASER 99999999 1 1\n", "it says 99999999 beams, then has 2 values"),
         ("latin1.log", _log(2).encode() + "# café\n".encode("latin-1"), "not ASCII text"),
         ("empty.log", "", "holds no laser scans"),
         ("comments.log", "# a header and nothing else\n", "holds no laser scans"),

@@ -164,3 +164,14 @@ def test_what_cut_saves_left_behind_is_cleaned_and_nothing_else(tmp_path: Path) 
     ]
     np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, _grid().logodds)
     assert clean_leftovers(tmp_path / "absent") == []
+
+
+def test_a_file_another_map_points_to_is_never_cleaned(tmp_path: Path) -> None:
+    # ROS-style names: floor.yaml -> floor.pgm, and a second map floor.2.yaml -> floor.2.pgm
+    for name in ("floor", "floor.2"):
+        (tmp_path / f"{name}.pgm").write_bytes(b"P5\n1 1\n255\n\x00")
+        (tmp_path / f"{name}.yaml").write_text(
+            f"image: {name}.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+        )
+    assert clean_leftovers(tmp_path) == []
+    assert (tmp_path / "floor.2.pgm").exists()

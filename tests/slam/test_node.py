@@ -164,3 +164,23 @@ async def test_leftovers_of_saves_cut_short_are_cleaned_at_start(tmp_path: Path)
     async with running_daemon(slam={"map_dir": str(tmp_path)}) as _:
         await until(lambda: not any(p.exists() for p in leftovers), timeout_s=10.0)
         assert (tmp_path / "mine.txt").exists()
+
+
+async def test_every_save_asked_for_is_answered_even_in_a_burst(tmp_path: Path) -> None:
+    async with running_daemon(slam={"map_dir": str(tmp_path), "max_range_m": 20.0}) as (
+        daemon,
+        port,
+    ):
+        poses = record(daemon, PoseMeasurement)
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
+        lidar.send(_frame(Pose2(0, 0, 0), 10.0))
+        await until(lambda: len(poses) == 1, timeout_s=10.0)
+        names = [f"burst{i}" for i in range(6)]
+        for name in names:  # no waiting between them: they pile up behind the first
+            control.send(SaveMapFrame(name=name))
+        answered = [(await control.receive_type(MapSavedFrame)) for _ in names]
+        assert sorted(a.name for a in answered) == names
+        assert all(a.reason == "" and (tmp_path / f"{a.name}.yaml").exists() for a in answered)
+        await lidar.close()
+        await control.close()

@@ -166,10 +166,12 @@ class ControlRole:
         if area is None:
             return  # no map yet: the pose is where the map will start
         x0, y0, x1, y1 = area
-        outside_m = max(x0 - pose.x_m, pose.x_m - x1, y0 - pose.y_m, pose.y_m - y1, 0.0)
+        outside_x = max(x0 - pose.x_m, pose.x_m - x1, 0.0)
+        outside_y = max(y0 - pose.y_m, pose.y_m - y1, 0.0)
+        outside_m = max(outside_x, outside_y)
         if outside_m > INITIAL_POSE_MARGIN_M:
             raise WireError(
-                "x",
+                "x" if outside_x >= outside_y else "y",
                 f"({pose.x_m:.1f}, {pose.y_m:.1f}) m lies {outside_m:.0f} m outside the map "
                 f"(x {x0:.1f}..{x1:.1f}, y {y0:.1f}..{y1:.1f}); give a pose on the map",
             )

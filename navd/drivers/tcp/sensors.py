@@ -42,14 +42,8 @@ class SensorRole:
         device order)."""
         ctx = self._server.ctx
         now = ctx.clock.now()
-        session.heard(now)
-        if session.stale:
-            session.stale = False
-            ctx.publish(
-                DeviceResumed(
-                    stamp=now, received=now, device_id=session.device_id, kind=session.kind
-                )
-            )
+        session.last_line_s = now
+        fresh = False
         conn, role, device_id, stamps = (
             session.conn,
             session.kind.value,
@@ -69,6 +63,20 @@ class SensorRole:
             except Exception as err:
                 self._server.reject(conn, line, err)
                 continue
+            if not fresh:  # data, not a ping, a blank line or a rejected frame: it speaks
+                fresh = True
+                self._heard(session, now)
             session.accepted += 1
             if message is not None:
                 publish(message)
+
+    def _heard(self, session: Session, now: float) -> None:
+        """The sensor sent data at ``now`` [s]: it is fresh again if it was stale."""
+        session.heard(now)
+        if session.stale:
+            session.stale = False
+            self._server.ctx.publish(
+                DeviceResumed(
+                    stamp=now, received=now, device_id=session.device_id, kind=session.kind
+                )
+            )

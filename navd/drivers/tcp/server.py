@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import re
 from collections.abc import Callable
 
 from navd import __version__
@@ -44,6 +45,8 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["TcpServer"]
+
+TOKEN_VALUE = re.compile(rb'"token"\s*:\s*"[^"]*"?')
 
 
 class TcpServer(Module):
@@ -217,7 +220,8 @@ class TcpServer(Module):
         elif isinstance(err, MessageError):
             conn.send(ErrorFrame(field="", reason=str(err)))
         else:  # a bug, not bad input: counted against this module, the client is told
-            self.ctx.bus.report_failure(self.name, {"peer": conn.peer, "line": line[:200]}, err)
+            shown = TOKEN_VALUE.sub(rb'"token": "<redacted>"', line[:200])  # a hello's secret
+            self.ctx.bus.report_failure(self.name, {"peer": conn.peer, "line": shown}, err)
             conn.send(ErrorFrame(field="", reason="internal error on this frame"))
 
     def on_close(self, conn: Connection, reason: str) -> None:
@@ -309,6 +313,11 @@ class TcpServer(Module):
         limit = self.settings.value.max_clients
         if holder is None and len(self.sessions) >= limit:
             return "", f"server full: {limit} clients connected (tcp.max_clients)"
+        if holder is not None and holder.kind.value != hello.role:
+            return "device_id", (
+                f"{hello.device_id!r} is the id of a {holder.kind.value} connected from "
+                f"{holder.conn.peer}; a {hello.role} needs an id of its own"
+            )
         if holder is not None and not holder.stale and holder.kind is not DeviceKind.CONTROL:
             return "device_id", (
                 f"{hello.device_id!r} is in use by {holder.conn.peer} (a {holder.kind.value}); "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,8 +28,11 @@ class Session:
     Attributes:
         device_id, kind: who it is.
         conn: its connection.
-        connected_s, last_rx_s: [s] daemon time it connected and last sent a line.
-        arrivals: [s] daemon times of its recent reads (a sensor's own period).
+        connected_s: [s] daemon time it connected.
+        last_rx_s: [s] daemon time it last sent what its role is for: data (a sensor), a
+            request (a control client). Pings, blank lines and rejected frames do not count.
+        last_line_s: [s] daemon time it last sent any line.
+        arrivals: [s] daemon times of its recent reads of data (a sensor's own period).
         stamps: its clock mapped onto the daemon's (sensors).
         accepted, rejected: lines used and refused.
         stale: silent past its kind's timeout (sensors).
@@ -43,6 +47,7 @@ class Session:
     conn: Connection
     connected_s: float
     last_rx_s: float
+    last_line_s: float = -math.inf
     stamps: StampMapper = field(default_factory=StampMapper)
     accepted: int = 0
     rejected: int = 0
@@ -54,9 +59,14 @@ class Session:
     clock_task: asyncio.Task[None] | None = None
     arrivals: deque[float] = field(default_factory=lambda: deque(maxlen=ARRIVALS_KEPT))
 
+    def __post_init__(self) -> None:
+        self.last_line_s = max(self.last_line_s, self.connected_s)
+
     def heard(self, now: float) -> None:
-        """Lines arrived at ``now`` [s] (one read: its lines share an arrival time)."""
+        """What its role is for arrived at ``now`` [s] (one read: its lines share an arrival
+        time)."""
         self.last_rx_s = now
+        self.last_line_s = now
         self.arrivals.append(now)
 
     def typical_gap_s(self) -> float | None:

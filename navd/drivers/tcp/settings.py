@@ -23,6 +23,7 @@ class TcpSettings:
         max_pending: [connections] most connections waiting to say hello.
         control_idle_timeout_s: [s] a control client silent and unsubscribed this long is
             disconnected.
+        sensor_idle_timeout_s: [s] a sensor that sends nothing this long is disconnected.
         max_line_bytes: [bytes] longest accepted line.
         handshake_timeout_s: [s] a new connection has this long to say hello.
         coalesce_s: [s] pause after reading a fast sensor connection.
@@ -40,6 +41,7 @@ class TcpSettings:
     max_clients: int
     max_pending: int
     control_idle_timeout_s: float
+    sensor_idle_timeout_s: float
     max_line_bytes: int
     handshake_timeout_s: float
     coalesce_s: float
@@ -62,6 +64,7 @@ class TcpSettings:
             max_clients=tcp.max_clients,
             max_pending=tcp.max_pending,
             control_idle_timeout_s=tcp.control_idle_timeout_s,
+            sensor_idle_timeout_s=tcp.sensor_idle_timeout_s,
             max_line_bytes=tcp.max_line_bytes,
             handshake_timeout_s=tcp.handshake_timeout_s,
             coalesce_s=tcp.read_coalesce_ms / 1e3,

@@ -1,5 +1,6 @@
-"""The silence watch: a sensor silent past its timeout is stale, a control client idle past
-``tcp.control_idle_timeout_s`` is disconnected.
+"""The silence watch: a sensor that sends no data past its timeout is stale; a sensor that
+sends nothing at all for ``tcp.sensor_idle_timeout_s``, or a control client without a
+status subscription for ``tcp.control_idle_timeout_s``, is disconnected (it frees its slot).
 
 It sleeps until the earliest deadline of all sessions, not on a fixed poll (which would add
 its period to every detection): a lidar falls stale the moment its silence passes its
@@ -69,15 +70,14 @@ class SilenceWatch:
             now = self.ctx.clock.now()
             next_deadline = math.inf
             for session in list(self._sessions()):
-                deadline = self._deadline(session)
-                if deadline is None:
-                    continue
-                if now < deadline:
-                    next_deadline = min(next_deadline, deadline)
-                elif session.kind is DeviceKind.CONTROL:
+                idle, stale = self._idle_deadline(session), self._stale_deadline(session)
+                if now >= idle:
                     self._close_idle(session, now)
-                else:
+                    continue
+                if now >= stale:
                     self._mark_stale(session, now)
+                    stale = math.inf
+                next_deadline = min(next_deadline, idle, stale)
             self._wakeup.clear()
             sleep = asyncio.ensure_future(
                 self.ctx.clock.sleep(min(next_deadline - now, MAX_SLEEP_S))
@@ -89,25 +89,43 @@ class SilenceWatch:
                 sleep.cancel()
                 wakeup.cancel()
 
-    def _deadline(self, session: Session) -> float | None:
-        """[s] when the session's silence becomes stale (a sensor) or idle (a control client
-        without a status subscription); None when it cannot."""
+    def _idle_deadline(self, session: Session) -> float:
+        """[s] when the session has sent nothing for too long and is closed: a control
+        client without a status subscription, or a sensor; a clock client never is."""
+        settings = self._settings()
         if session.kind is DeviceKind.CONTROL:
             if session.status_task is not None and not session.status_task.done():
-                return None
-            return session.last_rx_s + self._settings().control_idle_timeout_s
+                return math.inf
+            return session.last_line_s + settings.control_idle_timeout_s
+        if session.kind is DeviceKind.CLOCK:
+            return math.inf
+        return session.last_line_s + settings.sensor_idle_timeout_s
+
+    def _stale_deadline(self, session: Session) -> float:
+        """[s] when a sensor's silence (no data) makes it stale; inf if it is already."""
         timeout = stale_after_s(session, self._settings())
         if timeout is None or session.stale:
-            return None
+            return math.inf
         return session.last_rx_s + timeout
 
     def _close_idle(self, session: Session, now: float) -> None:
-        idle_s = now - session.last_rx_s
-        reason = (
-            f"idle for {idle_s:.0f} s with no request and no status subscription "
-            "(tcp.control_idle_timeout_s); send a ping now and then to stay connected"
+        idle_s = now - session.last_line_s
+        if session.kind is DeviceKind.CONTROL:
+            reason = (
+                f"idle for {idle_s:.0f} s with no request and no status subscription "
+                "(tcp.control_idle_timeout_s); send a ping now and then to stay connected"
+            )
+        else:
+            reason = (
+                f"sent nothing for {idle_s:.0f} s (tcp.sensor_idle_timeout_s); connect again "
+                "when there is data to send"
+            )
+        self.ctx.log.info(
+            "client_idle",
+            device_id=session.device_id,
+            kind=session.kind.value,
+            idle_s=round(idle_s, 1),
         )
-        self.ctx.log.info("control_idle", device_id=session.device_id, idle_s=round(idle_s, 1))
         session.conn.close("idle", ErrorFrame(field="", reason=reason, fatal=True))
 
     def _mark_stale(self, session: Session, now: float) -> None:

@@ -153,6 +153,19 @@ async def test_a_device_id_stays_with_its_first_connection_until_it_falls_silent
         await new.close()
 
 
+async def test_an_id_cannot_change_its_kind() -> None:
+    async with running_daemon(tcp={"imu_timeout_s": 0.1}) as (daemon, port):
+        stale = record(daemon, DeviceStale)
+        imu = await connected(port, "imu", "imu0")
+        imu.send(IMU)
+        await until(lambda: len(stale) == 1)  # silent: its id could go to a new connection,
+        gps, refusal = await hello(port, "gps", "imu0")  # but only to another IMU
+        assert isinstance(refusal, ErrorFrame) and refusal.field == "device_id"
+        assert "a gps needs an id of its own" in refusal.reason
+        for client in (imu, gps):
+            await client.close()
+
+
 async def test_a_control_clients_id_goes_to_its_newest_connection() -> None:
     # a user interface reconnecting over a link that died is not kept out by its old self
     async with running_daemon() as (_, port):
@@ -496,6 +509,8 @@ async def test_an_initial_pose_far_out_or_off_the_map_is_refused_with_the_reason
         )
         with pytest.raises(RequestRefusedError, match=r"lies 491 m outside the map \(x -1.0..9.0"):
             await ui.request(InitialPoseFrame(x=500.0, y=0.0, yaw=0.0))
+        with pytest.raises(RequestRefusedError, match=r"y: \(0.0, -300.0\) m lies 299 m outside"):
+            await ui.request(InitialPoseFrame(x=0.0, y=-300.0, yaw=0.0))
         await ui.request(InitialPoseFrame(x=12.0, y=-3.0, yaw=0.0))  # just off its edge: fine
         await until(lambda: len(poses) == 2)
         assert [(p.x_m, p.y_m) for p in poses] == [(500.0, 0.0), (12.0, -3.0)]
@@ -516,3 +531,60 @@ async def test_a_subscriber_that_never_reads_is_disconnected() -> None:
         await until(lambda: [m.device_id for m in lost] == ["deaf"], timeout_s=15.0)
         assert "does not read" in lost[0].reason
         sock.close()
+
+
+@pytest.mark.parametrize(
+    "filler", [b"\n", encode(PingFrame(id="beat")), b'{"type": "scan"}\n'], ids=str
+)
+async def test_a_sensor_sending_anything_but_data_still_goes_stale(filler: bytes) -> None:
+    # a hung driver with a heartbeat thread: blank lines, pings or broken frames keep the
+    # connection, never the sensor, alive
+    async with running_daemon(tcp={"lidar_timeout_s": 0.2}) as (daemon, port):
+        stale = record(daemon, DeviceStale)
+        lidar = await connected(port, "lidar", "lidar0")
+        lidar.send(SCAN)
+        for _ in range(12):
+            await asyncio.sleep(0.05)
+            lidar.send_raw(filler)
+        assert [m.device_id for m in stale] == ["lidar0"]
+        assert 0.2 < stale[0].silent_s < 0.35
+        await lidar.close()
+
+
+async def test_a_sensor_that_sends_nothing_at_all_frees_its_slot() -> None:
+    tcp = {"max_clients": 2, "sensor_idle_timeout_s": 1.0}
+    async with running_daemon(tcp=tcp) as (daemon, port):
+        lost = record(daemon, DeviceLost)
+        mute = [await connected(port, "compass", f"mute{i}") for i in range(2)]
+        _, refusal = await hello(port, "control", "ui")
+        assert isinstance(refusal, ErrorFrame) and "server full" in refusal.reason
+        farewell = await mute[0].receive(3.0)
+        assert isinstance(farewell, ErrorFrame) and "tcp.sensor_idle_timeout_s" in farewell.reason
+        await until(lambda: len(lost) == 2)
+        ui, welcome = await hello(port, "control", "ui")
+        assert isinstance(welcome, Welcome)
+        for client in (*mute, ui):
+            await client.close()
+
+
+async def test_a_hellos_token_never_reaches_the_log_of_a_bug(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def broken(*_: object) -> None:
+        raise RuntimeError("a bug in the handshake")
+
+    monkeypatch.setattr(TcpServer, "_handshake", broken)
+    async with running_daemon(tcp={"token": "the-right-secret-123"}) as (daemon, port):
+        reported: list[dict[str, Any]] = []
+        real = daemon.bus.report_failure
+        monkeypatch.setattr(
+            daemon.bus,
+            "report_failure",
+            lambda module, context, err: reported.append(context) or real(module, context, err),
+        )
+        client = await AsyncClient.open("127.0.0.1", port)
+        client.send(Hello(role="imu", device_id="imu0", token="the-right-secret-123"))
+        await until(lambda: bool(reported))
+        assert b"the-right-secret-123" not in reported[0]["line"]
+        assert b'"token": "<redacted>"' in reported[0]["line"]
+        await client.close()
