@@ -1,21 +1,12 @@
 """The one TOML configuration, validated by pydantic: load, check, change, dump."""
 
+from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.errors import ConfigError
 from navd.config.loader import apply_changes, dump_toml, load_config, parse_config
-from navd.config.model import (
-    ChassisConfig,
-    EstimationConfig,
-    LidarConfig,
-    LifecycleConfig,
-    LoggingConfig,
-    NavdConfig,
-    PlanningConfig,
-    RobotConfig,
-    SafetyConfig,
-    SlamConfig,
-    TcpConfig,
-    WorldConfig,
-)
+from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
+from navd.config.model import NavdConfig
+from navd.config.planning import PlanningConfig
+from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
 
 __all__ = [
     "ChassisConfig",

@@ -18,7 +18,8 @@ import tomli_w
 from pydantic import BaseModel, ValidationError
 
 from navd.config.errors import ConfigError
-from navd.config.model import NavdConfig, is_secret, privileged, restart_required
+from navd.config.fields import is_secret, privileged, restart_required
+from navd.config.model import NavdConfig
 
 __all__ = [
     "RETIRED_KEYS",

@@ -17,7 +17,7 @@ import pytest
 from pydantic import BaseModel
 
 from navd.config import ConfigError, NavdConfig, apply_changes
-from navd.config.model import restart_required
+from navd.config.fields import restart_required
 from navd.drivers.protocol.frames import ConfigFrame
 from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFrame
 from navd.estimation.node import EstimationNode
