@@ -305,12 +305,9 @@ class PlannerNode(Module):
 
     def _failed(self) -> tuple[Message, ...]:
         """Under the lock: the stop and the status of a goal that has just failed, if it has."""
-        goal = self.nav.goal
-        if goal is None or self.nav.state is not GoalState.FAILED:
-            return ()
-        failure = self.nav.failure
-        if self._last_state is GoalState.FAILED:
-            return ()
+        goal, failure = self.nav.goal, self.nav.failure
+        if goal is None or not failure or self._last_state is GoalState.FAILED:
+            return ()  # not failed, or already told
         self.ctx.log.info("goal_done", goal_id=goal.goal_id, state="failed", reason=failure)
         return (self._stop_command(), self._status(goal.goal_id, GoalState.FAILED, failure))
 
