@@ -10,7 +10,7 @@ __all__ = ["add_commands"]
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``bench ingest|estimation|scan|planning|safety``."""
+    """Add ``bench ingest|estimation|scan|planning|safety|compare``."""
     bench = commands.add_parser("bench", help="run a benchmark and print its figures")
     names = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
     ingest = names.add_parser(
@@ -46,6 +46,12 @@ def add_commands(commands: Commands) -> None:
     safety.add_argument("--trials", type=int, default=10, help="trials of each case")
     safety.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     safety.set_defaults(handler=_safety)
+    compare = names.add_parser(
+        "compare", help="navd beside pyastar2d, imufusion, filterpy and kiss-icp: time ratios"
+    )
+    compare.add_argument("--repeats", type=int, default=5, help="timed runs of each search")
+    compare.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    compare.set_defaults(handler=_compare)
 
 
 def _ingest(args: argparse.Namespace) -> int:
@@ -83,4 +89,11 @@ def _safety(args: argparse.Namespace) -> int:
     from navd.bench.safety import run  # noqa: PLC0415
 
     print_figures(run(trials=args.trials), args.json)
+    return EXIT_OK
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from navd.bench.compare import run  # noqa: PLC0415
+
+    print_figures(run(repeats=args.repeats), args.json)
     return EXIT_OK

@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -24,8 +25,11 @@ from dataclasses import dataclass
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
 from navd.lifecycle.messages import Message, WorkerStats
+from navd.logs import get_logger
 
 __all__ = ["Job", "WorkerPool"]
+
+_log = get_logger("lifecycle.workers")
 
 Job = Callable[[], Message | tuple[Message, ...] | None]
 
@@ -99,6 +103,7 @@ class WorkerPool:
         An exception is reported to supervision as a failure of ``module``."""
         loop = asyncio.get_running_loop()
         self._detached += 1
+        started = time.perf_counter()
 
         def run() -> None:
             error: Exception | None = None
@@ -106,8 +111,9 @@ class WorkerPool:
                 job()
             except Exception as err:
                 error = err
+            seconds = time.perf_counter() - started
             with contextlib.suppress(RuntimeError):  # the loop may be gone
-                loop.call_soon_threadsafe(self._detached_done, name, module, error)
+                loop.call_soon_threadsafe(self._detached_done, name, module, error, seconds)
 
         thread = threading.Thread(target=run, name=name, daemon=True)
         self._threads = [t for t in self._threads if t.is_alive()] + [thread]
@@ -189,10 +195,15 @@ class WorkerPool:
             self._start(slot, state, job)
         self._wake_idle_waiters()
 
-    def _detached_done(self, name: str, module: str, error: Exception | None) -> None:
+    def _detached_done(
+        self, name: str, module: str, error: Exception | None, seconds: float
+    ) -> None:
         self._detached -= 1
         if error is not None:
             self._bus.report_failure(module, {"thread": name}, error)
+        else:
+            # Set-ups are kernels compiling or loading: a cold cache shows here in seconds.
+            _log.info("set_up_done", thread=name, seconds=round(seconds, 3))
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:

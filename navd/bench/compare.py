@@ -1,0 +1,359 @@
+"""navd beside the peer libraries that do the same jobs, timed in one run on the same inputs.
+
+The peers are development dependencies (``pip install -e .[dev]``); a peer that is not
+installed is reported as missing and its rows are left out. Ratios are navd's time over the
+peer's: below 1, navd is faster. On a noisy machine the ratios, not the times, are the
+figures of record.
+
+- A* (pyastar2d): the grid the daemon plans on (5 cm cells, obstacles inflated with the
+  default configuration), 400² and 2000², corner to corner; pyastar2d gets the same cells as
+  weights 1 + w * cost (inf where blocked). The two search different metrics on it: pyastar2d
+  charges a diagonal step the same as a straight one (its heuristic is the Chebyshev
+  distance), navd charges it sqrt 2 (octile heuristic). Each route is priced in navd's metric
+  to show what the difference buys. Uniform grids (free or blocked, 1000² and 2000²): the
+  grid pyastar2d and most benchmarks use, where navd's search jumps.
+- Madgwick (imufusion): one IMU message into the filter, as the daemon has it (an ``Imu``
+  message with gyro [rad/s] and accel [m/s²] tuples): navd's ``MadgwickFilter.update`` takes
+  it as it is; imufusion's ``Ahrs.update_no_magnetometer`` takes numpy arrays in deg/s and g,
+  built from the message in the loop (the figure of record, "with the message included"),
+  and also from arrays built beforehand (imufusion's best case, printed beside it); its sample
+  period is set once (its API takes no time stamps). Both over the same 20 s of a
+  figure-eight drive.
+- UKF step (filterpy): predict + update of a lidar pose event (x, y, yaw with the IMU rows
+  and the no-sliding row) over a 60 s drive: navd's ``PoseUkf.step`` against filterpy's own
+  ``UnscentedKalmanFilter`` with the same model, sigma points, residuals and means, called
+  as its documentation shows (its per-sigma-point loops).
+- Scan registration (kiss-icp): a 720-ray scan of the synthetic room to a pose: navd's
+  tracker (correlative match onto the map, keyframes, loop checks) against kiss-icp's
+  registration of the same points (its local map, adaptive threshold, one thread).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
+from navd.bench.planning import random_rectangles
+from navd.bench.room import cast
+from navd.config import NavdConfig
+from navd.estimation.madgwick import MadgwickFilter
+from navd.estimation.motion_model import STATE_SIZE, TH, evaluate_rows, transition_matrix
+from navd.estimation.settings import EstimatorSettings
+from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import scan_points
+from navd.lifecycle.messages import Imu
+from navd.lifecycle.stats import percentile
+from navd.planning._astar_kernels import SQRT2
+from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
+from navd.planning.global_planner import GlobalPlanner, SearchSettings
+
+__all__ = ["PEERS", "run"]
+
+FloatArray = npt.NDArray[np.float64]
+PEERS = ("pyastar2d", "imufusion", "filterpy", "kiss_icp")
+GRAVITY_MPS2 = 9.80665
+
+
+def _median_ms(call: Callable[[], object], repeats: int) -> float:
+    """Median ms of ``repeats`` calls after one untimed call (compiles, sizes buffers)."""
+    call()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return 1e3 * percentile(times, 50)
+
+
+def _route_cost_m(costmap: Costmap, cells: npt.NDArray[np.integer[Any]], weight: float) -> float:
+    """[m] a cell route priced in navd's metric: step length x (1 + w * mean cell cost)."""
+    cost = costmap.cost[cells[:, 0], cells[:, 1]].astype(np.float64)
+    steps = np.diff(cells, axis=0)
+    lengths = np.where(np.all(steps != 0, axis=1), SQRT2, 1.0)
+    total = float(np.sum(lengths * (1.0 + weight * 0.5 * (cost[:-1] + cost[1:]))))
+    return total * costmap.frame.resolution_m
+
+
+def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
+    config = NavdConfig()
+    weight = config.planning.cost_weight
+    # Crops of one 2000² field, so both sizes have the same obstacles at the same scale.
+    occupied = random_rectangles(2000, 0.25, seed=2000)[:cells, :cells].copy()
+    occupied[:20, :20] = False
+    occupied[-20:, -20:] = False
+    frame = GridFrame(0.05, 0.0, 0.0, cells, cells)
+    costmap = build_costmap(
+        frame, occupied, np.zeros_like(occupied), CostmapSettings.from_config(config)
+    )
+    start, goal = (4, 4), (cells - 5, cells - 5)
+    start_m, goal_m = tuple(frame.centers_of(np.array([start, goal])))
+    search = SearchSettings(cost_weight=weight, smooth=False)
+    planner = GlobalPlanner()
+    navd_ms = _median_ms(
+        lambda: planner.plan(costmap, tuple(start_m), tuple(goal_m), search), repeats
+    )
+    route = planner.plan(costmap, tuple(start_m), tuple(goal_m), search)
+    figures: dict[str, object] = {
+        f"astar_weighted_{cells}_navd_ms": round(navd_ms, 2),
+        f"astar_weighted_{cells}_navd_expanded": route.cells_expanded,
+        f"astar_weighted_{cells}_navd_route_cost_m": round(route.cost, 3),
+    }
+    if importlib.util.find_spec("pyastar2d") is None:
+        return figures
+    import pyastar2d  # noqa: PLC0415 - a development dependency
+
+    weights = np.where(np.isfinite(costmap.cost), 1.0 + weight * costmap.cost, np.inf)
+    weights = weights.astype(np.float32)
+    peer_ms = _median_ms(
+        lambda: pyastar2d.astar_path(weights, start, goal, allow_diagonal=True), repeats
+    )
+    path = pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
+    figures.update(
+        {
+            f"astar_weighted_{cells}_pyastar2d_ms": round(peer_ms, 2),
+            f"astar_weighted_{cells}_pyastar2d_route_cost_m": round(
+                _route_cost_m(costmap, path, weight), 3
+            ),
+            f"astar_weighted_{cells}_ratio": round(navd_ms / peer_ms, 3),
+        }
+    )
+    return figures
+
+
+def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
+    occupied = random_rectangles(cells, 0.25, seed=cells)
+    cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
+    frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
+    costmap = Costmap(frame, occupied, np.zeros(cost.shape, np.float32), cost, ~occupied & False)
+    search = SearchSettings(cost_weight=0.0, smooth=False)
+    start_m, goal_m = (5.5, 5.5), (cells - 5.5, cells - 5.5)
+    planner = GlobalPlanner()
+    navd_ms = _median_ms(lambda: planner.plan(costmap, start_m, goal_m, search), repeats)
+    figures: dict[str, object] = {f"astar_uniform_{cells}_navd_ms": round(navd_ms, 2)}
+    if importlib.util.find_spec("pyastar2d") is None:
+        return figures
+    import pyastar2d  # noqa: PLC0415
+
+    weights = np.where(occupied, np.inf, 1.0).astype(np.float32)
+    start, goal = (5, 5), (cells - 6, cells - 6)
+    peer_ms = _median_ms(
+        lambda: pyastar2d.astar_path(weights, start, goal, allow_diagonal=True), repeats
+    )
+    figures[f"astar_uniform_{cells}_pyastar2d_ms"] = round(peer_ms, 2)
+    figures[f"astar_uniform_{cells}_ratio"] = round(navd_ms / peer_ms, 3)
+    return figures
+
+
+def _madgwick(repeats: int) -> dict[str, object]:
+    messages = drive(FigureEight(), SensorSuite(lidar_hz=0.0), 20.0)
+    samples = [m for m in messages if isinstance(m, Imu)]
+    settings = NavdConfig().estimation
+
+    def navd_pass() -> None:
+        update = MadgwickFilter(settings).update
+        for imu in samples:
+            update(imu)
+
+    navd_us = 1e3 * min(_median_ms(navd_pass, 1) for _ in range(repeats)) / len(samples)
+    figures: dict[str, object] = {"madgwick_navd_us_per_sample": round(navd_us, 3)}
+    if importlib.util.find_spec("imufusion") is None:
+        return figures
+    import imufusion  # noqa: PLC0415
+
+    gyro_dps = [np.degrees(np.asarray(s.gyro_radps, dtype=np.float64)) for s in samples]
+    accel_g = [np.asarray(s.accel_mps2, dtype=np.float64) / GRAVITY_MPS2 for s in samples]
+    period_s = float(np.median(np.diff([s.stamp for s in samples])))
+    inputs = list(zip(gyro_dps, accel_g, strict=True))
+
+    def peer_pass() -> None:
+        ahrs = imufusion.Ahrs()
+        ahrs.set_sample_period(period_s)  # its API takes the period once, not per sample
+        update = ahrs.update_no_magnetometer
+        for gyro, accel in inputs:
+            update(gyro, accel)
+
+    def peer_from_messages() -> None:
+        ahrs = imufusion.Ahrs()
+        ahrs.set_sample_period(period_s)
+        update = ahrs.update_no_magnetometer
+        for imu in samples:
+            update(np.degrees(np.array(imu.gyro_radps)), np.array(imu.accel_mps2) / GRAVITY_MPS2)
+
+    arrays_us = 1e3 * min(_median_ms(peer_pass, 1) for _ in range(repeats)) / len(samples)
+    peer_us = 1e3 * min(_median_ms(peer_from_messages, 1) for _ in range(repeats)) / len(samples)
+    figures["madgwick_imufusion_us_per_sample"] = round(peer_us, 3)
+    figures["madgwick_ratio"] = round(navd_us / peer_us, 3)
+    figures["madgwick_imufusion_prebuilt_arrays_us_per_sample"] = round(arrays_us, 3)
+    figures["madgwick_ratio_to_prebuilt_arrays"] = round(navd_us / arrays_us, 3)
+    return figures
+
+
+def _recorded_ukf_steps() -> tuple[FloatArray, FloatArray, list[tuple[float, Measurement]]]:
+    """The lidar pose events of a 60 s drive as the estimator fed them to its UKF: its
+    starting state, and (dt, measurement) for each step with the most common rows."""
+    from navd.estimation.estimator import StateEstimator  # noqa: PLC0415
+    from navd.lifecycle.messages import PoseMeasurement, WheelOdometry  # noqa: PLC0415
+
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
+    ukf = estimator.history.ukf
+    recorded: list[tuple[float, Measurement | None]] = []
+    first: list[tuple[FloatArray, FloatArray]] = []
+    step = ukf.step
+
+    def recording_step(dt_s: float, measurement: Measurement | None, gate: float) -> Any:
+        if not first:
+            first.append((ukf.x, ukf.p))
+        recorded.append((dt_s, measurement))
+        return step(dt_s, measurement, gate)
+
+    ukf.step = recording_step  # type: ignore[method-assign, assignment]
+    for message in drive(FigureEight(), SensorSuite(), 60.0):
+        if isinstance(message, Imu):
+            estimator.add_imu(message)
+        elif isinstance(message, WheelOdometry):
+            estimator.add_wheel_odometry(message, message.received)
+        elif isinstance(message, PoseMeasurement):
+            estimator.add_pose(message, message.received)
+    with_rows = [(dt, m) for dt, m in recorded if m is not None]
+    kinds = [m.rows for _, m in with_rows]
+    common = max(set(kinds), key=kinds.count)
+    x0, p0 = first[0]
+    return x0, p0, [(dt, m) for dt, m in with_rows if m.rows == common]
+
+
+def _ukf() -> dict[str, object]:
+    x0, p0, steps = _recorded_ukf_steps()
+    gate = NavdConfig().estimation
+    ukf = PoseUkf(UkfSettings.of(gate))
+    ukf.set_state(x0, p0)
+    navd_s = []
+    for dt, measurement in steps:
+        start = time.perf_counter()
+        ukf.step(dt, measurement, math.inf)
+        navd_s.append(time.perf_counter() - start)
+    figures: dict[str, object] = {
+        "ukf_step_navd_us_median": round(1e6 * percentile(navd_s, 50), 1),
+        "ukf_steps": len(steps),
+    }
+    # filterpy is a runtime dependency; its stock filter is the peer.
+    peer_s = _filterpy_steps(x0, p0, steps, UkfSettings.of(gate))
+    figures["ukf_step_filterpy_us_median"] = round(1e6 * percentile(peer_s, 50), 1)
+    figures["ukf_step_ratio"] = round(percentile(navd_s, 50) / percentile(peer_s, 50), 3)
+    return figures
+
+
+def _filterpy_steps(
+    x0: FloatArray, p0: FloatArray, steps: list[tuple[float, Measurement]], settings: UkfSettings
+) -> list[float]:
+    """[s] per step of filterpy's own UKF over ``steps``, with navd's model plugged in."""
+    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter  # noqa: PLC0415
+
+    from navd.estimation import ukf as navd_ukf  # noqa: PLC0415
+    from navd.estimation.motion_model import ProcessNoise  # noqa: PLC0415
+    from navd.geometry.angles import wrap_angles  # noqa: PLC0415
+
+    rows = steps[0][1].rows
+    functions = navd_ukf._MeasurementFunctions(rows)
+
+    def fx(x: FloatArray, dt: float) -> FloatArray:
+        moved: FloatArray = transition_matrix(dt) @ x
+        moved[TH : TH + 1] = wrap_angles(moved[TH : TH + 1])
+        return moved
+
+    def hx(x: FloatArray) -> FloatArray:
+        row: FloatArray = evaluate_rows(rows, x[None, :])[0]
+        return row
+
+    points = MerweScaledSigmaPoints(
+        STATE_SIZE,
+        alpha=settings.alpha,
+        beta=settings.beta,
+        kappa=settings.kappa,
+        sqrt_method=navd_ukf._upper_cholesky,
+        subtract=navd_ukf._state_residual,
+    )
+    peer = UnscentedKalmanFilter(
+        dim_x=STATE_SIZE,
+        dim_z=len(rows),
+        dt=0.1,
+        hx=hx,
+        fx=fx,
+        points=points,
+        x_mean_fn=navd_ukf._state_mean,
+        z_mean_fn=functions.mean,
+        residual_x=navd_ukf._state_residual,
+        residual_z=functions.residual,
+        state_add=navd_ukf._state_add,
+    )
+    peer.x, peer.P = x0.copy(), p0.copy()
+    noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)
+    seconds = []
+    for dt, measurement in steps:
+        start = time.perf_counter()
+        peer.Q = noise(dt)
+        peer.predict(dt=dt)
+        peer.update(measurement.z, R=measurement.r)
+        seconds.append(time.perf_counter() - start)
+    return seconds
+
+
+def _scan_registration(scans: int = 200, beams: int = 720) -> dict[str, object]:
+    from navd.slam.mapper import ScanMapper  # noqa: PLC0415
+    from navd.slam.odometry import ScanOdometry, ScanOdometrySettings  # noqa: PLC0415
+    from navd.slam.settings import MapperSettings  # noqa: PLC0415
+    from navd.slam.warmup import warm_up  # noqa: PLC0415
+
+    warm_up()
+    rng = np.random.default_rng(1)
+    drive_scans = []
+    for i in range(scans):
+        angle = 2 * math.pi * i / scans
+        truth = Pose2(4.0 * math.cos(angle) - 0.5, 2.2 * math.sin(angle) - 0.5, angle + math.pi / 2)
+        angle_min, increment, ranges = cast(truth, beams)
+        ranges = ranges + rng.normal(0.0, 0.01, beams)
+        points = scan_points(
+            ranges, angle_min, increment, range_min=0.1, range_max=30.0, max_range=12.0
+        )
+        drive_scans.append((truth, points))
+    config = NavdConfig()
+    mapper = ScanMapper(MapperSettings.from_config(config))
+    navd_s = []
+    for i, (truth, points) in enumerate(drive_scans):
+        start = time.perf_counter()
+        mapper.add(0.1 * i, points, truth)
+        navd_s.append(time.perf_counter() - start)
+    figures: dict[str, object] = {"scan_navd_ms_median": round(1e3 * percentile(navd_s, 50), 3)}
+    if importlib.util.find_spec("kiss_icp") is None:
+        return figures
+    odometry = ScanOdometry(ScanOdometrySettings.from_config(config))
+    peer_s = []
+    for _, points in drive_scans:
+        start = time.perf_counter()
+        odometry.register(points.hits)
+        peer_s.append(time.perf_counter() - start)
+    figures["scan_kiss_icp_ms_median"] = round(1e3 * percentile(peer_s, 50), 3)
+    figures["scan_ratio"] = round(percentile(navd_s, 50) / percentile(peer_s, 50), 3)
+    return figures
+
+
+def run(repeats: int = 5) -> dict[str, object]:
+    """Every comparison; ``repeats`` timed runs of each search or pass."""
+    figures: dict[str, object] = {
+        "peers_missing": [p for p in PEERS if importlib.util.find_spec(p) is None]
+    }
+    for cells in (400, 2000):
+        figures.update(_astar_weighted(cells, repeats))
+    for cells in (1000, 2000):
+        figures.update(_astar_uniform(cells, repeats))
+    figures.update(_madgwick(repeats))
+    figures.update(_ukf())
+    figures.update(_scan_registration())
+    return figures
