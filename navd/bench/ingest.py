@@ -3,11 +3,15 @@
 IMU at 1 kHz, lidar at 10 Hz with 1440 rays, GPS at 5 Hz and compass at 10 Hz stream for a
 few seconds, twice: into a daemon with only its ingest path (TCP server and safety gate:
 sockets, framing, decoding, stamping, publishing), then into the whole daemon (which also
-fuses the IMU, matches every scan and plans). Printed for each: CPU use over the streaming
-window (% of one core, from the kernel's scheduler statistics), event-loop lag p50/p99/max
-over the same window (from its status), and messages dropped (sent by the clients minus
-accepted by the daemon). The idle CPU (lag probe, status and staleness timers), measured
-once start-up work is over, is reported beside the total; the ingest figure is the
+fuses the IMU, matches every scan and, one second in, is given a goal 1 m ahead that it
+plans and drives toward for the rest of the run: DWA at its control rate). Printed for
+each: CPU use over the streaming window (% of one core, from the kernel's scheduler
+statistics), event-loop lag p50/p99/max over the same window (from its status), messages
+dropped (sent by the clients minus accepted by the daemon), resident memory at the end and
+at its peak (``/proc/PID/status``), seconds from launch to accepting connections (the numba
+cache is warm: the benchmark's earlier runs filled it), and the goal's state at the end
+(``active``: still being driven). The idle CPU (lag probe, status and staleness timers),
+measured once start-up work is over, is reported beside the total; the ingest figure is the
 difference.
 """
 
@@ -26,13 +30,14 @@ from pathlib import Path
 from typing import Any
 
 from navd.drivers.client import Client
-from navd.drivers.protocol.frames import SubscribeFrame
+from navd.drivers.protocol.frames import GoalFrame, SubscribeFrame
 from navd.drivers.protocol.replies import StatusFrame
 from navd.sim.session import free_port
 
 STREAMS = (("imu", 1000.0), ("lidar", 10.0), ("gps", 5.0), ("compass", 10.0))
 LAG_PROBE_S = 0.05  # the daemon's default probe period
 IDLE_S = 3.0  # [s] idle measurement before streaming: the daemon's own baseline
+GOAL_AFTER_S = 1.0  # [s] streaming before the whole daemon gets its goal
 SETTLED_PERCENT = 5.0  # [% of a core] below this, start-up work is taken to be over
 
 
@@ -62,6 +67,21 @@ class _Cpu:
         tick_s = 1.0 / os.sysconf("SC_CLK_TCK")
         whole = before.threads.keys() <= self.threads.keys() and abs(precise - ticks) <= 2 * tick_s
         return 100.0 * (precise if whole else ticks) / wall_s
+
+
+def _rss_mb(pid: int) -> tuple[float, float]:
+    """[MB] the process's resident memory now and at its peak (``/proc/PID/status``)."""
+    fields = dict(
+        line.split(":", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines()
+    )
+    return (int(fields["VmRSS"].split()[0]) / 1024, int(fields["VmHWM"].split()[0]) / 1024)
+
+
+def _send_goal(port: int) -> None:
+    """A goal 1 m ahead of where the benchmark's lidar stands: driven (the robot never
+    reaches it, as the scans stay the same) for the rest of the streaming."""
+    with Client("127.0.0.1", port, device_id="bench-goal") as control:
+        control.send(GoalFrame(x=1.0, y=0.0, goal_id="bench"))
 
 
 def _status(port: int) -> StatusFrame:
@@ -100,6 +120,7 @@ def _measure(
             'status_rate_hz = 10.0\n[logging]\nlevel = "warning"\n'
         )
         command = [sys.executable, "-m", module]
+        launched = time.monotonic()
         daemon = subprocess.Popen(
             [*command, *(["run"] if module == "navd" else []), "--config", str(config)],
             stdin=subprocess.DEVNULL,
@@ -110,6 +131,7 @@ def _measure(
         clients: list[subprocess.Popen[str]] = []
         try:
             _wait_listening(port, daemon)
+            ready_s = time.monotonic() - launched
             _wait_settled(daemon.pid)  # start-up work (imports, kernel warm-ups) is over
             idle_cpu, idle_wall = _Cpu.read(daemon.pid), time.monotonic()
             time.sleep(IDLE_S)
@@ -149,12 +171,16 @@ def _measure(
                 assert client.stdin is not None
                 client.stdin.write("go\n")
                 client.stdin.flush()
+            if module == "navd":
+                time.sleep(GOAL_AFTER_S)  # a map and a pose to plan on
+                _send_goal(port)
             sent = {}
             for (role, _), client in zip(STREAMS, clients, strict=True):
                 assert client.stdout is not None
                 sent[role] = json.loads(client.stdout.readline())["sent"]
             cpu_end, wall_end = _Cpu.read(daemon.pid), time.monotonic()
             status = _status(port)
+            rss_mb, peak_rss_mb = _rss_mb(daemon.pid)
         finally:
             for client in clients:
                 if client.stdin is not None:
@@ -178,6 +204,10 @@ def _measure(
                 role: {"sent": sent[role], "accepted": accepted.get(role, 0)} for role, _ in STREAMS
             },
             "dropped": sum(sent[role] - accepted.get(role, 0) for role, _ in STREAMS),
+            "rss_mb": round(rss_mb, 1),
+            "peak_rss_mb": round(peak_rss_mb, 1),
+            "ready_s": round(ready_s, 3),
+            "goal": None if status.goal is None else status.goal.state,
         },
     }
 

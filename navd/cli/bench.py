@@ -49,7 +49,7 @@ def add_commands(commands: Commands) -> None:
     compare = names.add_parser(
         "compare", help="navd beside pyastar2d, imufusion, filterpy and kiss-icp: time ratios"
     )
-    compare.add_argument("--repeats", type=int, default=5, help="timed runs of each search")
+    compare.add_argument("--repeats", type=int, default=9, help="timed runs of each search")
     compare.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     compare.set_defaults(handler=_compare)
 
