@@ -1,4 +1,4 @@
-"""Numba kernel of A* on an 8-connected costmap.
+"""Numba kernel of A* on a uniform 8-connected grid, by jump point search.
 
 The graph: every cell with a finite cost is a node; a cell joins its 8 neighbours, a diagonal
 step only when both cells it passes between are free too (no squeezing between two blocked
@@ -9,21 +9,20 @@ cells that touch at a corner). A step of length L cells (1 or sqrt 2) from a to 
 with c the cell costs and w the cost weight, so a route pays for running close to walls. The
 heuristic is the octile distance (the exact length of the shortest 8-connected route with no
 costs): admissible and consistent, so the first time the goal is popped its cost is optimal.
-Ties in f go to the node nearer the goal (fewer expansions): the open list is ordered by
-g + h * (1 + 1e-9), which keeps the route within a relative 1e-9 of optimal (the stack of
-already-minimal successors below adds at most as much again).
 
-On a uniform grid, where every step costs its length alone (w = 0, or every free cell of
-cost 0: the grid pyastar2d and most benchmarks search), the search jumps (jump point search,
-Harabor and Grastien, AAAI 2011, in the variant that never cuts a corner): from a cell it
-follows only the directions no other route serves as cheaply, and runs straight or
+This module searches the uniform grid, where every step costs its length alone (w = 0, or
+every free cell of cost 0: the grid pyastar2d and most benchmarks search); grids with cell
+costs are searched by ``_bucket_kernels``, on the same graph. The search jumps (jump point
+search, Harabor and Grastien, AAAI 2011, in the variant that never cuts a corner): from a cell
+it follows only the directions no other route serves as cheaply, and runs straight or
 diagonally to the next cell where a shortest route could turn (a jump point) instead of
 queueing every cell on the way. Straight runs are read 64 cells at a time from packed bit
 sets (``_bitgrid_kernels``). On a 25 %-blocked 2000 x 2000 grid about a thousand cells are
-expanded instead of 700 000. With cell costs the search goes cell by cell: jumping only
-across the zero-cost floor between inflated bands was tried, stayed exact, and was slower
-(every diagonal run that sees a band must stop there, so nearly every cell became a jump
-point).
+expanded instead of 700 000. Ties in f go to the node nearer the goal (fewer expansions): the
+open list is ordered by g + h * (1 + 1e-9), which keeps the route within a relative 1e-9 of
+optimal. (Jumping only across the zero-cost floor between inflated bands of a weighted grid
+was tried, stayed exact, and was slower: every diagonal run that sees a band must stop there,
+so nearly every cell became a jump point.)
 
 Working arrays are passed in and stamped with a generation number, so a planner reuses them
 between searches without clearing millions of cells each time.
@@ -41,7 +40,7 @@ from navd.planning._bitgrid_kernels import bit_of, scan_backward, scan_forward
 
 __all__ = [
     "MAX_GENERATION",
-    "astar_search",
+    "jump_point_search",
     "octile",
     "segment_max_cost",
     "shortcut",
@@ -223,11 +222,10 @@ def _pruned_directions(rows_free: WordArray, r: int, c: int, k: int) -> int:
 
 
 @njit(cache=True, nogil=True)
-def astar_search(
-    cost: npt.NDArray[np.float32],
+def jump_point_search(
+    cols: int,
     start: int,
     goal: int,
-    cost_weight: float,
     g: FloatArray,
     mark: Int32Array,
     parent: Int32Array,
@@ -235,27 +233,22 @@ def astar_search(
     rows_free: WordArray,
     cols_free: WordArray,
 ) -> tuple[float, int]:
-    """A* from cell ``start`` to cell ``goal`` (flat indices row * cols + col).
+    """A* by jump point search from cell ``start`` to cell ``goal`` (flat indices
+    row * cols + col) of a uniform grid.
 
     Args:
-        cost: rows x cols cell costs, inf where blocked.
-        start, goal: flat cell indices, both with finite cost.
-        cost_weight: w in the step cost above.
+        cols: the grid's width [cells].
+        start, goal: flat cell indices, both free.
         g, mark, parent: working arrays of rows * cols entries (see CLOSED); ``g`` and
-            ``parent`` (the cell a jump or step came from) are valid where
+            ``parent`` (the cell a jump came from) are valid where
             ``mark >> 4 == generation``. Read the route back with ``trace_back``.
         generation: a number in 1..MAX_GENERATION not used by an earlier search with these
             arrays.
-        rows_free, cols_free: the grid's free cells packed by ``pack_free_cells`` to jump
-            across a uniform grid (every step costing its length: w = 0 or all free cells of
-            cost 0); empty arrays to search cell by cell.
+        rows_free, cols_free: the grid's free cells packed by ``pack_free_cells``.
 
     Returns:
-        (cost of the best route in cells of length, -1 if none; cells expanded).
+        (cost of the best route in cells of length, -1 if none; jump points expanded).
     """
-    rows, cols = cost.shape
-    flat = cost.ravel()
-    jump = rows_free.size > 0
     goal_r = goal // cols
     goal_c = goal % cols
     offsets = _DR * cols + _DC
@@ -293,45 +286,24 @@ def astar_search(
         r = node // cols
         c = node % cols
         g_here = g[node]
-        directions = 0
-        c_here = 0.0
-        border = False
-        if jump:
-            directions = 0xFF if node == start else _pruned_directions(rows_free, r, c, m & 7)
-        else:
-            c_here = flat[node]
-            border = r == 0 or c == 0 or r == rows - 1 or c == cols - 1
+        directions = 0xFF if node == start else _pruned_directions(rows_free, r, c, m & 7)
         for k in range(8):
+            if not directions & (1 << k):
+                continue
             dr = _DR[k]
             dc = _DC[k]
-            if jump:
-                if not directions & (1 << k):
-                    continue
-                if k < 4:
-                    steps = _jump_straight(rows_free, cols_free, r, c, dr, dc, goal_r, goal_c)
-                else:
-                    steps = _jump_diagonal(rows_free, cols_free, r, c, dr, dc, goal_r, goal_c)
-                if steps == NO_JUMP:
-                    continue
-                length = steps * _LEN[k]
+            if k < 4:
+                steps = _jump_straight(rows_free, cols_free, r, c, dr, dc, goal_r, goal_c)
             else:
-                if border and not (0 <= r + dr < rows and 0 <= c + dc < cols):
-                    continue
-                c_next = flat[node + offsets[k]]
-                if not math.isfinite(c_next):
-                    continue
-                if k >= 4 and not (
-                    math.isfinite(flat[node + dc]) and math.isfinite(flat[node + dr * cols])
-                ):
-                    continue  # a diagonal between two blocked cells
-                steps = 1
-                length = _LEN[k] * (1.0 + cost_weight * 0.5 * (c_here + c_next))
+                steps = _jump_diagonal(rows_free, cols_free, r, c, dr, dc, goal_r, goal_c)
+            if steps == NO_JUMP:
+                continue
             nxt = node + steps * offsets[k]
             m_next = mark[nxt]
             seen = (m_next >> 4) == generation
             if seen and m_next & CLOSED:
                 continue
-            g_next = g_here + length
+            g_next = g_here + steps * _LEN[k]
             if seen and g_next >= g[nxt]:
                 continue
             g[nxt] = g_next

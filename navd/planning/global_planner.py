@@ -11,16 +11,23 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.planning._astar_kernels import (
     MAX_GENERATION,
-    astar_search,
+    jump_point_search,
     shortcut,
     trace_back,
     uniform_costs,
 )
 from navd.planning._bitgrid_kernels import pack_free_cells
+from navd.planning._bucket_kernels import (
+    BUCKETS_PER_CELL,
+    CEILING_TOO_LOW,
+    COST_CEILING,
+    bucket_astar,
+    trace_steps,
+)
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
-__all__ = ["GlobalPlanner", "PlannedPath", "SearchSettings", "path_length"]
+__all__ = ["GlobalPlanner", "PlannedPath", "SearchMemory", "SearchSettings", "path_length"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -81,11 +88,7 @@ class GlobalPlanner:
     """A* with reusable working memory (one search at a time)."""
 
     def __init__(self) -> None:
-        self._cells = 0
-        self._generation = 0
-        self._g: FloatArray = np.empty(0)
-        self._mark = np.empty(0, dtype=np.int32)
-        self._parent = np.empty(0, dtype=np.int32)
+        self._memory = SearchMemory(0)
 
     def plan(
         self,
@@ -133,32 +136,49 @@ class GlobalPlanner:
                 "keep-out zone, too close for the robot",
                 "occupied",
             )
-        self._reserve(frame.rows * frame.cols)
         cols = frame.cols
-        cost_weight = settings.cost_weight
-        if cost_weight == 0.0 or uniform_costs(costmap.cost):
-            rows_free, cols_free = pack_free_cells(costmap.cost)  # every step costs its length
+        start_cell = start[0] * cols + start[1]
+        goal_cell = goal[0] * cols + goal[1]
+        memory = self._reserve(frame.rows * cols)
+        if settings.cost_weight == 0.0 or uniform_costs(costmap.cost):
+            # Every step costs its length: jump point search, exact.
+            rows_free, cols_free = pack_free_cells(costmap.cost)
+            g_cells, expanded = jump_point_search(
+                cols, start_cell, goal_cell, *memory.jumps(), rows_free, cols_free
+            )
+            if g_cells >= 0.0:
+                cells = trace_back(memory.links, start_cell, goal_cell, cols)
         else:
-            rows_free = cols_free = np.empty((0, 0), dtype=np.uint64)
-        g_cells, expanded = astar_search(
-            costmap.cost,
-            start[0] * cols + start[1],
-            goal[0] * cols + goal[1],
-            cost_weight,
-            self._g,
-            self._mark,
-            self._parent,
-            self._generation,
-            rows_free,
-            cols_free,
-        )
+            # Cell costs: cell by cell, the open list in buckets (within 0.4 % of optimal).
+            g_cells, expanded = bucket_astar(
+                costmap.cost,
+                start_cell,
+                goal_cell,
+                settings.cost_weight,
+                *memory.buckets(),
+                float(BUCKETS_PER_CELL),
+                COST_CEILING,
+            )
+            if g_cells == CEILING_TOO_LOW:  # costs beyond the costmap's scale: a wider ring
+                highest = float(np.max(costmap.cost, where=np.isfinite(costmap.cost), initial=0))
+                memory = self._reserve(frame.rows * cols)
+                g_cells, expanded = bucket_astar(
+                    costmap.cost,
+                    start_cell,
+                    goal_cell,
+                    settings.cost_weight,
+                    *memory.buckets(),
+                    float(BUCKETS_PER_CELL),
+                    highest,
+                )
+            if g_cells >= 0.0:
+                cells = trace_steps(memory.mark, start_cell, goal_cell, cols)
         if g_cells < 0.0:
             raise GoalUnreachableError(
                 f"no route to {where}: obstacles enclose it or the robot "
                 f"({expanded} cells expanded)",
                 "no route",
             )
-        cells = trace_back(self._parent, start[0] * cols + start[1], goal[0] * cols + goal[1], cols)
         if settings.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
@@ -191,12 +211,42 @@ class GlobalPlanner:
         nearest = free[np.argmin(np.hypot(offsets[:, 0], offsets[:, 1]))]
         return (int(nearest[0] + r0), int(nearest[1] + c0))
 
-    def _reserve(self, cells: int) -> None:
-        """Working arrays for ``cells`` cells and a fresh generation number."""
-        if cells > self._cells or self._generation >= MAX_GENERATION:
-            self._cells = max(cells, self._cells)
-            self._g = np.empty(self._cells)
-            self._mark = np.zeros(self._cells, dtype=np.int32)
-            self._parent = np.empty(self._cells, dtype=np.int32)
-            self._generation = 0
-        self._generation += 1
+    def _reserve(self, cells: int) -> SearchMemory:
+        """Working arrays for ``cells`` cells, with a fresh generation number."""
+        if cells > self._memory.cells or self._memory.generation >= MAX_GENERATION:
+            self._memory = SearchMemory(max(cells, self._memory.cells))
+        self._memory.generation += 1
+        return self._memory
+
+
+class SearchMemory:
+    """One planner's working arrays, kept between searches (generation-stamped, so never
+    cleared) and made only for the kind of search that needs them: 8 bytes a cell for the
+    marks and links, 12 more for the bucket search (costs, back links) or 8 for jump point
+    search (costs)."""
+
+    def __init__(self, cells: int) -> None:
+        self.cells = cells
+        self.generation = 0
+        self.mark = np.zeros(cells, dtype=np.int32)
+        self.links = np.empty(cells, dtype=np.int32)  # jump parents, or next in a bucket
+        self._g: FloatArray | None = None
+        self._prev: npt.NDArray[np.int32] | None = None
+
+    def jumps(self) -> tuple[FloatArray, npt.NDArray[np.int32], npt.NDArray[np.int32], int]:
+        """(g, mark, parent, generation) for ``jump_point_search``."""
+        if self._g is None:
+            self._g = np.empty(self.cells)
+        return self._g, self.mark, self.links, self.generation
+
+    def buckets(
+        self,
+    ) -> tuple[
+        FloatArray, npt.NDArray[np.int32], npt.NDArray[np.int32], npt.NDArray[np.int32], int
+    ]:
+        """(g, mark, next_open, prev_open, generation) for ``bucket_astar``."""
+        if self._g is None:
+            self._g = np.empty(self.cells)
+        if self._prev is None:
+            self._prev = np.empty(self.cells, dtype=np.int32)
+        return self._g, self.mark, self.links, self._prev, self.generation

@@ -8,7 +8,8 @@ import numpy as np
 
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY
-from navd.planning._bitgrid_kernels import pack_free_cells
+from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
+from navd.planning.global_planner import GlobalPlanner, SearchSettings
 from navd.planning.goal import NavGoal
 from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
@@ -29,5 +30,11 @@ def warm_up() -> None:
     nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
     for k in range(3):
         nav.step(0.05 * k, IDENTITY)
-    # The room above is inflated, so A* went cell by cell; packing is what jumping adds.
-    pack_free_cells(np.zeros((60, 60), dtype=np.float32))
+    # The room above is inflated, so A* went cell by cell, its open list in buckets; an open
+    # floor with no obstacle is searched by jumping.
+    config = NavdConfig()
+    nothing = np.zeros((20, 20), dtype=np.bool_)
+    floor = build_costmap(
+        GridFrame(0.05, 0.0, 0.0, 20, 20), nothing, nothing, CostmapSettings.from_config(config)
+    )
+    GlobalPlanner().plan(floor, (0.1, 0.1), (0.9, 0.7), SearchSettings.from_config(config))

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from navd.planning._bucket_kernels import BUCKETS_PER_CELL
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
@@ -81,7 +82,8 @@ def grids(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]
 
 
 def assert_route_matches_dijkstra(case) -> None:
-    """The planner's route on ``case`` costs what Dijkstra's does and is a chain of allowed
+    """The planner's route on ``case`` costs what Dijkstra's does (within the bucket
+    search's bound where cells have costs) and is a chain of allowed
     steps from the start to the goal, or the planner says "no route" where Dijkstra finds none."""
     cost, start, goal, w = case
     expected = dijkstra_cost(cost, start, goal, w)
@@ -92,7 +94,11 @@ def assert_route_matches_dijkstra(case) -> None:
         assert info.value.reason == "no route"
         return
     path = planner.plan(costmap_of(cost), center(start), center(goal), search)
-    assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
+    if w == 0.0:  # jump point search: exact
+        assert path.cost / RES == pytest.approx(expected, rel=1e-7, abs=1e-9)
+    else:  # the bucket search: within its documented bound, never below the optimum
+        slip = 1.0 / BUCKETS_PER_CELL
+        assert expected - 1e-4 <= path.cost / RES <= (1 + slip) * expected + slip + 1e-4
     cells = np.floor(path.points_m[:, ::-1] / RES).astype(int)
     assert np.isfinite(cost[cells[:, 0], cells[:, 1]]).all()
     steps = np.diff(cells, axis=0)
@@ -108,6 +114,26 @@ def assert_route_matches_dijkstra(case) -> None:
 @given(grids())
 def test_astar_cost_equals_dijkstra_and_never_crosses_a_blocked_cell(case) -> None:
     assert_route_matches_dijkstra(case)
+
+
+@pytest.mark.parametrize(("w", "scale"), [(3.0, 1.0), (100.0, 1.0), (3.0, 40.0)])
+@pytest.mark.parametrize("seed", range(6))
+def test_the_bucket_search_stays_within_its_bound_of_dijkstra_on_larger_grids(
+    seed: int, w: float, scale: float
+) -> None:
+    # 90 x 90 cells of random costs, a fifth blocked: routes of a hundred steps and more,
+    # where slips within a bucket could add up. w = 100 is the largest weight config allows;
+    # costs up to 40 (the costmap's stop at 1) make the search widen its ring of buckets.
+    rng = np.random.default_rng(seed)
+    cost = (scale * rng.random((90, 90))).astype(np.float32)
+    cost[rng.random((90, 90)) < 0.2] = np.inf
+    cost[0, 0] = cost[89, 89] = 0.0
+    expected = dijkstra_cost(cost, (0, 0), (89, 89), w)
+    assert math.isfinite(expected), f"seed {seed} walls the goal off: pick another"
+    search = SearchSettings(cost_weight=w, smooth=False)
+    path = GlobalPlanner().plan(costmap_of(cost), center((0, 0)), center((89, 89)), search)
+    slip = 1.0 / BUCKETS_PER_CELL
+    assert expected * (1 - 1e-6) <= path.cost / RES <= (1 + slip) * expected + slip
 
 
 @st.composite

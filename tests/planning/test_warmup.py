@@ -1,0 +1,49 @@
+"""The planning warm-up compiles what the planner then runs: in a fresh process, planning on
+an inflated room (the bucket search) and on open floor (jump point search) after it compiles
+nothing more, so a first goal never waits for the compiler."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+SCRIPT = textwrap.dedent(
+    """
+    import numpy as np
+    from navd.config import NavdConfig
+    from navd.planning import _astar_kernels, _bitgrid_kernels, _bucket_kernels
+    from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
+    from navd.planning.global_planner import GlobalPlanner, SearchSettings
+    from navd.planning.warmup import warm_up
+
+    modules = (_astar_kernels, _bitgrid_kernels, _bucket_kernels)
+    kernels = [
+        getattr(m, n) for m in modules for n in dir(m) if hasattr(getattr(m, n), "signatures")
+    ]
+    warm_up()
+    warmed = {f.__name__: len(f.signatures) for f in kernels}
+    config = NavdConfig()
+    settings = CostmapSettings.from_config(config)
+    search = SearchSettings.from_config(config)
+    walls = np.zeros((120, 90), dtype=np.bool_)
+    walls[40, 10:80] = True
+    frame = GridFrame(0.05, 0.0, 0.0, 120, 90)
+    for obstacles in (walls, np.zeros_like(walls)):
+        costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings)
+        GlobalPlanner().plan(costmap, (0.5, 0.5), (4.0, 5.5), search)
+    after = {f.__name__: len(f.signatures) for f in kernels}
+    for name in ("bucket_astar", "trace_steps", "jump_point_search", "trace_back", "shortcut"):
+        assert warmed[name], (name, warmed)
+    assert after == warmed, (warmed, after)
+    print("ok")
+    """
+)
+
+
+def test_the_warm_up_leaves_nothing_for_the_first_plans_to_compile() -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "ok"
