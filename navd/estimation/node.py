@@ -65,8 +65,8 @@ class EstimationNode(Module):
         ctx.subscribe(GeoGoal, self._on_geo_goal)
 
     async def on_activate(self) -> None:
-        # Building the filter imports filterpy (and with it scipy.stats: about a second), so
-        # it happens beside start-up, in a daemon thread that never holds up an exit;
+        # Building the filter loads its kernels (compiling them on a cold cache), so it
+        # happens beside start-up, in a daemon thread that never holds up an exit;
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
         self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)

@@ -1,19 +1,21 @@
-"""The pose UKF: filterpy's UnscentedKalmanFilter with Merwe sigma points, angles on the circle.
+"""The pose UKF: Merwe scaled sigma points over the 9-state model, angles on the circle.
 
-filterpy does the predict/update algebra. Three of its per-sigma-point Python loops
-(propagating sigma points, the unscented transform with custom residuals, the cross
-covariance) are replaced by array operations, which makes a step several times cheaper
-without changing a number. Yaw residuals are wrapped, yaw means are taken on the circle
-(``angle_mean``), and the filter never raises: a failed Cholesky factorization or a
-non-finite result is reported as ``StepOutcome.DIVERGED`` for the caller to reset from a
-good state.
+The algebra is the textbook UKF (Wan and van der Merwe 2000) as filterpy writes it, done
+with array operations over all sigma points at once: predict propagates the points through
+the linear model and takes the unscented transform, then redraws the points from the
+predicted mean and covariance; update passes them through the measurement rows and applies
+the Kalman gain. filterpy itself is not imported: its package loads scipy.stats and
+scipy.optimize for likelihood helpers (38 MB of the daemon's memory, 0.3 s here and about a
+second on the board), and its per-sigma-point loops were already replaced here. A test
+checks this filter against filterpy's own UnscentedKalmanFilter, step for step. Yaw
+residuals are wrapped, yaw means are taken on the circle (``angle_mean``), and the filter
+never raises: a failed Cholesky factorization or a non-finite result is reported as
+``StepOutcome.DIVERGED`` for the caller to reset from a good state.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -157,65 +159,6 @@ class _MeasurementFunctions:
 _FUNCTIONS: dict[tuple[Row, ...], _MeasurementFunctions] = {}
 
 
-@functools.cache
-def _filter_classes() -> tuple[Any, Any]:
-    """filterpy's UKF and Merwe points with the array versions of their loops.
-
-    Imported on first use: filterpy's package pulls in scipy.stats (about a second), which
-    the daemon should not pay before it is ready.
-    """
-    from filterpy.kalman import (  # noqa: PLC0415
-        MerweScaledSigmaPoints,
-        UnscentedKalmanFilter,
-    )
-
-    class _ArraySigmaPoints(MerweScaledSigmaPoints):  # type: ignore[misc]
-        """filterpy's Merwe points, built without its per-dimension loop.
-
-        Same points: with U the upper Cholesky factor of (λ + n)P, the points are x, x + U[k] and
-        x - U[k] (yaw wrapped). The factorization raises LinAlgError when P is not positive
-        definite.
-        """
-
-        def sigma_points(self, x: FloatArray, P: FloatArray) -> FloatArray:  # noqa: N803
-            n = self.n
-            u = self.sqrt((self._lambda() + n) * P)
-            sigmas = np.empty((2 * n + 1, n))
-            sigmas[0] = x
-            sigmas[1 : n + 1] = x + u
-            sigmas[n + 1 :] = x - u
-            sigmas[:, TH] = wrap_angles(sigmas[:, TH])
-            return sigmas
-
-        def _lambda(self) -> float:
-            return float(self.alpha**2 * (self.n + self.kappa) - self.n)
-
-    class _ArrayUkf(UnscentedKalmanFilter):  # type: ignore[misc]
-        """filterpy's UKF with its per-sigma-point loops done as array operations."""
-
-        transition: FloatArray
-
-        def compute_process_sigmas(self, dt: float, fx: Any = None, **fx_args: Any) -> None:
-            sigmas = self.points_fn.sigma_points(self.x, self.P)
-            propagated = sigmas @ self.transition.T
-            propagated[:, TH] = wrap_angles(propagated[:, TH])
-            self.sigmas_f = propagated
-
-        def cross_variance(
-            self, x: FloatArray, z: FloatArray, sigmas_f: FloatArray, sigmas_h: FloatArray
-        ) -> FloatArray:
-            dx = self.residual_x(sigmas_f, x)
-            dz = self.residual_z(sigmas_h, z)
-            result: FloatArray = (dx * self.Wc[:, None]).T @ dz
-            return result
-
-    return _ArraySigmaPoints, _ArrayUkf
-
-
-def _unused_fx(x: FloatArray, dt: float) -> FloatArray:  # pragma: no cover - never called
-    raise AssertionError("process sigmas are propagated by _ArrayUkf.compute_process_sigmas")
-
-
 # Beyond this the yaw is as good as unknown (a uniform angle has std pi/sqrt(3)); letting it
 # grow further would spread sigma points around the circle and break the circular mean.
 MAX_YAW_STD_RAD = math.pi / math.sqrt(3.0)
@@ -275,46 +218,36 @@ class PoseUkf:
 
     def __init__(self, settings: UkfSettings) -> None:
         self.settings = settings
+        n = STATE_SIZE
         alpha, beta, kappa = settings.alpha, settings.beta, settings.kappa
-        linear_jerk_psd, angular_jerk_psd = settings.linear_jerk_psd, settings.angular_jerk_psd
-        sigma_points_class, ukf_class = _filter_classes()
-        points = sigma_points_class(
-            STATE_SIZE,
-            alpha=alpha,
-            beta=beta,
-            kappa=kappa,
-            sqrt_method=_upper_cholesky,
-            subtract=_state_residual,
-        )
-        self._ukf = ukf_class(
-            dim_x=STATE_SIZE,
-            dim_z=3,
-            dt=0.0,
-            hx=None,
-            fx=_unused_fx,
-            points=points,
-            x_mean_fn=_state_mean,
-            residual_x=_state_residual,
-            state_add=_state_add,
-        )
-        self._ukf.transition = np.eye(STATE_SIZE)
-        self._process_noise = ProcessNoise(linear_jerk_psd, angular_jerk_psd)
+        spread = alpha**2 * (n + kappa)  # lambda + n
+        self._spread = spread
+        self._wm = np.full(2 * n + 1, 0.5 / spread)
+        self._wc = self._wm.copy()
+        self._wm[0] = (spread - n) / spread
+        self._wc[0] = (spread - n) / spread + (1.0 - alpha**2 + beta)
+        self._process_noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)
+        self._x = np.zeros(n)
+        self._p = np.eye(n)
+        self._sigmas = np.zeros((2 * n + 1, n))  # redrawn from the prediction
+        self._y = np.zeros(0)  # the last update's residual and its covariance
+        self._s = np.zeros((0, 0))
         self.last_mahalanobis_sq = math.nan
 
     @property
     def x(self) -> FloatArray:
         """The state mean (a copy)."""
-        return np.array(self._ukf.x, dtype=np.float64)
+        return self._x.copy()
 
     @property
     def p(self) -> FloatArray:
         """The state covariance (a copy)."""
-        return np.array(self._ukf.P, dtype=np.float64)
+        return self._p.copy()
 
     def set_state(self, x: FloatArray, p: FloatArray) -> None:
         """Replace mean and covariance (copies are kept)."""
-        self._ukf.x = np.array(x, dtype=np.float64)
-        self._ukf.P = np.array(p, dtype=np.float64)
+        self._x = np.array(x, dtype=np.float64)
+        self._p = np.array(p, dtype=np.float64)
 
     def step(self, dt_s: float, measurement: Measurement | None, gate_chi2: float) -> StepOutcome:
         """Predict ``dt_s`` [s] ahead, then update with ``measurement`` if given.
@@ -322,43 +255,66 @@ class PoseUkf:
         The gated rows are applied only if their squared Mahalanobis distance is within
         ``gate_chi2``; otherwise the update is undone and only the tail rows are applied.
         """
-        ukf = self._ukf
         try:
-            ukf.transition = transition_matrix(dt_s)
-            ukf.Q = self._process_noise(dt_s)
-            ukf.predict(dt=dt_s, UT=_transform)
+            self._predict(dt_s)
             outcome = StepOutcome.APPLIED
             if measurement is not None:
+                x_prior, p_prior = self._x, self._p
                 self._update(measurement)
                 if measurement.gated_rows and not self._passes_gate(measurement, gate_chi2):
-                    ukf.x = ukf.x_prior.copy()
-                    ukf.P = ukf.P_prior.copy()
+                    self._x, self._p = x_prior, p_prior
                     outcome = StepOutcome.REJECTED
                     tail = measurement.tail()
                     if tail is not None:
                         self._update(tail)
-            ukf.P = _bounded_yaw(0.5 * (ukf.P + ukf.P.T))
+            self._p = _bounded_yaw(0.5 * (self._p + self._p.T))
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             return StepOutcome.DIVERGED
-        if not (np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
+        if not (np.all(np.isfinite(self._x)) and np.all(np.isfinite(self._p))):
             return StepOutcome.DIVERGED
         return outcome
 
+    def _sigma_points(self, x: FloatArray, p: FloatArray) -> FloatArray:
+        """Merwe's points: x, then x plus and minus each row of U with UᵀU = (λ + n)P (yaw
+        wrapped). Raises LinAlgError when P is not positive definite."""
+        n = STATE_SIZE
+        u = _upper_cholesky(self._spread * p)
+        sigmas = np.empty((2 * n + 1, n))
+        sigmas[0] = x
+        sigmas[1 : n + 1] = x + u
+        sigmas[n + 1 :] = x - u
+        sigmas[:, TH] = wrap_angles(sigmas[:, TH])
+        return sigmas
+
+    def _predict(self, dt_s: float) -> None:
+        propagated = self._sigma_points(self._x, self._p) @ transition_matrix(dt_s).T
+        propagated[:, TH] = wrap_angles(propagated[:, TH])
+        noise = self._process_noise(dt_s)
+        self._x, self._p = _transform(
+            propagated, self._wm, self._wc, noise, _state_mean, _state_residual
+        )
+        self._sigmas = self._sigma_points(self._x, self._p)
+
     def _update(self, measurement: Measurement) -> None:
-        ukf = self._ukf
         functions = _FUNCTIONS.get(measurement.rows)
         if functions is None:
             functions = _FUNCTIONS[measurement.rows] = _MeasurementFunctions(measurement.rows)
-        ukf.z_mean = functions.mean
-        ukf.residual_z = functions.residual
-        # All sigma points through the measurement rows at once; filterpy asks point by point.
-        table = evaluate_rows(measurement.rows, ukf.sigmas_f)
-        rows: Iterator[FloatArray] = iter(table)
-        ukf.update(measurement.z, R=measurement.r, UT=_transform, hx=lambda _x: next(rows))
+        sigmas_h = evaluate_rows(measurement.rows, self._sigmas)
+        z_mean, s = _transform(
+            sigmas_h, self._wm, self._wc, measurement.r, functions.mean, functions.residual
+        )
+        dx = _state_residual(self._sigmas, self._x)
+        dz = functions.residual(sigmas_h, z_mean)
+        cross = (dx * self._wc[:, None]).T @ dz
+        gain = cross @ np.linalg.inv(s)
+        self._y = functions.residual(measurement.z, z_mean)
+        self._s = s
+        self._x = _state_add(self._x, gain @ self._y)
+        self._p = self._p - gain @ s @ gain.T
 
     def _passes_gate(self, measurement: Measurement, gate_chi2: float) -> bool:
         k = measurement.gated_rows
-        y = self._ukf.y[:k]
-        s = self._ukf.S[:k, :k]
+        y = self._y[:k]
+        s = self._s[:k, :k]
         self.last_mahalanobis_sq = float(y @ np.linalg.solve(s, y))
         return self.last_mahalanobis_sq <= gate_chi2
