@@ -18,6 +18,20 @@ def test_voxel_downsample_keeps_one_point_per_cell_in_order() -> None:
     np.testing.assert_array_equal(voxel_downsample(points, 0.1), points[[0, 2]])
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_voxel_downsample_agrees_with_a_first_point_per_cell_reference(seed: int) -> None:
+    # Points on both sides of both axes, far out and near cell borders.
+    rng = np.random.default_rng(seed)
+    points = rng.normal(0.0, 40.0, (2000, 2))
+    points[:200] = np.round(points[:200], 1)  # exactly on cell borders
+    voxel = 0.1
+    first: dict[tuple[int, int], int] = {}
+    for i, (x, y) in enumerate(points):
+        first.setdefault((math.floor(x / voxel), math.floor(y / voxel)), i)
+    expected = points[sorted(first.values())]
+    np.testing.assert_array_equal(voxel_downsample(points, voxel), expected)
+
+
 def test_ray_casting_marks_free_and_occupied_and_the_grid_grows() -> None:
     grid = OccupancyGrid(0.1, chunk_m=2.0)
     scan = scan_points([3.0], 0.0, 0.1, range_min=0.1, range_max=10.0)
