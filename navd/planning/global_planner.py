@@ -9,25 +9,12 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
-from navd.planning._astar_kernels import (
-    MAX_GENERATION,
-    jump_point_search,
-    shortcut,
-    trace_back,
-    uniform_costs,
-)
-from navd.planning._bitgrid_kernels import pack_free_cells
-from navd.planning._bucket_kernels import (
-    BUCKETS_PER_CELL,
-    CEILING_TOO_LOW,
-    COST_CEILING,
-    bucket_astar,
-    trace_steps,
-)
+from navd.planning._astar_kernels import shortcut
+from navd.planning.cell_search import CellSearch
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 
-__all__ = ["GlobalPlanner", "PlannedPath", "SearchMemory", "SearchSettings", "path_length"]
+__all__ = ["GlobalPlanner", "PlannedPath", "SearchSettings", "path_length"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -46,12 +33,14 @@ class PlannedPath:
     Attributes:
         points_m: [m] N x 2 map points from the robot to the goal.
         cost: [m] A* route cost: length weighted by the cells' costs.
-        cells_expanded: how many cells the search expanded.
+        cells_expanded: how many cells the search expanded (0 when reused).
+        reused: read off the last search toward the same goal (see ``cell_search``).
     """
 
     points_m: FloatArray
     cost: float
     cells_expanded: int
+    reused: bool = False
 
     @property
     def length_m(self) -> float:
@@ -85,10 +74,15 @@ class SearchSettings:
 
 
 class GlobalPlanner:
-    """A* with reusable working memory (one search at a time)."""
+    """A* from the robot to a goal, with working memory kept between searches and the last
+    search reused while it holds (one search at a time; see ``cell_search``)."""
 
     def __init__(self) -> None:
-        self._memory = SearchMemory(0)
+        self._search = CellSearch()
+
+    def forget_last_search(self) -> None:
+        """Search afresh on the next plan instead of reading the route off the last search."""
+        self._search.forget()
 
     def plan(
         self,
@@ -137,48 +131,16 @@ class GlobalPlanner:
                 "occupied",
             )
         cols = frame.cols
-        start_cell = start[0] * cols + start[1]
-        goal_cell = goal[0] * cols + goal[1]
-        memory = self._reserve(frame.rows * cols)
-        if settings.cost_weight == 0.0 or uniform_costs(costmap.cost):
-            # Every step costs its length: jump point search, exact.
-            rows_free, cols_free = pack_free_cells(costmap.cost)
-            g_cells, expanded = jump_point_search(
-                cols, start_cell, goal_cell, *memory.jumps(), rows_free, cols_free
-            )
-            if g_cells >= 0.0:
-                cells = trace_back(memory.links, start_cell, goal_cell, cols)
-        else:
-            # Cell costs: cell by cell, the open list in buckets (within 0.4 % of optimal).
-            g_cells, expanded = bucket_astar(
-                costmap.cost,
-                start_cell,
-                goal_cell,
-                settings.cost_weight,
-                *memory.buckets(),
-                float(BUCKETS_PER_CELL),
-                COST_CEILING,
-            )
-            if g_cells == CEILING_TOO_LOW:  # costs beyond the costmap's scale: a wider ring
-                highest = float(np.max(costmap.cost, where=np.isfinite(costmap.cost), initial=0))
-                memory = self._reserve(frame.rows * cols)
-                g_cells, expanded = bucket_astar(
-                    costmap.cost,
-                    start_cell,
-                    goal_cell,
-                    settings.cost_weight,
-                    *memory.buckets(),
-                    float(BUCKETS_PER_CELL),
-                    highest,
-                )
-            if g_cells >= 0.0:
-                cells = trace_steps(memory.mark, start_cell, goal_cell, cols)
-        if g_cells < 0.0:
+        found = self._search.route(
+            costmap, start[0] * cols + start[1], goal[0] * cols + goal[1], settings.cost_weight
+        )
+        if found is None:
             raise GoalUnreachableError(
                 f"no route to {where}: obstacles enclose it or the robot "
-                f"({expanded} cells expanded)",
+                f"({self._search.last_expanded} cells expanded)",
                 "no route",
             )
+        cells = found.cells
         if settings.smooth and cells.shape[0] > 2:
             cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
         points = frame.centers_of(cells)
@@ -187,7 +149,9 @@ class GlobalPlanner:
         else:
             points = np.vstack([np.asarray(start_xy_m, dtype=np.float64), points])
         points[-1] = goal_xy_m
-        return PlannedPath(points, g_cells * frame.resolution_m, expanded)
+        return PlannedPath(
+            points, found.cost_cells * frame.resolution_m, found.expanded, found.reused
+        )
 
     @staticmethod
     def _free_start(
@@ -210,43 +174,3 @@ class GlobalPlanner:
         offsets = free + np.array([r0 - start[0], c0 - start[1]])
         nearest = free[np.argmin(np.hypot(offsets[:, 0], offsets[:, 1]))]
         return (int(nearest[0] + r0), int(nearest[1] + c0))
-
-    def _reserve(self, cells: int) -> SearchMemory:
-        """Working arrays for ``cells`` cells, with a fresh generation number."""
-        if cells > self._memory.cells or self._memory.generation >= MAX_GENERATION:
-            self._memory = SearchMemory(max(cells, self._memory.cells))
-        self._memory.generation += 1
-        return self._memory
-
-
-class SearchMemory:
-    """One planner's working arrays, kept between searches (generation-stamped, so never
-    cleared) and made only for the kind of search that needs them: 8 bytes a cell for the
-    marks and links, 12 more for the bucket search (costs, back links) or 8 for jump point
-    search (costs)."""
-
-    def __init__(self, cells: int) -> None:
-        self.cells = cells
-        self.generation = 0
-        self.mark = np.zeros(cells, dtype=np.int32)
-        self.links = np.empty(cells, dtype=np.int32)  # jump parents, or next in a bucket
-        self._g: FloatArray | None = None
-        self._prev: npt.NDArray[np.int32] | None = None
-
-    def jumps(self) -> tuple[FloatArray, npt.NDArray[np.int32], npt.NDArray[np.int32], int]:
-        """(g, mark, parent, generation) for ``jump_point_search``."""
-        if self._g is None:
-            self._g = np.empty(self.cells)
-        return self._g, self.mark, self.links, self.generation
-
-    def buckets(
-        self,
-    ) -> tuple[
-        FloatArray, npt.NDArray[np.int32], npt.NDArray[np.int32], npt.NDArray[np.int32], int
-    ]:
-        """(g, mark, next_open, prev_open, generation) for ``bucket_astar``."""
-        if self._g is None:
-            self._g = np.empty(self.cells)
-        if self._prev is None:
-            self._prev = np.empty(self.cells, dtype=np.int32)
-        return self._g, self.mark, self.links, self._prev, self.generation
