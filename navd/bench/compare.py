@@ -297,12 +297,12 @@ def _filterpy_steps(
     """[s] per step of filterpy's own UKF over ``steps``, with navd's model plugged in."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter  # noqa: PLC0415
 
-    from navd.estimation import ukf as navd_ukf  # noqa: PLC0415
+    from navd.estimation import ukf_reference as ref  # noqa: PLC0415
     from navd.estimation.motion_model import ProcessNoise  # noqa: PLC0415
     from navd.geometry.angles import wrap_angles  # noqa: PLC0415
 
     rows = steps[0][1].rows
-    functions = navd_ukf._MeasurementFunctions(rows)
+    functions = ref.MeasurementFunctions(rows)
 
     def fx(x: FloatArray, dt: float) -> FloatArray:
         moved: FloatArray = transition_matrix(dt) @ x
@@ -318,8 +318,8 @@ def _filterpy_steps(
         alpha=settings.alpha,
         beta=settings.beta,
         kappa=settings.kappa,
-        sqrt_method=navd_ukf._upper_cholesky,
-        subtract=navd_ukf._state_residual,
+        sqrt_method=ref.upper_cholesky,
+        subtract=ref.state_residual,
     )
     peer = UnscentedKalmanFilter(
         dim_x=STATE_SIZE,
@@ -328,11 +328,11 @@ def _filterpy_steps(
         hx=hx,
         fx=fx,
         points=points,
-        x_mean_fn=navd_ukf._state_mean,
+        x_mean_fn=ref.state_mean,
         z_mean_fn=functions.mean,
-        residual_x=navd_ukf._state_residual,
+        residual_x=ref.state_residual,
         residual_z=functions.residual,
-        state_add=navd_ukf._state_add,
+        state_add=ref.state_add,
     )
     peer.x, peer.P = x0.copy(), p0.copy()
     noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)

@@ -80,6 +80,11 @@ class ProcessNoise:
                     coefficients[5 - power, chain[i], chain[j]] = psd * factor
         self._coefficients = coefficients.reshape(5, STATE_SIZE * STATE_SIZE)
 
+    @property
+    def polynomial(self) -> FloatArray:
+        """5 x 81: Q = [dt⁵, dt⁴, dt³, dt², dt] @ this, reshaped 9 x 9 (a copy)."""
+        return self._coefficients.copy()
+
     def __call__(self, dt_s: float) -> FloatArray:
         """Q for a step of ``dt_s`` [s]."""
         t = dt_s

@@ -1,16 +1,15 @@
 """The pose UKF: Merwe scaled sigma points over the 9-state model, angles on the circle.
 
-The algebra is the textbook UKF (Wan and van der Merwe 2000) as filterpy writes it, done
-with array operations over all sigma points at once: predict propagates the points through
-the linear model and takes the unscented transform, then redraws the points from the
-predicted mean and covariance; update passes them through the measurement rows and applies
-the Kalman gain. filterpy itself is not imported: its package loads scipy.stats and
-scipy.optimize for likelihood helpers (38 MB of the daemon's memory, 0.3 s here and about a
-second on the board), and its per-sigma-point loops were already replaced here. A test
-checks this filter against filterpy's own UnscentedKalmanFilter, step for step. Yaw
-residuals are wrapped, yaw means are taken on the circle (``angle_mean``), and the filter
-never raises: a failed Cholesky factorization or a non-finite result is reported as
-``StepOutcome.DIVERGED`` for the caller to reset from a good state.
+Each step is one call into a numba kernel (``_ukf_kernels``): predict, update, the
+Mahalanobis gate on the sensor's own rows, the yaw variance cap. The algebra is the textbook
+UKF (Wan and van der Merwe 2000) as filterpy writes it; a test runs filterpy's own
+UnscentedKalmanFilter on the same model (``ukf_reference``) and checks every step against
+this one. filterpy is not imported by the daemon: its package loads scipy.stats and
+scipy.optimize (38 MB of memory, 0.3 s here and about a second on the board), and in numpy a
+step cost 100-150 µs, nearly all in call overhead. Yaw residuals are wrapped, yaw means are
+taken on the circle (``ukf_reference.angle_mean``), and the filter never raises: a failed
+Cholesky factorization or a non-finite result is reported as ``StepOutcome.DIVERGED`` for
+the caller to reset from a good state.
 """
 
 from __future__ import annotations
@@ -18,23 +17,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from navd.config import EstimationConfig, NavdConfig
-from navd.estimation.motion_model import (
-    STATE_SIZE,
-    TH,
-    ProcessNoise,
-    Row,
-    evaluate_rows,
-    transition_matrix,
-)
-from navd.geometry.angles import wrap_angle, wrap_angles
+from navd.estimation._ukf_kernels import DIVERGED, REJECTED, ukf_step
+from navd.estimation.motion_model import STATE_SIZE, ProcessNoise, Row
 
-__all__ = ["MAX_YAW_STD_RAD", "Measurement", "PoseUkf", "StepOutcome", "UkfSettings", "angle_mean"]
+__all__ = ["MAX_YAW_STD_RAD", "ROW_CODES", "Measurement", "PoseUkf", "StepOutcome", "UkfSettings"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -63,12 +54,34 @@ class Measurement:
                 f"z must be ({m},) and r ({m}, {m}); got {self.z.shape} and {self.r.shape}"
             )
 
+    @property
+    def codes(self) -> npt.NDArray[np.int64]:
+        """The rows as the kernel's codes (``ROW_CODES``)."""
+        codes = _CODES.get(self.rows)
+        if codes is None:
+            codes = _CODES[self.rows] = np.array([ROW_CODES[r] for r in self.rows], np.int64)
+        return codes
+
     def tail(self) -> Measurement | None:
         """Only the rows that ride along, or None if there are none."""
         k = self.gated_rows
         if k == len(self.rows):
             return None
         return Measurement(rows=self.rows[k:], z=self.z[k:], r=self.r[k:, k:], gated_rows=0)
+
+
+# The measurement rows as ``_ukf_kernels`` knows them.
+ROW_CODES = {
+    Row.X: 0,
+    Row.Y: 1,
+    Row.YAW: 2,
+    Row.YAW_RATE: 3,
+    Row.ACCEL_FORWARD: 4,
+    Row.ACCEL_LEFT: 5,
+    Row.VELOCITY_FORWARD: 6,
+    Row.VELOCITY_LEFT: 7,
+}
+_CODES: dict[tuple[Row, ...], npt.NDArray[np.int64]] = {}
 
 
 class StepOutcome(Enum):
@@ -79,100 +92,9 @@ class StepOutcome(Enum):
     DIVERGED = "diverged"  # numerically broken; the state must be reset
 
 
-def _upper_cholesky(matrix: FloatArray) -> FloatArray:
-    """Upper triangular U with UᵀU = matrix (LinAlgError if not positive definite)."""
-    upper = np.asarray(np.linalg.cholesky(matrix).T, dtype=np.float64)
-    return upper
-
-
-def _state_residual(a: FloatArray, b: FloatArray) -> FloatArray:
-    d = a - b
-    if d.ndim == 1:
-        d[TH] = wrap_angle(float(d[TH]))
-    else:
-        d[:, TH] = wrap_angles(d[:, TH])
-    return d
-
-
-def _state_add(x: FloatArray, dx: FloatArray) -> FloatArray:
-    s = x + dx
-    s[TH] = wrap_angle(float(s[TH]))
-    return s
-
-
-def angle_mean(angles: FloatArray, weights: FloatArray) -> float:
-    """Weighted mean of angles whose first element is the central sigma point.
-
-    Averaged as wrapped offsets from the central point, so it stays right with the negative
-    central weight of Merwe points: a sin/cos mean (atan2 of the weighted sines and cosines)
-    flips by pi once the yaw spread makes the weighted cosine sum negative, which happens at
-    yaw std near 1.4 rad with the seed's alpha = 0.1, kappa = 6. For small spreads the two
-    agree to first order.
-    """
-    reference = float(angles[0])
-    return wrap_angle(reference + float(weights @ wrap_angles(angles - reference)))
-
-
-def _state_mean(sigmas: FloatArray, weights: FloatArray) -> FloatArray:
-    mean = weights @ sigmas
-    mean[TH] = angle_mean(sigmas[:, TH], weights)
-    return mean
-
-
-def _transform(  # noqa: PLR0917 - filterpy calls UT positionally
-    sigmas: FloatArray,
-    wm: FloatArray,
-    wc: FloatArray,
-    noise: FloatArray,
-    mean_fn: Any,
-    residual_fn: Any,
-) -> tuple[FloatArray, FloatArray]:
-    """Unscented transform over all sigma rows at once (filterpy's UT signature)."""
-    mean: FloatArray = mean_fn(sigmas, wm)
-    y: FloatArray = residual_fn(sigmas, mean)
-    cov: FloatArray = (y * wc[:, None]).T @ y + noise
-    return mean, cov
-
-
-class _MeasurementFunctions:
-    """Mean and residual of a measurement whose rows may include angles."""
-
-    def __init__(self, rows: tuple[Row, ...]) -> None:
-        self.angles = [i for i, row in enumerate(rows) if row.is_angle]
-
-    def mean(self, sigmas: FloatArray, weights: FloatArray) -> FloatArray:
-        mean = weights @ sigmas
-        for i in self.angles:
-            mean[i] = angle_mean(sigmas[:, i], weights)
-        return mean
-
-    def residual(self, a: FloatArray, b: FloatArray) -> FloatArray:
-        d = a - b
-        for i in self.angles:
-            if d.ndim == 1:
-                d[i] = wrap_angle(float(d[i]))
-            else:
-                d[:, i] = wrap_angles(d[:, i])
-        return d
-
-
-_FUNCTIONS: dict[tuple[Row, ...], _MeasurementFunctions] = {}
-
-
 # Beyond this the yaw is as good as unknown (a uniform angle has std pi/sqrt(3)); letting it
 # grow further would spread sigma points around the circle and break the circular mean.
 MAX_YAW_STD_RAD = math.pi / math.sqrt(3.0)
-
-
-def _bounded_yaw(p: FloatArray) -> FloatArray:
-    """``p`` with the yaw variance capped, its correlations kept."""
-    var = p[TH, TH]
-    limit = MAX_YAW_STD_RAD**2
-    if var > limit:
-        scale = math.sqrt(limit / var)
-        p[TH, :] *= scale
-        p[:, TH] *= scale
-    return p
 
 
 @dataclass(frozen=True, slots=True)
@@ -220,18 +142,15 @@ class PoseUkf:
         self.settings = settings
         n = STATE_SIZE
         alpha, beta, kappa = settings.alpha, settings.beta, settings.kappa
-        spread = alpha**2 * (n + kappa)  # lambda + n
-        self._spread = spread
-        self._wm = np.full(2 * n + 1, 0.5 / spread)
+        self._spread = alpha**2 * (n + kappa)  # lambda + n
+        self._wm = np.full(2 * n + 1, 0.5 / self._spread)
         self._wc = self._wm.copy()
-        self._wm[0] = (spread - n) / spread
-        self._wc[0] = (spread - n) / spread + (1.0 - alpha**2 + beta)
-        self._process_noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)
+        self._wm[0] = (self._spread - n) / self._spread
+        self._wc[0] = self._wm[0] + (1.0 - alpha**2 + beta)
+        noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)
+        self._q_poly = noise.polynomial
         self._x = np.zeros(n)
         self._p = np.eye(n)
-        self._sigmas = np.zeros((2 * n + 1, n))  # redrawn from the prediction
-        self._y = np.zeros(0)  # the last update's residual and its covariance
-        self._s = np.zeros((0, 0))
         self.last_mahalanobis_sq = math.nan
 
     @property
@@ -255,66 +174,38 @@ class PoseUkf:
         The gated rows are applied only if their squared Mahalanobis distance is within
         ``gate_chi2``; otherwise the update is undone and only the tail rows are applied.
         """
-        try:
-            self._predict(dt_s)
-            outcome = StepOutcome.APPLIED
-            if measurement is not None:
-                x_prior, p_prior = self._x, self._p
-                self._update(measurement)
-                if measurement.gated_rows and not self._passes_gate(measurement, gate_chi2):
-                    self._x, self._p = x_prior, p_prior
-                    outcome = StepOutcome.REJECTED
-                    tail = measurement.tail()
-                    if tail is not None:
-                        self._update(tail)
-            self._p = _bounded_yaw(0.5 * (self._p + self._p.T))
-        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
-            return StepOutcome.DIVERGED
-        if not (np.all(np.isfinite(self._x)) and np.all(np.isfinite(self._p))):
-            return StepOutcome.DIVERGED
-        return outcome
-
-    def _sigma_points(self, x: FloatArray, p: FloatArray) -> FloatArray:
-        """Merwe's points: x, then x plus and minus each row of U with UᵀU = (λ + n)P (yaw
-        wrapped). Raises LinAlgError when P is not positive definite."""
-        n = STATE_SIZE
-        u = _upper_cholesky(self._spread * p)
-        sigmas = np.empty((2 * n + 1, n))
-        sigmas[0] = x
-        sigmas[1 : n + 1] = x + u
-        sigmas[n + 1 :] = x - u
-        sigmas[:, TH] = wrap_angles(sigmas[:, TH])
-        return sigmas
-
-    def _predict(self, dt_s: float) -> None:
-        propagated = self._sigma_points(self._x, self._p) @ transition_matrix(dt_s).T
-        propagated[:, TH] = wrap_angles(propagated[:, TH])
-        noise = self._process_noise(dt_s)
-        self._x, self._p = _transform(
-            propagated, self._wm, self._wc, noise, _state_mean, _state_residual
+        if measurement is None:
+            codes, z, r, gated = _NO_ROWS, _NO_VALUES, _NO_NOISE, 0
+        else:
+            codes, z, r, gated = (
+                measurement.codes,
+                measurement.z,
+                measurement.r,
+                measurement.gated_rows,
+            )
+        outcome, x, p, distance = ukf_step(
+            self._x,
+            self._p,
+            float(dt_s),
+            self._q_poly,
+            self._wm,
+            self._wc,
+            self._spread,
+            codes,
+            np.asarray(z, dtype=np.float64),
+            np.asarray(r, dtype=np.float64),
+            gated,
+            float(gate_chi2),
+            MAX_YAW_STD_RAD**2,
         )
-        self._sigmas = self._sigma_points(self._x, self._p)
+        if not math.isnan(distance):
+            self.last_mahalanobis_sq = distance
+        if outcome == DIVERGED:
+            return StepOutcome.DIVERGED
+        self._x, self._p = x, p
+        return StepOutcome.REJECTED if outcome == REJECTED else StepOutcome.APPLIED
 
-    def _update(self, measurement: Measurement) -> None:
-        functions = _FUNCTIONS.get(measurement.rows)
-        if functions is None:
-            functions = _FUNCTIONS[measurement.rows] = _MeasurementFunctions(measurement.rows)
-        sigmas_h = evaluate_rows(measurement.rows, self._sigmas)
-        z_mean, s = _transform(
-            sigmas_h, self._wm, self._wc, measurement.r, functions.mean, functions.residual
-        )
-        dx = _state_residual(self._sigmas, self._x)
-        dz = functions.residual(sigmas_h, z_mean)
-        cross = (dx * self._wc[:, None]).T @ dz
-        gain = cross @ np.linalg.inv(s)
-        self._y = functions.residual(measurement.z, z_mean)
-        self._s = s
-        self._x = _state_add(self._x, gain @ self._y)
-        self._p = self._p - gain @ s @ gain.T
 
-    def _passes_gate(self, measurement: Measurement, gate_chi2: float) -> bool:
-        k = measurement.gated_rows
-        y = self._y[:k]
-        s = self._s[:k, :k]
-        self.last_mahalanobis_sq = float(y @ np.linalg.solve(s, y))
-        return self.last_mahalanobis_sq <= gate_chi2
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_VALUES = np.zeros(0)
+_NO_NOISE = np.zeros((0, 0))

@@ -1,18 +1,26 @@
-"""Compile (or load from the cache) the estimation kernels before the first IMU sample: the
-Madgwick filter runs on the event loop, where a first compile would stall it for a second."""
+"""Compile (or load from the cache) the estimation kernels before the first sample: the
+Madgwick filter and the UKF run on the event loop, where a first compile would stall it for
+seconds."""
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from navd.config import EstimationConfig
 from navd.estimation.madgwick import MadgwickFilter
+from navd.estimation.motion_model import STATE_SIZE, Row
+from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
 from navd.lifecycle.messages import Imu, Vector3
 
 __all__ = ["warm_up"]
 
 
 def warm_up(config: EstimationConfig) -> None:
-    """Run a throwaway filter over a few samples (with and without a magnetometer) and read
-    a window of them back."""
+    """Run a throwaway Madgwick filter over a few samples (with and without a magnetometer)
+    and read a window of them back; step a throwaway UKF without and with a measurement,
+    through the gate and past it."""
     madgwick = MadgwickFilter(config)
     for k in range(4):
         stamp = 0.01 * k
@@ -27,3 +35,10 @@ def warm_up(config: EstimationConfig) -> None:
             )
         )
     madgwick.window_mean(0.03, 0.02)
+    ukf = PoseUkf(UkfSettings.of(config))
+    ukf.set_state(np.zeros(STATE_SIZE), np.eye(STATE_SIZE))
+    rows = (Row.X, Row.Y, Row.YAW, Row.YAW_RATE, Row.ACCEL_FORWARD, Row.VELOCITY_LEFT)
+    measurement = Measurement(rows=rows, z=np.zeros(6), r=np.eye(6), gated_rows=3)
+    ukf.step(0.1, None, math.inf)
+    ukf.step(0.1, measurement, math.inf)
+    ukf.step(0.1, measurement, 0.0)  # refused by the gate: the tail rows alone

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.estimation import ukf as navd_ukf
+from navd.estimation import ukf_reference as ref
 from navd.estimation.motion_model import (
     STATE_SIZE,
     TH,
@@ -26,7 +26,7 @@ ROWS = (Row.X, Row.Y, Row.YAW, Row.YAW_RATE, Row.ACCEL_FORWARD, Row.VELOCITY_LEF
 
 
 def _filterpy_ukf(settings: UkfSettings) -> object:
-    functions = navd_ukf._MeasurementFunctions(ROWS)
+    functions = ref.MeasurementFunctions(ROWS)
 
     def fx(x: np.ndarray, dt: float) -> np.ndarray:
         moved = transition_matrix(dt) @ x
@@ -41,8 +41,8 @@ def _filterpy_ukf(settings: UkfSettings) -> object:
         alpha=settings.alpha,
         beta=settings.beta,
         kappa=settings.kappa,
-        sqrt_method=navd_ukf._upper_cholesky,
-        subtract=navd_ukf._state_residual,
+        sqrt_method=ref.upper_cholesky,
+        subtract=ref.state_residual,
     )
     return kalman.UnscentedKalmanFilter(
         dim_x=STATE_SIZE,
@@ -51,11 +51,11 @@ def _filterpy_ukf(settings: UkfSettings) -> object:
         hx=hx,
         fx=fx,
         points=points,
-        x_mean_fn=navd_ukf._state_mean,
+        x_mean_fn=ref.state_mean,
         z_mean_fn=functions.mean,
-        residual_x=navd_ukf._state_residual,
+        residual_x=ref.state_residual,
         residual_z=functions.residual,
-        state_add=navd_ukf._state_add,
+        state_add=ref.state_add,
     )
 
 

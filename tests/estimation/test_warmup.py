@@ -10,15 +10,20 @@ import textwrap
 
 SCRIPT = textwrap.dedent(
     """
+    import numpy as np
     from navd.config import NavdConfig
     from navd.drivers.protocol.codec import decode_sensor
     from navd.drivers.protocol.convert import sensor_message
-    from navd.estimation import _madgwick_kernels as k
+    from navd.estimation import _madgwick_kernels, _ukf_kernels
     from navd.estimation.estimator import StateEstimator
     from navd.estimation.settings import EstimatorSettings
     from navd.estimation.warmup import warm_up
+    from navd.lifecycle.messages import PoseMeasurement
 
-    kernels = [getattr(k, n) for n in dir(k) if hasattr(getattr(k, n), "signatures")]
+    modules = (_madgwick_kernels, _ukf_kernels)
+    kernels = [
+        getattr(m, n) for m in modules for n in dir(m) if hasattr(getattr(m, n), "signatures")
+    ]
     config = NavdConfig()
     warm_up(config.estimation)
     warmed = {f.__name__: len(f.signatures) for f in kernels}
@@ -32,8 +37,14 @@ SCRIPT = textwrap.dedent(
         frame = decode_sensor("imu", line)
         estimator.add_imu(sensor_message(frame, "imu0", 1.0 + 0.01 * i, 1.02 + 0.01 * i))
     estimator.madgwick.window_mean(1.03, 0.05)
+    estimator.add_pose(
+        PoseMeasurement(stamp=1.04, received=1.05, source="lidar", x_m=0.1, y_m=0.0,
+                        yaw_rad=0.01, covariance=np.diag([0.0025, 0.0025, 0.0004])),
+        1.05,
+    )
     after = {f.__name__: len(f.signatures) for f in kernels}
     assert warmed["madgwick_ingest"] and warmed["imu_window_mean"], warmed
+    assert warmed["ukf_step"], warmed
     assert after == warmed, (warmed, after)
     print("ok")
     """

@@ -1,0 +1,105 @@
+"""The pose UKF's model as numpy functions in filterpy's signatures: the mean, residual and
+addition of states (yaw on the circle), the measurement rows' mean and residual, the
+unscented transform and the Cholesky factor, for filterpy's own UnscentedKalmanFilter to run
+navd's model. The daemon's filter is the kernel in ``_ukf_kernels``; this is what it is
+checked against (the tests) and timed beside (``navd bench compare``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.estimation.motion_model import TH, Row
+from navd.geometry.angles import wrap_angle, wrap_angles
+
+__all__ = [
+    "MeasurementFunctions",
+    "angle_mean",
+    "state_add",
+    "state_mean",
+    "state_residual",
+    "unscented_transform",
+    "upper_cholesky",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def upper_cholesky(matrix: FloatArray) -> FloatArray:
+    """Upper triangular U with UᵀU = matrix (LinAlgError if not positive definite)."""
+    upper = np.asarray(np.linalg.cholesky(matrix).T, dtype=np.float64)
+    return upper
+
+
+def state_residual(a: FloatArray, b: FloatArray) -> FloatArray:
+    d = a - b
+    if d.ndim == 1:
+        d[TH] = wrap_angle(float(d[TH]))
+    else:
+        d[:, TH] = wrap_angles(d[:, TH])
+    return d
+
+
+def state_add(x: FloatArray, dx: FloatArray) -> FloatArray:
+    s = x + dx
+    s[TH] = wrap_angle(float(s[TH]))
+    return s
+
+
+def angle_mean(angles: FloatArray, weights: FloatArray) -> float:
+    """Weighted mean of angles whose first element is the central sigma point.
+
+    Averaged as wrapped offsets from the central point, so it stays right with the negative
+    central weight of Merwe points: a sin/cos mean (atan2 of the weighted sines and cosines)
+    flips by pi once the yaw spread makes the weighted cosine sum negative, which happens at
+    yaw std near 1.4 rad with the seed's alpha = 0.1, kappa = 6. For small spreads the two
+    agree to first order.
+    """
+    reference = float(angles[0])
+    return wrap_angle(reference + float(weights @ wrap_angles(angles - reference)))
+
+
+def state_mean(sigmas: FloatArray, weights: FloatArray) -> FloatArray:
+    mean = weights @ sigmas
+    mean[TH] = angle_mean(sigmas[:, TH], weights)
+    return mean
+
+
+def unscented_transform(  # noqa: PLR0917 - filterpy calls it positionally
+    sigmas: FloatArray,
+    wm: FloatArray,
+    wc: FloatArray,
+    noise: FloatArray,
+    mean_fn: Any,
+    residual_fn: Any,
+) -> tuple[FloatArray, FloatArray]:
+    """Unscented transform over all sigma rows at once (filterpy's UT signature)."""
+    mean: FloatArray = mean_fn(sigmas, wm)
+    y: FloatArray = residual_fn(sigmas, mean)
+    cov: FloatArray = (y * wc[:, None]).T @ y + noise
+    return mean, cov
+
+
+class MeasurementFunctions:
+    """Mean and residual of a measurement whose rows may include angles."""
+
+    def __init__(self, rows: tuple[Row, ...]) -> None:
+        self.angles = [i for i, row in enumerate(rows) if row.is_angle]
+
+    def mean(self, sigmas: FloatArray, weights: FloatArray) -> FloatArray:
+        mean = weights @ sigmas
+        for i in self.angles:
+            mean[i] = angle_mean(sigmas[:, i], weights)
+        return mean
+
+    def residual(self, a: FloatArray, b: FloatArray) -> FloatArray:
+        d = a - b
+        for i in self.angles:
+            if d.ndim == 1:
+                d[i] = wrap_angle(float(d[i]))
+            else:
+                d[:, i] = wrap_angles(d[:, i])
+        return d
