@@ -107,7 +107,7 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
 def _dwa(cycles: int) -> dict[str, object]:
     config = NavdConfig.model_validate({"robot": {"footprint": "rectangle"}})
     profile = VelocityProfile.from_config(config)
-    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_cap)
+    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_caps)
     rng = np.random.default_rng(7)
     path = path_field(np.array([[0.0, 0.0], [6.0, 0.0]]))
     times = []

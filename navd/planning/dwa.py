@@ -169,14 +169,14 @@ class LocalPlanner:
 
     Args:
         settings: limits, footprint, sampling and weights.
-        yaw_rate_cap: top yaw rate [rad/s] as a function of speed [m/s] (the profile table).
+        yaw_rate_caps: top yaw rates [rad/s] of an array of speeds [m/s] (the profile table).
     """
 
     def __init__(
-        self, settings: DwaSettings, yaw_rate_cap: Callable[[float], float] | None = None
+        self, settings: DwaSettings, yaw_rate_caps: Callable[[FloatArray], FloatArray] | None = None
     ) -> None:
         self.settings = settings
-        self._yaw_cap = yaw_rate_cap
+        self._yaw_caps_of = yaw_rate_caps
         self.steps = max(round(settings.horizon_s / settings.step_s), 1)
         fp = settings.footprint
         self._footprint = np.array(
@@ -227,9 +227,9 @@ class LocalPlanner:
 
     def _yaw_caps(self, speeds_mps: FloatArray) -> FloatArray:
         """[rad/s] the top yaw rate at each speed."""
-        if self._yaw_cap is None:
+        if self._yaw_caps_of is None:
             return np.full(speeds_mps.shape, self.settings.max_yaw_rate_radps)
-        return np.array([self._yaw_cap(float(v)) for v in speeds_mps])
+        return self._yaw_caps_of(speeds_mps)
 
     def choose(  # noqa: PLR0917 - the inputs of one cycle, each named in the docstring
         self,

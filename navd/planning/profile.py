@@ -6,10 +6,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from navd.config import NavdConfig
 
 __all__ = ["VelocityProfile"]
+
+FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,3 +69,10 @@ class VelocityProfile:
     def yaw_rate_cap(self, speed_mps: float) -> float:
         """[rad/s] top yaw rate at ``speed_mps`` (either direction), from the table."""
         return float(np.interp(abs(speed_mps), self.table_speeds_mps, self.table_yaw_rates_radps))
+
+    def yaw_rate_caps(self, speeds_mps: FloatArray) -> FloatArray:
+        """[rad/s] ``yaw_rate_cap`` of each of an array of speeds, in one call."""
+        caps: FloatArray = np.interp(
+            np.abs(speeds_mps), self.table_speeds_mps, self.table_yaw_rates_radps
+        )
+        return caps

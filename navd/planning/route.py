@@ -31,6 +31,11 @@ class Route:
         steps = np.hypot(*np.diff(points_m, axis=0).T) if len(points_m) > 1 else np.empty(0)
         self.cumulative: FloatArray = np.concatenate([[0.0], np.cumsum(steps)])
         self.progress = 0
+        # A control step asks where the robot is several times (remaining distance, carrot,
+        # stuck watch, straying) and whether the route is blocked at twice the scan rate:
+        # the last answers are kept while their inputs stand.
+        self._located: tuple[Pose2, int, tuple[int, float, float]] | None = None
+        self._blocked: tuple[int, FloatArray, float, float, bool] | None = None
 
     @property
     def length_m(self) -> float:
@@ -43,6 +48,9 @@ class Route:
         points = self.points_m
         if points.shape[0] == 1:
             return 0, 0.0, float(math.hypot(points[0, 0] - pose.x, points[0, 1] - pose.y))
+        last = self._located
+        if last is not None and last[1] == self.progress and last[0] == pose:
+            return last[2]
         a = points[self.progress : -1]
         ab = points[self.progress + 1 :] - a
         p = np.array([pose.x, pose.y])
@@ -51,7 +59,9 @@ class Route:
         d = np.hypot(*(a + t[:, None] * ab - p).T)
         i = int(np.argmin(d))
         self.progress += i
-        return self.progress, float(t[i]), float(d[i])
+        found = (self.progress, float(t[i]), float(d[i]))
+        self._located = (pose, self.progress, found)
+        return found
 
     def _station(self, segment: int, fraction: float) -> float:
         """[m] distance along the route of a point on ``segment``."""
@@ -88,9 +98,19 @@ class Route:
         """True if an obstacle point lies within ``radius_m`` of the next ``ahead_m`` of route."""
         if obstacles_m.shape[0] == 0:
             return False
+        last = self._blocked
+        if (
+            last is not None
+            and last[0] == self.progress
+            and last[1] is obstacles_m  # the same scan's points (a new scan: a new array)
+            and last[2:4] == (radius_m, ahead_m)
+        ):
+            return last[4]
         here = self.cumulative[self.progress]
         stations = np.arange(here, min(here + ahead_m, self.length_m), STATION_STEP_M)
-        if stations.size == 0:
-            return False
-        diff = self.point_at(stations)[:, None, :] - obstacles_m[None, :, :]
-        return bool((np.einsum("ijk,ijk->ij", diff, diff) < radius_m**2).any())
+        blocked = False
+        if stations.size > 0:
+            diff = self.point_at(stations)[:, None, :] - obstacles_m[None, :, :]
+            blocked = bool((np.einsum("ijk,ijk->ij", diff, diff) < radius_m**2).any())
+        self._blocked = (self.progress, obstacles_m, radius_m, ahead_m, blocked)
+        return blocked
