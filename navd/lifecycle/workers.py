@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
+from navd.lifecycle.memory import release_freed_memory
 from navd.lifecycle.messages import Message, WorkerStats
 from navd.logs import get_logger
 
@@ -204,6 +205,8 @@ class WorkerPool:
         else:
             # Set-ups are kernels compiling or loading: a cold cache shows here in seconds.
             _log.info("set_up_done", thread=name, seconds=round(seconds, 3))
+        if self._detached == 0:
+            release_freed_memory()  # what compiling and loading freed, back to the system
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:
