@@ -49,6 +49,8 @@ class Measurement:
 
     def __post_init__(self) -> None:
         m = len(self.rows)
+        if not 0 <= self.gated_rows <= m:
+            raise ValueError(f"gated_rows must be in 0..{m}, got {self.gated_rows}")
         if self.z.shape != (m,) or self.r.shape != (m, m):
             raise ValueError(
                 f"z must be ({m},) and r ({m}, {m}); got {self.z.shape} and {self.r.shape}"
@@ -198,8 +200,8 @@ class PoseUkf:
             float(gate_chi2),
             MAX_YAW_STD_RAD**2,
         )
-        if not math.isnan(distance):
-            self.last_mahalanobis_sq = distance
+        if gated:
+            self.last_mahalanobis_sq = distance  # NaN when it could not be computed
         if outcome == DIVERGED:
             return StepOutcome.DIVERGED
         self._x, self._p = x, p

@@ -137,6 +137,8 @@ def bucket_astar(
         ring *= 2
     mask = ring - 1
     head = np.full(ring, _NONE, dtype=np.int32)
+    if flat[start] > cost_ceiling:  # its steps could outrun the ring like any costly cell's
+        return CEILING_TOO_LOW, 0
     g[start] = 0.0
     mark[start] = tag
     current = int(octile(start // cols - goal_r, start % cols - goal_c) * buckets_per_cell)

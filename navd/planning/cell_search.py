@@ -10,12 +10,14 @@ stands now is read off that tree, without a search, if nothing makes it wrong:
 - the grid and the goal cell are the same, with the same cost weight;
 - the robot's cell was closed by the last search (its cost to the goal is final);
 - no cell got cheaper (a cell that did could open a better route), and no cell on the route
-  read off got costlier.
+  read off, nor beside one of its diagonal steps (which need both side cells free), got
+  costlier.
 
 When costs only rose, and not on the route, the route keeps its cost and no other route got
 cheaper, so it is as good as a new search would find (within the same bound). Anything else
 searches afresh. A costmap is never changed in place (each is built anew), so the last one's
-cost array can be kept by reference to compare with.
+cost array is kept by reference to compare with (4 bytes a cell held until the next search;
+the comparison costs about a millisecond on a 2000 x 2000 grid, a search tens).
 """
 
 from __future__ import annotations
@@ -199,6 +201,15 @@ class CellSearch:
                     return None  # something got cheaper: a better route may exist
                 if changed[cells[:, 0], cells[:, 1]].any():
                     return None  # the route itself got costlier
+                # A diagonal step is allowed only while both cells beside it are free.
+                steps = np.diff(cells, axis=0)
+                diagonal = np.flatnonzero(np.all(steps != 0, axis=1))
+                before, after = cells[diagonal], cells[diagonal + 1]
+                if (
+                    changed[before[:, 0], after[:, 1]].any()
+                    or changed[after[:, 0], before[:, 1]].any()
+                ):
+                    return None  # a cell beside a diagonal step changed
         return CellRoute(np.ascontiguousarray(cells), float(memory.g[start_cell]), 0, reused=True)
 
     def _reserve(self, cells: int) -> SearchMemory:

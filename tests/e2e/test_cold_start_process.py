@@ -27,11 +27,11 @@ from tests.e2e.conftest import default_config
 # The set-up threads of the default modules: kernels compiled (or loaded) beside the loop.
 SET_UPS = {"collision_guard-warm-up", "estimation-setup", "slam-warm-up", "planner-warm-up"}
 COLD_COMPILE_S = 300.0  # [s] on a slow machine, every kernel from nothing
-# [ms] the worst loop lag allowed. A kernel compiled on the loop stalls it for seconds (5.4 s
-# here when the estimator's kernels were not warmed). Compiler threads also hold the
-# interpreter lock through LLVM's passes, which the loop sees as lag too: up to 135 ms here,
-# more on a slower machine, so the bound sits between the two.
-WORST_LAG_MS = 1000.0
+# [ms] the worst loop lag allowed. A kernel compiled on the loop stalls it for 0.5 s and more
+# (5.4 s here when the estimator's kernels were not warmed). Compiler threads also hold the
+# interpreter lock through LLVM's passes, which the loop sees as lag too: up to 135 ms here.
+WORST_LAG_MS = 500.0
+LAG_WINDOW = 12_000  # [samples of 50 ms] the lag percentiles cover the whole run
 
 
 def _imu(stamp: float) -> Frame:
@@ -83,6 +83,9 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
     spawn_daemon: Any, tmp_path: Path
 ) -> None:
     config = default_config(tmp_path)
+    text = config.read_text()
+    assert text.count("\nlag_window = 1200\n") == 1, "config/navd.toml lost its lag_window line"
+    config.write_text(text.replace("\nlag_window = 1200\n", f"\nlag_window = {LAG_WINDOW}\n"))
     port = tomllib.loads(config.read_text())["tcp"]["port"]
     cold = {"NUMBA_CACHE_DIR": str(tmp_path / "empty-numba-cache")}
     daemon = spawn_daemon("run", "--config", str(config), env=cold)
@@ -92,7 +95,8 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
     for sensor in sensors:
         sensor.start()
     try:
-        done: set[str] = set()
+        # A set-up may be done before "ready" was read: look at what was read already.
+        done = {e["thread"] for e in daemon.seen if e.get("event") == "set_up_done"}
         while not done >= SET_UPS:
             done.add(daemon.wait_for("set_up_done", timeout_s=COLD_COMPILE_S)["thread"])
         time.sleep(2.0)  # and the first messages after the set-ups
@@ -112,7 +116,7 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
     assert status.pose is not None  # the scans reached SLAM once it was ready
     diagnostics = status.diagnostics
     assert diagnostics.loop_lag_max_ms is not None
-    # The window covers the whole run (1200 samples of 50 ms; the run is shorter).
-    assert diagnostics.uptime_s is not None and diagnostics.uptime_s < 1200 * 0.05
+    # The window covers the whole run.
+    assert diagnostics.uptime_s is not None and diagnostics.uptime_s < LAG_WINDOW * 0.05
     assert diagnostics.loop_lag_max_ms < WORST_LAG_MS, diagnostics
     assert not any(m.faulted for m in diagnostics.modules)

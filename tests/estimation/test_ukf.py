@@ -121,3 +121,18 @@ def test_negative_kappa_without_yaw_measurements_never_raises() -> None:
     assert StepOutcome.DIVERGED not in outcomes
     assert np.all(np.isfinite(ukf.x))
     assert math.hypot(ukf.x[X] - 0.5 * 59.8, ukf.x[Y] - 0.1 * 59.8) < 3.0
+
+
+def test_a_measurement_gating_more_rows_than_it_has_is_refused_by_name() -> None:
+    with pytest.raises(ValueError, match=r"gated_rows must be in 0\.\.3, got 4"):
+        Measurement(rows=(Row.X, Row.Y, Row.YAW), z=np.zeros(3), r=np.eye(3), gated_rows=4)
+
+
+def test_the_reported_distance_is_the_last_steps_even_when_it_cannot_be_computed() -> None:
+    ukf = _ukf()
+    ukf.set_state(np.zeros(STATE_SIZE), np.eye(STATE_SIZE) * 0.1)
+    ukf.step(0.1, _pose(0.0, 0.0, 0.0), 16.0)
+    assert math.isfinite(ukf.last_mahalanobis_sq)
+    broken = _pose(math.nan, 0.0, 0.0)
+    assert ukf.step(0.1, broken, 16.0) is not StepOutcome.APPLIED
+    assert math.isnan(ukf.last_mahalanobis_sq)  # not the previous step's distance

@@ -3,6 +3,8 @@ wrong, and searches afresh when something does."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -36,9 +38,12 @@ def _along(path: PlannedPath, share: float) -> tuple[float, float]:
     return (float(x), float(y))
 
 
-def _within_bound(got: PlannedPath, best: PlannedPath) -> bool:
-    slip = 1.0 / BUCKETS_PER_CELL
-    return bool(best.cost * (1 - 1e-9) <= got.cost <= best.cost * (1 + slip) + slip * 0.05)
+def _within_bound(got: PlannedPath, fresh: PlannedPath) -> bool:
+    """Both routes lie in [C, (1 + d) C + d] (C the optimum, d a bucket's width), so each is
+    within that bound of the other."""
+    slip, cell = 1.0 / BUCKETS_PER_CELL, 0.05
+    low = (fresh.cost - slip * cell) / (1 + slip)
+    return bool(low * (1 - 1e-9) <= got.cost <= fresh.cost * (1 + slip) + slip * cell)
 
 
 def test_a_replan_on_the_same_grid_is_read_off_the_last_search() -> None:
@@ -93,6 +98,32 @@ def test_a_cheaper_grid_makes_a_new_search() -> None:
     again = planner.plan(opened, here, GOAL, SEARCH)
     assert not again.reused
     assert _within_bound(again, _fresh(opened, here))
+
+
+def test_a_cell_blocked_beside_a_diagonal_step_makes_a_new_search() -> None:
+    # Cost 0.5 everywhere (a weighted grid), corner to corner: the route is all diagonal.
+    # Blocking one cell beside its first diagonal step leaves the route's own cells as they
+    # were, but the step is no longer allowed (no squeezing past a blocked cell).
+    frame = GridFrame(0.05, 0.0, 0.0, 10, 10)
+    cost = np.full((10, 10), 0.5, dtype=np.float32)
+    free = np.zeros((10, 10), dtype=np.bool_)
+    clearance = np.full((10, 10), 1.0, dtype=np.float32)
+    planner = GlobalPlanner()
+    start, goal = (0.025, 0.025), (0.475, 0.475)
+    first = planner.plan(Costmap(frame, free, clearance, cost, free), start, goal, SEARCH)
+    cells = np.floor(first.points_m[:, ::-1] / 0.05).astype(int)
+    step = cells[1] - cells[0]
+    assert np.all(step != 0), "the first step should be diagonal"
+    side = (cells[0][0], cells[1][1])
+    blocked_cost = cost.copy()
+    blocked_cost[side] = np.inf
+    blocked = Costmap(frame, free, clearance, blocked_cost, free)
+    again = planner.plan(blocked, start, goal, SEARCH)
+    assert not again.reused
+    route = np.floor(again.points_m[:, ::-1] / 0.05).astype(int)
+    for a, b in itertools.pairwise(route):
+        if np.all(b != a):  # a diagonal: both cells beside it free
+            assert np.isfinite(blocked_cost[a[0], b[1]]) and np.isfinite(blocked_cost[b[0], a[1]])
 
 
 @pytest.mark.parametrize("change", ["goal", "weight", "far start", "forgotten"])

@@ -136,6 +136,20 @@ def test_the_bucket_search_stays_within_its_bound_of_dijkstra_on_larger_grids(
     assert expected * (1 - 1e-6) <= path.cost / RES <= (1 + slip) * expected + slip
 
 
+def test_a_goal_cell_costlier_than_the_ring_was_sized_for_keeps_the_bound() -> None:
+    # The search starts from the goal: a goal cell above the costmap's 0..1 scale must widen
+    # the ring of buckets like any costly cell, or its first steps would wrap around it.
+    rng = np.random.default_rng(7)
+    cost = rng.random((60, 60)).astype(np.float32)
+    cost[0, 0] = 0.0
+    cost[59, 59] = 40.0
+    expected = dijkstra_cost(cost, (0, 0), (59, 59), 3.0)
+    search = SearchSettings(cost_weight=3.0, smooth=False)
+    path = GlobalPlanner().plan(costmap_of(cost), center((0, 0)), center((59, 59)), search)
+    slip = 1.0 / BUCKETS_PER_CELL
+    assert expected * (1 - 1e-6) <= path.cost / RES <= (1 + slip) * expected + slip
+
+
 @st.composite
 def floor_plans(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int, int], float]:
     """Floor of cost 0 with blocked rectangles, some with a costly band around them: a uniform
