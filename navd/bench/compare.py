@@ -49,7 +49,6 @@ from navd.bench.planning import random_rectangles
 from navd.bench.room import cast
 from navd.config import NavdConfig
 from navd.estimation.madgwick import MadgwickFilter
-from navd.estimation.motion_model import STATE_SIZE, TH, evaluate_rows, transition_matrix
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
 from navd.geometry.pose import Pose2
@@ -300,45 +299,10 @@ def _filterpy_steps(
     x0: FloatArray, p0: FloatArray, steps: list[tuple[float, Measurement]], settings: UkfSettings
 ) -> list[float]:
     """[s] per step of filterpy's own UKF over ``steps``, with navd's model plugged in."""
-    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter  # noqa: PLC0415
-
-    from navd.estimation import ukf_reference as ref  # noqa: PLC0415
     from navd.estimation.motion_model import ProcessNoise  # noqa: PLC0415
-    from navd.geometry.angles import wrap_angles  # noqa: PLC0415
+    from navd.estimation.ukf_reference import stock_filter  # noqa: PLC0415
 
-    rows = steps[0][1].rows
-    functions = ref.MeasurementFunctions(rows)
-
-    def fx(x: FloatArray, dt: float) -> FloatArray:
-        moved: FloatArray = transition_matrix(dt) @ x
-        moved[TH : TH + 1] = wrap_angles(moved[TH : TH + 1])
-        return moved
-
-    def hx(x: FloatArray) -> FloatArray:
-        row: FloatArray = evaluate_rows(rows, x[None, :])[0]
-        return row
-
-    points = MerweScaledSigmaPoints(
-        STATE_SIZE,
-        alpha=settings.alpha,
-        beta=settings.beta,
-        kappa=settings.kappa,
-        sqrt_method=ref.upper_cholesky,
-        subtract=ref.state_residual,
-    )
-    peer = UnscentedKalmanFilter(
-        dim_x=STATE_SIZE,
-        dim_z=len(rows),
-        dt=0.1,
-        hx=hx,
-        fx=fx,
-        points=points,
-        x_mean_fn=ref.state_mean,
-        z_mean_fn=functions.mean,
-        residual_x=ref.state_residual,
-        residual_z=functions.residual,
-        state_add=ref.state_add,
-    )
+    peer = stock_filter(settings, steps[0][1].rows)
     peer.x, peer.P = x0.copy(), p0.copy()
     noise = ProcessNoise(settings.linear_jerk_psd, settings.angular_jerk_psd)
     seconds = []

@@ -1,18 +1,19 @@
-"""The pose UKF's model as numpy functions in filterpy's signatures: the mean, residual and
-addition of states (yaw on the circle), the measurement rows' mean and residual, the
-unscented transform and the Cholesky factor, for filterpy's own UnscentedKalmanFilter to run
-navd's model. The daemon's filter is the kernel in ``_ukf_kernels``; this is what it is
-checked against (the tests) and timed beside (``navd bench compare``).
+"""The pose UKF's model as numpy functions in filterpy's signatures (the mean, residual and
+addition of states with yaw on the circle, the measurement rows' mean and residual, the
+Cholesky factor), and filterpy's own UnscentedKalmanFilter set up to run it. The daemon's
+filter is the kernel in ``_ukf_kernels``; this is what it is checked against (the tests) and
+timed beside (``navd bench compare``). filterpy is a development dependency, imported only
+by ``stock_filter``.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
-from navd.estimation.motion_model import TH, Row
+from navd.estimation.motion_model import STATE_SIZE, TH, Row, evaluate_rows, transition_matrix
 from navd.geometry.angles import wrap_angle, wrap_angles
 
 __all__ = [
@@ -21,9 +22,12 @@ __all__ = [
     "state_add",
     "state_mean",
     "state_residual",
-    "unscented_transform",
+    "stock_filter",
     "upper_cholesky",
 ]
+
+if TYPE_CHECKING:
+    from navd.estimation.ukf import UkfSettings
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -68,21 +72,6 @@ def state_mean(sigmas: FloatArray, weights: FloatArray) -> FloatArray:
     return mean
 
 
-def unscented_transform(  # noqa: PLR0917 - filterpy calls it positionally
-    sigmas: FloatArray,
-    wm: FloatArray,
-    wc: FloatArray,
-    noise: FloatArray,
-    mean_fn: Any,
-    residual_fn: Any,
-) -> tuple[FloatArray, FloatArray]:
-    """Unscented transform over all sigma rows at once (filterpy's UT signature)."""
-    mean: FloatArray = mean_fn(sigmas, wm)
-    y: FloatArray = residual_fn(sigmas, mean)
-    cov: FloatArray = (y * wc[:, None]).T @ y + noise
-    return mean, cov
-
-
 class MeasurementFunctions:
     """Mean and residual of a measurement whose rows may include angles."""
 
@@ -103,3 +92,46 @@ class MeasurementFunctions:
             else:
                 d[:, i] = wrap_angles(d[:, i])
         return d
+
+
+def stock_filter(settings: UkfSettings, rows: tuple[Row, ...]) -> Any:
+    """filterpy's UnscentedKalmanFilter with Merwe points, running navd's model for a
+    measurement of ``rows`` (its per-sigma-point loops, as filterpy's documentation calls
+    it: ``predict(dt=...)`` after setting ``Q``, then ``update(z, R=...)``)."""
+    from filterpy.kalman import (  # noqa: PLC0415 - a development dependency
+        MerweScaledSigmaPoints,
+        UnscentedKalmanFilter,
+    )
+
+    functions = MeasurementFunctions(rows)
+
+    def fx(x: FloatArray, dt: float) -> FloatArray:
+        moved: FloatArray = transition_matrix(dt) @ x
+        moved[TH : TH + 1] = wrap_angles(moved[TH : TH + 1])
+        return moved
+
+    def hx(x: FloatArray) -> FloatArray:
+        row: FloatArray = evaluate_rows(rows, x[None, :])[0]
+        return row
+
+    points = MerweScaledSigmaPoints(
+        STATE_SIZE,
+        alpha=settings.alpha,
+        beta=settings.beta,
+        kappa=settings.kappa,
+        sqrt_method=upper_cholesky,
+        subtract=state_residual,
+    )
+    return UnscentedKalmanFilter(
+        dim_x=STATE_SIZE,
+        dim_z=len(rows),
+        dt=0.1,
+        hx=hx,
+        fx=fx,
+        points=points,
+        x_mean_fn=state_mean,
+        z_mean_fn=functions.mean,
+        residual_x=state_residual,
+        residual_z=functions.residual,
+        state_add=state_add,
+    )

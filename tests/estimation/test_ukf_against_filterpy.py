@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from navd.estimation import ukf_reference as ref
 from navd.estimation.motion_model import (
     STATE_SIZE,
     TH,
@@ -18,45 +17,11 @@ from navd.estimation.motion_model import (
     transition_matrix,
 )
 from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
-from navd.geometry.angles import wrap_angles
+from navd.estimation.ukf_reference import stock_filter
 
-kalman = pytest.importorskip("filterpy.kalman", reason="filterpy (a dev dependency) missing")
+pytest.importorskip("filterpy.kalman", reason="filterpy (a dev dependency) missing")
 
 ROWS = (Row.X, Row.Y, Row.YAW, Row.YAW_RATE, Row.ACCEL_FORWARD, Row.VELOCITY_LEFT)
-
-
-def _filterpy_ukf(settings: UkfSettings) -> object:
-    functions = ref.MeasurementFunctions(ROWS)
-
-    def fx(x: np.ndarray, dt: float) -> np.ndarray:
-        moved = transition_matrix(dt) @ x
-        moved[TH : TH + 1] = wrap_angles(moved[TH : TH + 1])
-        return moved
-
-    def hx(x: np.ndarray) -> np.ndarray:
-        return evaluate_rows(ROWS, x[None, :])[0]
-
-    points = kalman.MerweScaledSigmaPoints(
-        STATE_SIZE,
-        alpha=settings.alpha,
-        beta=settings.beta,
-        kappa=settings.kappa,
-        sqrt_method=ref.upper_cholesky,
-        subtract=ref.state_residual,
-    )
-    return kalman.UnscentedKalmanFilter(
-        dim_x=STATE_SIZE,
-        dim_z=len(ROWS),
-        dt=0.1,
-        hx=hx,
-        fx=fx,
-        points=points,
-        x_mean_fn=ref.state_mean,
-        z_mean_fn=functions.mean,
-        residual_x=ref.state_residual,
-        residual_z=functions.residual,
-        state_add=ref.state_add,
-    )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -66,7 +31,7 @@ def test_every_step_matches_filterpys_unscented_kalman_filter(seed: int) -> None
         alpha=0.1, beta=2.0, kappa=6.0, linear_jerk_psd=0.25, angular_jerk_psd=1.0
     )
     ours = PoseUkf(settings)
-    theirs = _filterpy_ukf(settings)
+    theirs = stock_filter(settings, ROWS)
     x0 = rng.normal(0.0, 0.5, STATE_SIZE)
     x0[TH] = 3.0  # near the wrap, so yaw residuals and means are exercised
     p0 = np.diag(rng.uniform(0.01, 0.2, STATE_SIZE))
