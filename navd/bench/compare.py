@@ -7,15 +7,11 @@ figures of record.
 
 - A* (pyastar2d): the grid the daemon plans on (5 cm cells, obstacles inflated with the
   default configuration), 400² and 2000², corner to corner; pyastar2d gets the same cells as
-  weights 1 + w * cost (inf where blocked), searching from the goal toward the start as navd
-  does on a weighted grid. The two search different metrics on it: pyastar2d
+  weights 1 + w * cost (inf where blocked). The two search different metrics on it: pyastar2d
   charges a diagonal step the same as a straight one (its heuristic is the Chebyshev
   distance), navd charges it sqrt 2 (octile heuristic). Each route is priced in navd's metric
-  to show what the difference buys. Also timed: replanning toward the same goal from a third
-  of the way along on the grid rebuilt with the same values, where navd compares the two
-  grids and reads the route off its last search (``navd_replan_ms``). Uniform grids (free or
-  blocked, 1000² and 2000²): the grid pyastar2d and most benchmarks use, where navd's search
-  jumps.
+  to show what the difference buys. Uniform grids (free or blocked, 1000² and 2000²): the
+  grid pyastar2d and most benchmarks use, where navd's search jumps.
 - Madgwick (imufusion): one IMU message into the filter, as the daemon has it (an ``Imu``
   message with gyro [rad/s] and accel [m/s²] tuples): navd's ``MadgwickFilter.update`` takes
   it as it is; imufusion's ``Ahrs.update_no_magnetometer`` takes numpy arrays in deg/s and g,
@@ -119,23 +115,13 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
     planner = GlobalPlanner()
 
     def ours() -> object:
-        planner.forget_last_search()  # a search each time, not the route read off the last
         return planner.plan(costmap, tuple(start_m), tuple(goal_m), search)
 
     route = ours()
     assert isinstance(route, PlannedPath)
-    # Replanning toward the same goal from a third of the way along, on the grid rebuilt as
-    # the daemon rebuilds it for every plan (new arrays, the same values): the route is read
-    # off the first search's tree once the two grids are compared.
-    along = route.points_m[len(route.points_m) // 3]
-    rebuilt = Costmap(
-        frame, costmap.obstacles, costmap.clearance_m, costmap.cost.copy(), costmap.unknown
-    )
-    replan_ms = _median_ms(lambda: planner.plan(rebuilt, tuple(along), tuple(goal_m), search), 9)
     figures: dict[str, object] = {
         f"astar_weighted_{cells}_navd_expanded": route.cells_expanded,
         f"astar_weighted_{cells}_navd_route_cost_m": round(route.cost, 3),
-        f"astar_weighted_{cells}_navd_replan_ms": round(replan_ms, 3),
     }
     if importlib.util.find_spec("pyastar2d") is None:
         figures[f"astar_weighted_{cells}_navd_ms"] = round(_median_ms(ours, repeats), 2)
@@ -145,13 +131,11 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
     weights = np.where(np.isfinite(costmap.cost), 1.0 + weight * costmap.cost, np.inf)
     weights = weights.astype(np.float32)
 
-    # navd searches a weighted grid from the goal toward the robot (the tree it leaves serves
-    # the replans): pyastar2d searches the same way, so both solve the same search problem.
     def peer() -> object:
-        return pyastar2d.astar_path(weights, goal, start, allow_diagonal=True)
+        return pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
 
     navd_ms, peer_ms = _paired_ms(ours, peer, repeats)
-    path = pyastar2d.astar_path(weights, goal, start, allow_diagonal=True)
+    path = pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
     figures.update(
         {
             f"astar_weighted_{cells}_navd_ms": round(navd_ms, 2),
@@ -175,7 +159,6 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
     planner = GlobalPlanner()
 
     def ours() -> object:
-        planner.forget_last_search()
         return planner.plan(costmap, start_m, goal_m, search)
 
     if importlib.util.find_spec("pyastar2d") is None:

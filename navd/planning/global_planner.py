@@ -33,14 +33,12 @@ class PlannedPath:
     Attributes:
         points_m: [m] N x 2 map points from the robot to the goal.
         cost: [m] A* route cost: length weighted by the cells' costs.
-        cells_expanded: how many cells the search expanded (0 when reused).
-        reused: read off the last search toward the same goal (see ``cell_search``).
+        cells_expanded: how many cells the search expanded.
     """
 
     points_m: FloatArray
     cost: float
     cells_expanded: int
-    reused: bool = False
 
     @property
     def length_m(self) -> float:
@@ -74,15 +72,11 @@ class SearchSettings:
 
 
 class GlobalPlanner:
-    """A* from the robot to a goal, with working memory kept between searches and the last
-    search reused while it holds (one search at a time; see ``cell_search``)."""
+    """A* from the robot to a goal, with working memory kept between searches (one search at
+    a time; see ``cell_search``)."""
 
     def __init__(self) -> None:
         self._search = CellSearch()
-
-    def forget_last_search(self) -> None:
-        """Search afresh on the next plan instead of reading the route off the last search."""
-        self._search.forget()
 
     def plan(
         self,
@@ -149,9 +143,7 @@ class GlobalPlanner:
         else:
             points = np.vstack([np.asarray(start_xy_m, dtype=np.float64), points])
         points[-1] = goal_xy_m
-        return PlannedPath(
-            points, found.cost_cells * frame.resolution_m, found.expanded, found.reused
-        )
+        return PlannedPath(points, found.cost_cells * frame.resolution_m, found.expanded)
 
     @staticmethod
     def _free_start(
