@@ -258,8 +258,8 @@ def _recorded_ukf_steps() -> tuple[FloatArray, FloatArray, list[tuple[float, Mea
 
 def _ukf() -> dict[str, object]:
     x0, p0, steps = _recorded_ukf_steps()
-    gate = NavdConfig().estimation
-    ukf = PoseUkf(UkfSettings.of(gate))
+    estimation = NavdConfig().estimation
+    ukf = PoseUkf(UkfSettings.of(estimation))
     ukf.set_state(x0, p0)
     navd_s = []
     for dt, measurement in steps:
@@ -272,7 +272,7 @@ def _ukf() -> dict[str, object]:
     }
     if importlib.util.find_spec("filterpy") is None:
         return figures
-    peer_s = _filterpy_steps(x0, p0, steps, UkfSettings.of(gate))
+    peer_s = _filterpy_steps(x0, p0, steps, UkfSettings.of(estimation))
     figures["ukf_step_filterpy_us_median"] = round(1e6 * percentile(peer_s, 50), 1)
     figures["ukf_step_ratio"] = round(percentile(navd_s, 50) / percentile(peer_s, 50), 3)
     return figures

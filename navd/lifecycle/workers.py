@@ -113,6 +113,9 @@ class WorkerPool:
             except Exception as err:
                 error = err
             seconds = time.perf_counter() - started
+            # What compiling and loading freed, back to the system: here, not on the loop
+            # (glibc walks its heap; ctypes lets go of the interpreter meanwhile).
+            release_freed_memory()
             with contextlib.suppress(RuntimeError):  # the loop may be gone
                 loop.call_soon_threadsafe(self._detached_done, name, module, error, seconds)
 
@@ -205,8 +208,6 @@ class WorkerPool:
         else:
             # Set-ups are kernels compiling or loading: a cold cache shows here in seconds.
             _log.info("set_up_done", thread=name, seconds=round(seconds, 3))
-        if self._detached == 0:
-            release_freed_memory()  # what compiling and loading freed, back to the system
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:

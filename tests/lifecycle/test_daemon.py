@@ -193,9 +193,10 @@ async def test_reload_applies_a_valid_file_and_keeps_the_old_config_on_a_bad_one
     path.write_text("[safety]\nreaction_timeout_s = 'soon'\n")
     assert not daemon.reload_config()
     assert daemon.config.safety.reaction_timeout_s == 0.25
-    path.write_text(dump_toml(config).replace("port = 7420", "port = 7500"))
+    port = config.tcp.port
+    path.write_text(dump_toml(config).replace(f"port = {port}", f"port = {port + 1}"))
     assert not daemon.reload_config()  # a restart-only key: rejected whole
-    assert daemon.config.tcp.port == 7420
+    assert daemon.config.tcp.port == port
 
 
 async def test_loop_lag_is_measured(config: NavdConfig) -> None:
