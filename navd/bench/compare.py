@@ -115,6 +115,7 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
     planner = GlobalPlanner()
 
     def ours() -> object:
+        planner.forget_last_route()  # a search every time: searches are compared, not reuse
         return planner.plan(costmap, tuple(start_m), tuple(goal_m), search)
 
     route = ours()
@@ -159,6 +160,7 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
     planner = GlobalPlanner()
 
     def ours() -> object:
+        planner.forget_last_route()
         return planner.plan(costmap, start_m, goal_m, search)
 
     if importlib.util.find_spec("pyastar2d") is None:

@@ -5,7 +5,9 @@ are occupied, start and goal in opposite corners (cleared), no inflation costs: 
 problem pyastar2d solves. Printed: ms per search (median of several), cells expanded (jump
 points count as one) and the route cost against the straight-line distance. Then the 2000 x
 2000 grid as the daemon plans on it: 5 cm cells, inflated with the default configuration and
-searched with the default cost weight, cell by cell with the open list in buckets.
+searched with the default cost weight, cell by cell with the open list in buckets; and a
+replan on it toward the same goal from a third of the way along, which continues the route
+instead of searching while nothing changed that could make the route wrong.
 
 DWA: one control cycle as the navigator runs it (dynamic window of 20 x 21 = 420 rollouts of
 2 s at 0.1 s steps, 0.4 x 0.3 m rectangle, 1440 scan points of a cluttered surrounding,
@@ -14,6 +16,7 @@ distance grid and buckets built inside the cycle). Printed: ms per cycle p50/p95
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -60,6 +63,7 @@ def _timed_plans(  # noqa: PLR0917 - one search's inputs, named in the docstring
     path = planner.plan(costmap, start, goal, search)
     times = []
     for _ in range(repeats):
+        planner.forget_last_route()  # a search every time (the replan figures time reuse)
         t0 = time.perf_counter()
         path = planner.plan(costmap, start, goal, search)
         times.append(time.perf_counter() - t0)
@@ -98,7 +102,39 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
         f"astar_{cells}_inflated_ms": ms,
         f"astar_{cells}_inflated_expanded": path.cells_expanded,
         f"astar_{cells}_inflated_costly_cells_pct": round(100.0 * float(costly.mean()), 1),
+        **_replan(costmap, search, path, goal, repeats),
     }
+
+
+def _replan(
+    costmap: Costmap,
+    search: SearchSettings,
+    path: PlannedPath,
+    goal: tuple[float, float],
+    repeats: int,
+) -> dict[str, object]:
+    """Replanning toward the same goal from a third of the way along the route, as the
+    replan timer asks while the robot drives: on a costmap rebuilt with the same cells (the
+    daemon builds one for every plan), and with a cell far off the route cleared."""
+    cells = costmap.frame.rows
+    along = path.points_m[path.points_m.shape[0] // 3]
+    robot = (float(along[0]), float(along[1]))
+    planner = GlobalPlanner()
+    planner.plan(costmap, tuple(path.points_m[0]), goal, search)
+    figures: dict[str, object] = {}
+    far = costmap.cost.copy()
+    corner = far[cells - 40 : cells - 5, 5:40]  # the corner the route goes nowhere near
+    corner[corner > 0.0] = 0.0  # cheaper (an obstacle gone), yet too far to shorten it
+    for name, cost in (("same", costmap.cost.copy()), ("far_change", far)):
+        rebuilt = dataclasses.replace(costmap, cost=cost)
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            replanned = planner.plan(rebuilt, robot, goal, search)
+            times.append(time.perf_counter() - t0)
+        figures[f"replan_{cells}_inflated_{name}_ms"] = round(1e3 * percentile(times, 50), 2)
+        figures[f"replan_{cells}_inflated_{name}_reused"] = replanned.reused
+    return figures
 
 
 def _dwa(cycles: int) -> dict[str, object]:

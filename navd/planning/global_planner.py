@@ -13,6 +13,7 @@ from navd.planning._astar_kernels import shortcut
 from navd.planning.cell_search import CellSearch
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
+from navd.planning.reuse import RouteMemory, remembered_route, route_costs
 
 __all__ = ["GlobalPlanner", "PlannedPath", "SearchSettings", "path_length"]
 
@@ -24,6 +25,9 @@ SMOOTH_SLACK = 0.05
 SMOOTH_REACH_CELLS = 200
 # A robot too close to an obstacle plans from the nearest free cell this near [m].
 START_ESCAPE_M = 0.5
+# A replan toward the same goal continues the last route if the robot is this near it [m]
+# and nothing changed that could make it wrong (``reuse``).
+REUSE_OFFSET_M = 0.15
 
 
 @dataclass(frozen=True, slots=True)
@@ -33,12 +37,14 @@ class PlannedPath:
     Attributes:
         points_m: [m] N x 2 map points from the robot to the goal.
         cost: [m] A* route cost: length weighted by the cells' costs.
-        cells_expanded: how many cells the search expanded.
+        cells_expanded: how many cells the search expanded (0 when reused).
+        reused: the rest of the last route toward the same goal, still the best (``reuse``).
     """
 
     points_m: FloatArray
     cost: float
     cells_expanded: int
+    reused: bool = False
 
     @property
     def length_m(self) -> float:
@@ -72,11 +78,17 @@ class SearchSettings:
 
 
 class GlobalPlanner:
-    """A* from the robot to a goal, with working memory kept between searches (one search at
-    a time; see ``cell_search``)."""
+    """A* from the robot to a goal, with working memory kept between searches and the last
+    route continued while it is still the best (one search at a time; see ``cell_search``
+    and ``reuse``)."""
 
     def __init__(self) -> None:
         self._search = CellSearch()
+        self._last: RouteMemory | None = None
+
+    def forget_last_route(self) -> None:
+        """Search afresh on the next plan (the benchmarks time searches, not reuse)."""
+        self._last = None
 
     def plan(
         self,
@@ -96,6 +108,13 @@ class GlobalPlanner:
                 keep-out zone ("occupied"), or no route leads there ("no route").
         """
         frame = costmap.frame
+        weight = settings.cost_weight
+        rest = remembered_route(
+            self._last, costmap, start_xy_m, goal_xy_m, weight, settings.smooth, REUSE_OFFSET_M
+        )
+        if rest is not None:
+            return PlannedPath(rest[0], rest[1] * frame.resolution_m, 0, reused=True)
+        self._last = None
         start = frame.cell_of(*start_xy_m)
         goal = frame.cell_of(*goal_xy_m)
         if not frame.contains(*start):
@@ -135,14 +154,21 @@ class GlobalPlanner:
                 "no route",
             )
         cells = found.cells
+        to_goal = route_costs(costmap.cost, cells, weight)
         if settings.smooth and cells.shape[0] > 2:
-            cells = cells[shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)]
+            kept = shortcut(costmap.cost, cells, SMOOTH_SLACK, SMOOTH_REACH_CELLS)
+            cells, to_goal = cells[kept], to_goal[kept]
         points = frame.centers_of(cells)
         if start == robot_cell:
             points[0] = start_xy_m
         else:
             points = np.vstack([np.asarray(start_xy_m, dtype=np.float64), points])
+            escape = math.dist(start_xy_m, points[1]) / frame.resolution_m
+            to_goal = np.concatenate([to_goal[:1] + escape, to_goal])
         points[-1] = goal_xy_m
+        self._last = RouteMemory(
+            frame, costmap.cost, goal_xy_m, weight, settings.smooth, points, to_goal
+        )
         return PlannedPath(points, found.cost_cells * frame.resolution_m, found.expanded)
 
     @staticmethod

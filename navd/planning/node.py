@@ -295,6 +295,7 @@ class PlannerNode(Module):
             length_m=round(path.length_m, 2),
             points=len(path.points_m),
             expanded=path.cells_expanded,
+            reused=path.reused,
         )
         stamp = self.ctx.clock.now()
         return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
