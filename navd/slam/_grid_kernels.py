@@ -9,11 +9,12 @@ tests/slam/grid_reference.py.
 - ``smear``: the correlation grid of seed Appendix A: every occupied cell stamps a Gaussian
   kernel, keeping the maximum where stamps overlap.
 - ``sliding_max``: M[v, u] = max of the field over [v, v+f) x [u, u+f): an upper bound of the
-  field over a block of f x f translations (the coarse level of the matcher).
-- ``coarse_scores`` / ``fine_scores``: the summed field under the scan points, rotated and
-  moved; the coarse level bounds whole f x f blocks of translations for branch and bound.
-- ``branch_and_bound``: the best (rotation, translation) over a whole window, best-first
-  over blocks of translations bounded by ``coarse_scores``' sums (see global_search.py).
+  field over a block of f x f translations (the levels of branch and bound).
+- ``fine_scores``: the summed field under the scan points, rotated and moved, for a block
+  of translations.
+- ``branch_and_bound``: the best (rotation, translation) over a whole window, less a pull
+  toward the prior, best-first over blocks of translations bounded by the summed sliding
+  maximum (the tracking matcher and the global search).
 - ``count_known``: how many world points lie within one cell of an observed cell
   (log-odds not 0).
 """
@@ -28,7 +29,6 @@ import numpy.typing as npt
 
 __all__ = [
     "branch_and_bound",
-    "coarse_scores",
     "count_known",
     "fine_scores",
     "ray_update",
@@ -160,41 +160,6 @@ def _block_bound(bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy:
 
 
 @nb.njit(cache=True, nogil=True)
-def coarse_scores(
-    bound: FloatArray,
-    px: F64,
-    py: F64,
-    cosines: F64,
-    sines: F64,
-    tx: float,
-    ty: float,
-    starts: IntArray,
-    f: int,
-) -> FloatArray:
-    """Upper bounds of the score of every (rotation, translation block).
-
-    Args:
-        bound: ``sliding_max(field, f)``.
-        px, py: scan points in the robot frame, in cell units.
-        cosines, sines: the rotations tried.
-        tx, ty: the prior position in cells of the field.
-        starts: block starts (n x 2: dx, dy in cells); a block covers [d, d + f) per axis.
-
-    Returns:
-        float32[n_rotations, n_blocks]: summed bound under the points.
-    """
-    out = np.zeros((cosines.size, starts.shape[0]), dtype=np.float32)
-    cols = np.empty(px.size, dtype=np.int64)
-    rows = np.empty(px.size, dtype=np.int64)
-    for a in range(cosines.size):
-        for k in range(px.size):
-            cols[k], rows[k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
-        for b in range(starts.shape[0]):
-            out[a, b] = _block_bound(bound, cols, rows, starts[b, 0], starts[b, 1])
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def branch_and_bound(
     bounds: tuple[FloatArray, ...],
     px: F64,
@@ -204,21 +169,29 @@ def branch_and_bound(
     tx: float,
     ty: float,
     limit: int,
+    turn_cost: F64,
+    per_cell2: float,
 ) -> tuple[int, int, int, float, int]:
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
     Args:
         bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
-        px, py, cosines, sines, tx, ty: as for ``coarse_scores``.
+        px, py: scan points in the robot frame, in cell units.
+        cosines, sines: the rotations tried.
+        tx, ty: the prior position in cells of the field.
         limit: translations dx, dy in [-limit, limit] cells are searched.
+        turn_cost: per rotation, what its distance from the prior costs (summed-score units).
+        per_cell2: what each squared cell of translation from the prior costs (same units).
 
     Returns:
-        (rotation index, dx, dy, summed field under the points, blocks expanded); the
-        rotation index is -1 if there was nothing to search.
+        (rotation index, dx, dy, summed field under the points, blocks expanded) of the
+        candidate with the highest summed field less its pull; the rotation index is -1 if
+        there was nothing to search.
 
-    A queue entry is (-bound, level, rotation, dx, dy) for the 2^level x 2^level block of
-    translations starting at (dx, dy); ties are broken by the rest of the tuple, so the
-    result does not depend on the order blocks were queued in.
+    A queue entry is (-(bound - pull), level, rotation, dx, dy, bound) for the 2^level x
+    2^level block of translations starting at (dx, dy), the pull taken at the block's
+    translation nearest the prior (so it stays a bound); ties are broken by the rest of the
+    tuple, so the result does not depend on the order blocks were queued in.
     """
     levels = len(bounds) - 1
     top = 1 << levels
@@ -228,19 +201,20 @@ def branch_and_bound(
     for a in range(n_angles):
         for k in range(n_points):
             cols[a, k], rows[a, k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
-    queue = [(0.0, 0, 0, 0, 0)]
+    queue = [(0.0, 0, 0, 0, 0, 0.0)]
     queue.pop()
     for a in range(n_angles):
         for dy in range(-limit, limit + 1, top):
             for dx in range(-limit, limit + 1, top):
                 bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy)
-                queue.append((-bound, levels, a, dx, dy))
+                pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
+                queue.append((pull - bound, levels, a, dx, dy, bound))
     heapq.heapify(queue)
     expanded = 0
     while len(queue) > 0:
-        negative, level, a, dx, dy = heapq.heappop(queue)
+        _, level, a, dx, dy, bound = heapq.heappop(queue)
         if level == 0:
-            return a, dx, dy, -negative, expanded
+            return a, dx, dy, bound, expanded
         expanded += 1
         half = 1 << (level - 1)
         for j in (0, half):
@@ -248,8 +222,18 @@ def branch_and_bound(
                 cx, cy = dx + i, dy + j
                 if abs(cx) <= limit and abs(cy) <= limit:
                     bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy)
-                    heapq.heappush(queue, (-bound, level - 1, a, cx, cy))
+                    pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
+                    heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
     return -1, 0, 0, 0.0, expanded
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _nearest2(dx: int, dy: int, size: int) -> float:
+    """Squared distance [cells^2] from the prior (0, 0) to the nearest translation of the
+    size x size block starting at (dx, dy)."""
+    nx = min(max(0, dx), dx + size - 1)
+    ny = min(max(0, dy), dy + size - 1)
+    return float(nx * nx + ny * ny)
 
 
 @nb.njit(cache=True, nogil=True)

@@ -46,7 +46,16 @@ def global_search(
     angles = center.yaw - yaw_window_rad + angle_step_rad * np.arange(n_angles)
     bounds = tuple(field.bound(1 << level) for level in range(levels + 1))
     a, dx, dy, total, expanded = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, math.ceil(half_width_m / res)
+        bounds,
+        px,
+        py,
+        np.cos(angles),
+        np.sin(angles),
+        tx,
+        ty,
+        math.ceil(half_width_m / res),
+        np.zeros(angles.size),  # no prior: every pose within the window is as likely
+        0.0,
     )
     if a < 0:
         return center, 0.0, expanded

@@ -1,11 +1,12 @@
-"""Correlative scan matching (seed Appendix A), two-level branch and bound.
+"""Correlative scan matching (seed Appendix A), by branch and bound.
 
 For every rotation in the window, the scan points are projected into the likelihood field
 and every translation in the window is scored by the sum of field values under the points.
-Translations are grouped in f x f blocks; a block's upper bound comes from the field's
-sliding maximum, so blocks are expanded best-first and the search stops when no remaining
-block can beat the best exact score: the result is the exhaustive optimum at a fraction of
-the cost. The optimum is refined below one cell and one angular step by parabolic fits, and
+Translations are grouped in blocks of 8 x 8, split into 4 x 4, 2 x 2 and single cells; a
+block's upper bound comes from the field's sliding maximum over its size, so blocks are
+expanded best-first and the search ends at the first single translation taken off the
+queue: the result is the exhaustive optimum at a fraction of the cost (Olson 2009; the
+multi-level form of Hess et al. 2016). The optimum is refined below one cell and one angular step by parabolic fits, and
 the covariance comes from the curvature of the response there.
 
 A motion prior can weigh in (Olson 2009 multiplies the scan's likelihood by the motion
@@ -42,7 +43,7 @@ class Match:
         pose: the pose of the robot in the field's frame.
         covariance: 3x3 covariance of (x [m], y [m], yaw [rad]).
         score: mean field value under the points at the best pose, in [0, 1].
-        blocks: translation blocks scored exactly (the search's cost).
+        blocks: translation blocks split by the search (its cost).
     """
 
     pose: Pose2
@@ -78,7 +79,7 @@ class CorrelativeMatcher:
         search_yaw_rad: [rad] half-width of the rotation window.
         angle_step_rad: [rad] rotation step (None: one cell at ``reach_m``).
         reach_m: [m] typical point distance, for the default angle step.
-        block: translation block size in cells (the coarse level).
+        levels: the coarsest blocks of translations are 2**levels cells on a side.
         response_gain: [1] how sharply the score (a mean in [0, 1]) is read as a likelihood
             when turning its curvature into a covariance.
         prior_weight_per_m2: [1/m^2] mean score lost per squared metre from the prior.
@@ -92,7 +93,7 @@ class CorrelativeMatcher:
         search_yaw_rad: float,
         angle_step_rad: float | None = None,
         reach_m: float = 8.0,
-        block: int = 4,
+        levels: int = 3,
         response_gain: float = 400.0,
         prior_weight_per_m2: float = 0.0,
         prior_weight_per_rad2: float = 0.0,
@@ -101,7 +102,7 @@ class CorrelativeMatcher:
         self.search_yaw_rad = search_yaw_rad
         self.angle_step_rad = angle_step_rad
         self.reach_m = reach_m
-        self.block = block
+        self.levels = levels
         self.response_gain = response_gain
         self.prior_weight_per_m2 = prior_weight_per_m2
         self.prior_weight_per_rad2 = prior_weight_per_rad2
@@ -115,42 +116,17 @@ class CorrelativeMatcher:
         cosines, sines = np.cos(angles), np.sin(angles)
         px, py, tx, ty = field.in_cells(points, prior)
         limit = max(1, math.ceil(self.search_xy_m / res))
-        f = self.block
-        starts_1d = np.arange(-limit, limit + 1, f)
-        starts = np.array([(dx, dy) for dy in starts_1d for dx in starts_1d], dtype=np.int64)
         # The prior's pull, in summed-score units: per squared cell and per angle.
         n = px.size
         per_cell2 = n * self.prior_weight_per_m2 * res * res
         turn_cost = n * self.prior_weight_per_rad2 * (angles - prior.yaw) ** 2
-        # A block's bound loses the pull at its cell nearest the prior.
-        near = np.clip(0, starts, starts + f - 1)
-        bounds = k.coarse_scores(field.bound(f), px, py, cosines, sines, tx, ty, starts, f)
-        bounds = bounds - turn_cost[:, None] - per_cell2 * np.sum(near**2, axis=1)[None, :]
-        order = np.argsort(bounds, axis=None)[::-1]
-        best = (-math.inf, 0, 0, 0, -1.0)  # with prior, angle index, dx, dy, score
-        blocks = 0
-        for flat in order:
-            a, b = divmod(int(flat), starts.shape[0])
-            if bounds[a, b] <= best[0]:
-                break
-            dx0, dy0 = int(starts[b, 0]), int(starts[b, 1])
-            nx = min(f, limit - dx0 + 1)
-            ny = min(f, limit - dy0 + 1)
-            scores = k.fine_scores(
-                field.values, px, py, cosines[a], sines[a], tx, ty, dx0, dy0, nx, ny
-            )
-            blocks += 1
-            if per_cell2 > 0.0 or turn_cost[a] > 0.0:
-                cx = np.arange(dx0, dx0 + nx)
-                cy = np.arange(dy0, dy0 + ny)
-                pulled = scores - turn_cost[a] - per_cell2 * (cx[None, :] ** 2 + cy[:, None] ** 2)
-            else:
-                pulled = scores
-            j, i = np.unravel_index(int(np.argmax(pulled)), pulled.shape)
-            if pulled[j, i] > best[0]:
-                best = (float(pulled[j, i]), a, dx0 + int(i), dy0 + int(j), float(scores[j, i]))
+        bounds = tuple(field.bound(1 << level) for level in range(self.levels + 1))
+        a, dx, dy, score, blocks = k.branch_and_bound(
+            bounds, px, py, cosines, sines, tx, ty, limit, turn_cost, per_cell2
+        )
+        best = (max(a, 0), dx, dy, score)
         scan = _Projected(px, py, angles, tx, ty)
-        return self._refine(field, scan, best[1:], blocks)
+        return self._refine(field, scan, best, blocks)
 
     def _refine(
         self,

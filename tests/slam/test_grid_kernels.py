@@ -63,15 +63,12 @@ def test_scores_match_the_reference_and_blocks_bound_their_translations() -> Non
             want = ref.score(field, px, py, np.cos(0.07), np.sin(0.07), tx, ty, -3 + i, -2 + j)
             assert fine[j, i] == pytest.approx(want, rel=1e-5)
     starts = np.array([(dx, dy) for dy in (-8, -4, 0, 4) for dx in (-8, -4, 0, 4)])
-    bounds = k.coarse_scores(
-        k.sliding_max(field, f), px, py, np.cos(angles), np.sin(angles), tx, ty, starts, f
-    )
-    for a, angle in enumerate(angles):
-        for b, (dx0, dy0) in enumerate(starts):
-            block = k.fine_scores(
-                field, px, py, np.cos(angle), np.sin(angle), tx, ty, dx0, dy0, f, f
-            )
-            assert bounds[a, b] >= block.max() - 1e-3
+    bound = k.sliding_max(field, f)
+    for angle in angles:
+        c, s = np.cos(angle), np.sin(angle)
+        for dx0, dy0 in starts:
+            block = k.fine_scores(field, px, py, c, s, tx, ty, dx0, dy0, f, f)
+            assert ref.score(bound, px, py, c, s, tx, ty, dx0, dy0) >= block.max() - 1e-3
 
 
 @pytest.mark.parametrize("seed", [6, 7, 8])
@@ -82,8 +79,9 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
     tx, ty, limit = 35.2, 29.7, 6
     bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
+    no_pull = np.zeros(angles.size)
     a, dx, dy, total, _ = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0
     )
     assert (a, dx, dy) == ref.branch_and_bound(bounds, px, py, angles, tx, ty, limit)[:3]
     exhaustive = {
@@ -94,6 +92,35 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     }
     assert total == pytest.approx(max(exhaustive.values()), rel=1e-5)
     assert total == pytest.approx(exhaustive[a, dx, dy], rel=1e-5)
+
+
+@pytest.mark.parametrize("seed", [6, 7, 8])
+@pytest.mark.parametrize("per_cell2", [0.02, 0.3])
+def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull(
+    seed: int, per_cell2: float
+) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((60, 70)).astype(np.float32) ** 4
+    px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
+    angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
+    turn_cost = 5.0 * angles**2 * 40
+    tx, ty, limit = 35.2, 29.7, 6
+    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    a, dx, dy, total, _ = k.branch_and_bound(
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, turn_cost, per_cell2
+    )
+    pulled = {
+        (b, x, y): ref.score(field, px, py, np.cos(angle), np.sin(angle), tx, ty, x, y)
+        - turn_cost[b]
+        - per_cell2 * (x * x + y * y)
+        for b, angle in enumerate(angles)
+        for y in range(-limit, limit + 1)
+        for x in range(-limit, limit + 1)
+    }
+    best = max(pulled.values())
+    assert pulled[a, dx, dy] == pytest.approx(best, rel=1e-5, abs=1e-4)
+    raw = ref.score(field, px, py, np.cos(angles[a]), np.sin(angles[a]), tx, ty, dx, dy)
+    assert total == pytest.approx(raw, rel=1e-5)
 
 
 @pytest.mark.parametrize("block", [4, 8, 64])
