@@ -110,7 +110,13 @@ class GlobalPlanner:
         frame = costmap.frame
         weight = settings.cost_weight
         rest = remembered_route(
-            self._last, costmap, start_xy_m, goal_xy_m, weight, settings.smooth, REUSE_OFFSET_M
+            self._last,
+            costmap,
+            start_xy_m=start_xy_m,
+            goal_xy_m=goal_xy_m,
+            cost_weight=weight,
+            smooth=settings.smooth,
+            max_offset_m=REUSE_OFFSET_M,
         )
         if rest is not None:
             return PlannedPath(rest[0], rest[1] * frame.resolution_m, 0, reused=True)

@@ -27,6 +27,7 @@ grid, against tens for a search.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -86,6 +87,7 @@ def route_costs(cost: npt.NDArray[np.float32], cells: CellArray, cost_weight: fl
 def remembered_route(
     memory: RouteMemory | None,
     costmap: Costmap,
+    *,
     start_xy_m: tuple[float, float],
     goal_xy_m: tuple[float, float],
     cost_weight: float,
@@ -121,7 +123,9 @@ def remembered_route(
             if changed[watched[:, 0], watched[:, 1]].any():
                 return None  # the rest of the route got costlier, or blocked
             rows, cols = np.nonzero(changed & (new < old))
-            if rows.size and _could_shorten(frame, rows, cols, start_xy_m, goal_xy_m, remaining):
+            if rows.size and _could_shorten(
+                frame, rows, cols, start_xy_m=start_xy_m, goal_xy_m=goal_xy_m, remaining=remaining
+            ):
                 return None
     return rest, cost
 
@@ -146,7 +150,7 @@ def _cells_under(frame: GridFrame, points_m: FloatArray) -> CellArray:
     passes the corner of the two cells beside it, which must stay free), inside the grid."""
     step_m = SAMPLE_CELLS * frame.resolution_m
     pieces = [points_m[-1:]]
-    for a, b in zip(points_m[:-1], points_m[1:], strict=True):
+    for a, b in itertools.pairwise(points_m):
         n = max(1, math.ceil(math.hypot(*(b - a)) / step_m))
         t = np.arange(n)[:, None] / n
         pieces.append(a + t * (b - a))
@@ -167,6 +171,7 @@ def _could_shorten(
     frame: GridFrame,
     rows: npt.NDArray[np.intp],
     cols: npt.NDArray[np.intp],
+    *,
     start_xy_m: tuple[float, float],
     goal_xy_m: tuple[float, float],
     remaining: float,

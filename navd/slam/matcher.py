@@ -6,8 +6,9 @@ Translations are grouped in blocks of 8 x 8, split into 4 x 4, 2 x 2 and single 
 block's upper bound comes from the field's sliding maximum over its size, so blocks are
 expanded best-first and the search ends at the first single translation taken off the
 queue: the result is the exhaustive optimum at a fraction of the cost (Olson 2009; the
-multi-level form of Hess et al. 2016). The optimum is refined below one cell and one angular step by parabolic fits, and
-the covariance comes from the curvature of the response there.
+multi-level form of Hess et al. 2016). The optimum is refined below one cell and one
+angular step by parabolic fits, and the covariance comes from the curvature of the response
+there.
 
 A motion prior can weigh in (Olson 2009 multiplies the scan's likelihood by the motion
 model's): each candidate's mean score loses ``prior_weight_per_m2 * d^2 +

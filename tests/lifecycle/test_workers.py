@@ -137,7 +137,7 @@ async def test_start_up_objects_are_frozen_once_the_last_set_up_ends(
         for i, gate in enumerate(gates):
             pool.run_detached(lambda g=gate: g.wait(5.0), name=f"set-up-{i}", module="slam")
         gates[0].set()
-        await _until(lambda: pool._detached == 1)  # noqa: SLF001 - one set-up still runs
+        await _until(lambda: pool._detached == 1)  # one set-up still runs
         assert gc.get_freeze_count() == 0
         made_late = [[] for _ in range(100)]  # objects made while a set-up still runs
         gates[1].set()
