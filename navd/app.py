@@ -11,6 +11,7 @@ from navd.lifecycle.safety import SafetyGate
 from navd.planning.guard import CollisionGuard
 from navd.planning.node import PlannerNode
 from navd.slam.node import SlamNode
+from navd.viz.node import VizNode
 
 __all__ = ["build_modules"]
 
@@ -32,6 +33,8 @@ def build_modules(config: NavdConfig) -> list[Module]:
         PlannerNode(),
         TcpServer(),
     ]
+    if config.viz.enabled:
+        modules.append(VizNode())
     if config.chassis.enabled:
         modules.append(ChassisDriver())
     return modules

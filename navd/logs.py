@@ -3,19 +3,31 @@
 Every module gets its logger with ``get_logger("component")``; details go in fields, never in
 formatted strings. Loggers follow the configuration in force when they write, so a level
 changed at runtime (``set_level``) applies to every logger at once, including the ones
-modules took at import.
+modules took at import. A tap (``add_log_tap``) sees every line written, as its fields: the
+live view streams them.
 """
 
 from __future__ import annotations
 
 import logging
 import sys
+from collections.abc import Callable, Mapping
 from typing import Any, Literal, TextIO, cast
 
 import structlog
 from structlog.typing import FilteringBoundLogger
 
-__all__ = ["configure_logging", "current_level", "get_logger", "set_level"]
+__all__ = [
+    "LogTap",
+    "add_log_tap",
+    "configure_logging",
+    "current_level",
+    "get_logger",
+    "remove_log_tap",
+    "set_level",
+]
+
+LogTap = Callable[[Mapping[str, Any]], None]
 
 _LEVELS = {
     "debug": logging.DEBUG,
@@ -25,6 +37,29 @@ _LEVELS = {
 }
 # stream None: standard error as it is when a line is written (tests swap it per test).
 _state: dict[str, Any] = {"stream": None, "renderer": "console", "level": "info"}
+_taps: list[LogTap] = []
+
+
+def add_log_tap(tap: LogTap) -> None:
+    """Call ``tap`` with the fields of every line written from now on (event, level,
+    timestamp, component...), in the thread that writes it. A tap must be quick; what it
+    raises is ignored (a log line is never lost to a tap)."""
+    _taps.append(tap)
+
+
+def remove_log_tap(tap: LogTap) -> None:
+    """Stop calling ``tap`` (nothing if it was not added)."""
+    if tap in _taps:
+        _taps.remove(tap)
+
+
+def _run_taps(_logger: Any, _method: str, event: dict[str, Any]) -> dict[str, Any]:
+    for tap in tuple(_taps):
+        try:
+            tap(event)
+        except Exception:
+            continue
+    return event
 
 
 def configure_logging(
@@ -64,6 +99,7 @@ def _apply(level: str) -> None:
         structlog.processors.add_log_level,
         structlog.processors.TimeStamper(fmt="iso", utc=True),
         structlog.processors.StackInfoRenderer(),
+        _run_taps,
     ]
     if _state["renderer"] == "json":
         processors += [

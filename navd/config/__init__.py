@@ -7,6 +7,7 @@ from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
 from navd.config.planning import PlanningConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
+from navd.config.viz import VizConfig
 
 __all__ = [
     "ChassisConfig",
@@ -21,6 +22,7 @@ __all__ = [
     "SafetyConfig",
     "SlamConfig",
     "TcpConfig",
+    "VizConfig",
     "WorldConfig",
     "apply_changes",
     "dump_toml",

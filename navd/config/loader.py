@@ -185,7 +185,10 @@ def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
         assert isinstance(section, BaseModel)
         lines += ["", f"[{section_name}]"]
         if section_field.annotation is not None and section_field.annotation.__doc__:
-            lines.insert(len(lines) - 1, f"# {section_field.annotation.__doc__.strip()}")
+            doc = " ".join(section_field.annotation.__doc__.split())
+            header = lines.pop()
+            lines += textwrap.wrap(doc, width=98, initial_indent="# ", subsequent_indent="# ")
+            lines.append(header)
         for name, field in type(section).model_fields.items():
             note = field.description or ""
             if restart_required(type(section), name):

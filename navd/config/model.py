@@ -17,6 +17,7 @@ from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConf
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.planning import PlanningConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
+from navd.config.viz import VizConfig
 
 __all__ = ["NavdConfig"]
 
@@ -39,6 +40,7 @@ class NavdConfig(BaseModel):
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
     lifecycle: LifecycleConfig = Field(default_factory=LifecycleConfig)
     logging: LoggingConfig = Field(default_factory=LoggingConfig)
+    viz: VizConfig = Field(default_factory=VizConfig)
 
     @model_validator(mode="after")
     def _across_sections(self) -> NavdConfig:

@@ -108,6 +108,7 @@ async def session(
         {
             "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
             "tcp": {"port": port},
+            "viz": {"port": 0},  # a free port for each simulated robot's live view
             "slam": {"map_dir": str(maps)},
             "lifecycle": {"event_loop": "asyncio"},
             "logging": {"format": "json"},

@@ -105,12 +105,14 @@ def spawn_daemon() -> Iterator[Any]:
 
 
 def default_config(folder: Path) -> Path:
-    """The shipped config/navd.toml with only the port changed to a free one, so the test
-    runs on the defaults and never meets a navd running on the default port."""
+    """The shipped config/navd.toml with only the ports (TCP and live view) changed to free
+    ones, so the test runs on the defaults and never meets a navd running on the defaults."""
     text = (REPO / "config" / "navd.toml").read_text(encoding="utf-8")
     assert text.count("\nport = 7420\n") == 1, "config/navd.toml lost its tcp port line"
+    assert text.count("\nport = 8765\n") == 1, "config/navd.toml lost its live view port line"
+    text = text.replace("\nport = 7420\n", f"\nport = {free_port()}\n")
     path = folder / "navd.toml"
-    path.write_text(text.replace("\nport = 7420\n", f"\nport = {free_port()}\n"))
+    path.write_text(text.replace("\nport = 8765\n", f"\nport = {free_port()}\n"))
     return path
 
 
@@ -121,7 +123,9 @@ def daemon_on_port(spawn_daemon: Any, tmp_path: Path) -> Any:
     def start(extra_toml: str = "") -> tuple[DaemonProcess, int]:
         port = free_port()
         path = tmp_path / "navd.toml"
-        path.write_text(f"[tcp]\nport = {port}\n{extra_toml}")
+        # The live view on a port of its own too (unless the test sets its section).
+        view = "" if "[viz]" in extra_toml else "\n[viz]\nport = 0\n"
+        path.write_text(f"[tcp]\nport = {port}\n{extra_toml}{view}")
         daemon: DaemonProcess = spawn_daemon("run", "--config", str(path))
         daemon.wait_for("ready", timeout_s=10.0)
         return daemon, port

@@ -1,0 +1,43 @@
+"""``navd viz layout``: the Foxglove layout of the live view, for "Import layout"."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from navd.cli.common import EXIT_OK, EXIT_USAGE, Commands
+
+__all__ = ["add_commands"]
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``viz layout``."""
+    viz = commands.add_parser("viz", help="the live view (Foxglove, Lichtblick)")
+    actions = viz.add_subparsers(dest="viz_command", metavar="ACTION", required=True)
+    layout = actions.add_parser(
+        "layout", help="print the Foxglove layout of the live view (or write it to --out)"
+    )
+    layout.add_argument("--out", type=Path, help="write the layout to this JSON file")
+    layout.set_defaults(handler=_layout)
+
+
+def _layout(args: argparse.Namespace) -> int:
+    from navd.viz.layout import live_layout  # noqa: PLC0415 - the SDK loads only when asked
+
+    text = live_layout().to_json() + "\n"
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    out: Path = args.out
+    if not out.parent.is_dir():
+        print(f"cannot write {out}: folder {out.parent} does not exist", file=sys.stderr)
+        return EXIT_USAGE
+    # Written whole or not at all: a half-written layout would not import.
+    with tempfile.NamedTemporaryFile("w", dir=out.parent, delete=False, suffix=".tmp") as tmp:
+        tmp.write(text)
+    os.replace(tmp.name, out)
+    print(f"wrote {out}")
+    return EXIT_OK

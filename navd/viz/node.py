@@ -1,0 +1,342 @@
+"""The live view's module ("viz"): a Foxglove WebSocket server fed from the bus.
+
+Channels (topics) and what they carry:
+
+- ``/map`` (foxglove.Grid): the SLAM map, at most ``viz.map_rate_hz``;
+- ``/scan`` (foxglove.LaserScan): the latest scan in ``laser``, at most ``viz.scan_rate_hz``;
+- ``/tf`` (foxglove.FrameTransforms): map -> odom -> base_link -> laser, with the pose;
+- ``/pose`` (foxglove.Odometry): the fused pose with its covariance, at most
+  ``viz.pose_rate_hz``;
+- ``/route``, ``/goal``, ``/footprint``, ``/keep_out`` (foxglove.SceneUpdate): the global
+  route, the goal, the robot's outline and the keep-out zones;
+- ``/goal_status``, ``/status`` (JSON): the goal's progress, and the daemon's state (safety
+  holds and their reasons, localization, module health, loop lag);
+- ``/log`` (foxglove.Log): log lines at or above ``viz.log_level``.
+
+Nothing is encoded for a channel nobody subscribes to, so a daemon nobody watches pays for
+a few attribute checks per message. What changes rarely (map, route, goal, outline, zones,
+status) is sent again to a viewer when it subscribes, so it sees the whole state at once.
+The server runs in its own threads (the SDK's); a port already in use is logged and the
+daemon goes on without the view: watching is never a reason not to drive.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import foxglove
+from foxglove import Channel, Context
+from foxglove.channels import (
+    FrameTransformsChannel,
+    GridChannel,
+    LaserScanChannel,
+    LogChannel,
+    OdometryChannel,
+    SceneUpdateChannel,
+)
+from foxglove.messages import Log, LogLevel
+from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketServer
+
+from navd import __version__
+from navd.lifecycle.messages import (
+    DaemonStatus,
+    Goal,
+    GoalStatus,
+    LaserScan,
+    LocalizationState,
+    MapUpdate,
+    Path,
+    PoseEstimate,
+    SafetyState,
+)
+from navd.lifecycle.module import Module, ModuleContext
+from navd.logs import add_log_tap, remove_log_tap
+from navd.viz import scene
+from navd.viz.settings import VizSettings
+
+__all__ = ["VizNode"]
+
+_LOG_LEVELS = {
+    "debug": LogLevel.Debug,
+    "info": LogLevel.Info,
+    "warning": LogLevel.Warning,
+    "error": LogLevel.Error,
+    "critical": LogLevel.Fatal,
+}
+_RANK = {"debug": 0, "info": 1, "warning": 2, "error": 3, "critical": 4}
+# Fields of a log line that are not its details.
+_LOG_META = frozenset({"event", "level", "timestamp", "component"})
+
+
+class _Throttle:
+    """At most one send per period [s] of the daemon clock (the period read at each ask, so
+    a changed rate applies at once)."""
+
+    def __init__(self) -> None:
+        self._last = -math.inf
+
+    def due(self, now: float, period_s: float) -> bool:
+        if now - self._last < period_s:
+            return False
+        self._last = now
+        return True
+
+
+class _Listener(ServerListener):
+    """Hears the server's subscriptions (in the server's thread) and hands each topic to
+    ``on_subscribe`` on the event loop."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop, on_subscribe: Callable[[str], None]):
+        self._loop = loop
+        self._on_subscribe = on_subscribe
+
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        self._loop.call_soon_threadsafe(self._on_subscribe, channel.topic)
+
+
+def _finite(value: float) -> float | None:
+    """JSON has no NaN: an unknown number is null."""
+    return value if math.isfinite(value) else None
+
+
+class VizNode(Module):
+    """The live view module ("viz")."""
+
+    def __init__(self) -> None:
+        super().__init__("viz")
+        self.server: WebSocketServer | None = None
+        self._context: Context | None = None
+        self._latest: dict[str, Callable[[], None]] = {}  # topic -> send its latest state
+        self._status: dict[str, Any] = {}
+        self._offset_s = 0.0  # [s] wall clock minus daemon clock, fixed at activation
+
+    @property
+    def port(self) -> int | None:
+        """The bound port (None when the view is not serving)."""
+        return None if self.server is None else self.server.port
+
+    # --- lifecycle --------------------------------------------------------------------
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        self.settings = ctx.settings(VizSettings, self._settings_changed)
+        self._map_throttle = _Throttle()
+        self._scan_throttle = _Throttle()
+        self._pose_throttle = _Throttle()
+        ctx.subscribe(MapUpdate, self._on_map)
+        ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(PoseEstimate, self._on_pose)
+        ctx.subscribe(Path, self._on_path)
+        ctx.subscribe(Goal, self._on_goal)
+        ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(DaemonStatus, self._on_daemon_status)
+        ctx.subscribe(LocalizationState, self._on_localization)
+        ctx.subscribe(SafetyState, self._on_safety)
+
+    async def on_activate(self) -> None:
+        s = self.settings.value
+        context = Context()
+        self._context = context
+        self.map = GridChannel("/map", context=context)
+        self.scan = LaserScanChannel("/scan", context=context)
+        self.tf = FrameTransformsChannel("/tf", context=context)
+        self.pose = OdometryChannel("/pose", context=context)
+        self.route = SceneUpdateChannel("/route", context=context)
+        self.goal = SceneUpdateChannel("/goal", context=context)
+        self.footprint = SceneUpdateChannel("/footprint", context=context)
+        self.keep_out = SceneUpdateChannel("/keep_out", context=context)
+        self.goal_status = Channel("/goal_status", context=context)
+        self.status = Channel("/status", context=context)
+        self.log = LogChannel("/log", context=context)
+        now = self.ctx.clock.now()
+        self._offset_s = time.time() - now
+        self._remember("/footprint", lambda: self._send_footprint(now))
+        self._remember("/keep_out", lambda: self._send_keep_out(now))
+        listener = _Listener(asyncio.get_running_loop(), self._resend)
+        try:
+            self.server = foxglove.start_server(
+                name=f"navd {__version__} ({s.robot_name})",
+                host=s.host,
+                port=s.port,
+                context=context,
+                server_listener=listener,
+            )
+        except Exception as err:  # the SDK reports a busy port as a plain RuntimeError
+            self.ctx.log.error(
+                "viz_unavailable",
+                host=s.host,
+                port=s.port,
+                error=str(err),
+                fix="another program (another navd?) holds the port: change viz.port, or set "
+                "viz.enabled = false; navd drives on without the live view",
+            )
+            return
+        add_log_tap(self._on_log_line)
+        self.ctx.log.info("viz_listening", host=s.host, port=self.server.port)
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        """The view reads its settings at every message: the holder's value is in use."""
+        return (self.settings.value,)
+
+    def _settings_changed(self, old: VizSettings, new: VizSettings) -> None:
+        """Rates apply at the next message; a new outline or new zones are shown at once."""
+        if self.server is None:
+            return
+        now = self.ctx.clock.now()
+        if new.footprint != old.footprint:
+            self._remember("/footprint", lambda: self._send_footprint(now))
+        if new.keep_out_zones != old.keep_out_zones:
+            self._remember("/keep_out", lambda: self._send_keep_out(now))
+
+    async def on_deactivate(self) -> None:
+        remove_log_tap(self._on_log_line)
+        if self.server is not None:
+            self.server.stop()
+            self.server = None
+        self._context = None
+
+    # --- state a new viewer gets at once ----------------------------------------------
+
+    def _remember(self, topic: str, send: Callable[[], None]) -> None:
+        """Keep how to send ``topic``'s latest state, and send it now if anyone watches."""
+        self._latest[topic] = send
+        send()
+
+    def _resend(self, topic: str) -> None:
+        """Event loop: a viewer subscribed to ``topic``; it gets the latest state."""
+        send = self._latest.get(topic)
+        if send is not None:
+            send()
+
+    # --- handlers (event loop; cheap unless someone watches) --------------------------
+
+    def _on_map(self, update: MapUpdate) -> None:
+        if self.server is None or not self._map_throttle.due(
+            update.stamp, self.settings.value.map_period_s
+        ):
+            return
+        self._remember("/map", lambda: self._send_map(update))
+
+    def _log_time(self) -> int:
+        """[ns] now, on the wall clock as the view shows it."""
+        return scene.nanoseconds(self.ctx.clock.now() + self._offset_s)
+
+    def _send_map(self, update: MapUpdate) -> None:
+        if self.map.has_sinks():
+            grid = scene.occupancy_grid(update, offset_s=self._offset_s)
+            self.map.log(grid, log_time=self._log_time())
+
+    def _on_scan(self, scan: LaserScan) -> None:
+        if self.server is None or not self.scan.has_sinks():
+            return
+        if self._scan_throttle.due(scan.received, self.settings.value.scan_period_s):
+            shown = scene.laser_scan(scan, offset_s=self._offset_s)
+            self.scan.log(shown, log_time=self._log_time())
+
+    def _on_pose(self, pose: PoseEstimate) -> None:
+        if self.server is None or not (self.tf.has_sinks() or self.pose.has_sinks()):
+            return
+        if not self._pose_throttle.due(pose.received, self.settings.value.pose_period_s):
+            return
+        t, offset = self._log_time(), self._offset_s
+        if self.tf.has_sinks():
+            lidar = self.settings.value.lidar.pose
+            self.tf.log(scene.frame_tree(pose, lidar, offset_s=offset), log_time=t)
+        if self.pose.has_sinks():
+            self.pose.log(scene.odometry(pose, offset_s=offset), log_time=t)
+
+    def _on_path(self, path: Path) -> None:
+        if self.server is None:
+            return
+        self._remember(
+            "/route",
+            lambda: self._send_scene(self.route, scene.route_scene(path, offset_s=self._offset_s)),
+        )
+
+    def _on_goal(self, goal: Goal) -> None:
+        if self.server is None:
+            return
+        self._remember(
+            "/goal",
+            lambda: self._send_scene(self.goal, scene.goal_scene(goal, offset_s=self._offset_s)),
+        )
+
+    def _send_footprint(self, now: float) -> None:
+        footprint = self.settings.value.footprint
+        self._send_scene(self.footprint, scene.footprint_scene(footprint, now + self._offset_s))
+
+    def _send_keep_out(self, now: float) -> None:
+        zones = self.settings.value.keep_out_zones
+        self._send_scene(self.keep_out, scene.keep_out_scene(zones, now + self._offset_s))
+
+    def _send_scene(self, channel: SceneUpdateChannel, update: Any) -> None:
+        if self.server is not None and channel.has_sinks():
+            channel.log(update, log_time=self._log_time())
+
+    def _on_goal_status(self, status: GoalStatus) -> None:
+        message = {
+            "stamp": status.stamp,
+            "goal_id": status.goal_id,
+            "state": status.state,
+            "distance_remaining_m": _finite(status.distance_remaining_m),
+            "eta_s": _finite(status.eta_s),
+            "reason": status.reason,
+        }
+        self._remember("/goal_status", lambda: self._send_json(self.goal_status, message))
+
+    def _on_daemon_status(self, status: DaemonStatus) -> None:
+        self._status.update(
+            stamp=status.stamp,
+            uptime_s=round(status.uptime_s, 3),
+            loop_lag_max_ms=round(status.loop_lag_max_ms, 3),
+            safe_stop_reasons=list(status.safe_stop_reasons),
+            modules={
+                m.name: {"state": m.state, "faulted": m.faulted, "failures": m.handler_failures}
+                for m in status.modules
+            },
+        )
+        self._send_status()
+
+    def _on_localization(self, state: LocalizationState) -> None:
+        self._status["localization"] = {
+            "state": state.state,
+            "position_std_m": _finite(state.position_std_m),
+            "yaw_std_rad": _finite(state.yaw_std_rad),
+        }
+        self._send_status()
+
+    def _on_safety(self, state: SafetyState) -> None:
+        self._status["safety"] = {"stopped": bool(state.reasons), "reasons": list(state.reasons)}
+        self._send_status()
+
+    def _send_status(self) -> None:
+        snapshot = dict(self._status)
+        self._remember("/status", lambda: self._send_json(self.status, snapshot))
+
+    def _send_json(self, channel: Channel, message: Mapping[str, Any]) -> None:
+        if self.server is not None and channel.has_sinks():
+            channel.log(dict(message), log_time=self._log_time())
+
+    # --- log lines (any thread) ---------------------------------------------------------
+
+    def _on_log_line(self, event: Mapping[str, Any]) -> None:
+        if not self.log.has_sinks():
+            return
+        level = str(event.get("level", "info"))
+        if _RANK.get(level, 1) < _RANK[self.settings.value.log_level]:
+            return
+        details = " ".join(f"{k}={v}" for k, v in event.items() if k not in _LOG_META)
+        text = str(event.get("event", ""))
+        self.log.log(
+            Log(
+                timestamp=scene.as_timestamp(time.time()),
+                level=_LOG_LEVELS.get(level, LogLevel.Unknown),
+                message=f"{text} {details}" if details else text,
+                name=str(event.get("component", "navd")),
+            ),
+            log_time=scene.nanoseconds(time.time()),
+        )

@@ -1,0 +1,55 @@
+"""The live view's settings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from navd.config import NavdConfig
+from navd.geometry.footprint import Footprint
+from navd.geometry.mount import LidarMount
+
+__all__ = ["VizSettings"]
+
+
+@dataclass(frozen=True, slots=True)
+class VizSettings:
+    """Where the view listens, how often each channel may send, and the robot it draws.
+
+    Attributes:
+        host, port: where the WebSocket server listens (they need a restart).
+        map_period_s, scan_period_s, pose_period_s: [s] least time between two frames of
+            the map, the scan, and the pose with the frame tree.
+        log_level: lowest level of the log lines streamed.
+        footprint: the robot's outline in base_link.
+        lidar: the lidar's mount in base_link (the base_link -> laser frame).
+        keep_out_zones: [m] polygons in the map frame the robot must not enter.
+        robot_name: the name the server gives itself.
+    """
+
+    host: str
+    port: int
+    map_period_s: float
+    scan_period_s: float
+    pose_period_s: float
+    log_level: str
+    footprint: Footprint
+    lidar: LidarMount
+    keep_out_zones: tuple[tuple[tuple[float, float], ...], ...]
+    robot_name: str
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> VizSettings:
+        """The settings the viz section describes, with the robot's shape and mounts."""
+        viz = config.viz
+        return cls(
+            host=viz.host,
+            port=viz.port,
+            map_period_s=1.0 / viz.map_rate_hz,
+            scan_period_s=1.0 / viz.scan_rate_hz,
+            pose_period_s=1.0 / viz.pose_rate_hz,
+            log_level=viz.log_level,
+            footprint=Footprint.of(config.robot),
+            lidar=LidarMount.of(config.lidar),
+            keep_out_zones=config.planning.keep_out_zones,
+            robot_name=config.robot.name,
+        )

@@ -1,0 +1,115 @@
+"""A Foxglove WebSocket protocol client for tests: connects like the Foxglove app does,
+subscribes to topics and decodes what arrives with the schemas the server advertised."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from google.protobuf.message import Message
+from websockets.asyncio.client import ClientConnection, connect
+
+SUBPROTOCOL = "foxglove.sdk.v1"  # the Foxglove WebSocket protocol, as the SDK names it
+MESSAGE_DATA = 0x01  # binary opcode of a message on a subscription
+
+
+@dataclass(frozen=True)
+class Channel:
+    """A channel the server advertised."""
+
+    id: int
+    topic: str
+    encoding: str
+    schema_name: str
+    schema: str
+    schema_encoding: str
+
+
+def protobuf_class(schema_name: str, file_descriptor_set: bytes) -> type[Message]:
+    """The protobuf message class of ``schema_name`` from a serialized FileDescriptorSet."""
+    files = descriptor_pb2.FileDescriptorSet.FromString(file_descriptor_set)
+    pool = descriptor_pool.DescriptorPool()
+    for proto in files.file:  # dependencies come first in Foxglove's sets
+        pool.Add(proto)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(schema_name))
+
+
+class FoxgloveClient:
+    """One connection to a live view."""
+
+    def __init__(self, ws: ClientConnection) -> None:
+        self.ws = ws
+        self.channels: dict[str, Channel] = {}
+        self._subscriptions: dict[int, Channel] = {}
+        self.text: list[dict[str, Any]] = []
+
+    @classmethod
+    async def open(cls, port: int, timeout_s: float = 10.0) -> FoxgloveClient:
+        ws = await asyncio.wait_for(
+            connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL]), timeout_s
+        )
+        return cls(ws)
+
+    async def close(self) -> None:
+        await self.ws.close()
+
+    async def wait_for_topics(self, topics: set[str], timeout_s: float = 10.0) -> None:
+        """Read until every topic in ``topics`` is advertised."""
+
+        async def read() -> None:
+            while not topics <= self.channels.keys():
+                await self._read_one()
+
+        await asyncio.wait_for(read(), timeout_s)
+
+    async def subscribe(self, *topics: str) -> None:
+        subscriptions = []
+        for topic in topics:
+            channel = self.channels[topic]
+            sub_id = len(self._subscriptions) + 1
+            self._subscriptions[sub_id] = channel
+            subscriptions.append({"id": sub_id, "channelId": channel.id})
+        await self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+
+    async def receive(self, topic: str, timeout_s: float = 10.0) -> tuple[int, Any]:
+        """The next message on ``topic``: (log time [ns], decoded message: a protobuf message,
+        or a dict for JSON channels)."""
+
+        async def read() -> tuple[int, Any]:
+            while True:
+                got = await self._read_one()
+                if got is not None and got[0].topic == topic:
+                    return got[1], got[2]
+
+        return await asyncio.wait_for(read(), timeout_s)
+
+    async def _read_one(self) -> tuple[Channel, int, Any] | None:
+        frame = await self.ws.recv()
+        if isinstance(frame, str):
+            op = json.loads(frame)
+            self.text.append(op)
+            if op.get("op") == "advertise":
+                for c in op["channels"]:
+                    self.channels[c["topic"]] = Channel(
+                        c["id"],
+                        c["topic"],
+                        c["encoding"],
+                        c.get("schemaName", ""),
+                        c.get("schema", ""),
+                        c.get("schemaEncoding", ""),
+                    )
+            return None
+        if frame[0] != MESSAGE_DATA:
+            return None
+        sub_id, log_time = struct.unpack_from("<IQ", frame, 1)
+        payload = frame[13:]
+        channel = self._subscriptions[sub_id]
+        if channel.encoding == "json":
+            return channel, log_time, json.loads(payload)
+        cls = protobuf_class(channel.schema_name, base64.b64decode(channel.schema))
+        return channel, log_time, cls.FromString(payload)

@@ -1,0 +1,169 @@
+"""The live view module in a running daemon, watched over a real WebSocket connection."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+import numpy as np
+import pytest
+
+from navd.config import parse_config
+from navd.lifecycle.daemon import Daemon
+from navd.lifecycle.messages import LaserScan, MapUpdate, SafetyState
+from navd.logs import get_logger
+from navd.viz import node as viz_node
+from navd.viz.node import VizNode
+from tests.viz.foxglove_client import FoxgloveClient
+
+TOPICS = {"/map", "/scan", "/tf", "/pose", "/route", "/goal", "/footprint", "/keep_out"}
+TOPICS |= {"/goal_status", "/status", "/log"}
+
+
+@asynccontextmanager
+async def viewed_daemon(
+    daemon_log_level: str = "warning", **viz: Any
+) -> AsyncIterator[tuple[Daemon, VizNode]]:
+    """A daemon running only the live view, on a free port unless ``viz`` names one."""
+    config = parse_config(
+        {
+            "viz": {"port": 0, **viz},
+            "logging": {"level": daemon_log_level},
+            "planning": {"keep_out_zones": [[[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]]]},
+        }
+    )
+    node = VizNode()
+    daemon = Daemon(config, [node], handle_signals=False)
+    task = asyncio.create_task(daemon.run())
+    try:
+        await asyncio.wait_for(daemon.ready.wait(), 30.0)
+        yield daemon, node
+    finally:
+        daemon.request_shutdown("test over")
+        await asyncio.wait_for(task, 10.0)
+
+
+def map_update(stamp: float) -> MapUpdate:
+    occupancy = np.full((20, 30), -1, dtype=np.int8)
+    occupancy[5:15, 5:25] = 0
+    occupancy[5, 5:25] = 100
+    return MapUpdate(
+        stamp=stamp,
+        received=stamp,
+        revision=1,
+        resolution_m=0.05,
+        origin_x_m=-0.5,
+        origin_y_m=-0.25,
+        occupancy=occupancy,
+    )
+
+
+def scan(stamp: float) -> LaserScan:
+    ranges = np.linspace(0.5, 3.0, 360).astype(np.float32)
+    return LaserScan(
+        stamp=stamp,
+        received=stamp,
+        device_id="lidar0",
+        angle_min=-np.pi,
+        angle_increment=2 * np.pi / 360,
+        ranges=ranges,
+        range_min=0.1,
+        range_max=12.0,
+    )
+
+
+async def test_a_viewer_gets_the_state_at_once_and_then_what_changes() -> None:
+    async with viewed_daemon() as (daemon, node):
+        assert node.port is not None
+        now = daemon.clock.now()
+        daemon.bus.publish(map_update(now))  # before anyone watches
+        daemon.bus.publish(SafetyState(stamp=now, received=now, reasons=("lidar stale",)))
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics(TOPICS)
+            await client.subscribe("/map", "/scan", "/footprint", "/keep_out", "/status")
+            # What changes rarely arrives on subscribing, not at the next change.
+            _, grid = await client.receive("/map")
+            cells = np.frombuffer(grid.data, dtype=np.int8).reshape(20, 30)
+            np.testing.assert_array_equal(cells, map_update(now).occupancy)
+            _, outline = await client.receive("/footprint")
+            assert outline.entities[0].frame_id == "base_link"
+            _, zones = await client.receive("/keep_out")
+            assert [(p.x, p.y) for p in zones.entities[0].lines[0].points] == [
+                (1.0, 1.0),
+                (2.0, 1.0),
+                (2.0, 2.0),
+            ]
+            _, status = await client.receive("/status")
+            assert status["safety"] == {"stopped": True, "reasons": ["lidar stale"]}
+            # Then each scan as it comes.
+            sent = scan(daemon.clock.now())
+            daemon.bus.publish(sent)
+            _, shown = await client.receive("/scan")
+            assert shown.frame_id == "laser"
+            np.testing.assert_allclose(shown.ranges, sent.ranges, rtol=1e-6)
+        finally:
+            await client.close()
+
+
+async def test_nothing_is_encoded_for_a_channel_nobody_watches(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    encoded: list[float] = []
+    real = viz_node.scene.laser_scan
+
+    def counting(message: LaserScan, **kw: Any) -> Any:
+        encoded.append(message.stamp)
+        return real(message, **kw)
+
+    monkeypatch.setattr(viz_node.scene, "laser_scan", counting)
+    async with viewed_daemon(scan_rate_hz=100.0) as (daemon, node):
+        assert node.port is not None
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics({"/scan", "/map"})
+            await client.subscribe("/map")
+            for i in range(5):
+                daemon.bus.publish(scan(daemon.clock.now() + i))
+            assert encoded == []
+            await client.subscribe("/scan")
+            await asyncio.sleep(0.2)  # the subscription reaches the server
+            daemon.bus.publish(scan(daemon.clock.now() + 10.0))
+            await client.receive("/scan")
+            assert len(encoded) == 1
+        finally:
+            await client.close()
+
+
+async def test_a_busy_port_leaves_the_daemon_running_without_the_view() -> None:
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", 0))
+        holder.listen()
+        busy = holder.getsockname()[1]
+        async with viewed_daemon(port=busy) as (daemon, node):
+            assert node.port is None  # no view, and said so in the log
+            assert daemon.manager.states["viz"].value == "active"
+            daemon.bus.publish(scan(daemon.clock.now()))  # handlers stay harmless
+
+
+async def test_log_lines_reach_the_view_with_their_level_and_fields() -> None:
+    # The daemon writes info lines; the view takes warnings and worse.
+    async with viewed_daemon("info", log_level="warning") as (_daemon, node):
+        assert node.port is not None
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics({"/log"})
+            await client.subscribe("/log")
+            await asyncio.sleep(0.2)  # the subscription reaches the server
+            log = get_logger("chassis")
+            log.info("not_shown", reason="below viz.log_level")
+            log.warning("port_vanished", port="/dev/ttyS3")
+            _, line = await client.receive("/log")
+            assert line.name == "chassis"
+            assert line.message == "port_vanished port=/dev/ttyS3"
+            assert line.level == 3  # foxglove.Log's WARNING
+        finally:
+            await client.close()
