@@ -115,12 +115,14 @@ def _measure(
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "navd.toml"
         # The defaults, but for staleness timeouts long enough for the clients to start one
-        # by one, and a lag window that covers the streaming exactly. (The status goes out
+        # by one, a lag window that covers the streaming exactly, and the live view (on,
+        # nobody watching) on a free port. (The status goes out
         # at its default 1 Hz: a viewer subscribed at 10 Hz costs about half a percent more.)
         config.write_text(
             f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
             f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
             '[logging]\nlevel = "warning"\n'
+            "[viz]\nport = 0\n"  # the live view is on, as by default, on a port of its own
         )
         command = [sys.executable, "-m", module]
         launched = time.monotonic()

@@ -21,6 +21,7 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.planning._costmap_kernels import mark_and_clear
+from navd.planning._distance_kernels import distance_to
 from navd.planning.margins import keep_clear_m
 
 __all__ = [
@@ -280,15 +281,13 @@ def build_costmap(
         unknown: cells never observed.
         settings: robot radius, inflation and unknown handling.
     """
-    from scipy import ndimage  # noqa: PLC0415 - a 0.2 s import, kept off daemon start-up
-
     if obstacles.shape != frame.shape or unknown.shape != frame.shape:
         raise ValueError(
             f"layer shapes {obstacles.shape} and {unknown.shape} differ from the frame's "
             f"{frame.shape}"
         )
     if obstacles.any():
-        clearance = ndimage.distance_transform_edt(~obstacles).astype(np.float32)
+        clearance = distance_to(obstacles).astype(np.float32)
         clearance *= np.float32(frame.resolution_m)
     else:
         clearance = np.full(frame.shape, np.inf, dtype=np.float32)

@@ -13,6 +13,7 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
+from navd.planning._distance_kernels import distance_to
 from navd.planning._dwa_kernels import (
     METRICS,
     bucket_points,
@@ -111,8 +112,6 @@ class PathField:
 def path_field(points_m: FloatArray, cell_m: float = PATH_CELL_M) -> PathField:
     """The distance-to-path grid of a polyline (seed: closeness to the global path as a
     look-up), covering the path's bounding box plus PATH_FIELD_MARGIN_M."""
-    from scipy import ndimage  # noqa: PLC0415 - a 0.2 s import, kept off daemon start-up
-
     lo = points_m.min(axis=0) - PATH_FIELD_MARGIN_M
     hi = points_m.max(axis=0) + PATH_FIELD_MARGIN_M
     cols, rows = (np.ceil((hi - lo) / cell_m).astype(int) + 1).tolist()
@@ -125,7 +124,7 @@ def path_field(points_m: FloatArray, cell_m: float = PATH_CELL_M) -> PathField:
     if points_m.shape[0] == 1:
         c, r = np.floor((points_m[0] - lo) / cell_m).astype(int)
         on_path[r, c] = True
-    distance = (ndimage.distance_transform_edt(~on_path) * cell_m).astype(np.float32)
+    distance = (distance_to(on_path) * cell_m).astype(np.float32)
     return PathField(distance, float(lo[0]), float(lo[1]), cell_m, PATH_FIELD_MARGIN_M)
 
 
