@@ -91,12 +91,19 @@ def _status(port: int) -> StatusFrame:
 
 
 def run(
-    seconds: float = 10.0, rays: int = 1440, binary: bool = False, imu_batch: int = 1
+    seconds: float = 10.0,
+    rays: int = 1440,
+    binary: bool = False,
+    imu_batch: int = 1,
+    view: bool = False,
 ) -> dict[str, Any]:
-    """Run the benchmark on the ingest path alone, then on the whole daemon; their figures."""
-    ingest = _measure("navd.bench.ingest_daemon", seconds, rays, binary, imu_batch)
-    whole = _measure("navd", seconds, rays, binary, imu_batch)
-    return {
+    """Run the benchmark on the ingest path alone, then on the whole daemon; their figures.
+    With ``view``, the whole daemon twice more: with the live view off, and with a viewer
+    subscribed to every channel (in its own process); and what the view costs."""
+    load = (seconds, rays, binary, imu_batch)
+    ingest = _measure("navd.bench.ingest_daemon", *load)
+    whole = _measure("navd", *load)
+    figures = {
         "seconds": ingest["seconds"],
         "lidar_rays": rays,
         "lidar_encoding": "base64 float32" if binary else "json",
@@ -104,13 +111,32 @@ def run(
         "ingest_path": ingest["figures"],
         "whole_daemon": whole["figures"],
     }
+    if view:
+        off = _measure("navd", *load, view="off")["figures"]
+        watched = _measure("navd", *load, view="watched")["figures"]
+        cpu = "cpu_percent_of_one_core"
+        figures |= {
+            "whole_daemon_view_off": off,
+            "whole_daemon_watched": watched,
+            "view_unwatched_cpu_points": round(whole["figures"][cpu] - off[cpu], 2),
+            "view_watched_cpu_points": round(watched[cpu] - off[cpu], 2),
+        }
+    return figures
 
 
-def _measure(
-    module: str, seconds: float, rays: int, binary: bool, imu_batch: int
+def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
+    module: str,
+    seconds: float,
+    rays: int,
+    binary: bool,
+    imu_batch: int,
+    view: str = "unwatched",
 ) -> dict[str, Any]:
-    """Stream at full load into the daemon started by ``python -m <module>``; its figures."""
+    """Stream at full load into the daemon started by ``python -m <module>``; its figures.
+    ``view``: the live view "unwatched" (on, as by default), "off", or "watched" by a viewer
+    subscribed to every channel."""
     port = free_port()
+    view_port = free_port()
     window = int(seconds / LAG_PROBE_S)
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "navd.toml"
@@ -122,7 +148,7 @@ def _measure(
             f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
             f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
             '[logging]\nlevel = "warning"\n'
-            "[viz]\nport = 0\n"  # the live view is on, as by default, on a port of its own
+            + ("[viz]\nenabled = false\n" if view == "off" else f"[viz]\nport = {view_port}\n")
         )
         command = [sys.executable, "-m", module]
         launched = time.monotonic()
@@ -134,6 +160,7 @@ def _measure(
             text=True,
         )
         clients: list[subprocess.Popen[str]] = []
+        viewer: subprocess.Popen[str] | None = None
         try:
             _wait_listening(port, daemon)
             ready_s = time.monotonic() - launched
@@ -143,31 +170,8 @@ def _measure(
             idle_percent = _Cpu.read(daemon.pid).percent_since(
                 idle_cpu, time.monotonic() - idle_wall
             )
-            for role, rate in STREAMS:
-                command = [
-                    sys.executable,
-                    "-m",
-                    "navd.bench.sensor_client",
-                    "--role",
-                    role,
-                    "--rate",
-                    str(rate),
-                    "--seconds",
-                    str(seconds),
-                    "--port",
-                    str(port),
-                    "--rays",
-                    str(rays),
-                ]
-                if binary:
-                    command.append("--binary")
-                if role == "imu":
-                    command += ["--batch", str(imu_batch)]
-                clients.append(
-                    subprocess.Popen(
-                        command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
-                    )
-                )
+            viewer = _start_viewer(view_port) if view == "watched" else None
+            clients = _start_clients(port, seconds, rays, binary, imu_batch)
             for client in clients:  # every client started and connected: measure from here
                 assert client.stdout is not None
                 json.loads(client.stdout.readline())
@@ -186,7 +190,10 @@ def _measure(
             cpu_end, wall_end = _Cpu.read(daemon.pid), time.monotonic()
             status = _status(port)
             rss_mb, peak_rss_mb = _rss_mb(daemon.pid)
+            viewed = None if viewer is None else _stop_viewer(viewer)
         finally:
+            if viewer is not None and viewer.poll() is None:
+                viewer.kill()
             for client in clients:
                 if client.stdin is not None:
                     client.stdin.close()
@@ -213,8 +220,62 @@ def _measure(
             "peak_rss_mb": round(peak_rss_mb, 1),
             "ready_s": round(ready_s, 3),
             "goal": None if status.goal is None else status.goal.state,
+            **({} if viewed is None else {"viewer_received": viewed}),
         },
     }
+
+
+def _start_clients(
+    port: int, seconds: float, rays: int, binary: bool, imu_batch: int
+) -> list[subprocess.Popen[str]]:
+    """One sensor client process per stream, each waiting for "go" on its standard input."""
+    clients: list[subprocess.Popen[str]] = []
+    for role, rate in STREAMS:
+        command = [
+            sys.executable,
+            "-m",
+            "navd.bench.sensor_client",
+            "--role",
+            role,
+            "--rate",
+            str(rate),
+            "--seconds",
+            str(seconds),
+            "--port",
+            str(port),
+            "--rays",
+            str(rays),
+        ]
+        if binary:
+            command.append("--binary")
+        if role == "imu":
+            command += ["--batch", str(imu_batch)]
+        clients.append(
+            subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        )
+    return clients
+
+
+def _start_viewer(port: int) -> subprocess.Popen[str]:
+    """A viewer subscribed to every channel of the live view on ``port``, once connected."""
+    viewer = subprocess.Popen(
+        [sys.executable, "-m", "navd.bench.viewer_client", "--port", str(port)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert viewer.stdout is not None
+    json.loads(viewer.stdout.readline())  # connected
+    return viewer
+
+
+def _stop_viewer(viewer: subprocess.Popen[str]) -> dict[str, int]:
+    """How many messages of each topic the viewer received."""
+    assert viewer.stdin is not None and viewer.stdout is not None
+    viewer.stdin.close()
+    received: dict[str, int] = json.loads(viewer.stdout.readline())["received"]
+    viewer.wait(10)
+    return received
 
 
 def _wait_settled(pid: int, limit_s: float = 30.0) -> None:

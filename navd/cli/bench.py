@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import sys
 
-from navd.cli.common import EXIT_OK, Commands, print_figures
+from navd.cli.common import EXIT_OK, EXIT_USAGE, Commands, print_figures
 
 __all__ = ["add_commands"]
 
@@ -21,6 +23,12 @@ def add_commands(commands: Commands) -> None:
     ingest.add_argument("--binary", action="store_true", help="lidar ranges as base64 float32")
     ingest.add_argument(
         "--imu-batch", type=int, default=1, help="IMU lines per write (1: one per sample)"
+    )
+    ingest.add_argument(
+        "--view",
+        action="store_true",
+        help="also the whole daemon with the live view off, and watched by a viewer of every "
+        "channel (needs the websockets package, a development dependency)",
     )
     ingest.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     ingest.set_defaults(handler=_ingest)
@@ -57,8 +65,15 @@ def add_commands(commands: Commands) -> None:
 def _ingest(args: argparse.Namespace) -> int:
     from navd.bench.ingest import run  # noqa: PLC0415 - each benchmark imports what it times
 
+    if args.view and importlib.util.find_spec("websockets") is None:
+        print("--view needs the websockets package: pip install websockets", file=sys.stderr)
+        return EXIT_USAGE
     figures = run(
-        seconds=args.seconds, rays=args.rays, binary=args.binary, imu_batch=args.imu_batch
+        seconds=args.seconds,
+        rays=args.rays,
+        binary=args.binary,
+        imu_batch=args.imu_batch,
+        view=args.view,
     )
     print_figures(figures, args.json)
     return EXIT_OK

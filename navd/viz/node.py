@@ -72,15 +72,20 @@ _RANK = {"debug": 0, "info": 1, "warning": 2, "error": 3, "critical": 4}
 _LOG_META = frozenset({"event", "level", "timestamp", "component"})
 
 
+# A message may come this much of a period early and still be sent: a 10 Hz stream with
+# jitter, throttled to 10 Hz, keeps its 10 Hz.
+JITTER = 0.2
+
+
 class _Throttle:
-    """At most one send per period [s] of the daemon clock (the period read at each ask, so
-    a changed rate applies at once)."""
+    """At most one send per period [s] of the daemon clock, give or take JITTER (the period
+    is read at each ask, so a changed rate applies at once)."""
 
     def __init__(self) -> None:
         self._last = -math.inf
 
     def due(self, now: float, period_s: float) -> bool:
-        if now - self._last < period_s:
+        if now - self._last < (1.0 - JITTER) * period_s:
             return False
         self._last = now
         return True

@@ -88,6 +88,17 @@ class FoxgloveClient:
 
         return await asyncio.wait_for(read(), timeout_s)
 
+    async def receive_any(self, timeout_s: float = 10.0) -> tuple[str, int, Any]:
+        """The next message on any subscribed topic: (topic, log time [ns], decoded)."""
+
+        async def read() -> tuple[str, int, Any]:
+            while True:
+                got = await self._read_one()
+                if got is not None:
+                    return got[0].topic, got[1], got[2]
+
+        return await asyncio.wait_for(read(), timeout_s)
+
     async def _read_one(self) -> tuple[Channel, int, Any] | None:
         frame = await self.ws.recv()
         if isinstance(frame, str):
