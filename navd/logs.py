@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import threading
 from collections.abc import Callable, Mapping
 from typing import Any, Literal, TextIO, cast
 
@@ -25,6 +26,7 @@ __all__ = [
     "get_logger",
     "remove_log_tap",
     "set_level",
+    "tap_failures",
 ]
 
 LogTap = Callable[[Mapping[str, Any]], None]
@@ -38,6 +40,7 @@ _LEVELS = {
 # stream None: standard error as it is when a line is written (tests swap it per test).
 _state: dict[str, Any] = {"stream": None, "renderer": "console", "level": "info"}
 _taps: list[LogTap] = []
+_in_tap = threading.local()  # set while this thread runs the taps
 
 
 def add_log_tap(tap: LogTap) -> None:
@@ -54,12 +57,24 @@ def remove_log_tap(tap: LogTap) -> None:
 
 
 def _run_taps(_logger: Any, _method: str, event: dict[str, Any]) -> dict[str, Any]:
-    for tap in tuple(_taps):
-        try:
-            tap(event)
-        except Exception:
-            continue
+    if getattr(_in_tap, "active", False):
+        return event  # a line a tap itself wrote: written, not tapped again (no loop)
+    _in_tap.active = True
+    try:
+        for tap in tuple(_taps):
+            try:
+                tap(event)
+            except Exception:  # a tap never costs the line itself; counted
+                _state["tap_failures"] = _state.get("tap_failures", 0) + 1
+    finally:
+        _in_tap.active = False
     return event
+
+
+def tap_failures() -> int:
+    """How many times a tap raised (the lines were written all the same)."""
+    failures: int = _state.get("tap_failures", 0)
+    return failures
 
 
 def configure_logging(

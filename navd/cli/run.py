@@ -38,7 +38,7 @@ def _run(args: argparse.Namespace) -> int:
     from navd.lifecycle import Daemon  # noqa: PLC0415
     from navd.slam.errors import MapFileError  # noqa: PLC0415
 
-    daemon = Daemon(config, build_modules(config), config_path=args.config, owns_process=True)
+    daemon = Daemon(config, build_modules(config), config_path=args.config)
     try:
         if config.lifecycle.event_loop == "uvloop":
             import uvloop  # noqa: PLC0415

@@ -37,7 +37,12 @@ def _layout(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     # Written whole or not at all: a half-written layout would not import.
     with tempfile.NamedTemporaryFile("w", dir=out.parent, delete=False, suffix=".tmp") as tmp:
-        tmp.write(text)
+        try:
+            tmp.write(text)
+        except OSError:
+            os.unlink(tmp.name)
+            raise
+    os.chmod(tmp.name, 0o644)  # a layout is for anyone to read, like the file it replaces
     os.replace(tmp.name, out)
     print(f"wrote {out}")
     return EXIT_OK

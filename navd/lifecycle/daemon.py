@@ -55,8 +55,6 @@ class Daemon:
         handle_signals: install SIGTERM/SIGINT/SIGHUP handlers (off in tests that share a loop).
         notifier: systemd notifications; by default from the environment (inactive without
             NOTIFY_SOCKET).
-        owns_process: the daemon is its process's one job (``navd run``): once the set-ups
-            are done, what start-up made is set aside from the garbage collector.
     """
 
     MODULE = "lifecycle"
@@ -70,7 +68,6 @@ class Daemon:
         config_path: Path | None = None,
         handle_signals: bool = True,
         notifier: SystemdNotifier | None = None,
-        owns_process: bool = False,
     ) -> None:
         lc = config.lifecycle
         if clock is None:
@@ -85,12 +82,7 @@ class Daemon:
             max_cascade=lc.max_dispatch_cascade,
         )
         self.config_service = ConfigService(self.bus, self.clock, config)
-        self.workers = WorkerPool(
-            self.bus,
-            lc.worker_threads,
-            inline=lc.clock == "simulated",
-            freeze_after_set_up=owns_process,
-        )
+        self.workers = WorkerPool(self.bus, lc.worker_threads, inline=lc.clock == "simulated")
         self.lag = LoopLagMonitor(lc.lag_sample_period_s, lc.lag_window)
         self.manager = ModuleManager(modules, self._context, lc.transition_timeout_s)
         self.config_path = config_path

@@ -1,29 +1,13 @@
-"""What start-up leaves in memory: freed heap handed back to the operating system, and the
-objects start-up made set aside from the garbage collector's full passes."""
+"""Handing memory freed by start-up back to the operating system."""
 
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
 import functools
-import gc
 from collections.abc import Callable
 
-__all__ = ["freeze_start_up_objects", "release_freed_memory"]
-
-
-def freeze_start_up_objects() -> int:
-    """Move every object the garbage collector tracks now into its permanent generation, and
-    return how many there were.
-
-    Called once the set-ups are done: the modules, settings, compiled kernels' wrappers and
-    imported libraries live as long as the process, yet each full collection walked all of
-    them again (tens of thousands of objects, about 30 ms a pass on the event loop here).
-    Frozen, they are never walked; whatever of them was already garbage stays (start-up
-    makes little). Nothing is collected here, so freezing costs no pause.
-    """
-    gc.freeze()
-    return gc.get_freeze_count()
+__all__ = ["release_freed_memory"]
 
 
 def release_freed_memory() -> bool:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.memory import freeze_start_up_objects, release_freed_memory
+from navd.lifecycle.memory import release_freed_memory
 from navd.lifecycle.messages import Message, WorkerStats
 from navd.logs import get_logger
 
@@ -53,14 +53,9 @@ class WorkerPool:
         bus: where results are published and failures reported.
         threads: number of worker threads.
         inline: run each job on the event loop, in start order (for simulated time).
-        freeze_after_set_up: once the set-ups are done, set the objects made so far aside
-            from the garbage collector (``freeze_start_up_objects``): for the pool of a
-            process that runs one daemon, not for one of many in a test process.
     """
 
-    def __init__(
-        self, bus: Bus, threads: int, *, inline: bool = False, freeze_after_set_up: bool = False
-    ) -> None:
+    def __init__(self, bus: Bus, threads: int, *, inline: bool = False) -> None:
         self._bus = bus
         self.inline = inline
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
@@ -69,7 +64,6 @@ class WorkerPool:
         self._threads: list[threading.Thread] = []
         self._idle_waiters: list[asyncio.Future[None]] = []
         self._closed = False
-        self._freeze = freeze_after_set_up  # start-up objects to set aside, once
 
     def submit(self, slot: str, job: Job, *, module: str) -> None:
         """Run ``job`` in a worker; if the slot is busy, it waits, replacing any waiting job.
@@ -214,10 +208,6 @@ class WorkerPool:
         else:
             # Set-ups are kernels compiling or loading: a cold cache shows here in seconds.
             _log.info("set_up_done", thread=name, seconds=round(seconds, 3))
-        if self._detached == 0 and self._freeze:
-            # What start-up made lives as long as the process: out of the collector's way.
-            self._freeze = False
-            _log.debug("start_up_objects_frozen", objects=freeze_start_up_objects())
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:

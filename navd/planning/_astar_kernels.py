@@ -42,6 +42,8 @@ __all__ = [
     "MAX_GENERATION",
     "jump_point_search",
     "octile",
+    "path_changed",
+    "segment_changed",
     "segment_max_cost",
     "shortcut",
     "trace_back",
@@ -403,6 +405,64 @@ def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c
         if not math.isfinite(worst):
             return math.inf
     return worst
+
+
+@njit(cache=True, nogil=True)
+def segment_changed(
+    new: npt.NDArray[np.float32],
+    old: npt.NDArray[np.float32],
+    r0: int,
+    c0: int,
+    r1: int,
+    c1: int,
+) -> bool:
+    """True if a cell the straight segment between two cell centres passes through (the same
+    cells as ``segment_max_cost``, corner side cells included) differs between ``old`` and
+    ``new``, or is blocked in ``new``."""
+    dr = r1 - r0
+    dc = c1 - c0
+    step_r = 1 if dr > 0 else -1
+    step_c = 1 if dc > 0 else -1
+    t_dr = 1.0 / abs(dr) if dr != 0 else math.inf
+    t_dc = 1.0 / abs(dc) if dc != 0 else math.inf
+    next_r = 0.5 * t_dr
+    next_c = 0.5 * t_dc
+    r = r0
+    c = c0
+    if new[r, c] != old[r, c] or not math.isfinite(new[r, c]):
+        return True
+    while r != r1 or c != c1:
+        if abs(next_r - next_c) < 1e-12:
+            for rr, cc in ((r + step_r, c), (r, c + step_c)):
+                if new[rr, cc] != old[rr, cc] or not math.isfinite(new[rr, cc]):
+                    return True
+            r += step_r
+            c += step_c
+            next_r += t_dr
+            next_c += t_dc
+        elif next_r < next_c:
+            r += step_r
+            next_r += t_dr
+        else:
+            c += step_c
+            next_c += t_dc
+        if new[r, c] != old[r, c] or not math.isfinite(new[r, c]):
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def path_changed(
+    new: npt.NDArray[np.float32], old: npt.NDArray[np.float32], cells: npt.NDArray[np.int64]
+) -> bool:
+    """``segment_changed`` along a polyline of N x 2 (row, column) cells."""
+    for i in range(cells.shape[0] - 1):
+        if segment_changed(new, old, cells[i, 0], cells[i, 1], cells[i + 1, 0], cells[i + 1, 1]):
+            return True
+    return cells.shape[0] == 1 and (
+        new[cells[0, 0], cells[0, 1]] != old[cells[0, 0], cells[0, 1]]
+        or not math.isfinite(new[cells[0, 0], cells[0, 1]])
+    )
 
 
 @njit(cache=True, nogil=True)

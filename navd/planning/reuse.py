@@ -7,8 +7,9 @@ the rest of the route from where it stands is the answer if the grid has not cha
 way that could make it wrong:
 
 - the frame, the goal and the search settings are the same;
-- no cell the rest of the route passes over got costlier (it would cost more, or be
-  blocked), nor a cell beside one of its diagonal steps (a step that may not cut a corner);
+- no cell the rest of the route passes over changed or is blocked, the step from the robot's
+  cell onto it included (walked cell by cell from centre to centre as the smoothing walks
+  its segments, with both cells beside a corner the line passes through);
 - no cell got cheaper that a better route could pass through. A route through cell x costs
   at least octile(robot, x) + octile(x, goal) cells (a step never costs less than its
   length), so a cell that got cheaper matters only if that sum is below what the rest of the
@@ -27,13 +28,13 @@ grid, against tens for a search.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from navd.planning._astar_kernels import path_changed
 from navd.planning.costmap import Costmap, GridFrame
 
 __all__ = ["RouteMemory", "remembered_route", "route_costs"]
@@ -42,9 +43,6 @@ FloatArray = npt.NDArray[np.float64]
 CellArray = npt.NDArray[np.int64]
 
 SQRT2 = math.sqrt(2.0)
-# Points along the route are sampled this often [cells] to find the cells it passes over.
-SAMPLE_CELLS = 0.25
-NUDGE_CELLS = 0.01
 # [cells] Slack on the octile bound: the robot and the goal lie anywhere within their cells.
 CELL_SLACK = 2.0
 
@@ -116,17 +114,15 @@ def remembered_route(
     cost = float(ahead) + offset_m / frame.resolution_m
     remaining = max(float(to_goal[segment]), cost)  # the more cautious, for the bound below
     new, old = costmap.cost, memory.cost
+    cells = _inside(frame, frame.cells_of(rest))
+    if cells is None or path_changed(new, old, cells):
+        return None  # the rest of the route (or the step onto it) got costlier, or blocked
     if new is not old:
-        changed = new != old
-        if changed.any():
-            watched = _cells_under(frame, rest)
-            if changed[watched[:, 0], watched[:, 1]].any():
-                return None  # the rest of the route got costlier, or blocked
-            rows, cols = np.nonzero(changed & (new < old))
-            if rows.size and _could_shorten(
-                frame, rows, cols, start_xy_m=start_xy_m, goal_xy_m=goal_xy_m, remaining=remaining
-            ):
-                return None
+        rows, cols = np.nonzero(new < old)
+        if rows.size and _could_shorten(
+            frame, rows, cols, start_xy_m=start_xy_m, goal_xy_m=goal_xy_m, remaining=remaining
+        ):
+            return None
     return rest, cost
 
 
@@ -144,27 +140,17 @@ def _nearest_segment(points: FloatArray, xy: tuple[float, float]) -> tuple[int, 
     return i, float(t[i]), float(d[i])
 
 
-def _cells_under(frame: GridFrame, points_m: FloatArray) -> CellArray:
-    """The cells a polyline passes over or touches at a corner (sampled every SAMPLE_CELLS,
-    each sample widened by NUDGE_CELLS both ways: a diagonal step between cell centres
-    passes the corner of the two cells beside it, which must stay free), inside the grid."""
-    step_m = SAMPLE_CELLS * frame.resolution_m
-    pieces = [points_m[-1:]]
-    for a, b in itertools.pairwise(points_m):
-        n = max(1, math.ceil(math.hypot(*(b - a)) / step_m))
-        t = np.arange(n)[:, None] / n
-        pieces.append(a + t * (b - a))
-    samples = np.vstack(pieces)
-    nudge = NUDGE_CELLS * frame.resolution_m
-    corners = np.array([[-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0], [1.0, 1.0]]) * nudge
-    cells = frame.cells_of((samples[:, None, :] + corners[None, :, :]).reshape(-1, 2))
-    inside = (
-        (cells[:, 0] >= 0)
-        & (cells[:, 0] < frame.rows)
-        & (cells[:, 1] >= 0)
-        & (cells[:, 1] < frame.cols)
-    )
-    return cells[inside]
+def _inside(frame: GridFrame, cells: CellArray) -> CellArray | None:
+    """``cells`` if every one lies in the grid, else None."""
+    rows, cols = cells[:, 0], cells[:, 1]
+    if (
+        (rows < 0).any()
+        or (rows >= frame.rows).any()
+        or (cols < 0).any()
+        or (cols >= frame.cols).any()
+    ):
+        return None
+    return cells
 
 
 def _could_shorten(

@@ -28,6 +28,7 @@ def warm_up() -> None:
     nav.add_scan(IDENTITY, hits, np.empty((0, 2)), 0.0)
     nav.set_goal(NavGoal("warm-up", 0.8, 0.5, 1.0))
     nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
+    nav.accept_plan(0.1, nav.plan(0.1, IDENTITY))  # a replan: the last route checked, reused
     for k in range(3):
         nav.step(0.05 * k, IDENTITY)
     # The room above is inflated, so A* went cell by cell, its open list in buckets; an open

@@ -72,22 +72,23 @@ _RANK = {"debug": 0, "info": 1, "warning": 2, "error": 3, "critical": 4}
 _LOG_META = frozenset({"event", "level", "timestamp", "component"})
 
 
-# A message may come this much of a period early and still be sent: a 10 Hz stream with
-# jitter, throttled to 10 Hz, keeps its 10 Hz.
-JITTER = 0.2
+# A message may come this share of a period early and still be sent: a 10 Hz stream with
+# jitter, capped at 10 Hz, keeps its 10 Hz, while on average no stream beats its cap.
+JITTER_FRACTION = 0.2
 
 
 class _Throttle:
-    """At most one send per period [s] of the daemon clock, give or take JITTER (the period
-    is read at each ask, so a changed rate applies at once)."""
+    """At most one send per period [s] of the daemon clock on average: each send moves the
+    next deadline a period on (the period is read at each ask, so a changed rate applies at
+    once), and a message up to JITTER_FRACTION of a period early is on time."""
 
     def __init__(self) -> None:
-        self._last = -math.inf
+        self._next = -math.inf
 
     def due(self, now: float, period_s: float) -> bool:
-        if now - self._last < (1.0 - JITTER) * period_s:
+        if now < self._next - JITTER_FRACTION * period_s:
             return False
-        self._last = now
+        self._next = max(self._next, now) + period_s
         return True
 
 
@@ -141,9 +142,8 @@ class VizNode(Module):
         ctx.subscribe(DaemonStatus, self._on_daemon_status)
         ctx.subscribe(LocalizationState, self._on_localization)
         ctx.subscribe(SafetyState, self._on_safety)
-
-    async def on_activate(self) -> None:
-        s = self.settings.value
+        # The channels exist from here on, so a message before activation finds them (it is
+        # kept, and sent to whoever subscribes once the server runs).
         context = Context()
         self._context = context
         self.map = GridChannel("/map", context=context)
@@ -157,6 +157,25 @@ class VizNode(Module):
         self.goal_status = Channel("/goal_status", context=context)
         self.status = Channel("/status", context=context)
         self.log = LogChannel("/log", context=context)
+        self._channels: tuple[Any, ...] = (
+            self.map,
+            self.scan,
+            self.tf,
+            self.pose,
+            self.route,
+            self.goal,
+            self.footprint,
+            self.keep_out,
+            self.goal_status,
+            self.status,
+            self.log,
+        )
+        self._map_pending: MapUpdate | None = None
+
+    async def on_activate(self) -> None:
+        s = self.settings.value
+        context = self._context
+        assert context is not None
         now = self.ctx.clock.now()
         self._offset_s = time.time() - now
         self._remember("/footprint", lambda: self._send_footprint(now))
@@ -170,17 +189,19 @@ class VizNode(Module):
                 context=context,
                 server_listener=listener,
             )
-        except Exception as err:  # the SDK reports a busy port as a plain RuntimeError
+        except Exception as err:  # the SDK reports a busy port or a bad address as RuntimeError
             self.ctx.log.error(
                 "viz_unavailable",
                 host=s.host,
                 port=s.port,
                 error=str(err),
-                fix="another program (another navd?) holds the port: change viz.port, or set "
-                "viz.enabled = false; navd drives on without the live view",
+                fix="if another program (another navd?) holds the port, change viz.port; check "
+                "viz.host is an address of this machine; or set viz.enabled = false. navd "
+                "drives on without the live view",
             )
             return
         add_log_tap(self._on_log_line)
+        self.ctx.every(lambda: self.settings.value.map_period_s, self._flush_map, name="viz-map")
         self.ctx.log.info("viz_listening", host=s.host, port=self.server.port)
 
     def settings_in_use(self) -> tuple[object, ...]:
@@ -202,6 +223,11 @@ class VizNode(Module):
         if self.server is not None:
             self.server.stop()
             self.server = None
+        for channel in self._channels:
+            channel.close()
+        self._latest.clear()  # the last map and route are not held past the view's life
+        self._status.clear()
+        self._map_pending = None
         self._context = None
 
     # --- state a new viewer gets at once ----------------------------------------------
@@ -220,10 +246,16 @@ class VizNode(Module):
     # --- handlers (event loop; cheap unless someone watches) --------------------------
 
     def _on_map(self, update: MapUpdate) -> None:
-        if self.server is None or not self._map_throttle.due(
-            update.stamp, self.settings.value.map_period_s
-        ):
+        self._map_pending = update  # the newest is kept, so the last change is never lost
+        self._flush_map(update.stamp)
+
+    def _flush_map(self, now: float) -> None:
+        """Send the newest map if it has not gone out and the map's rate allows it now (also
+        on a timer: a change that came too soon goes out when its turn comes)."""
+        update = self._map_pending
+        if update is None or not self._map_throttle.due(now, self.settings.value.map_period_s):
             return
+        self._map_pending = None
         self._remember("/map", lambda: self._send_map(update))
 
     def _log_time(self) -> int:
@@ -239,7 +271,8 @@ class VizNode(Module):
         if self.server is None or not self.scan.has_sinks():
             return
         if self._scan_throttle.due(scan.received, self.settings.value.scan_period_s):
-            shown = scene.laser_scan(scan, offset_s=self._offset_s)
+            min_range_m = self.settings.value.lidar.min_range_m
+            shown = scene.laser_scan(scan, min_range_m=min_range_m, offset_s=self._offset_s)
             self.scan.log(shown, log_time=self._log_time())
 
     def _on_pose(self, pose: PoseEstimate) -> None:
@@ -255,16 +288,12 @@ class VizNode(Module):
             self.pose.log(scene.odometry(pose, offset_s=offset), log_time=t)
 
     def _on_path(self, path: Path) -> None:
-        if self.server is None:
-            return
         self._remember(
             "/route",
             lambda: self._send_scene(self.route, scene.route_scene(path, offset_s=self._offset_s)),
         )
 
     def _on_goal(self, goal: Goal) -> None:
-        if self.server is None:
-            return
         self._remember(
             "/goal",
             lambda: self._send_scene(self.goal, scene.goal_scene(goal, offset_s=self._offset_s)),
@@ -336,12 +365,13 @@ class VizNode(Module):
             return
         details = " ".join(f"{k}={v}" for k, v in event.items() if k not in _LOG_META)
         text = str(event.get("event", ""))
+        wall_s = self.ctx.clock.now() + self._offset_s
         self.log.log(
             Log(
-                timestamp=scene.as_timestamp(time.time()),
+                timestamp=scene.as_timestamp(wall_s),
                 level=_LOG_LEVELS.get(level, LogLevel.Unknown),
                 message=f"{text} {details}" if details else text,
                 name=str(event.get("component", "navd")),
             ),
-            log_time=scene.nanoseconds(time.time()),
+            log_time=scene.nanoseconds(wall_s),
         )

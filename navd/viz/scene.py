@@ -108,11 +108,12 @@ def occupancy_grid(update: MapUpdate, *, offset_s: float = 0.0) -> Grid:
     )
 
 
-def laser_scan(scan: NavdScan, *, offset_s: float = 0.0) -> LaserScan:
+def laser_scan(scan: NavdScan, *, min_range_m: float = 0.0, offset_s: float = 0.0) -> LaserScan:
     """The scan in the ``laser`` frame; rays outside [range_min, range_max] (no return, or
-    not to be trusted) are NaN, which the view leaves out."""
+    not to be trusted) and shorter than ``min_range_m`` (the lidar mount's: the robot's own
+    body) are NaN, which the view leaves out."""
     ranges = np.asarray(scan.ranges, dtype=np.float64)
-    valid = (ranges >= scan.range_min) & (ranges <= scan.range_max)
+    valid = (ranges >= max(scan.range_min, min_range_m)) & (ranges <= scan.range_max)
     shown = np.where(valid, ranges, np.nan)
     last = scan.angle_min + scan.angle_increment * max(ranges.size - 1, 0)
     return LaserScan(

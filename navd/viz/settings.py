@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
@@ -31,7 +32,7 @@ class VizSettings:
     map_period_s: float
     scan_period_s: float
     pose_period_s: float
-    log_level: str
+    log_level: Literal["debug", "info", "warning", "error"]
     footprint: Footprint
     lidar: LidarMount
     keep_out_zones: tuple[tuple[tuple[float, float], ...], ...]

@@ -1,7 +1,6 @@
 from __future__ import annotations
 
 import asyncio
-import gc
 import threading
 
 import pytest
@@ -124,31 +123,6 @@ async def test_wait_idle_returns_once_every_job_and_detached_setup_is_done(bus: 
     await asyncio.wait_for(waiter, 5.0)
     assert not pool.busy()
     pool.close()
-
-
-@pytest.mark.parametrize("freeze", [True, False])
-async def test_start_up_objects_are_frozen_once_the_last_set_up_ends(
-    bus: Bus, freeze: bool
-) -> None:
-    gc.unfreeze()
-    pool = WorkerPool(bus, threads=1, freeze_after_set_up=freeze)
-    gates = [threading.Event(), threading.Event()]
-    try:
-        for i, gate in enumerate(gates):
-            pool.run_detached(lambda g=gate: g.wait(5.0), name=f"set-up-{i}", module="slam")
-        gates[0].set()
-        await _until(lambda: pool._detached == 1)  # one set-up still runs
-        assert gc.get_freeze_count() == 0
-        made_late = [[] for _ in range(100)]  # objects made while a set-up still runs
-        gates[1].set()
-        await asyncio.wait_for(pool.wait_idle(), 5.0)
-        if freeze:
-            assert gc.get_freeze_count() > len(made_late)
-        else:
-            assert gc.get_freeze_count() == 0
-    finally:
-        gc.unfreeze()  # the test process goes on collecting as before
-        pool.close()
 
 
 async def test_a_detached_job_that_raises_is_reported_and_ends_its_busy_time(bus: Bus) -> None:

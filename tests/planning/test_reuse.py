@@ -4,11 +4,13 @@ a search whenever a change could make it wrong (checked against scipy's Dijkstra
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
 import pytest
 
+from navd.planning._astar_kernels import segment_max_cost
 from navd.planning._bucket_kernels import BUCKETS_PER_CELL
 from navd.planning.costmap import Costmap
 from navd.planning.errors import PlanningError
@@ -168,3 +170,43 @@ def test_a_reused_route_is_as_good_as_dijkstra_finds_after_random_changes() -> N
         assert best <= real + 1e-6
         assert real <= (1.0 + D) * best + D + 1e-6
     assert reused >= 20 and fresh >= 20, (reused, fresh)  # both ways were tried
+
+
+def test_a_reused_smoothed_route_never_crosses_a_blocked_cell() -> None:
+    """Smoothing on, the robot anywhere within the reuse offset of the route: whenever the
+    route is reused after random blockings, every segment of it, the step from the robot
+    included, is free on the new grid as the smoothing walks segments (corners included)."""
+    rng = np.random.default_rng(7)
+    search = SearchSettings(cost_weight=3.0, smooth=True)
+    reused = fresh = 0
+    for _ in range(150):
+        cost = rng.choice([0.0, 0.0, 0.0, 0.0, 0.5, np.inf], size=(30, 30)).astype(np.float32)
+        start, goal = (0, 0), (29, 29)
+        cost[start], cost[goal] = 0.0, 0.0
+        planner = GlobalPlanner()
+        try:
+            first = planner.plan(costmap_of(cost), center(start), center(goal), search)
+        except PlanningError:
+            continue
+        changed = cost.copy()
+        for _ in range(int(rng.integers(1, 25))):
+            r, c = rng.integers(0, 30, size=2)
+            changed[r, c] = np.inf
+        changed[start], changed[goal] = 0.0, 0.0
+        x, y = along(first.points_m, float(rng.uniform(0.0, 0.9)))
+        heading = rng.uniform(0.0, 2.0 * np.pi)
+        offset = float(rng.uniform(0.0, REUSE_OFFSET_M))
+        robot = (x + offset * np.cos(heading), y + offset * np.sin(heading))
+        try:
+            again = planner.plan(costmap_of(changed), robot, center(goal), search)
+        except PlanningError:
+            fresh += 1
+            continue
+        if not again.reused:
+            fresh += 1
+            continue
+        reused += 1
+        cells = costmap_of(changed).frame.cells_of(again.points_m)
+        for a, b in itertools.pairwise(cells):
+            assert np.isfinite(segment_max_cost(changed, a[0], a[1], b[0], b[1]))
+    assert reused >= 10 and fresh >= 10, (reused, fresh)

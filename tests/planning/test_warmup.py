@@ -1,6 +1,7 @@
 """The planning warm-up compiles what the planner then runs: in a fresh process, planning on
-an inflated room (the bucket search) and on open floor (jump point search) after it compiles
-nothing more, so a first goal never waits for the compiler."""
+an inflated room (the bucket search) and on open floor (jump point search), and replanning
+on each (the last route checked and continued), after it compiles nothing more, so a first
+goal never waits for the compiler."""
 
 from __future__ import annotations
 
@@ -12,12 +13,14 @@ SCRIPT = textwrap.dedent(
     """
     import numpy as np
     from navd.config import NavdConfig
-    from navd.planning import _astar_kernels, _bitgrid_kernels, _bucket_kernels
+    from navd.planning import (
+        _astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels
+    )
     from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
     from navd.planning.global_planner import GlobalPlanner, SearchSettings
     from navd.planning.warmup import warm_up
 
-    modules = (_astar_kernels, _bitgrid_kernels, _bucket_kernels)
+    modules = (_astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels)
     kernels = [
         getattr(m, n) for m in modules for n in dir(m) if hasattr(getattr(m, n), "signatures")
     ]
@@ -31,9 +34,13 @@ SCRIPT = textwrap.dedent(
     frame = GridFrame(0.05, 0.0, 0.0, 120, 90)
     for obstacles in (walls, np.zeros_like(walls)):
         costmap = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings)
-        GlobalPlanner().plan(costmap, (0.5, 0.5), (4.0, 5.5), search)
+        planner = GlobalPlanner()
+        planner.plan(costmap, (0.5, 0.5), (4.0, 5.5), search)
+        rebuilt = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings)
+        assert planner.plan(rebuilt, (0.55, 0.5), (4.0, 5.5), search).reused
     after = {f.__name__: len(f.signatures) for f in kernels}
-    for name in ("bucket_astar", "trace_steps", "jump_point_search", "trace_back", "shortcut"):
+    names = ("bucket_astar", "trace_steps", "jump_point_search", "trace_back", "shortcut")
+    for name in (*names, "path_changed", "distance_to"):
         assert warmed[name], (name, warmed)
     assert after == warmed, (warmed, after)
     print("ok")

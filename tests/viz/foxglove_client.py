@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import functools
 import json
 import struct
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ class Channel:
     schema_encoding: str
 
 
+@functools.cache
 def protobuf_class(schema_name: str, file_descriptor_set: bytes) -> type[Message]:
     """The protobuf message class of ``schema_name`` from a serialized FileDescriptorSet."""
     files = descriptor_pb2.FileDescriptorSet.FromString(file_descriptor_set)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import socket
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -14,7 +14,7 @@ import pytest
 from navd.config import parse_config
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import LaserScan, MapUpdate, SafetyState
-from navd.logs import get_logger
+from navd.logs import add_log_tap, get_logger, remove_log_tap
 from navd.viz import node as viz_node
 from navd.viz.node import VizNode
 from tests.viz.foxglove_client import FoxgloveClient
@@ -143,10 +143,36 @@ async def test_a_busy_port_leaves_the_daemon_running_without_the_view() -> None:
         holder.bind(("127.0.0.1", 0))
         holder.listen()
         busy = holder.getsockname()[1]
-        async with viewed_daemon(port=busy) as (daemon, node):
-            assert node.port is None  # no view, and said so in the log
-            assert daemon.manager.states["viz"].value == "active"
-            daemon.bus.publish(scan(daemon.clock.now()))  # handlers stay harmless
+        said: list[dict[str, Any]] = []
+
+        def keep(event: Mapping[str, Any]) -> None:
+            said.append(dict(event))  # later processors change the event they are given
+
+        add_log_tap(keep)
+        try:
+            async with viewed_daemon(port=busy) as (daemon, node):
+                assert node.port is None  # no view
+                assert daemon.manager.states["viz"].value == "active"
+                daemon.bus.publish(scan(daemon.clock.now()))  # handlers stay harmless
+        finally:
+            remove_log_tap(keep)
+    (line,) = [e for e in said if e["event"] == "viz_unavailable"]
+    assert line["port"] == busy and "viz.port" in line["fix"]
+
+
+@pytest.mark.parametrize(
+    ("period_s", "arrivals", "sent"),
+    [
+        (0.1, [0.0, 0.09, 0.19, 0.31, 0.39, 0.52], 6),  # a jittery 10 Hz stream keeps 10 Hz
+        (0.1, [0.0, 0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14, 0.16, 0.18, 0.20], 3),  # 50 Hz
+        (1.0, [0.0, 0.5, 0.9, 1.0, 2.5], 3),
+    ],
+)
+def test_the_throttle_keeps_a_streams_rate_under_its_cap(
+    period_s: float, arrivals: list[float], sent: int
+) -> None:
+    throttle = viz_node._Throttle()
+    assert sum(throttle.due(t, period_s) for t in arrivals) == sent
 
 
 async def test_log_lines_reach_the_view_with_their_level_and_fields() -> None:
