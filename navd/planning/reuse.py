@@ -117,9 +117,10 @@ def remembered_route(
     cells = _inside(frame, frame.cells_of(rest))
     if cells is None or path_changed(new, old, cells):
         return None  # the rest of the route (or the step onto it) got costlier, or blocked
-    if new is not old:
-        rows, cols = np.nonzero(new < old)
-        if rows.size and _could_shorten(
+    cheaper = None if new is old else new < old
+    if cheaper is not None and cheaper.any():
+        rows, cols = np.nonzero(cheaper)
+        if _could_shorten(
             frame, rows, cols, start_xy_m=start_xy_m, goal_xy_m=goal_xy_m, remaining=remaining
         ):
             return None
