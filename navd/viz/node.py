@@ -223,6 +223,8 @@ class VizNode(Module):
         if self.server is not None:
             self.server.stop()
             self.server = None
+
+    async def on_cleanup(self) -> None:
         for channel in self._channels:
             channel.close()
         self._latest.clear()  # the last map and route are not held past the view's life
