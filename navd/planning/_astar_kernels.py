@@ -366,9 +366,27 @@ def trace_back(parent: Int32Array, start: int, goal: int, cols: int) -> npt.NDAr
     return cells
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _seen(
+    new: npt.NDArray[np.float32], old: npt.NDArray[np.float32], compare: bool, r: int, c: int
+) -> float:
+    """A cell's cost in ``new``; with ``compare``, inf if it differs in ``old``."""
+    v = new[r, c]
+    return v if not compare or v == old[r, c] else math.inf
+
+
 @njit(cache=True, nogil=True)
-def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c1: int) -> float:
-    """Highest cell cost on the straight segment between two cell centres (inf if blocked).
+def _segment_worst(
+    new: npt.NDArray[np.float32],
+    old: npt.NDArray[np.float32],
+    compare: bool,
+    r0: int,
+    c0: int,
+    r1: int,
+    c1: int,
+) -> float:
+    """Highest ``_seen`` cost on the straight segment between two cell centres; inf as soon as
+    one is blocked (or changed).
 
     Walks every cell the segment passes through (Amanatides and Woo's traversal); where it
     passes exactly through a cell corner, both cells beside the corner count too.
@@ -385,12 +403,15 @@ def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c
     next_c = 0.5 * t_dc
     r = r0
     c = c0
-    worst = float(cost[r, c])
+    worst = float(_seen(new, old, compare, r, c))
     while r != r1 or c != c1:
         if abs(next_r - next_c) < 1e-12:
             # Through a corner: the two side cells touch the segment too.
-            for v in (cost[r + step_r, c], cost[r, c + step_c]):
-                worst = max(worst, v)
+            worst = max(
+                worst,
+                _seen(new, old, compare, r + step_r, c),
+                _seen(new, old, compare, r, c + step_c),
+            )
             r += step_r
             c += step_c
             next_r += t_dr
@@ -401,10 +422,17 @@ def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c
         else:
             c += step_c
             next_c += t_dc
-        worst = max(worst, cost[r, c])
+        worst = max(worst, _seen(new, old, compare, r, c))
         if not math.isfinite(worst):
             return math.inf
     return worst
+
+
+@njit(cache=True, nogil=True)
+def segment_max_cost(cost: npt.NDArray[np.float32], r0: int, c0: int, r1: int, c1: int) -> float:
+    """Highest cell cost on the straight segment between two cell centres (inf if blocked),
+    the cells walked as ``_segment_worst`` walks them."""
+    return _segment_worst(cost, cost, False, r0, c0, r1, c1)
 
 
 @njit(cache=True, nogil=True)
@@ -416,39 +444,9 @@ def segment_changed(
     r1: int,
     c1: int,
 ) -> bool:
-    """True if a cell the straight segment between two cell centres passes through (the same
-    cells as ``segment_max_cost``, corner side cells included) differs between ``old`` and
-    ``new``, or is blocked in ``new``."""
-    dr = r1 - r0
-    dc = c1 - c0
-    step_r = 1 if dr > 0 else -1
-    step_c = 1 if dc > 0 else -1
-    t_dr = 1.0 / abs(dr) if dr != 0 else math.inf
-    t_dc = 1.0 / abs(dc) if dc != 0 else math.inf
-    next_r = 0.5 * t_dr
-    next_c = 0.5 * t_dc
-    r = r0
-    c = c0
-    if new[r, c] != old[r, c] or not math.isfinite(new[r, c]):
-        return True
-    while r != r1 or c != c1:
-        if abs(next_r - next_c) < 1e-12:
-            for rr, cc in ((r + step_r, c), (r, c + step_c)):
-                if new[rr, cc] != old[rr, cc] or not math.isfinite(new[rr, cc]):
-                    return True
-            r += step_r
-            c += step_c
-            next_r += t_dr
-            next_c += t_dc
-        elif next_r < next_c:
-            r += step_r
-            next_r += t_dr
-        else:
-            c += step_c
-            next_c += t_dc
-        if new[r, c] != old[r, c] or not math.isfinite(new[r, c]):
-            return True
-    return False
+    """True if a cell the straight segment between two cell centres passes through (the cells
+    ``segment_max_cost`` walks) differs between ``old`` and ``new``, or is blocked in ``new``."""
+    return not math.isfinite(_segment_worst(new, old, True, r0, c0, r1, c1))
 
 
 @njit(cache=True, nogil=True)
@@ -459,9 +457,8 @@ def path_changed(
     for i in range(cells.shape[0] - 1):
         if segment_changed(new, old, cells[i, 0], cells[i, 1], cells[i + 1, 0], cells[i + 1, 1]):
             return True
-    return cells.shape[0] == 1 and (
-        new[cells[0, 0], cells[0, 1]] != old[cells[0, 0], cells[0, 1]]
-        or not math.isfinite(new[cells[0, 0], cells[0, 1]])
+    return cells.shape[0] == 1 and not math.isfinite(
+        _seen(new, old, True, cells[0, 0], cells[0, 1])
     )
 
 

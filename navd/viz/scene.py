@@ -13,6 +13,7 @@ Plain functions of plain values, so each can be tested without a server.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -179,18 +180,21 @@ def _line(
     )
 
 
-def route_scene(path: Path, *, offset_s: float = 0.0) -> SceneUpdate:
-    """The global route as a line in ``map`` (entity ``route``, replaced by the next)."""
+def _entity(frame_id: str, entity_id: str, stamp_s: float, **primitives: Any) -> SceneUpdate:
+    """A scene update of one entity, replacing the last with the same id."""
     return SceneUpdate(
         entities=[
             SceneEntity(
-                timestamp=as_timestamp(path.stamp + offset_s),
-                frame_id=MAP,
-                id="route",
-                lines=[_line(path.points_m, ROUTE_COLOR, LinePrimitiveLineType.LineStrip, 0.03)],
+                timestamp=as_timestamp(stamp_s), frame_id=frame_id, id=entity_id, **primitives
             )
         ]
     )
+
+
+def route_scene(path: Path, *, offset_s: float = 0.0) -> SceneUpdate:
+    """The global route as a line in ``map`` (entity ``route``, replaced by the next)."""
+    line = _line(path.points_m, ROUTE_COLOR, LinePrimitiveLineType.LineStrip, 0.03)
+    return _entity(MAP, "route", path.stamp + offset_s, lines=[line])
 
 
 def footprint_scene(footprint: Footprint, stamp_s: float) -> SceneUpdate:
@@ -202,61 +206,31 @@ def footprint_scene(footprint: Footprint, stamp_s: float) -> SceneUpdate:
     else:
         hx, hy = footprint.half_length_m, footprint.half_width_m
         outline = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    return SceneUpdate(
-        entities=[
-            SceneEntity(
-                timestamp=as_timestamp(stamp_s),
-                frame_id=BASE_LINK,
-                id="footprint",
-                frame_locked=True,
-                lines=[_line(outline, FOOTPRINT_COLOR, LinePrimitiveLineType.LineLoop, 0.02)],
-            )
-        ]
-    )
+    line = _line(outline, FOOTPRINT_COLOR, LinePrimitiveLineType.LineLoop, 0.02)
+    return _entity(BASE_LINK, "footprint", stamp_s, frame_locked=True, lines=[line])
 
 
 def goal_scene(goal: Goal, *, offset_s: float = 0.0) -> SceneUpdate:
     """The goal as an arrow in ``map`` (pointing along its yaw, or +x when any will do)."""
-    return SceneUpdate(
-        entities=[
-            SceneEntity(
-                timestamp=as_timestamp(goal.stamp + offset_s),
-                frame_id=MAP,
-                id="goal",
-                arrows=[
-                    ArrowPrimitive(
-                        pose=_pose(goal.x_m, goal.y_m, goal.yaw_rad or 0.0),
-                        shaft_length=0.3,
-                        shaft_diameter=0.05,
-                        head_length=0.15,
-                        head_diameter=0.12,
-                        color=GOAL_COLOR,
-                    )
-                ],
-            )
-        ]
+    arrow = ArrowPrimitive(
+        pose=_pose(goal.x_m, goal.y_m, goal.yaw_rad or 0.0),
+        shaft_length=0.3,
+        shaft_diameter=0.05,
+        head_length=0.15,
+        head_diameter=0.12,
+        color=GOAL_COLOR,
     )
+    return _entity(MAP, "goal", goal.stamp + offset_s, arrows=[arrow])
 
 
 def keep_out_scene(
     zones: tuple[tuple[tuple[float, float], ...], ...], stamp_s: float
 ) -> SceneUpdate:
     """The keep-out zones as closed outlines in ``map`` (one entity, all zones)."""
-    return SceneUpdate(
-        entities=[
-            SceneEntity(
-                timestamp=as_timestamp(stamp_s),
-                frame_id=MAP,
-                id="keep_out",
-                lines=[
-                    _line(
-                        np.asarray(zone, dtype=np.float64),
-                        KEEP_OUT_COLOR,
-                        LinePrimitiveLineType.LineLoop,
-                        0.04,
-                    )
-                    for zone in zones
-                ],
-            )
-        ]
-    )
+    lines = [
+        _line(
+            np.asarray(zone, dtype=np.float64), KEEP_OUT_COLOR, LinePrimitiveLineType.LineLoop, 0.04
+        )
+        for zone in zones
+    ]
+    return _entity(MAP, "keep_out", stamp_s, lines=lines)

@@ -15,6 +15,7 @@ from typing import Any
 
 import pytest
 
+from navd.config import NavdConfig
 from navd.sim.session import free_port
 
 REPO = Path(__file__).resolve().parents[2]
@@ -108,11 +109,13 @@ def default_config(folder: Path) -> Path:
     """The shipped config/navd.toml with only the ports (TCP and live view) changed to free
     ones, so the test runs on the defaults and never meets a navd running on the defaults."""
     text = (REPO / "config" / "navd.toml").read_text(encoding="utf-8")
-    assert text.count("\nport = 7420\n") == 1, "config/navd.toml lost its tcp port line"
-    assert text.count("\nport = 8765\n") == 1, "config/navd.toml lost its live view port line"
-    text = text.replace("\nport = 7420\n", f"\nport = {free_port()}\n")
+    defaults = NavdConfig()
+    for what, port in (("tcp", defaults.tcp.port), ("live view", defaults.viz.port)):
+        line = f"\nport = {port}\n"
+        assert text.count(line) == 1, f"config/navd.toml lost its {what} port line"
+        text = text.replace(line, f"\nport = {free_port()}\n")
     path = folder / "navd.toml"
-    path.write_text(text.replace("\nport = 8765\n", f"\nport = {free_port()}\n"))
+    path.write_text(text)
     return path
 
 

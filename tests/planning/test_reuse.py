@@ -14,7 +14,12 @@ from navd.planning._astar_kernels import segment_max_cost
 from navd.planning._bucket_kernels import BUCKETS_PER_CELL
 from navd.planning.costmap import Costmap
 from navd.planning.errors import PlanningError
-from navd.planning.global_planner import REUSE_OFFSET_M, GlobalPlanner, SearchSettings
+from navd.planning.global_planner import (
+    REUSE_OFFSET_M,
+    GlobalPlanner,
+    PlannedPath,
+    SearchSettings,
+)
 from navd.planning.reuse import route_costs
 from tests.planning.test_global_planner import RES, costmap_of, dijkstra_cost
 
@@ -124,6 +129,22 @@ def test_off_the_route_or_another_goal_means_a_new_search(
     assert not again.reused and again.cells_expanded > 0
 
 
+def planned_on_random_grid(
+    rng: np.random.Generator, side: int, costs: list[float], search: SearchSettings
+) -> tuple[GlobalPlanner, np.ndarray, PlannedPath] | None:
+    """A side x side grid of cells drawn from ``costs`` (corners free), and a planner that
+    has just planned corner to corner on it; None when no route crosses it."""
+    cost = rng.choice(costs, size=(side, side)).astype(np.float32)
+    start, goal = (0, 0), (side - 1, side - 1)
+    cost[start], cost[goal] = 0.0, 0.0
+    planner = GlobalPlanner()
+    try:
+        first = planner.plan(costmap_of(cost), center(start), center(goal), search)
+    except PlanningError:
+        return None
+    return planner, cost, first
+
+
 def test_a_reused_route_is_as_good_as_dijkstra_finds_after_random_changes() -> None:
     """Seeded random grids; after each plan some cells get costlier and some cheaper, the
     robot stands on a cell of the route, and whenever the route is reused it must cost what
@@ -132,14 +153,11 @@ def test_a_reused_route_is_as_good_as_dijkstra_finds_after_random_changes() -> N
     search = SearchSettings(cost_weight=3.0, smooth=False)
     reused = fresh = 0
     for _ in range(100):
-        cost = rng.choice([0.0, 0.0, 0.0, 0.3, 0.8, np.inf], size=(24, 24)).astype(np.float32)
-        start, goal = (0, 0), (23, 23)
-        cost[start], cost[goal] = 0.0, 0.0
-        planner = GlobalPlanner()
-        try:
-            first = planner.plan(costmap_of(cost), center(start), center(goal), search)
-        except PlanningError:  # no route on this grid: draw another
+        planned = planned_on_random_grid(rng, 24, [0.0, 0.0, 0.0, 0.3, 0.8, np.inf], search)
+        if planned is None:  # no route on this grid: draw another
             continue
+        planner, cost, first = planned
+        start, goal = (0, 0), (23, 23)
         changed = cost.copy()
         for _ in range(int(rng.integers(0, 12))):
             r, c = rng.integers(0, 24, size=2)
@@ -180,14 +198,11 @@ def test_a_reused_smoothed_route_never_crosses_a_blocked_cell() -> None:
     search = SearchSettings(cost_weight=3.0, smooth=True)
     reused = fresh = 0
     for _ in range(150):
-        cost = rng.choice([0.0, 0.0, 0.0, 0.0, 0.5, np.inf], size=(30, 30)).astype(np.float32)
-        start, goal = (0, 0), (29, 29)
-        cost[start], cost[goal] = 0.0, 0.0
-        planner = GlobalPlanner()
-        try:
-            first = planner.plan(costmap_of(cost), center(start), center(goal), search)
-        except PlanningError:
+        planned = planned_on_random_grid(rng, 30, [0.0, 0.0, 0.0, 0.0, 0.5, np.inf], search)
+        if planned is None:
             continue
+        planner, cost, first = planned
+        start, goal = (0, 0), (29, 29)
         changed = cost.copy()
         for _ in range(int(rng.integers(1, 25))):
             r, c = rng.integers(0, 30, size=2)
