@@ -12,14 +12,14 @@ import sys
 from collections.abc import Sequence
 
 from navd import __version__
-from navd.cli import bench, config, control, run, sim, slam, viz
+from navd.cli import bench, config, control, run, sim, slam, teleop, viz
 from navd.cli.common import EXIT_USAGE
 from navd.logs import configure_logging
 
 __all__ = ["main"]
 
 # The command groups, in the order `navd --help` lists them.
-GROUPS = (run, config, control, bench, slam, sim, viz)
+GROUPS = (run, config, control, teleop, bench, slam, sim, viz)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

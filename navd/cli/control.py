@@ -138,7 +138,8 @@ def format_status(frame: StatusFrame) -> str:
     lag = diag.loop_lag_p99_ms
     safety = "; ".join(diag.safety) or "ok"
     lag_text = f"{lag:.2f} ms" if lag is not None else "-"
+    mode = f"manual: {frame.operator}" if frame.operator else frame.mode
     return (
-        f"{frame.robot} [{frame.mode}] {where} | {moving} | {target} | devices: {devices} | "
+        f"{frame.robot} [{mode}] {where} | {moving} | {target} | devices: {devices} | "
         f"lag p99 {lag_text} | safety: {safety}"
     )

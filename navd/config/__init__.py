@@ -7,6 +7,7 @@ from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
 from navd.config.planning import PlanningConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
+from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "SafetyConfig",
     "SlamConfig",
     "TcpConfig",
+    "TeleopConfig",
     "VizConfig",
     "WorldConfig",
     "apply_changes",

@@ -54,6 +54,7 @@ PRIVILEGED: dict[str, frozenset[str] | None] = {
     "safety": None,
     "chassis": None,
     "tcp": None,
+    "teleop": None,
     "lifecycle": None,
     "lidar": None,
     "robot": frozenset(

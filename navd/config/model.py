@@ -17,6 +17,7 @@ from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConf
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.planning import PlanningConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
+from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
 
 __all__ = ["NavdConfig"]
@@ -34,6 +35,7 @@ class NavdConfig(BaseModel):
     chassis: ChassisConfig = Field(default_factory=ChassisConfig)
     tcp: TcpConfig = Field(default_factory=TcpConfig)
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
+    teleop: TeleopConfig = Field(default_factory=TeleopConfig)
     slam: SlamConfig = Field(default_factory=SlamConfig)
     estimation: EstimationConfig = Field(default_factory=EstimationConfig)
     world: WorldConfig = Field(default_factory=WorldConfig)

@@ -232,6 +232,18 @@ class Navigator:
             self.state = GoalState.FAILED
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
+    def resume(self) -> None:
+        """Take up the goal again after someone else drove (an operator by hand): the robot
+        is somewhere else and stood still, so the route is planned afresh, the stuck watch
+        and the no-route clock start over, and the ramp starts from zero."""
+        if self.state is not GoalState.ACTIVE:
+            return
+        self._command = (0.0, 0.0)
+        self._moving_since = None
+        self._failing_since = None
+        self._plan_reason = "resumed after manual driving"
+        self.stuck.reset()
+
     def abort(self, reason: str) -> None:
         """Fail the goal now, for ``reason`` (a goal refused, or planning that broke)."""
         if self.state is not GoalState.ACTIVE:

@@ -11,6 +11,12 @@ cheap work (A* runs outside it) and never taken on the event loop while the daem
 no snapshot of a large map can stall the loop. New settings reach the navigator under the
 same lock, in a worker.
 
+Operators drive by hand with ManualCommand: each is capped to the teleop limits and passed
+to the safety gate as a VelocityCommand of its own source (``teleop:OPERATOR``), stamped
+when it arrived, so the chassis stops on its own once they stop coming. While an operator
+drives the navigator is not stepped and its goal shows as paused; ``teleop.resume_after_s``
+after the last command the goal resumes, planned afresh. DriveMode says who drives.
+
 A goal farther than ``planning.max_goal_distance_m`` from the robot fails at once with the
 reason; one that needs a larger grid than ``planning.max_plan_cells`` fails when it is
 planned; planning that breaks in any other way fails the goal too, never the module.
@@ -36,9 +42,11 @@ from navd.lifecycle.messages import (
     DeviceKind,
     DeviceLost,
     DriveCommand,
+    DriveMode,
     Goal,
     GoalStatus,
     LaserScan,
+    ManualCommand,
     MapUpdate,
     Message,
     Path,
@@ -49,6 +57,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.errors import PlanningError
 from navd.planning.goal import GoalState, NavGoal, Step
+from navd.planning.manual import ManualDriving
 from navd.planning.navigator import Navigator
 from navd.planning.settings import PlannerSettings, goal_too_far
 from navd.planning.warmup import warm_up
@@ -58,6 +67,7 @@ __all__ = ["PlannerNode"]
 POSE_TIMEOUT_S = 0.5
 STATUS_PERIOD_S = 0.5
 SOURCE = "planner"
+PAUSED = "paused"  # GoalStatus.state of a goal paused while an operator drives
 
 
 class PlannerNode(Module):
@@ -79,6 +89,8 @@ class PlannerNode(Module):
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
         self._broken: Exception | None = None  # a search that broke, not yet reported
+        self.manual = ManualDriving()  # event loop only
+        self._teleop_refused: set[str] = set()  # operators told teleop is off (once each)
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -86,6 +98,7 @@ class PlannerNode(Module):
         self.nav = Navigator(self.settings.value.navigator)
         ctx.subscribe(Goal, self._on_goal)
         ctx.subscribe(CancelGoal, self._on_cancel)
+        ctx.subscribe(ManualCommand, self._on_manual)
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
@@ -139,9 +152,73 @@ class PlannerNode(Module):
             self.nav.state is GoalState.ACTIVE
             and goal is not None
             and cancel.goal_id in (None, goal.goal_id)
+            and not self.manual.active  # an operator's driving is not the goal's to stop
         ):
             self.ctx.publish(self._stop_command())  # stopping never waits for a worker
         self._post(cancel)
+
+    def _on_manual(self, cmd: ManualCommand) -> None:
+        settings = self.settings.value.manual
+        if not settings.enabled:
+            if cmd.operator not in self._teleop_refused:
+                self._teleop_refused.add(cmd.operator)
+                self.ctx.log.warning(
+                    "teleop_refused",
+                    operator=cmd.operator,
+                    reason="teleop.enabled is false; set it true to drive by hand",
+                )
+            return
+        now = self.ctx.clock.now()
+        linear, angular, started = self.manual.command(
+            settings, cmd.operator, cmd.linear_mps, cmd.angular_radps, now
+        )
+        if started:
+            goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
+            paused = "" if goal is None else goal.goal_id
+            self.ctx.log.info("manual_drive", operator=cmd.operator, paused_goal=paused or None)
+            self.ctx.publish(
+                DriveMode(
+                    stamp=now,
+                    received=now,
+                    mode="manual",
+                    operator=cmd.operator,
+                    paused_goal=paused,
+                )
+            )
+            if goal is not None:
+                why = f"an operator ({cmd.operator}) drives by hand"
+                self.ctx.publish(self._status(goal.goal_id, GoalState.ACTIVE, why, shown=PAUSED))
+        # Stamped when it arrived: the chassis stops once the operator's commands stop coming.
+        self.ctx.publish(
+            VelocityCommand(
+                stamp=cmd.received,
+                received=now,
+                linear_mps=linear,
+                angular_radps=angular,
+                source=f"teleop:{cmd.operator}",
+            )
+        )
+
+    def _end_manual(self, now: float) -> None:
+        """Event loop: the operator has been quiet for teleop.resume_after_s; the navigator
+        takes the goal up again (in a worker, under its lock)."""
+        operator = self.manual.end()
+        goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
+        self.ctx.log.info(
+            "auto_drive", after=operator, resumed_goal=None if goal is None else goal.goal_id
+        )
+        self.ctx.publish(DriveMode(stamp=now, received=now, mode="auto"))
+        if goal is None:
+            return
+
+        def job() -> tuple[Message, ...]:
+            with self._lock:
+                if self.nav.goal is not goal or self.nav.state is not GoalState.ACTIVE:
+                    return ()
+                self.nav.resume()
+                return (self._status(goal.goal_id, GoalState.ACTIVE),)
+
+        self.ctx.submit("planning_goals", job)
 
     def _post(self, request: Goal | CancelGoal) -> None:
         with self._flags:
@@ -210,7 +287,12 @@ class PlannerNode(Module):
             why = f"replaced by {goal.goal_id!r}"
             messages.append(self._status(previous.goal_id, GoalState.CANCELED, why))
         self.ctx.log.info("goal", goal_id=goal.goal_id, x=goal.x_m, y=goal.y_m, yaw=goal.yaw_rad)
-        messages.append(self._status(goal.goal_id, GoalState.ACTIVE))
+        operator = self.manual.operator  # a glance from the worker: the loop owns it
+        if operator:
+            why = f"an operator ({operator}) drives by hand"
+            messages.append(self._status(goal.goal_id, GoalState.ACTIVE, why, shown=PAUSED))
+        else:
+            messages.append(self._status(goal.goal_id, GoalState.ACTIVE))
         return messages
 
     def _cancel(self, cancel: CancelGoal) -> list[Message]:
@@ -221,10 +303,10 @@ class PlannerNode(Module):
         if active is None:
             return []
         self.ctx.log.info("goal_canceled", goal_id=active.goal_id)
-        return [
-            self._stop_command(),
-            self._status(active.goal_id, GoalState.CANCELED, "canceled by a client"),
-        ]
+        canceled = self._status(active.goal_id, GoalState.CANCELED, "canceled by a client")
+        if self.manual.active:
+            return [canceled]  # an operator's driving is not the goal's to stop
+        return [self._stop_command(), canceled]
 
     # --- control (event loop, then workers) ------------------------------------------------
 
@@ -233,6 +315,10 @@ class PlannerNode(Module):
         broken, self._broken = self._broken, None
         if broken is not None:  # supervision hears of a search that broke (it failed its goal)
             self.ctx.bus.report_failure(self.name, {"job": "global_plan"}, broken)
+        if self.manual.over(now):
+            self._end_manual(now)
+        if self.manual.active:
+            return  # an operator drives: the navigator waits
         if self.nav.state is not GoalState.ACTIVE:  # a glance: the step decides under the lock
             return
         pose = self._pose
@@ -387,14 +473,16 @@ class PlannerNode(Module):
             stamp=now, received=now, linear_mps=0.0, angular_radps=0.0, source=SOURCE
         )
 
-    def _status(self, goal_id: str, state: GoalState, reason: str = "") -> GoalStatus:
+    def _status(
+        self, goal_id: str, state: GoalState, reason: str = "", *, shown: str | None = None
+    ) -> GoalStatus:
         """The status of the goal the navigator holds (remembered, so a step does not repeat
-        it)."""
-        message = self._goal_status(goal_id, state, reason)
+        it); ``shown`` replaces the state's name (an active goal shown as paused)."""
+        message = self._goal_status(goal_id, shown or state, reason)
         self._last_state = state
         self._status_at = message.stamp
         return message
 
-    def _goal_status(self, goal_id: str, state: GoalState, reason: str = "") -> GoalStatus:
+    def _goal_status(self, goal_id: str, state: str, reason: str = "") -> GoalStatus:
         now = self.ctx.clock.now()
         return GoalStatus(stamp=now, received=now, goal_id=goal_id, state=str(state), reason=reason)

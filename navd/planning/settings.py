@@ -12,6 +12,7 @@ from navd.planning.costmap import CostmapSettings
 from navd.planning.dwa import DwaSettings
 from navd.planning.global_planner import SearchSettings
 from navd.planning.layers import LayerSettings
+from navd.planning.manual import ManualSettings
 from navd.planning.margins import keep_clear_m
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckSettings
@@ -105,6 +106,7 @@ class PlannerSettings:
         mount: where the lidar sits, for the scan obstacles.
         obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
         reaction_timeout_s: [s] the chassis stops itself on a command older than this.
+        manual: what operators driving by hand may do.
     """
 
     navigator: NavigatorSettings
@@ -112,16 +114,18 @@ class PlannerSettings:
     mount: LidarMount
     obstacle_range_m: float
     reaction_timeout_s: float
+    manual: ManualSettings
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> PlannerSettings:
-        """The settings the robot, safety, planning and lidar sections describe."""
+        """The settings the robot, safety, planning, lidar and teleop sections describe."""
         return cls(
             navigator=NavigatorSettings.from_config(config),
             control_period_s=1.0 / config.planning.control_rate_hz,
             mount=LidarMount.of(config.lidar),
             obstacle_range_m=config.planning.obstacle_range_m,
             reaction_timeout_s=config.safety.reaction_timeout_s,
+            manual=ManualSettings.from_config(config),
         )
 
 

@@ -19,6 +19,7 @@ from navd.drivers.protocol.frames import (
     SaveMapFrame,
     ScanFrame,
     SensorFrame,
+    TeleopFrame,
 )
 from navd.lifecycle.messages import (
     CancelGoal,
@@ -30,6 +31,7 @@ from navd.lifecycle.messages import (
     Imu,
     InitialPose,
     LaserScan,
+    ManualCommand,
     Message,
     SaveMapRequest,
     Vector3,
@@ -134,7 +136,7 @@ def control_message(
     """A control request that becomes a bus message.
 
     Args:
-        frame: a goal, cancel, config, initial pose or save-map request (the session's own
+        frame: a goal, cancel, config, initial pose, save-map or teleop request (the session's own
             requests, subscribe, unsubscribe and ping, are not messages).
         client_id: the control client's device id (names its goals and requests).
         now: [s] daemon time.
@@ -187,4 +189,12 @@ def control_message(
         )
     if isinstance(frame, SaveMapFrame):
         return SaveMapRequest(stamp=now, received=now, name=frame.name)
+    if isinstance(frame, TeleopFrame):
+        return ManualCommand(
+            stamp=now,
+            received=now,
+            linear_mps=frame.linear_x,
+            angular_radps=frame.angular_z,
+            operator=client_id,
+        )
     raise TypeError(f"{type(frame).__name__} is a session request, not a bus message")

@@ -42,6 +42,7 @@ __all__ = [
     "ScanFrame",
     "SensorFrame",
     "SubscribeFrame",
+    "TeleopFrame",
     "UnsubscribeFrame",
 ]
 
@@ -55,6 +56,10 @@ MAX_COORDINATE_M = 1e6
 MAX_YAW_RAD = 4 * math.pi
 MAX_STD_XY_M = 1e3
 MAX_STD_YAW_RAD = 10.0
+# Bounds of an operator's command: beyond any small robot; teleop's and the robot's limits
+# cap what is driven.
+MAX_TELEOP_MPS = 10.0
+MAX_TELEOP_RADPS = 20.0
 Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M)]
 Yaw = Annotated[float, Field(ge=-MAX_YAW_RAD, le=MAX_YAW_RAD)]
 Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control", "clock"]
@@ -248,6 +253,16 @@ class SaveMapFrame(Frame):
     name: str = Field("", pattern=r"^([A-Za-z0-9_][A-Za-z0-9_.\-]{0,63})?$")
 
 
+class TeleopFrame(Frame):
+    """Drive by hand (geometry_msgs/Twist's linear.x and angular.z): sent again at least
+    every ``safety.reaction_timeout_s`` while the operator drives (10 Hz is usual); the
+    robot stops when they stop coming. Not acknowledged (errors are answered)."""
+
+    type: Literal["teleop"] = "teleop"
+    linear_x: float = Field(ge=-MAX_TELEOP_MPS, le=MAX_TELEOP_MPS)
+    angular_z: float = Field(ge=-MAX_TELEOP_RADPS, le=MAX_TELEOP_RADPS)
+
+
 class SubscribeFrame(Frame):
     """Receive status frames at ``rate_hz``."""
 
@@ -285,6 +300,7 @@ ControlRequest = (
     | ConfigFrame
     | InitialPoseFrame
     | SaveMapFrame
+    | TeleopFrame
     | SubscribeFrame
     | UnsubscribeFrame
     | PingFrame

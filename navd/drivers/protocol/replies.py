@@ -254,7 +254,8 @@ class StatusFrame(ReplyPart):
     type: Literal["status"] = "status"
     stamp: float
     robot: str
-    mode: Literal["idle", "navigating", "stopped"]
+    mode: Literal["idle", "navigating", "manual", "stopped"]
+    operator: str | None = None  # who drives by hand, in manual mode
     pose: PoseInfo | None
     velocity: VelocityInfo | None
     goal: GoalInfo | None

@@ -37,6 +37,7 @@ from navd.lifecycle.messages import (
     Goal,
     GoalStatus,
     InitialPose,
+    ManualCommand,
     MapSaved,
     MapUpdate,
     Path,
@@ -121,7 +122,9 @@ class ControlRole:
             )
             if isinstance(message, InitialPose):
                 self._check_on_map(message)
-            if isinstance(message, ConfigChange):
+            if isinstance(message, ManualCommand):
+                pass  # a stream, like a sensor's: not acknowledged, errors are answered
+            elif isinstance(message, ConfigChange):
                 self._config_requests[message.request_id] = session
                 conn.send(Ack(request=frame.type, request_id=message.request_id))
             else:

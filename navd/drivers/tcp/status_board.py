@@ -1,8 +1,8 @@
 """What a control client sees in a ``status`` frame: the latest of everything, kept cheaply.
 
 The board subscribes to the messages that make up the status (pose, wheel command, goal
-progress, daemon health, safety holds, config changes), keeps only the latest of each, and
-builds the frame on demand at the subscriber's rate.
+progress, who drives, daemon health, safety holds, config changes), keeps only the latest of
+each, and builds the frame on demand at the subscriber's rate.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from navd.lifecycle.messages import (
     ConfigRejected,
     DaemonStatus,
     DriveCommand,
+    DriveMode,
     Goal,
     GoalStatus,
     LocalizationState,
@@ -49,6 +50,7 @@ class StatusBoard:
         self.goal: GoalStatus | None = None
         self.daemon: DaemonStatus | None = None
         self.safety: tuple[str, ...] = ()
+        self.operator = ""  # who drives by hand ("" while the navigator does)
         self.config = ConfigNews(revision=0)
 
     def subscribe(self, ctx: ModuleContext) -> None:
@@ -58,6 +60,7 @@ class StatusBoard:
         ctx.subscribe(DriveCommand, self._drive)
         ctx.subscribe(DaemonStatus, self._daemon)
         ctx.subscribe(SafetyState, self._safety)
+        ctx.subscribe(DriveMode, self._drive_mode)
         ctx.subscribe(Goal, self._goal)
         ctx.subscribe(GoalStatus, self._goal_status)
         ctx.subscribe(ConfigApplied, self._config_applied)
@@ -69,12 +72,21 @@ class StatusBoard:
         # navigating only while the planner reports the goal active: an accepted goal that
         # nothing pursues yet is shown under "goal" as pending, not as motion
         goal_active = self.goal is not None and self.goal.state == "active"
-        mode = "stopped" if self.safety else "navigating" if goal_active else "idle"
+        mode = (
+            "stopped"
+            if self.safety
+            else "manual"
+            if self.operator
+            else "navigating"
+            if goal_active
+            else "idle"
+        )
         pose, drive, daemon = self.pose, self.drive, self.daemon
         return StatusFrame(
             stamp=now,
             robot=robot,
             mode=mode,
+            operator=self.operator or None,
             pose=None
             if pose is None
             else PoseInfo(
@@ -114,6 +126,9 @@ class StatusBoard:
 
     def _drive(self, drive: DriveCommand) -> None:
         self.drive = drive
+
+    def _drive_mode(self, mode: DriveMode) -> None:
+        self.operator = mode.operator if mode.mode == "manual" else ""
 
     def _daemon(self, status: DaemonStatus) -> None:
         self.daemon = status

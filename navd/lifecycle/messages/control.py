@@ -200,6 +200,44 @@ class VelocityCommand(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class ManualCommand(Message):
+    """A body velocity an operator asks for by hand (teleoperation). The planner forwards it
+    to the safety gate as a VelocityCommand and pauses its goal meanwhile; the operator must
+    keep sending (the deadman): the chassis stops ``safety.reaction_timeout_s`` after the
+    last one.
+
+    Attributes:
+        linear_mps: [m/s] forward velocity.
+        angular_radps: [rad/s] yaw rate, counter-clockwise positive.
+        operator: who drives (a control client's id, ``"viewer-3"``...).
+    """
+
+    linear_mps: float
+    angular_radps: float
+    operator: str
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        require_finite("linear_mps", self.linear_mps)
+        require_finite("angular_radps", self.angular_radps)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class DriveMode(Message):
+    """Who drives: the navigator ("auto") or an operator by hand ("manual").
+
+    Attributes:
+        mode: "auto" or "manual".
+        operator: the operator driving ("" in auto).
+        paused_goal: the goal paused while the operator drives ("" when none).
+    """
+
+    mode: str
+    operator: str = ""
+    paused_goal: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class DriveCommand(Message):
     """The body velocity the chassis must execute: the safety gate's output, nothing else's.
 
