@@ -148,7 +148,11 @@ def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
             f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
             f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
             '[logging]\nlevel = "warning"\n'
-            + ("[viz]\nenabled = false\n" if view == "off" else f"[viz]\nport = {view_port}\n")
+            + (
+                "[viz]\nenabled = false\n"
+                if view == "off"
+                else f"[viz]\nport = {view_port}\npage_port = 0\n"
+            )
         )
         command = [sys.executable, "-m", module]
         launched = time.monotonic()

@@ -4,6 +4,7 @@ changed by control clients only where the config grants it."""
 
 from __future__ import annotations
 
+import ipaddress
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict
@@ -17,6 +18,7 @@ __all__ = [
     "Polygons",
     "Section",
     "Table",
+    "is_loopback",
     "is_secret",
     "privileged",
     "restart",
@@ -93,6 +95,16 @@ def privileged(section: str, field: str) -> bool:
     """True if ``section.field`` is a privileged key (see PRIVILEGED)."""
     keys = PRIVILEGED.get(section, frozenset())
     return keys is None or field in keys
+
+
+def is_loopback(host: str) -> bool:
+    """True if ``host`` (an address or ``localhost``) reaches only this machine."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def is_secret(model: type[BaseModel], field: str) -> bool:

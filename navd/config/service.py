@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import ipaddress
 from typing import Literal
 
 from pydantic import Field, model_validator
 
-from navd.config.fields import Section, restart
+from navd.config.fields import Section, is_loopback, restart
 
 __all__ = ["LifecycleConfig", "LoggingConfig", "TcpConfig"]
 
@@ -186,18 +185,9 @@ class TcpConfig(Section):
 
     @model_validator(mode="after")
     def _token_beyond_loopback(self) -> TcpConfig:
-        if self.token is None and not _is_loopback(self.host):
+        if self.token is None and not is_loopback(self.host):
             raise ValueError(
                 f"tcp.host {self.host!r} listens beyond loopback, so tcp.token must be set "
                 f"(at least 16 characters) for clients to authenticate"
             )
         return self
-
-
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False

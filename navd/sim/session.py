@@ -108,7 +108,8 @@ async def session(
         {
             "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
             "tcp": {"port": port},
-            "viz": {"port": 0},  # a free port for each simulated robot's live view
+            # free ports for each simulated robot's live view and operator page
+            "viz": {"port": 0, "page_port": 0},
             "slam": {"map_dir": str(maps)},
             "lifecycle": {"event_loop": "asyncio"},
             "logging": {"format": "json"},

@@ -24,12 +24,13 @@ from __future__ import annotations
 
 import asyncio
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import foxglove
-from foxglove import Channel, Context
+from foxglove import Channel, Context, StatusLevel
 from foxglove.channels import (
     FrameTransformsChannel,
     GridChannel,
@@ -39,11 +40,20 @@ from foxglove.channels import (
     SceneUpdateChannel,
 )
 from foxglove.messages import Log, LogLevel
-from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketServer
+from foxglove.websocket import (
+    Capability,
+    ChannelView,
+    Client,
+    ClientChannel,
+    ServerListener,
+    WebSocketServer,
+)
 
 from navd import __version__
+from navd.drivers.protocol.convert import control_message
 from navd.lifecycle.messages import (
     DaemonStatus,
+    DriveMode,
     Goal,
     GoalStatus,
     LaserScan,
@@ -56,6 +66,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
 from navd.viz import scene
+from navd.viz.commands import CommandRefusedError, read_command
 from navd.viz.settings import VizSettings
 
 __all__ = ["VizNode"]
@@ -70,6 +81,12 @@ _LOG_LEVELS = {
 _RANK = {"debug": 0, "info": 1, "warning": 2, "error": 3, "critical": 4}
 # Fields of a log line that are not its details.
 _LOG_META = frozenset({"event", "level", "timestamp", "component"})
+
+
+# Viewer commands waiting for the event loop at most; more are dropped (a flooding viewer).
+MAX_PENDING_COMMANDS = 64
+# A viewer's refused commands are logged at most once per this many seconds each [s].
+REFUSAL_LOG_PERIOD_S = 5.0
 
 
 # A message may come this share of a period early and still be sent: a 10 Hz stream with
@@ -93,15 +110,47 @@ class _Throttle:
 
 
 class _Listener(ServerListener):
-    """Hears the server's subscriptions (in the server's thread) and hands each topic to
-    ``on_subscribe`` on the event loop."""
+    """Hears the server (in its threads): each subscription's topic goes to ``on_subscribe``
+    and each viewer's command, with its topic, to ``on_command``, on the event loop. At most
+    MAX_PENDING_COMMANDS wait there at once; a viewer flooding the server loses the rest
+    (counted), never the loop's time."""
 
-    def __init__(self, loop: asyncio.AbstractEventLoop, on_subscribe: Callable[[str], None]):
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        on_subscribe: Callable[[str], None],
+        on_command: Callable[[int, str, bytes], None],
+    ):
         self._loop = loop
         self._on_subscribe = on_subscribe
+        self._on_command = on_command
+        self._topics: dict[tuple[int, int], str] = {}  # (client, its channel) -> topic
+        self._lock = threading.Lock()
+        self.pending = 0
+        self.dropped = 0
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self._loop.call_soon_threadsafe(self._on_subscribe, channel.topic)
+
+    def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
+        self._topics[(client.id, channel.id)] = channel.topic
+
+    def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
+        self._topics.pop((client.id, client_channel_id), None)
+
+    def on_message_data(self, client: Client, client_channel_id: int, data: bytes) -> None:
+        topic = self._topics.get((client.id, client_channel_id), "")
+        with self._lock:
+            if self.pending >= MAX_PENDING_COMMANDS:
+                self.dropped += 1
+                return
+            self.pending += 1
+        self._loop.call_soon_threadsafe(self._command, client.id, topic, bytes(data))
+
+    def _command(self, client_id: int, topic: str, data: bytes) -> None:
+        with self._lock:
+            self.pending -= 1
+        self._on_command(client_id, topic, data)
 
 
 def _finite(value: float) -> float | None:
@@ -119,6 +168,10 @@ class VizNode(Module):
         self._latest: dict[str, Callable[[], None]] = {}  # topic -> send its latest state
         self._status: dict[str, Any] = {}
         self._offset_s = 0.0  # [s] wall clock minus daemon clock, fixed at activation
+        self._listener: _Listener | None = None
+        self._commands_taken = 0
+        self._refused_logged: dict[int, float] = {}  # viewer -> when its last refusal was logged
+        self.refused = 0  # commands refused, for the status and tests
 
     @property
     def port(self) -> int | None:
@@ -142,6 +195,7 @@ class VizNode(Module):
         ctx.subscribe(DaemonStatus, self._on_daemon_status)
         ctx.subscribe(LocalizationState, self._on_localization)
         ctx.subscribe(SafetyState, self._on_safety)
+        ctx.subscribe(DriveMode, self._on_drive_mode)
         # The channels exist from here on, so a message before activation finds them (it is
         # kept, and sent to whoever subscribes once the server runs).
         context = Context()
@@ -180,7 +234,8 @@ class VizNode(Module):
         self._offset_s = time.time() - now
         self._remember("/footprint", lambda: self._send_footprint(now))
         self._remember("/keep_out", lambda: self._send_keep_out(now))
-        listener = _Listener(asyncio.get_running_loop(), self._resend)
+        listener = _Listener(asyncio.get_running_loop(), self._resend, self._on_command)
+        self._listener = listener
         try:
             self.server = foxglove.start_server(
                 name=f"navd {__version__} ({s.robot_name})",
@@ -188,6 +243,8 @@ class VizNode(Module):
                 port=s.port,
                 context=context,
                 server_listener=listener,
+                capabilities=[Capability.ClientPublish],
+                supported_encodings=["json"],
             )
         except Exception as err:  # the SDK reports a busy port or a bad address as RuntimeError
             self.ctx.log.error(
@@ -345,6 +402,10 @@ class VizNode(Module):
         }
         self._send_status()
 
+    def _on_drive_mode(self, mode: DriveMode) -> None:
+        self._status["drive"] = {"mode": mode.mode, "operator": mode.operator}
+        self._send_status()
+
     def _on_safety(self, state: SafetyState) -> None:
         self._status["safety"] = {"stopped": bool(state.reasons), "reasons": list(state.reasons)}
         self._send_status()
@@ -356,6 +417,42 @@ class VizNode(Module):
     def _send_json(self, channel: Channel, message: Mapping[str, Any]) -> None:
         if self.server is not None and channel.has_sinks():
             channel.log(dict(message), log_time=self._log_time())
+
+    # --- commands from viewers (event loop) ----------------------------------------------
+
+    def _on_command(self, client_id: int, topic: str, data: bytes) -> None:
+        """A viewer published ``data`` on ``topic``: the same request a control client could
+        send, published on the bus (and so through the safety gate), or refused with why."""
+        s = self.settings.value
+        operator = f"viewer-{client_id}"
+        try:
+            if not s.commands:
+                raise CommandRefusedError("viz.commands is false: this view is read-only")
+            if s.remote and s.token is None:
+                raise CommandRefusedError(
+                    "this view listens beyond loopback and tcp.token is not set: it is "
+                    "read-only; set tcp.token to command from elsewhere"
+                )
+            frame = read_command(topic, data, s.token if s.remote else None)
+        except CommandRefusedError as err:
+            self._refuse(client_id, topic, str(err))
+            return
+        self._commands_taken += 1
+        now = self.ctx.clock.now()
+        self.ctx.publish(control_message(frame, operator, now, self._commands_taken))
+
+    def _refuse(self, client_id: int, topic: str, reason: str) -> None:
+        self.refused += 1
+        now = self.ctx.clock.now()
+        if now - self._refused_logged.get(client_id, -math.inf) >= REFUSAL_LOG_PERIOD_S:
+            self._refused_logged[client_id] = now
+            self.ctx.log.warning(
+                "viewer_command_refused", viewer=client_id, topic=topic, reason=reason
+            )
+        if self.server is not None:  # the viewer sees why in its problems panel
+            self.server.publish_status(
+                f"command on {topic} refused: {reason}", StatusLevel.Warning, id="navd-command"
+            )
 
     # --- log lines (any thread) ---------------------------------------------------------
 

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 from navd.config import NavdConfig
+from navd.config.fields import is_loopback
 from navd.geometry.footprint import Footprint
 from navd.geometry.mount import LidarMount
 
@@ -25,6 +26,10 @@ class VizSettings:
         lidar: the lidar's mount in base_link (the base_link -> laser frame).
         keep_out_zones: [m] polygons in the map frame the robot must not enter.
         robot_name: the name the server gives itself.
+        page_enabled, page_port: the operator page's HTTP server (they need a restart).
+        commands: viewers may steer (goals, initial poses, velocities, cancels).
+        remote: the view listens beyond loopback (commands then need ``token``).
+        token: ``tcp.token``, the secret a command from beyond loopback must carry.
     """
 
     host: str
@@ -37,6 +42,11 @@ class VizSettings:
     lidar: LidarMount
     keep_out_zones: tuple[tuple[tuple[float, float], ...], ...]
     robot_name: str
+    page_enabled: bool
+    page_port: int
+    commands: bool
+    remote: bool
+    token: str | None = field(repr=False)
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> VizSettings:
@@ -53,4 +63,9 @@ class VizSettings:
             lidar=LidarMount.of(config.lidar),
             keep_out_zones=config.planning.keep_out_zones,
             robot_name=config.robot.name,
+            page_enabled=viz.page_enabled,
+            page_port=viz.page_port,
+            commands=viz.commands,
+            remote=not is_loopback(viz.host),
+            token=config.tcp.token,
         )

@@ -25,7 +25,7 @@ async def running_daemon(**sections: dict[str, Any]) -> AsyncIterator[tuple[Daem
     """A started daemon listening on a free port; yields it and the port."""
     sections.setdefault("tcp", {})
     sections["tcp"] = {"port": 0, **sections["tcp"]}
-    sections["viz"] = {"port": 0, **sections.get("viz", {})}
+    sections["viz"] = {"port": 0, "page_port": 0, **sections.get("viz", {})}
     # the level the tests' own logging runs at (a daemon applies its level when it starts)
     sections["logging"] = {"level": "warning", **sections.get("logging", {})}
     config = parse_config(sections)

@@ -106,14 +106,19 @@ def spawn_daemon() -> Iterator[Any]:
 
 
 def default_config(folder: Path) -> Path:
-    """The shipped config/navd.toml with only the ports (TCP and live view) changed to free
+    """The shipped config/navd.toml with only the ports (TCP, live view, page) changed to free
     ones, so the test runs on the defaults and never meets a navd running on the defaults."""
     text = (REPO / "config" / "navd.toml").read_text(encoding="utf-8")
     defaults = NavdConfig()
-    for what, port in (("tcp", defaults.tcp.port), ("live view", defaults.viz.port)):
-        line = f"\nport = {port}\n"
+    ports = (
+        ("tcp", "port", defaults.tcp.port),
+        ("live view", "port", defaults.viz.port),
+        ("operator page", "page_port", defaults.viz.page_port),
+    )
+    for what, key, port in ports:
+        line = f"\n{key} = {port}\n"
         assert text.count(line) == 1, f"config/navd.toml lost its {what} port line"
-        text = text.replace(line, f"\nport = {free_port()}\n")
+        text = text.replace(line, f"\n{key} = {free_port()}\n")
     path = folder / "navd.toml"
     path.write_text(text)
     return path
@@ -127,7 +132,7 @@ def daemon_on_port(spawn_daemon: Any, tmp_path: Path) -> Any:
         port = free_port()
         path = tmp_path / "navd.toml"
         # The live view on a port of its own too (unless the test sets its section).
-        view = "" if "[viz]" in extra_toml else "\n[viz]\nport = 0\n"
+        view = "" if "[viz]" in extra_toml else "\n[viz]\nport = 0\npage_port = 0\n"
         path.write_text(f"[tcp]\nport = {port}\n{extra_toml}{view}")
         daemon: DaemonProcess = spawn_daemon("run", "--config", str(path))
         daemon.wait_for("ready", timeout_s=10.0)

@@ -17,6 +17,7 @@ from websockets.asyncio.client import ClientConnection, connect
 
 SUBPROTOCOL = "foxglove.sdk.v1"  # the Foxglove WebSocket protocol, as the SDK names it
 MESSAGE_DATA = 0x01  # binary opcode of a message on a subscription
+CLIENT_MESSAGE_DATA = 0x01  # binary opcode of a message a client publishes on its channel
 
 
 @dataclass(frozen=True)
@@ -49,11 +50,14 @@ class FoxgloveClient:
         self.channels: dict[str, Channel] = {}
         self._subscriptions: dict[int, Channel] = {}
         self.text: list[dict[str, Any]] = []
+        self._advertised: dict[int, str] = {}
 
     @classmethod
-    async def open(cls, port: int, timeout_s: float = 10.0) -> FoxgloveClient:
+    async def open(
+        cls, port: int, timeout_s: float = 10.0, host: str = "127.0.0.1"
+    ) -> FoxgloveClient:
         ws = await asyncio.wait_for(
-            connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL]), timeout_s
+            connect(f"ws://{host}:{port}", subprotocols=[SUBPROTOCOL]), timeout_s
         )
         return cls(ws)
 
@@ -77,6 +81,19 @@ class FoxgloveClient:
             self._subscriptions[sub_id] = channel
             subscriptions.append({"id": sub_id, "channelId": channel.id})
         await self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+
+    async def advertise(self, topic: str, schema_name: str = "") -> int:
+        """Offer a channel of ours on ``topic`` (JSON), as a publishing panel does; its id."""
+        channel_id = len(self._advertised) + 1
+        self._advertised[channel_id] = topic
+        channel = {"id": channel_id, "topic": topic, "encoding": "json", "schemaName": schema_name}
+        await self.ws.send(json.dumps({"op": "advertise", "channels": [channel]}))
+        return channel_id
+
+    async def publish(self, channel_id: int, message: Any) -> None:
+        """Send ``message`` (JSON-encoded unless already bytes) on our channel."""
+        payload = message if isinstance(message, bytes) else json.dumps(message).encode()
+        await self.ws.send(struct.pack("<BI", CLIENT_MESSAGE_DATA, channel_id) + payload)
 
     async def receive(self, topic: str, timeout_s: float = 10.0) -> tuple[int, Any]:
         """The next message on ``topic``: (log time [ns], decoded message: a protobuf message,

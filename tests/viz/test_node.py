@@ -25,12 +25,14 @@ TOPICS |= {"/goal_status", "/status", "/log"}
 
 @asynccontextmanager
 async def viewed_daemon(
-    daemon_log_level: str = "warning", **viz: Any
+    daemon_log_level: str = "warning", tcp: Mapping[str, Any] | None = None, **viz: Any
 ) -> AsyncIterator[tuple[Daemon, VizNode]]:
-    """A daemon running only the live view, on a free port unless ``viz`` names one."""
+    """A daemon running only the live view, on a free port unless ``viz`` names one (and
+    with the ``tcp`` section given, for its token)."""
     config = parse_config(
         {
-            "viz": {"port": 0, **viz},
+            "viz": {"port": 0, "page_port": 0, **viz},
+            "tcp": {"port": 0, **(tcp or {})},
             "logging": {"level": daemon_log_level},
             "planning": {"keep_out_zones": [[[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]]]},
         }

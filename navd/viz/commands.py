@@ -1,0 +1,148 @@
+"""Commands from viewers: what a Foxglove client or the operator page publishes, read as the
+control requests a TCP control client sends.
+
+A viewer advertises a channel (JSON encoding) and publishes on it. Topics understood:
+
+- ``/navd/command``: navd's own control frames (see docs/protocol.md), of the types
+  ``goal``, ``initial_pose``, ``teleop`` and ``cancel``; the operator page speaks this;
+- ``/goal_pose`` or ``/move_base_simple/goal``: a geometry_msgs/PoseStamped (a goal);
+- ``/initialpose``: a geometry_msgs/PoseWithCovarianceStamped (where the robot is);
+- ``/cmd_vel``: a geometry_msgs/Twist (driving by hand).
+
+The ROS-shaped ones are what Foxglove's 3D panel and teleop panel publish. Any of them may
+carry a top-level ``"token"``, which a view listening beyond loopback requires (the same
+secret as ``tcp.token``). A command is refused whole, with the reason, when it is too large,
+not JSON, of a type a viewer may not send, missing a field or out of bounds, or without the
+token where one is needed; it then never reaches the bus.
+"""
+
+from __future__ import annotations
+
+import hmac
+import json
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from pydantic import ValidationError
+
+from navd.drivers.errors import WireError
+from navd.drivers.protocol.codec import decode_control
+from navd.drivers.protocol.frames import (
+    CancelFrame,
+    ControlRequest,
+    GoalFrame,
+    InitialPoseFrame,
+    TeleopFrame,
+)
+
+__all__ = ["COMMAND_TOPICS", "MAX_COMMAND_BYTES", "CommandRefusedError", "read_command"]
+
+MAX_COMMAND_BYTES = 16_384
+NAVD_TOPIC = "/navd/command"
+# What a viewer may ask for on navd's own topic: steering, not configuring.
+VIEWER_REQUESTS = (GoalFrame, InitialPoseFrame, TeleopFrame, CancelFrame)
+
+
+class CommandRefusedError(ValueError):
+    """A viewer's command that is not carried out; the message says why."""
+
+
+def _yaw(orientation: Mapping[str, Any]) -> float:
+    """[rad] the yaw of a quaternion {x, y, z, w} (a robot on the ground: roll and pitch
+    are ignored)."""
+    x, y, z, w = (float(orientation.get(k, 0.0)) for k in ("x", "y", "z", "w"))
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _pose(message: Mapping[str, Any]) -> tuple[float, float, float]:
+    """(x, y, yaw) of a pose {position, orientation}."""
+    pose = message["pose"]
+    position = pose["position"]
+    return float(position["x"]), float(position["y"]), _yaw(pose.get("orientation", {}))
+
+
+def _goal_pose(message: Mapping[str, Any]) -> ControlRequest:
+    x, y, yaw = _pose(message)
+    return GoalFrame(x=x, y=y, yaw=yaw)
+
+
+def _initial_pose(message: Mapping[str, Any]) -> ControlRequest:
+    """A PoseWithCovarianceStamped: its covariance gives the uncertainty when it has one."""
+    x, y, yaw = _pose(message["pose"])
+    covariance = message["pose"].get("covariance") or []
+    if len(covariance) == 36 and covariance[0] > 0 and covariance[35] > 0:
+        std_xy, std_yaw = math.sqrt(covariance[0]), math.sqrt(covariance[35])
+        return InitialPoseFrame(x=x, y=y, yaw=yaw, std_xy=std_xy, std_yaw=std_yaw)
+    return InitialPoseFrame(x=x, y=y, yaw=yaw)
+
+
+def _twist(message: Mapping[str, Any]) -> ControlRequest:
+    linear = message.get("linear", {})
+    angular = message.get("angular", {})
+    return TeleopFrame(linear_x=float(linear.get("x", 0.0)), angular_z=float(angular.get("z", 0.0)))
+
+
+def _navd(message: Mapping[str, Any]) -> ControlRequest:
+    frame = decode_control(json.dumps(message).encode())
+    if not isinstance(frame, VIEWER_REQUESTS):
+        allowed = ", ".join(sorted(f.model_fields["type"].default for f in VIEWER_REQUESTS))
+        raise CommandRefusedError(f"a viewer may send {allowed}, not {frame.type!r}")
+    return frame
+
+
+COMMAND_TOPICS: dict[str, Callable[[Mapping[str, Any]], ControlRequest]] = {
+    NAVD_TOPIC: _navd,
+    "/goal_pose": _goal_pose,
+    "/move_base_simple/goal": _goal_pose,
+    "/initialpose": _initial_pose,
+    "/cmd_vel": _twist,
+}
+
+
+def read_command(topic: str, data: bytes, token: str | None) -> ControlRequest:
+    """The control request a viewer published on ``topic``.
+
+    Args:
+        topic: the topic of the viewer's channel.
+        data: the JSON message.
+        token: the secret every command must carry, or None where none is needed (a view
+            on loopback).
+
+    Raises:
+        CommandRefusedError: naming what was wrong.
+    """
+    read = COMMAND_TOPICS.get(topic)
+    if read is None:
+        raise CommandRefusedError(
+            f"{topic!r} is not a command topic; publish on one of {', '.join(COMMAND_TOPICS)}"
+        )
+    if len(data) > MAX_COMMAND_BYTES:
+        raise CommandRefusedError(f"{len(data)} bytes is more than a command may be")
+    try:
+        message = json.loads(data)
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise CommandRefusedError(f"not JSON: {err}") from err
+    if not isinstance(message, dict):
+        raise CommandRefusedError("a command is a JSON object")
+    given = message.pop("token", None)
+    if token is not None and not (
+        isinstance(given, str) and hmac.compare_digest(given.encode(), token.encode())
+    ):
+        raise CommandRefusedError(
+            "missing or wrong token: this view listens beyond loopback, so commands must "
+            'carry "token" (tcp.token)'
+        )
+    try:
+        return read(message)
+    except CommandRefusedError:
+        raise
+    except WireError as err:
+        raise CommandRefusedError(str(err)) from err
+    except ValidationError as err:
+        problem = err.errors()[0]
+        where = ".".join(str(p) for p in problem["loc"])
+        text = f"{where}: {problem['msg']}" if where else str(problem["msg"])
+        raise CommandRefusedError(text) from err
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise CommandRefusedError(f"not a {topic} message: {type(err).__name__}: {err}") from err
