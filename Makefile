@@ -16,6 +16,10 @@ $(STAMP): pyproject.toml
 	@command -v systemd-analyze >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
 		&& apt-get update -qq && apt-get install -y -qq systemd >/dev/null; } \
 		|| echo "note: systemd-analyze is unavailable; the unit file check will be skipped"
+	@{ command -v chromium >/dev/null && command -v chromedriver >/dev/null; } \
+		|| { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+		&& apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; } \
+		|| echo "note: chromium is unavailable; the operator page's browser test will be skipped"
 	@touch $(STAMP)
 
 demo: $(STAMP)

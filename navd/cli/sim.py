@@ -26,6 +26,12 @@ def add_commands(commands: Commands) -> None:
         action="store_true",
         help="run in real time (default: simulated time in lockstep, as fast as the CPU allows)",
     )
+    demo.add_argument(
+        "--view",
+        action="store_true",
+        help="serve the operator page and watch the drive in a browser (real time; the robot "
+        "then waits for goals from the page until Ctrl-C)",
+    )
     demo.set_defaults(handler=_demo)
     sim = commands.add_parser(
         "sim", help="play a simulated robot for a running navd (its config names the ports)"
@@ -57,7 +63,9 @@ def _demo(args: argparse.Namespace) -> int:
 
     try:
         world = office() if args.world is None else load_world(args.world)
-        summary = run_demo(world, args.out, limit_s=args.limit, lockstep=not args.real_time)
+        summary = run_demo(
+            world, args.out, limit_s=args.limit, lockstep=not args.real_time, view=args.view
+        )
     except SimError as err:
         print(f"navd demo: {err}", file=sys.stderr)
         return EXIT_USAGE

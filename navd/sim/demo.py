@@ -6,15 +6,24 @@ server on a free port. The simulator runs in this process and connects its lidar
 external sensor programs; a control client sends the start pose and the goal, follows the
 status and the planned route, asks for the map when the drive is over, and the results go to
 ``demo.png`` and ``summary.json``.
+
+With ``view`` the drive runs in real time with the operator page served on a free port: its
+address is printed (and opened in a browser where there is one), the goal waits a moment so
+the page shows the start, and after the drive the robot stays up for goals from the page
+until Ctrl-C.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import math
+import signal
 import sys
 import tempfile
+import webbrowser
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,14 +38,16 @@ from navd.drivers.protocol.frames import (
     SaveMapFrame,
     SubscribeFrame,
 )
-from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, StatusFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, Reply, StatusFrame
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
 from navd.sim.runner import Simulator
-from navd.sim.session import Session, session
+from navd.sim.session import Session, free_port, session
 from navd.sim.world import World
 
 __all__ = ["DemoResult", "run_demo"]
+
+VIEW_WARM_UP_S = 3.0  # [s] the page loads and shows the start before the goal goes out
 
 
 @dataclass
@@ -50,8 +61,11 @@ class DemoResult:
     estimated: list[tuple[float, float, float]] = field(default_factory=list)
 
 
-async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> DemoResult:
-    """Send the start pose and the goal; follow status until arrival, failure or timeout."""
+async def _drive(
+    s: Session, world: World, limit_s: float, progress: bool, stop: asyncio.Event | None = None
+) -> DemoResult:
+    """Send the start pose and the goal; follow status until arrival, failure, timeout or
+    ``stop``."""
     assert world.goal is not None
     control, sim = s.control, s.sim
     result = DemoResult()
@@ -69,6 +83,10 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
     shown_at = -math.inf
     try:
         while sim.now() - started < limit_s:
+            if stop is not None and stop.is_set():
+                result.state, result.reason = "canceled", "the demo was ended"
+                control.send(CancelFrame())
+                break
             s.check()
             try:
                 frame = await control.receive(1.0)
@@ -77,20 +95,9 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
             except ConnectionClosedError:
                 result.reason = "navd closed the connection"
                 break
-            if isinstance(frame, PathFrame) and frame.goal_id == "demo":
-                result.routes.append([list(p) for p in frame.points])
-            elif isinstance(frame, StatusFrame) and frame.pose is not None:
-                pose = frame.pose
-                result.estimated.append((pose.x, pose.y, pose.yaw))
-                if progress:
-                    shown_at = _progress(frame, sim.now() - started, shown_at)
-            elif (
-                isinstance(frame, GoalStatusFrame)
-                and frame.goal_id == "demo"
-                and frame.state in ("reached", "failed", "canceled")
-            ):
-                result.state = frame.state
-                result.reason = frame.reason
+            if isinstance(frame, StatusFrame) and frame.pose is not None and progress:
+                shown_at = _progress(frame, sim.now() - started, shown_at)
+            if _record(frame, result):
                 break
         result.time_s = sim.now() - started
         if result.state == "timeout":
@@ -102,6 +109,23 @@ async def _drive(s: Session, world: World, limit_s: float, progress: bool) -> De
         if progress and sys.stderr.isatty():
             print(file=sys.stderr)  # end the line rewritten in place
     return result
+
+
+def _record(frame: Reply, result: DemoResult) -> bool:
+    """Keep what ``frame`` says about the demo's drive; True once its goal is over."""
+    if isinstance(frame, PathFrame) and frame.goal_id == "demo":
+        result.routes.append([list(p) for p in frame.points])
+    elif isinstance(frame, StatusFrame) and frame.pose is not None:
+        result.estimated.append((frame.pose.x, frame.pose.y, frame.pose.yaw))
+    elif (
+        isinstance(frame, GoalStatusFrame)
+        and frame.goal_id == "demo"
+        and frame.state in ("reached", "failed", "canceled")
+    ):
+        result.state = frame.state
+        result.reason = frame.reason
+        return True
+    return False
 
 
 def _progress(frame: StatusFrame, elapsed_s: float, shown_at: float) -> float:
@@ -125,11 +149,13 @@ def run_demo(
     limit_s: float = 180.0,
     progress: bool = True,
     lockstep: bool = True,
+    view: bool = False,
 ) -> dict[str, Any]:
     """Run the demo in ``world`` and write ``demo.png`` and ``summary.json`` into ``out``.
 
     ``lockstep`` runs on simulated time, deterministic and as fast as the CPU allows;
-    False runs in real time (to watch the robot live through a control client).
+    False runs in real time (to watch the robot live through a control client). ``view``
+    serves the operator page and runs in real time (see the module docstring).
 
     Returns:
         The summary.
@@ -143,11 +169,25 @@ def run_demo(
     with tempfile.TemporaryDirectory(prefix="navd-demo-") as tmp:
         work = Path(tmp)
 
+        page_port = free_port()
+        overrides = {"viz": {"port": free_port(), "page_port": page_port}} if view else {}
+
         async def main() -> tuple[DemoResult, Simulator]:
             async with session(
-                world, work, log_path=out / "demo.log", lockstep=lockstep, hold_clock=True
+                world,
+                work,
+                overrides=overrides,
+                log_path=out / "demo.log",
+                lockstep=lockstep and not view,
+                hold_clock=True,
             ) as s:
-                return await _drive(s, world, limit_s, progress), s.sim
+                if not view:
+                    return await _drive(s, world, limit_s, progress), s.sim
+                with _ended_by_signals() as ended:
+                    await _open_page(f"http://127.0.0.1:{page_port}/")
+                    result = await _drive(s, world, limit_s, progress, ended)
+                    await _stay_up(s, ended)
+                return result, s.sim
 
         result, sim = asyncio.run(main())
         built = _load_built_map(work / "maps" / "demo.yaml")
@@ -156,6 +196,45 @@ def run_demo(
     demo_picture(world, built, result.routes, result.estimated, truth, out / "demo.png")
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+async def _open_page(url: str) -> None:
+    """Say where the page is, open it where a browser can, and give it time to load."""
+    print(f"navd demo: the operator page is at {url}", file=sys.stderr, flush=True)
+    opened = await asyncio.to_thread(webbrowser.open, url)
+    if not opened:
+        print("navd demo: no browser here; open the address above in one", file=sys.stderr)
+    await asyncio.sleep(VIEW_WARM_UP_S)
+
+
+@contextlib.contextmanager
+def _ended_by_signals() -> Iterator[asyncio.Event]:
+    """An event Ctrl-C (or SIGTERM) sets instead of interrupting, while inside."""
+    ended = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, ended.set)
+    try:
+        yield ended
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+
+
+async def _stay_up(s: Session, ended: asyncio.Event) -> None:
+    """After the drive, keep the robot up for goals from the page until ``ended``."""
+    if ended.is_set():
+        return
+    print(
+        "navd demo: the robot waits for goals from the page (tap the map; drag for the pose; "
+        "the joystick drives); Ctrl-C ends the demo",
+        file=sys.stderr,
+        flush=True,
+    )
+    while not ended.is_set():
+        s.check()
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(ended.wait(), 1.0)
 
 
 def _load_built_map(path: Path) -> Any:

@@ -11,7 +11,13 @@ Channels (topics) and what they carry:
   route, the goal, the robot's outline and the keep-out zones;
 - ``/goal_status``, ``/status`` (JSON): the goal's progress, and the daemon's state (safety
   holds and their reasons, localization, module health, loop lag);
-- ``/log`` (foxglove.Log): log lines at or above ``viz.log_level``.
+- ``/log`` (foxglove.Log): log lines at or above ``viz.log_level``;
+- ``/page/...`` (JSON): the same state, small, for the operator page (see ``page_data``),
+  which ``PageServer`` serves over HTTP on ``viz.page_port``.
+
+Viewers steer by publishing on a channel of their own (see ``commands``): a goal, an
+initial pose, a velocity or a cancel becomes the same bus message a TCP control client's
+request does, so it passes the same safety gate; beyond loopback only with the token.
 
 Nothing is encoded for a channel nobody subscribes to, so a daemon nobody watches pays for
 a few attribute checks per message. What changes rarely (map, route, goal, outline, zones,
@@ -65,8 +71,9 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
-from navd.viz import scene
+from navd.viz import page_data, scene
 from navd.viz.commands import CommandRefusedError, read_command
+from navd.viz.page_server import PageServer
 from navd.viz.settings import VizSettings
 
 __all__ = ["VizNode"]
@@ -169,6 +176,8 @@ class VizNode(Module):
         self._status: dict[str, Any] = {}
         self._offset_s = 0.0  # [s] wall clock minus daemon clock, fixed at activation
         self._listener: _Listener | None = None
+        self.page: PageServer | None = None
+        self._pose: PoseEstimate | None = None  # the latest, to place the page's scan
         self._commands_taken = 0
         self._refused_logged: dict[int, float] = {}  # viewer -> when its last refusal was logged
         self.refused = 0  # commands refused, for the status and tests
@@ -211,6 +220,13 @@ class VizNode(Module):
         self.goal_status = Channel("/goal_status", context=context)
         self.status = Channel("/status", context=context)
         self.log = LogChannel("/log", context=context)
+        # The operator page's own channels (JSON: a phone decodes it natively).
+        self.page_info = Channel("/page/info", context=context)
+        self.page_map = Channel("/page/map", context=context)
+        self.page_pose = Channel("/page/pose", context=context)
+        self.page_scan = Channel("/page/scan", context=context)
+        self.page_route = Channel("/page/route", context=context)
+        self.page_goal = Channel("/page/goal", context=context)
         self._channels: tuple[Any, ...] = (
             self.map,
             self.scan,
@@ -223,8 +239,18 @@ class VizNode(Module):
             self.goal_status,
             self.status,
             self.log,
+            self.page_info,
+            self.page_map,
+            self.page_pose,
+            self.page_scan,
+            self.page_route,
+            self.page_goal,
         )
+        self._page_scan_throttle = _Throttle()
+        self._page_pose_throttle = _Throttle()
         self._map_pending: MapUpdate | None = None
+        # The gate starts free and says each hold and release, all heard from here on.
+        self._status["safety"] = {"stopped": False, "reasons": []}
 
     async def on_activate(self) -> None:
         s = self.settings.value
@@ -234,6 +260,7 @@ class VizNode(Module):
         self._offset_s = time.time() - now
         self._remember("/footprint", lambda: self._send_footprint(now))
         self._remember("/keep_out", lambda: self._send_keep_out(now))
+        self._remember("/page/info", self._send_page_info)
         listener = _Listener(asyncio.get_running_loop(), self._resend, self._on_command)
         self._listener = listener
         try:
@@ -260,6 +287,26 @@ class VizNode(Module):
         add_log_tap(self._on_log_line)
         self.ctx.every(lambda: self.settings.value.map_period_s, self._flush_map, name="viz-map")
         self.ctx.log.info("viz_listening", host=s.host, port=self.server.port)
+        if s.page_enabled:
+            self._serve_page(s, self.server.port)
+
+    def _serve_page(self, s: VizSettings, ws_port: int) -> None:
+        """Start the operator page's HTTP server (its own thread); a port that cannot be
+        bound leaves the Foxglove stream serving."""
+        try:
+            self.page = PageServer(s.host, s.page_port, ws_port, s.robot_name)
+        except OSError as err:
+            self.ctx.log.error(
+                "page_unavailable",
+                host=s.host,
+                port=s.page_port,
+                error=str(err),
+                fix="if another program holds the port, change viz.page_port; or set "
+                "viz.page_enabled = false. The Foxglove stream goes on",
+            )
+            return
+        shown = "127.0.0.1" if s.host in ("0.0.0.0", "::") else s.host
+        self.ctx.log.info("page_listening", url=f"http://{shown}:{self.page.port}/")
 
     def settings_in_use(self) -> tuple[object, ...]:
         """The view reads its settings at every message: the holder's value is in use."""
@@ -274,9 +321,13 @@ class VizNode(Module):
             self._remember("/footprint", lambda: self._send_footprint(now))
         if new.keep_out_zones != old.keep_out_zones:
             self._remember("/keep_out", lambda: self._send_keep_out(now))
+        self._remember("/page/info", self._send_page_info)
 
     async def on_deactivate(self) -> None:
         remove_log_tap(self._on_log_line)
+        if self.page is not None:
+            page, self.page = self.page, None
+            await asyncio.to_thread(page.stop)  # waits up to a poll interval: off the loop
         if self.server is not None:
             self.server.stop()
             self.server = None
@@ -287,6 +338,7 @@ class VizNode(Module):
         self._latest.clear()  # the last map and route are not held past the view's life
         self._status.clear()
         self._map_pending = None
+        self._pose = None
         self._context = None
 
     # --- state a new viewer gets at once ----------------------------------------------
@@ -316,6 +368,9 @@ class VizNode(Module):
             return
         self._map_pending = None
         self._remember("/map", lambda: self._send_map(update))
+        self._remember(
+            "/page/map", lambda: self._send_json_of(self.page_map, page_data.map_message, update)
+        )
 
     def _log_time(self) -> int:
         """[ns] now, on the wall clock as the view shows it."""
@@ -327,14 +382,30 @@ class VizNode(Module):
             self.map.log(grid, log_time=self._log_time())
 
     def _on_scan(self, scan: LaserScan) -> None:
-        if self.server is None or not self.scan.has_sinks():
+        if self.server is None:
             return
-        if self._scan_throttle.due(scan.received, self.settings.value.scan_period_s):
+        period_s = self.settings.value.scan_period_s
+        if self.scan.has_sinks() and self._scan_throttle.due(scan.received, period_s):
             min_range_m = self.settings.value.lidar.min_range_m
             shown = scene.laser_scan(scan, min_range_m=min_range_m, offset_s=self._offset_s)
             self.scan.log(shown, log_time=self._log_time())
+        pose = self._pose
+        if (
+            pose is not None
+            and self.page_scan.has_sinks()
+            and self._page_scan_throttle.due(scan.received, period_s)
+        ):
+            lidar = self.settings.value.lidar
+            self._send_json(self.page_scan, page_data.scan_message(scan, pose, lidar))
 
     def _on_pose(self, pose: PoseEstimate) -> None:
+        self._pose = pose
+        if (
+            self.server is not None
+            and self.page_pose.has_sinks()
+            and self._page_pose_throttle.due(pose.received, self.settings.value.pose_period_s)
+        ):
+            self._send_json(self.page_pose, page_data.pose_message(pose))
         if self.server is None or not (self.tf.has_sinks() or self.pose.has_sinks()):
             return
         if not self._pose_throttle.due(pose.received, self.settings.value.pose_period_s):
@@ -351,12 +422,22 @@ class VizNode(Module):
             "/route",
             lambda: self._send_scene(self.route, scene.route_scene(path, offset_s=self._offset_s)),
         )
+        self._remember(
+            "/page/route",
+            lambda: self._send_json_of(self.page_route, page_data.route_message, path),
+        )
 
     def _on_goal(self, goal: Goal) -> None:
         self._remember(
             "/goal",
             lambda: self._send_scene(self.goal, scene.goal_scene(goal, offset_s=self._offset_s)),
         )
+        self._remember(
+            "/page/goal", lambda: self._send_json_of(self.page_goal, page_data.goal_message, goal)
+        )
+
+    def _send_page_info(self) -> None:
+        self._send_json(self.page_info, page_data.info_message(self.settings.value))
 
     def _send_footprint(self, now: float) -> None:
         footprint = self.settings.value.footprint
@@ -417,6 +498,13 @@ class VizNode(Module):
     def _send_json(self, channel: Channel, message: Mapping[str, Any]) -> None:
         if self.server is not None and channel.has_sinks():
             channel.log(dict(message), log_time=self._log_time())
+
+    def _send_json_of(
+        self, channel: Channel, build: Callable[[Any], Mapping[str, Any]], source: Any
+    ) -> None:
+        """Send ``build(source)``, built only when someone watches ``channel``."""
+        if self.server is not None and channel.has_sinks():
+            channel.log(dict(build(source)), log_time=self._log_time())
 
     # --- commands from viewers (event loop) ----------------------------------------------
 

@@ -30,6 +30,8 @@ class VizSettings:
         commands: viewers may steer (goals, initial poses, velocities, cancels).
         remote: the view listens beyond loopback (commands then need ``token``).
         token: ``tcp.token``, the secret a command from beyond loopback must carry.
+        teleop_linear_mps, teleop_angular_radps: [m/s, rad/s] manual driving's top speeds
+            (the page's joystick spans them).
     """
 
     host: str
@@ -47,6 +49,8 @@ class VizSettings:
     commands: bool
     remote: bool
     token: str | None = field(repr=False)
+    teleop_linear_mps: float
+    teleop_angular_radps: float
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> VizSettings:
@@ -68,4 +72,6 @@ class VizSettings:
             commands=viz.commands,
             remote=not is_loopback(viz.host),
             token=config.tcp.token,
+            teleop_linear_mps=config.teleop.max_linear_speed_mps,
+            teleop_angular_radps=config.teleop.max_angular_speed_radps,
         )

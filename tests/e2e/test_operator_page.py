@@ -1,0 +1,151 @@
+"""The operator page in a real browser (headless Chromium driven by selenium) against the
+real daemon driving the simulated robot: the page shows the map and the robot, a click on
+the map sends a goal, and the robot reaches it; a screenshot mid-drive is kept."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import shutil
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
+
+from navd.drivers.protocol.frames import InitialPoseFrame, SubscribeFrame
+from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
+from navd.sim.session import Session, free_port, session
+from navd.sim.world import from_shapes
+from tests.e2e.test_scenarios import HALL
+
+pytestmark = pytest.mark.e2e
+
+CHROMIUM = shutil.which("chromium")
+CHROMEDRIVER = shutil.which("chromedriver")
+GOAL = (5.5, 0.0)
+
+
+@contextmanager
+def browser(profile: Path) -> Iterator[Any]:
+    """Headless Chromium with a fresh profile, kept off the network it cannot reach."""
+    if CHROMIUM is None or CHROMEDRIVER is None:
+        pytest.skip(
+            "Debian's chromium and chromium-driver are not installed (the set-up installs them "
+            "when run as root with apt)"
+        )
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--window-size=1200,800",
+        f"--user-data-dir={profile}",
+    ):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(options=options, service=Service(executable_path=CHROMEDRIVER))
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def _wait(driver: Any, script: str, timeout_s: float) -> Any:
+    """Poll ``script`` in the page until it returns something truthy."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        value = driver.execute_script(script)
+        if value:
+            return value
+        time.sleep(0.1)
+    raise AssertionError(f"the page never answered {script!r} within {timeout_s} s")
+
+
+def _click_map(driver: Any, x_m: float, y_m: float) -> None:
+    """Click the map where the page draws (x_m, y_m)."""
+    px, py = driver.execute_script(
+        "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
+        "const r = document.getElementById('map').getBoundingClientRect();"
+        "return [Math.round(r.left + x), Math.round(r.top + y)];",
+        x_m,
+        y_m,
+    )
+    actions = ActionChains(driver)
+    actions.w3c_actions.pointer_action.move_to_location(px, py).click()
+    actions.perform()
+
+
+async def _status_until(s: Session, wanted: Any, limit_s: float) -> Any:
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline:
+        s.check()
+        try:
+            frame = await s.control.receive(1.0)
+        except TimeoutError:
+            continue
+        if wanted(frame):
+            return frame
+    raise AssertionError(f"nothing wanted came within {limit_s} s")
+
+
+async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    async with session(world, tmp_path / "run", overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        s.control.send(SubscribeFrame(rate_hz=5))
+        with browser(tmp_path / "profile") as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1'"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            await asyncio.to_thread(_click_map, driver, *GOAL)
+            # The page's goal goes through the bus like any other: the planner takes it.
+            active = await _status_until(
+                s,
+                lambda f: isinstance(f, GoalStatusFrame) and f.state == "active",
+                10.0,
+            )
+            assert active.goal_id.startswith("viewer-")
+            await _status_until(
+                s,
+                lambda f: isinstance(f, StatusFrame) and f.pose is not None and f.pose.x > 2.0,
+                60.0,
+            )
+            shot = tmp_path / "operator-page-mid-drive.png"
+            await asyncio.to_thread(driver.save_screenshot, str(shot))
+            drawn = await asyncio.to_thread(
+                driver.execute_script,
+                "return [navd.state.route !== null, navd.state.scan.points.length,"
+                " document.getElementById('goal').textContent,"
+                " document.getElementById('safety').textContent]",
+            )
+            final = await _status_until(
+                s,
+                lambda f: (
+                    isinstance(f, GoalStatusFrame)
+                    and f.goal_id == active.goal_id
+                    and f.state in ("reached", "failed", "canceled")
+                ),
+                60.0,
+            )
+    assert final.state == "reached", final
+    _, x, y, _ = s.sim.truth[-1]
+    assert math.hypot(x - GOAL[0], y - GOAL[1]) <= 0.3
+    assert s.sim.body.collisions == 0
+    has_route, scan_points, goal_text, safety_text = drawn
+    assert has_route and scan_points > 100
+    assert active.goal_id in goal_text and "active" in goal_text
+    assert safety_text == "free to move"
+    assert shot.stat().st_size > 10_000  # a picture, kept in the test's folder

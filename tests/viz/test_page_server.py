@@ -1,0 +1,62 @@
+"""The operator page's HTTP server: the package's page files and config.json, nothing else."""
+
+from __future__ import annotations
+
+import json
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
+
+import pytest
+
+from navd.viz.page_server import PAGE_FILES, PageServer
+
+
+@pytest.fixture
+def page() -> Iterator[PageServer]:
+    server = PageServer("127.0.0.1", 0, ws_port=9999, robot="rover")
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+def _get(server: PageServer, path: str, method: str = "GET") -> tuple[int, str, bytes]:
+    request = urllib.request.Request(f"http://127.0.0.1:{server.port}{path}", method=method)
+    try:
+        with urllib.request.urlopen(request, timeout=5) as answer:
+            return answer.status, answer.headers["Content-Type"], answer.read()
+    except urllib.error.HTTPError as err:
+        return err.code, err.headers["Content-Type"], b""
+
+
+def test_the_page_and_its_files_are_served_with_their_types(page: PageServer) -> None:
+    status, kind, body = _get(page, "/")
+    assert status == 200 and kind.startswith("text/html")
+    assert b'<canvas id="map"' in body and b'src="page.js"' in body
+    for path, wanted in (("/page.js", "text/javascript"), ("/page.css", "text/css")):
+        status, kind, body = _get(page, path)
+        assert status == 200 and kind.startswith(wanted) and body == PAGE_FILES[path]
+    status, kind, body = _get(page, "/page.js", method="HEAD")
+    assert status == 200 and body == b""
+
+
+def test_config_json_says_where_the_stream_is(page: PageServer) -> None:
+    status, kind, body = _get(page, "/config.json?nocache=1")
+    assert status == 200 and kind == "application/json"
+    assert json.loads(body) == {"ws_port": 9999, "robot": "rover"}
+
+
+@pytest.mark.parametrize("path", ["/../pyproject.toml", "/%2e%2e/navd/app.py", "/nothing.js"])
+def test_nothing_outside_the_page_is_served(page: PageServer, path: str) -> None:
+    status, _, body = _get(page, path)
+    assert status == 404 and body == b""
+
+
+def test_a_busy_port_is_an_error_naming_the_address() -> None:
+    first = PageServer("127.0.0.1", 0, ws_port=1, robot="a")
+    try:
+        with pytest.raises(OSError, match="in use"):
+            PageServer("127.0.0.1", first.port, ws_port=1, robot="b")
+    finally:
+        first.stop()
