@@ -12,6 +12,7 @@ from navd.planning.guard import CollisionGuard
 from navd.planning.node import PlannerNode
 from navd.slam.node import SlamNode
 from navd.viz.node import VizNode
+from navd.viz.recorder import Recorder
 
 __all__ = ["build_modules"]
 
@@ -32,6 +33,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
         SlamNode(),
         PlannerNode(),
         TcpServer(),
+        Recorder(),
     ]
     if config.viz.enabled:
         modules.append(VizNode())

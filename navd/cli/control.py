@@ -18,16 +18,23 @@ from navd.cli.common import (
 )
 from navd.config import ConfigError
 from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import CancelFrame, Frame, GoalFrame, SubscribeFrame
+from navd.drivers.protocol.frames import (
+    CancelFrame,
+    Frame,
+    GoalFrame,
+    RecordFrame,
+    SubscribeFrame,
+)
 from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 
 __all__ = ["add_commands", "format_status"]
 
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
+RECORD_VERDICT_STATUSES = 10  # status frames ``navd record`` reads for the outcome (1 s)
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``goal``, ``cancel`` and ``status``."""
+    """Add ``goal``, ``cancel``, ``record`` and ``status``."""
     goal = commands.add_parser(
         "goal",
         help="send a goal in the map frame (exit 1 with the reason if navd refuses it at once)",
@@ -43,6 +50,13 @@ def add_commands(commands: Commands) -> None:
     cancel.add_argument("--id", dest="goal_id", help="cancel only this goal")
     connection_options(cancel)
     cancel.set_defaults(handler=_cancel)
+
+    record = commands.add_parser(
+        "record", help="start or stop recording the session (to record.dir, as MCAP files)"
+    )
+    record.add_argument("action", choices=("start", "stop"))
+    connection_options(record)
+    record.set_defaults(handler=_record)
 
     status = commands.add_parser("status", help="watch the daemon's status")
     status.add_argument("--rate", type=float, default=2.0, help="[Hz] updates per second")
@@ -102,6 +116,26 @@ def _cancel(args: argparse.Namespace) -> int:
     return _request(args, CancelFrame(goal_id=args.goal_id))
 
 
+def _record(args: argparse.Namespace) -> int:
+    """Ask for a recording to start or stop; then say what the daemon reports."""
+    try:
+        with connect(args) as client:
+            client.request(RecordFrame(action=args.action))
+            client.request(SubscribeFrame(rate_hz=10))
+            for _ in range(RECORD_VERDICT_STATUSES):
+                frame = client.receive_type(StatusFrame)
+                if (frame.recording is not None) == (args.action == "start"):
+                    break
+    except (ClientError, ConfigError) as err:
+        print(f"navd record: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if args.action == "start" and frame.recording is None:
+        print("navd record: not recording; the daemon's log says why", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"recording to {frame.recording}" if frame.recording else "not recording")
+    return EXIT_OK
+
+
 def _status(args: argparse.Namespace) -> int:
     try:
         with connect(args) as client:
@@ -139,6 +173,8 @@ def format_status(frame: StatusFrame) -> str:
     safety = "; ".join(diag.safety) or "ok"
     lag_text = f"{lag:.2f} ms" if lag is not None else "-"
     mode = f"manual: {frame.operator}" if frame.operator else frame.mode
+    if frame.recording:
+        mode += ", recording"
     return (
         f"{frame.robot} [{mode}] {where} | {moving} | {target} | devices: {devices} | "
         f"lag p99 {lag_text} | safety: {safety}"

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load
-from navd.config import ConfigError
+from navd.config import ConfigError, RecordConfig
 from navd.errors import NavdError
 from navd.logs import configure_logging, get_logger
 
@@ -24,12 +24,21 @@ def add_commands(commands: Commands) -> None:
     """Add ``run``."""
     run = commands.add_parser("run", help="run the daemon")
     run.add_argument("--config", type=Path, help="TOML config file (default: built-in defaults)")
+    run.add_argument(
+        "--record",
+        type=Path,
+        metavar="DIR",
+        help="record the session to MCAP files in DIR (record.enabled and record.dir)",
+    )
     run.set_defaults(handler=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
     try:
         config = load(args.config)
+        if args.record is not None:
+            record = {**config.record.model_dump(), "enabled": True, "dir": str(args.record)}
+            config = config.model_copy(update={"record": RecordConfig.model_validate(record)})
     except ConfigError as err:
         print(err, file=sys.stderr)
         return EXIT_USAGE

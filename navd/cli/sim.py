@@ -32,6 +32,9 @@ def add_commands(commands: Commands) -> None:
         help="serve the operator page and watch the drive in a browser (real time; the robot "
         "then waits for goals from the page until Ctrl-C)",
     )
+    demo.add_argument(
+        "--record", type=Path, metavar="DIR", help="record the drive to MCAP files in DIR"
+    )
     demo.set_defaults(handler=_demo)
     sim = commands.add_parser(
         "sim", help="play a simulated robot for a running navd (its config names the ports)"
@@ -64,7 +67,12 @@ def _demo(args: argparse.Namespace) -> int:
     try:
         world = office() if args.world is None else load_world(args.world)
         summary = run_demo(
-            world, args.out, limit_s=args.limit, lockstep=not args.real_time, view=args.view
+            world,
+            args.out,
+            limit_s=args.limit,
+            lockstep=not args.real_time,
+            view=args.view,
+            record=args.record,
         )
     except SimError as err:
         print(f"navd demo: {err}", file=sys.stderr)

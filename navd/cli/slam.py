@@ -17,13 +17,19 @@ __all__ = ["add_commands"]
 
 def add_commands(commands: Commands) -> None:
     """Add ``replay`` and ``eval relations``."""
-    replay = commands.add_parser("replay", help="run SLAM over a laser log, as fast as possible")
+    replay = commands.add_parser(
+        "replay",
+        help="play a navd recording through the whole pipeline, or run SLAM over a laser log",
+    )
     replay.add_argument(
         "log",
         type=Path,
-        help="<name>_scans.txt[.gz] dump, CARMEN .clf[.gz], ROS 1 .bag or ROS 2 bag folder",
+        help="a navd recording (.mcap file, or a folder of them), or a laser log: "
+        "<name>_scans.txt[.gz] dump, CARMEN .clf[.gz], ROS 1 .bag or ROS 2 bag folder",
     )
-    replay.add_argument("--out", type=Path, required=True, help="folder for the results")
+    replay.add_argument(
+        "--out", type=Path, help="folder for the results (required for a laser log)"
+    )
     replay.add_argument("--config", type=Path, help="TOML config (its slam and lidar sections)")
     replay.add_argument("--laser-x", type=float, help="[m] lidar x on the robot (lidar.x_m)")
     replay.add_argument("--laser-y", type=float, help="[m] lidar y on the robot (lidar.y_m)")
@@ -60,7 +66,16 @@ def add_commands(commands: Commands) -> None:
     relations.set_defaults(handler=_relations)
 
 
+def _is_navd_recording(path: Path) -> bool:
+    return path.suffix == ".mcap" or (path.is_dir() and any(path.glob("*.mcap")))
+
+
 def _replay(args: argparse.Namespace) -> int:
+    if _is_navd_recording(args.log):
+        return _play(args)
+    if args.out is None:
+        print("navd replay: --out is required for a laser log", file=sys.stderr)
+        return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.errors import SlamError  # noqa: PLC0415
     from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
@@ -111,6 +126,40 @@ def _replay(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(file=sys.stderr)
     print(json.dumps(result.summary, indent=2))
+    return EXIT_OK
+
+
+def _play(args: argparse.Namespace) -> int:
+    """A navd recording through the whole pipeline; the differences with what was recorded."""
+    import asyncio  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    from navd.app import build_modules  # noqa: PLC0415 - only playback needs the daemon
+    from navd.viz.playback import play  # noqa: PLC0415
+    from navd.viz.recording_reader import RecordingError, read_recording  # noqa: PLC0415
+
+    try:
+        recording = read_recording(args.log)
+        with tempfile.TemporaryDirectory(prefix="navd-play-") as tmp:
+            work = args.out if args.out is not None else Path(tmp)
+            report = asyncio.run(play(recording, build_modules, work))
+    except (RecordingError, ConfigError) as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    summary = report.as_dict()
+    text = json.dumps(summary, indent=2)
+    print(text)
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "playback.json").write_text(text + "\n", encoding="utf-8")
+    for line in report.differences:
+        print(f"navd replay: differs: {line}", file=sys.stderr)
+    if report.cut_short:
+        print(
+            f"navd replay: {len(report.cut_short)} file(s) ended mid-way (replayed up to their "
+            f"last whole chunk): {', '.join(report.cut_short)}",
+            file=sys.stderr,
+        )
     return EXIT_OK
 
 

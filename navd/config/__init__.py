@@ -6,6 +6,7 @@ from navd.config.loader import apply_changes, dump_toml, load_config, parse_conf
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
 from navd.config.planning import PlanningConfig
+from navd.config.record import RecordConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
 from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
@@ -19,6 +20,7 @@ __all__ = [
     "LoggingConfig",
     "NavdConfig",
     "PlanningConfig",
+    "RecordConfig",
     "RobotConfig",
     "SafetyConfig",
     "SlamConfig",

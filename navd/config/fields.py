@@ -74,6 +74,7 @@ PRIVILEGED: dict[str, frozenset[str] | None] = {
         }
     ),
     "slam": frozenset({"map_dir", "map_name"}),
+    "record": frozenset({"dir", "budget_mb", "max_file_mb"}),
     "planning": frozenset(
         {
             "keep_out_zones",

@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.planning import PlanningConfig
+from navd.config.record import RecordConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
 from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
@@ -43,6 +44,7 @@ class NavdConfig(BaseModel):
     lifecycle: LifecycleConfig = Field(default_factory=LifecycleConfig)
     logging: LoggingConfig = Field(default_factory=LoggingConfig)
     viz: VizConfig = Field(default_factory=VizConfig)
+    record: RecordConfig = Field(default_factory=RecordConfig)
 
     @model_validator(mode="after")
     def _across_sections(self) -> NavdConfig:

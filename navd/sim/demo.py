@@ -150,12 +150,14 @@ def run_demo(
     progress: bool = True,
     lockstep: bool = True,
     view: bool = False,
+    record: Path | None = None,
 ) -> dict[str, Any]:
     """Run the demo in ``world`` and write ``demo.png`` and ``summary.json`` into ``out``.
 
     ``lockstep`` runs on simulated time, deterministic and as fast as the CPU allows;
     False runs in real time (to watch the robot live through a control client). ``view``
-    serves the operator page and runs in real time (see the module docstring).
+    serves the operator page and runs in real time (see the module docstring). ``record``
+    has the daemon record the drive to MCAP files there (``navd replay`` plays them back).
 
     Returns:
         The summary.
@@ -170,7 +172,11 @@ def run_demo(
         work = Path(tmp)
 
         page_port = free_port()
-        overrides = {"viz": {"port": free_port(), "page_port": page_port}} if view else {}
+        overrides: dict[str, Any] = {}
+        if view:
+            overrides["viz"] = {"port": free_port(), "page_port": page_port}
+        if record is not None:
+            overrides["record"] = {"enabled": True, "dir": str(record.resolve())}
 
         async def main() -> tuple[DemoResult, Simulator]:
             async with session(

@@ -16,6 +16,7 @@ from navd.drivers.protocol.frames import (
     ImuFrame,
     InitialPoseFrame,
     OdomFrame,
+    RecordFrame,
     SaveMapFrame,
     ScanFrame,
     SensorFrame,
@@ -33,6 +34,7 @@ from navd.lifecycle.messages import (
     LaserScan,
     ManualCommand,
     Message,
+    RecordRequest,
     SaveMapRequest,
     Vector3,
     WheelOdometry,
@@ -136,8 +138,8 @@ def control_message(
     """A control request that becomes a bus message.
 
     Args:
-        frame: a goal, cancel, config, initial pose, save-map or teleop request (the session's own
-            requests, subscribe, unsubscribe and ping, are not messages).
+        frame: a goal, cancel, config, initial pose, save-map, teleop or record request
+            (the session's own requests, subscribe, unsubscribe and ping, are not messages).
         client_id: the control client's device id (names its goals and requests).
         now: [s] daemon time.
         serial: a per-client counter for ids the client did not give.
@@ -189,6 +191,10 @@ def control_message(
         )
     if isinstance(frame, SaveMapFrame):
         return SaveMapRequest(stamp=now, received=now, name=frame.name)
+    if isinstance(frame, RecordFrame):
+        return RecordRequest(
+            stamp=now, received=now, start=frame.action == "start", source=client_id
+        )
     if isinstance(frame, TeleopFrame):
         return ManualCommand(
             stamp=now,

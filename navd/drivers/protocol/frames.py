@@ -37,6 +37,7 @@ __all__ = [
     "InitialPoseFrame",
     "OdomFrame",
     "PingFrame",
+    "RecordFrame",
     "Role",
     "SaveMapFrame",
     "ScanFrame",
@@ -263,6 +264,13 @@ class TeleopFrame(Frame):
     angular_z: float = Field(ge=-MAX_TELEOP_RADPS, le=MAX_TELEOP_RADPS)
 
 
+class RecordFrame(Frame):
+    """Start or stop recording the session to MCAP files in ``record.dir``."""
+
+    type: Literal["record"] = "record"
+    action: Literal["start", "stop"]
+
+
 class SubscribeFrame(Frame):
     """Receive status frames at ``rate_hz``."""
 
@@ -301,6 +309,7 @@ ControlRequest = (
     | InitialPoseFrame
     | SaveMapFrame
     | TeleopFrame
+    | RecordFrame
     | SubscribeFrame
     | UnsubscribeFrame
     | PingFrame

@@ -256,6 +256,7 @@ class StatusFrame(ReplyPart):
     robot: str
     mode: Literal["idle", "navigating", "manual", "stopped"]
     operator: str | None = None  # who drives by hand, in manual mode
+    recording: str | None = None  # the MCAP file being written, while recording
     pose: PoseInfo | None
     velocity: VelocityInfo | None
     goal: GoalInfo | None

@@ -1,8 +1,8 @@
 """What a control client sees in a ``status`` frame: the latest of everything, kept cheaply.
 
 The board subscribes to the messages that make up the status (pose, wheel command, goal
-progress, who drives, daemon health, safety holds, config changes), keeps only the latest of
-each, and builds the frame on demand at the subscriber's rate.
+progress, who drives, recording, daemon health, safety holds, config changes), keeps only
+the latest of each, and builds the frame on demand at the subscriber's rate.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from navd.lifecycle.messages import (
     GoalStatus,
     LocalizationState,
     PoseEstimate,
+    RecordingState,
     SafetyState,
 )
 from navd.lifecycle.module import ModuleContext
@@ -51,6 +52,7 @@ class StatusBoard:
         self.daemon: DaemonStatus | None = None
         self.safety: tuple[str, ...] = ()
         self.operator = ""  # who drives by hand ("" while the navigator does)
+        self.recording = ""  # the file being recorded ("" when not recording)
         self.config = ConfigNews(revision=0)
 
     def subscribe(self, ctx: ModuleContext) -> None:
@@ -61,6 +63,7 @@ class StatusBoard:
         ctx.subscribe(DaemonStatus, self._daemon)
         ctx.subscribe(SafetyState, self._safety)
         ctx.subscribe(DriveMode, self._drive_mode)
+        ctx.subscribe(RecordingState, self._recording)
         ctx.subscribe(Goal, self._goal)
         ctx.subscribe(GoalStatus, self._goal_status)
         ctx.subscribe(ConfigApplied, self._config_applied)
@@ -87,6 +90,7 @@ class StatusBoard:
             robot=robot,
             mode=mode,
             operator=self.operator or None,
+            recording=self.recording or None,
             pose=None
             if pose is None
             else PoseInfo(
@@ -129,6 +133,9 @@ class StatusBoard:
 
     def _drive_mode(self, mode: DriveMode) -> None:
         self.operator = mode.operator if mode.mode == "manual" else ""
+
+    def _recording(self, state: RecordingState) -> None:
+        self.recording = state.file if state.active else ""
 
     def _daemon(self, status: DaemonStatus) -> None:
         self.daemon = status

@@ -238,6 +238,34 @@ class DriveMode(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class RecordRequest(Message):
+    """Start or stop recording the session (to ``record.dir``).
+
+    Attributes:
+        start: True to start, False to stop.
+        source: who asked.
+    """
+
+    start: bool
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class RecordingState(Message):
+    """Whether the session is being recorded, where, and why it stopped if it did.
+
+    Attributes:
+        active: recording now.
+        file: the MCAP file being written ("" when not recording).
+        reason: why recording stopped or did not start ("" otherwise).
+    """
+
+    active: bool
+    file: str = ""
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class DriveCommand(Message):
     """The body velocity the chassis must execute: the safety gate's output, nothing else's.
 

@@ -1,0 +1,164 @@
+"""Writing a recording: MCAP files in a folder, in a thread of their own.
+
+The event loop only appends (topic, message, time) to a bounded queue. The writer thread
+wakes every ``flush_period_s``, encodes what came (``record_codec``), logs it through
+foxglove-sdk's MCAP writer and finishes the chunk, so a file cut by a crash or a kill -9
+is readable up to its last flush. A file that reaches ``max_file_bytes`` is closed (with its
+index, for fast seeking) and the next one begun; after each new file the oldest recordings in
+the folder are deleted until the folder is under ``budget_bytes``. Each file starts with
+the config, so it replays on its own.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import foxglove
+from foxglove import Channel, Context
+from foxglove.mcap import MCAPCompression, MCAPWriteOptions, MCAPWriter
+
+from navd.lifecycle.messages import Message
+from navd.viz.record_codec import CONFIG_TOPIC, encode
+
+__all__ = ["MAX_QUEUED", "RecordingWriter", "WriterSettings", "recording_files"]
+
+# Messages waiting for the writer at most (some 10 s at full sensor load); beyond, the
+# oldest are dropped and counted: the daemon's memory is never the recording's to take.
+MAX_QUEUED = 20_000
+FILE_PATTERN = "navd-*.mcap"
+
+
+@dataclass(frozen=True, slots=True)
+class WriterSettings:
+    """Where and how a recording is written.
+
+    Attributes:
+        folder: the recordings' folder.
+        max_file_bytes: a file this large is closed and the next begun.
+        budget_bytes: the folder's recordings are kept under this.
+        flush_period_s: [s] data reaches the disk, a whole chunk, this often.
+    """
+
+    folder: Path
+    max_file_bytes: int
+    budget_bytes: int
+    flush_period_s: float
+
+
+def recording_files(folder: Path) -> list[Path]:
+    """The folder's recordings, oldest first (their names sort by time)."""
+    return sorted(folder.glob(FILE_PATTERN))
+
+
+class RecordingWriter:
+    """Writes one recording session into ``settings.folder``.
+
+    Args:
+        settings: where and how.
+        config_json: the config the daemon runs on (JSON), first in every file.
+        failed: called from the writer thread with the reason when writing fails (the
+            recording has then stopped).
+
+    Raises:
+        OSError: the folder cannot be made or the first file cannot be opened.
+    """
+
+    def __init__(
+        self, settings: WriterSettings, config_json: bytes, failed: Callable[[str], None]
+    ) -> None:
+        self.settings = settings
+        self._config_json = config_json
+        self._failed = failed
+        self._queue: collections.deque[tuple[str, Message, int]] = collections.deque()
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self.dropped = 0
+        self.written = 0
+        self.files_deleted = 0
+        settings.folder.mkdir(parents=True, exist_ok=True)
+        self._context = Context()
+        self._channels: dict[str, Channel] = {}
+        self._sequence = 0
+        self._writer: MCAPWriter | None = None
+        self.file = self._open()
+        self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
+        self._thread.start()
+
+    # --- event loop -------------------------------------------------------------------
+
+    def put(self, topic: str, message: Message, log_time_ns: int) -> None:
+        """Queue a message (cheap: no encoding here)."""
+        with self._lock:
+            if len(self._queue) >= MAX_QUEUED:
+                self._queue.popleft()
+                self.dropped += 1
+            self._queue.append((topic, message, log_time_ns))
+
+    def close(self) -> None:
+        """Write what is queued, close the file with its index, and end the thread
+        (blocking: call it off the event loop)."""
+        self._stop.set()
+        self._thread.join()
+
+    # --- writer thread ----------------------------------------------------------------
+
+    def _run(self) -> None:
+        try:
+            while not self._stop.wait(self.settings.flush_period_s):
+                self._write_queued()
+            self._write_queued()
+        except Exception as err:  # a full disk, a folder removed: recording stops, said why
+            self._failed(f"{type(err).__name__}: {err}")
+        finally:
+            if self._writer is not None:
+                try:
+                    self._writer.close()
+                except Exception as err:
+                    self._failed(f"closing {self.file}: {err}")
+                self._writer = None
+
+    def _write_queued(self) -> None:
+        with self._lock:
+            batch, self._queue = self._queue, collections.deque()
+        for topic, message, log_time_ns in batch:
+            self._channel(topic).log(encode(message), log_time=log_time_ns)
+        self.written += len(batch)
+        assert self._writer is not None
+        self._writer.flush()  # a whole chunk on disk: readable after a crash
+        if self.file.stat().st_size >= self.settings.max_file_bytes:
+            self._writer.close()
+            self._writer = None
+            self.file = self._open()
+
+    def _channel(self, topic: str) -> Channel:
+        channel = self._channels.get(topic)
+        if channel is None:
+            channel = Channel(topic, message_encoding="json", context=self._context)
+            self._channels[topic] = channel
+        return channel
+
+    def _open(self) -> Path:
+        """Begin the next file (the config first in it), then keep the folder in budget."""
+        self._sequence += 1
+        stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime())
+        path = self.settings.folder / f"navd-{stamp}-{self._sequence:04d}.mcap"
+        options = MCAPWriteOptions(compression=MCAPCompression.Zstd, profile="navd")
+        self._writer = foxglove.open_mcap(path, context=self._context, writer_options=options)
+        self._channel(CONFIG_TOPIC).log(self._config_json, log_time=time.time_ns())
+        self._keep_in_budget(path)
+        return path
+
+    def _keep_in_budget(self, current: Path) -> None:
+        files = [f for f in recording_files(self.settings.folder) if f != current]
+        total = sum(f.stat().st_size for f in files)
+        for old in files:
+            if total <= self.settings.budget_bytes - self.settings.max_file_bytes:
+                break
+            total -= old.stat().st_size
+            old.unlink(missing_ok=True)
+            self.files_deleted += 1

@@ -1,0 +1,84 @@
+"""The recorder in a running daemon: a control client starts and stops it, what the bus
+carries reaches the file, and a folder it cannot write leaves the daemon driving."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navd.drivers.client import AsyncClient
+from navd.drivers.protocol.frames import GoalFrame, RecordFrame
+from navd.lifecycle.messages import Goal, PoseEstimate, RecordingState
+from navd.viz.recording_reader import read_recording
+from tests.drivers.conftest import connected, record, running_daemon, until
+
+TOKEN = "a-token-for-the-test"
+
+
+async def test_a_client_starts_and_stops_a_recording_of_inputs_and_outputs(
+    tmp_path: Path,
+) -> None:
+    folder = tmp_path / "rec"
+    async with running_daemon(record={"dir": str(folder)}, tcp={"token": TOKEN}) as (
+        daemon,
+        port,
+    ):
+        states = record(daemon, RecordingState)
+        control = await AsyncClient.connect(
+            "127.0.0.1", port, role="control", device_id="ui", token=TOKEN
+        )
+        await control.request(RecordFrame(action="start"))
+        await until(lambda: bool(states) and states[-1].active, timeout_s=5.0)
+        await control.request(GoalFrame(x=2.0, y=1.0, goal_id="g1"))
+        now = daemon.clock.now()
+        daemon.bus.publish(
+            PoseEstimate(
+                stamp=now, received=now, x_m=0.5, y_m=0.0, yaw_rad=0.0, covariance=np.eye(3) * 0.01
+            )
+        )
+        await asyncio.sleep(0.1)
+        await control.request(RecordFrame(action="stop"))
+        await until(lambda: not states[-1].active, timeout_s=5.0)
+        await control.close()
+    file = Path(states[0].file)
+    assert file.parent == folder and "stopped by ui" in states[-1].reason
+    recording = read_recording(file)
+    goals = [m for t, m in recording.messages if isinstance(m, Goal)]
+    poses = [m for t, m in recording.messages if isinstance(m, PoseEstimate)]
+    assert [(g.goal_id, g.x_m, g.y_m) for g in goals] == [("g1", 2.0, 1.0)]
+    assert any(p.x_m == 0.5 for p in poses)
+    assert recording.config is not None
+    assert recording.config["tcp"]["token"] is None  # the secret is never recorded
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write any folder")
+async def test_a_folder_it_cannot_write_is_said_and_the_daemon_drives_on(
+    tmp_path: Path,
+) -> None:
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    await _unwritable(locked / "rec")
+
+
+async def test_a_file_in_the_way_of_the_folder_is_said_and_the_daemon_drives_on(
+    tmp_path: Path,
+) -> None:
+    blocker = tmp_path / "rec"
+    blocker.write_text("a file, not a folder")
+    await _unwritable(blocker)
+
+
+async def _unwritable(folder: Path) -> None:
+    async with running_daemon(record={"dir": str(folder), "enabled": True}) as (daemon, port):
+        states = record(daemon, RecordingState)
+        control = await connected(port, "control", "ui")
+        await control.request(RecordFrame(action="start"))
+        await until(lambda: bool(states), timeout_s=5.0)
+        assert not states[-1].active and str(folder) in states[-1].reason
+        assert daemon.manager.states["recorder"].value == "active"
+        await control.request(GoalFrame(x=1.0, y=0.0))  # still taking requests
+        await control.close()

@@ -1,0 +1,120 @@
+"""Recording to files: every message reaches the disk in order, files rotate by size, the
+oldest go past the budget, and a file cut mid-write reads back to its last whole chunk."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navd.lifecycle.messages import LaserScan
+from navd.viz import recording_writer
+from navd.viz.record_codec import topic_of
+from navd.viz.recording_reader import RecordingError, read_recording
+from navd.viz.recording_writer import RecordingWriter, WriterSettings, recording_files
+
+SCAN_TOPIC = topic_of(LaserScan)
+CONFIG = b'{"robot": {"name": "test"}}'
+
+
+def scan(i: int) -> LaserScan:
+    # seeded noise: the scans do not compress away, so sizes grow as on a robot
+    ranges = np.random.default_rng(i).uniform(0.2, 8.0, 720).astype(np.float32)
+    return LaserScan(
+        stamp=i * 0.1,
+        received=i * 0.1 + 0.001,
+        device_id="front",
+        angle_min=-np.pi,
+        angle_increment=2 * np.pi / 720,
+        ranges=ranges,
+        range_min=0.1,
+        range_max=12.0,
+    )
+
+
+def write(folder: Path, count: int, **settings: float) -> RecordingWriter:
+    options = {"max_file_bytes": 10**9, "budget_bytes": 10**10, "flush_period_s": 0.02}
+    options.update(settings)
+    failures: list[str] = []
+    writer = RecordingWriter(
+        WriterSettings(
+            folder,
+            int(options["max_file_bytes"]),
+            int(options["budget_bytes"]),
+            options["flush_period_s"],
+        ),
+        CONFIG,
+        failures.append,
+    )
+    for i in range(count):
+        assert SCAN_TOPIC is not None
+        writer.put(SCAN_TOPIC, scan(i), i * 100_000_000)
+        if i % 20 == 19:
+            time.sleep(0.03)  # the writer flushes meanwhile, as on a robot
+    writer.close()
+    assert not failures
+    return writer
+
+
+def test_every_message_is_read_back_in_order_with_the_config(tmp_path: Path) -> None:
+    writer = write(tmp_path, 120)
+    recording = read_recording(tmp_path)
+    assert writer.written == 120 and writer.dropped == 0
+    assert recording.config == {"robot": {"name": "test"}}
+    assert [m.stamp for _, m in recording.messages] == [i * 0.1 for i in range(120)]
+    np.testing.assert_array_equal(recording.messages[7][1].ranges, scan(7).ranges)
+    assert not recording.cut_short
+
+
+def test_files_rotate_by_size_and_the_oldest_go_past_the_budget(tmp_path: Path) -> None:
+    writer = write(tmp_path, 600, max_file_bytes=300_000, budget_bytes=1_000_000)
+    files = recording_files(tmp_path)
+    assert writer.files_deleted > 0 and len(files) >= 2
+    assert sum(f.stat().st_size for f in files) <= 1_000_000 + 300_000  # the budget, plus
+    # the overshoot of the file being written past its size at its last flush
+    recording = read_recording(tmp_path)
+    stamps = [m.stamp for _, m in recording.messages]
+    assert stamps == sorted(stamps) and stamps[-1] == pytest.approx(59.9)  # the newest kept
+    assert stamps[0] > 0.0  # the oldest file is gone
+    for file in files:  # each file replays on its own: it starts with the config
+        assert read_recording(file).config == {"robot": {"name": "test"}}
+
+
+def test_a_file_cut_mid_write_reads_to_its_last_whole_chunk(tmp_path: Path) -> None:
+    write(tmp_path / "whole", 100)
+    (whole,) = recording_files(tmp_path / "whole")
+    data = whole.read_bytes()
+    cut = tmp_path / "cut" / whole.name
+    cut.parent.mkdir()
+    cut.write_bytes(data[: len(data) * 2 // 3])  # a kill -9 mid-chunk
+    recording = read_recording(cut)
+    assert recording.cut_short == [cut]
+    stamps = [m.stamp for _, m in recording.messages]
+    assert 10 <= len(stamps) < 100 and stamps == [i * 0.1 for i in range(len(stamps))]
+
+
+def test_a_flood_beyond_the_queue_drops_the_oldest_and_counts_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(recording_writer, "MAX_QUEUED", 50)
+    writer = RecordingWriter(WriterSettings(tmp_path, 10**9, 10**10, 30.0), CONFIG, print)
+    for i in range(80):  # the writer sleeps 30 s between flushes: all of these wait
+        assert SCAN_TOPIC is not None
+        writer.put(SCAN_TOPIC, scan(i), i)
+    writer.close()
+    assert writer.dropped == 30
+    stamps = [m.stamp for _, m in read_recording(tmp_path).messages]
+    assert stamps == [i * 0.1 for i in range(30, 80)]
+
+
+def test_what_is_not_a_recording_is_named(tmp_path: Path) -> None:
+    with pytest.raises(RecordingError, match=r"no \.mcap recordings"):
+        read_recording(tmp_path)
+    with pytest.raises(RecordingError, match="does not exist"):
+        read_recording(tmp_path / "gone.mcap")
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"this is not mcap at all")
+    with pytest.raises(RecordingError, match="not an MCAP file"):
+        read_recording(junk)
