@@ -31,6 +31,7 @@ __all__ = [
     "ObstacleLayer",
     "build_costmap",
     "keep_out_mask",
+    "ros_costmap",
     "static_layer",
 ]
 
@@ -302,3 +303,15 @@ def build_costmap(
         cost[unknown] = np.inf
     cost[clearance < settings.robot_radius_m] = np.inf
     return Costmap(frame, obstacles.copy(), clearance, cost, unknown.copy())
+
+
+def ros_costmap(costmap: Costmap) -> npt.NDArray[np.int8]:
+    """The costmap as ROS shows one (int8): -1 unknown, 0..98 by cost, 99 where the robot's
+    centre cannot be, 100 an obstacle."""
+    cells: npt.NDArray[np.int8] = np.rint(np.nan_to_num(costmap.cost, posinf=1.0) * 98.0).astype(
+        np.int8
+    )
+    cells[np.isinf(costmap.cost)] = 99
+    cells[costmap.unknown] = -1
+    cells[costmap.obstacles] = 100
+    return cells

@@ -54,13 +54,18 @@ class PlanRequest:
     start_xy_m: tuple[float, float]
     goal_xy_m: tuple[float, float]
 
-    def solve(self, planner: GlobalPlanner) -> PlannedPath:
-        """Inflate the layers and run A* (heavy), with the settings of when it was asked.
+    def costmap(self) -> Costmap:
+        """The layers inflated, with the settings of when it was asked (heavy)."""
+        return build_costmap(self.frame, self.obstacles, self.unknown, self.settings)
+
+    def solve(self, planner: GlobalPlanner, costmap: Costmap | None = None) -> PlannedPath:
+        """Run A* (heavy) on ``costmap``, or on the layers inflated now.
 
         Raises:
             GoalUnreachableError, StartBlockedError: from A*.
         """
-        costmap = build_costmap(self.frame, self.obstacles, self.unknown, self.settings)
+        if costmap is None:
+            costmap = self.costmap()
         return planner.plan(costmap, self.start_xy_m, self.goal_xy_m, self.search)
 
 

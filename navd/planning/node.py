@@ -38,6 +38,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
     CancelGoal,
+    CostmapUpdate,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -46,6 +47,7 @@ from navd.lifecycle.messages import (
     Goal,
     GoalStatus,
     LaserScan,
+    LocalTrajectory,
     ManualCommand,
     MapUpdate,
     Message,
@@ -53,8 +55,11 @@ from navd.lifecycle.messages import (
     PoseEstimate,
     StuckDetected,
     VelocityCommand,
+    ViewInterest,
 )
 from navd.lifecycle.module import Module, ModuleContext
+from navd.planning.costmap import ros_costmap
+from navd.planning.dwa import arc
 from navd.planning.errors import PlanningError
 from navd.planning.goal import GoalState, NavGoal, Step
 from navd.planning.manual import ManualDriving
@@ -90,6 +95,9 @@ class PlannerNode(Module):
         self._last_state: GoalState | None = None
         self._broken: Exception | None = None  # a search that broke, not yet reported
         self.manual = ManualDriving()  # event loop only
+        # What a viewer watches (set on the loop, read by workers: a stale glance costs one
+        # message more or less)
+        self._watched = ViewInterest(stamp=0.0, received=0.0, costmap=False, trajectory=False)
         self._teleop_refused: set[str] = set()  # operators told teleop is off (once each)
 
     async def on_configure(self, ctx: ModuleContext) -> None:
@@ -99,6 +107,7 @@ class PlannerNode(Module):
         ctx.subscribe(Goal, self._on_goal)
         ctx.subscribe(CancelGoal, self._on_cancel)
         ctx.subscribe(ManualCommand, self._on_manual)
+        ctx.subscribe(ViewInterest, self._on_view_interest)
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
@@ -156,6 +165,9 @@ class PlannerNode(Module):
         ):
             self.ctx.publish(self._stop_command())  # stopping never waits for a worker
         self._post(cancel)
+
+    def _on_view_interest(self, interest: ViewInterest) -> None:
+        self._watched = interest
 
     def _on_manual(self, cmd: ManualCommand) -> None:
         settings = self.settings.value.manual
@@ -351,7 +363,8 @@ class PlannerNode(Module):
             with self._lock:
                 goal = self.nav.goal
                 request = self.nav.request(now, pose)
-            path = request.solve(self.nav.global_planner)
+            costmap = request.costmap()
+            path = request.solve(self.nav.global_planner, costmap)
         except PlanningError as err:
             self.ctx.log.warning("plan_failed", reason=reason, error=str(err))
             with self._lock:
@@ -384,7 +397,19 @@ class PlannerNode(Module):
             reused=path.reused,
         )
         stamp = self.ctx.clock.now()
-        return (Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m),)
+        route = Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m)
+        if not self._watched.costmap:
+            return (route,)
+        frame = costmap.frame
+        shown = CostmapUpdate(
+            stamp=stamp,
+            received=stamp,
+            resolution_m=frame.resolution_m,
+            origin_x_m=frame.origin_x_m,
+            origin_y_m=frame.origin_y_m,
+            occupancy=ros_costmap(costmap),
+        )
+        return (route, shown)
 
     def _planned(self) -> None:
         with self._flags:
@@ -426,6 +451,8 @@ class PlannerNode(Module):
                 source=SOURCE,
             )
         ]
+        if self._watched.trajectory:
+            messages.append(self._trajectory(goal.goal_id, pose, step, stamp))
         if step.stuck_detected:
             giving_up = step.state is GoalState.FAILED
             self.ctx.log.warning(
@@ -446,6 +473,21 @@ class PlannerNode(Module):
         if status is not None:
             messages.append(status)
         return tuple(messages)
+
+    def _trajectory(self, goal_id: str, pose: Pose2, step: Step, stamp: float) -> LocalTrajectory:
+        """The chosen command rolled out over the local planner's horizon, for a viewer."""
+        dwa = self.settings.value.navigator.dwa
+        steps = max(round(dwa.horizon_s / dwa.step_s), 1)
+        rollout = arc(pose, step.linear_mps, step.angular_radps, dwa.step_s, steps)
+        points = np.vstack([[pose.x, pose.y], rollout[:, :2]])
+        return LocalTrajectory(
+            stamp=stamp,
+            received=stamp,
+            goal_id=goal_id,
+            linear_mps=step.linear_mps,
+            angular_radps=step.angular_radps,
+            points_m=points,
+        )
 
     def _status_due(self, goal_id: str, step: Step, stamp: float) -> GoalStatus | None:
         changed = step.state is not self._last_state

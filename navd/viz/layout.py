@@ -1,9 +1,10 @@
 """The Foxglove layout for navd's live view, built with the SDK's layout classes.
 
-One 3D panel (the map, scan, route, goal, keep-out zones and the robot's outline, seen from
-above and following the robot) beside the daemon's status, the goal's progress and the log.
-The repository keeps the JSON in ``config/foxglove/navd-live.json`` (``navd viz layout``
-writes it again; a test keeps the two equal) for Foxglove's or Lichtblick's "Import layout".
+One 3D panel (the map, scan, route, local trajectory, goal, keep-out zones and the robot's
+outline, seen from above and following the robot; the costmap one click away) beside the
+daemon's status, the goal's progress and the log. The repository keeps the JSON in
+``config/foxglove/navd-live.json`` (``navd viz layout`` writes it again; a test keeps the two
+equal) for Foxglove's or Lichtblick's "Import layout".
 """
 
 from __future__ import annotations
@@ -38,7 +39,17 @@ def live_layout() -> fl.Layout:
                 "/pose": fl.BaseRendererPoseTopicSettings(
                     visible=True, type="arrow", show_covariance=True
                 ),
+                "/costmap": fl.BaseRendererGridTopicSettings(
+                    visible=False,  # a click in the topic list shows it
+                    color_mode="gradient",
+                    color_field="occupancy",
+                    gradient=("#00000000", "#ff00ffa0"),
+                    min_value=0.0,
+                    max_value=100.0,
+                    draw_behind=True,
+                ),
                 "/route": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                "/trajectory": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 "/goal": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 "/footprint": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 "/keep_out": fl.BaseRendererSceneUpdateTopicSettings(visible=True),

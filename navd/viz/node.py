@@ -9,6 +9,10 @@ Channels (topics) and what they carry:
   ``viz.pose_rate_hz``;
 - ``/route``, ``/goal``, ``/footprint``, ``/keep_out`` (foxglove.SceneUpdate): the global
   route, the goal, the robot's outline and the keep-out zones;
+- ``/costmap`` (foxglove.Grid, ROS costmap values) and ``/trajectory`` (foxglove.SceneUpdate):
+  the inflated costmap of the last plan (at most ``viz.map_rate_hz``) and the local
+  planner's chosen rollout (at most ``viz.pose_rate_hz``), which the planner makes only
+  while someone watches them (ViewInterest);
 - ``/goal_status``, ``/status`` (JSON): the goal's progress, and the daemon's state (safety
   holds and their reasons, localization, module health, loop lag);
 - ``/log`` (foxglove.Log): log lines at or above ``viz.log_level``;
@@ -58,16 +62,19 @@ from foxglove.websocket import (
 from navd import __version__
 from navd.drivers.protocol.convert import control_message
 from navd.lifecycle.messages import (
+    CostmapUpdate,
     DaemonStatus,
     DriveMode,
     Goal,
     GoalStatus,
     LaserScan,
     LocalizationState,
+    LocalTrajectory,
     MapUpdate,
     Path,
     PoseEstimate,
     SafetyState,
+    ViewInterest,
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
@@ -117,9 +124,10 @@ class _Throttle:
 
 
 class _Listener(ServerListener):
-    """Hears the server (in its threads): each subscription's topic goes to ``on_subscribe``
-    and each viewer's command, with its topic, to ``on_command``, on the event loop. At most
-    MAX_PENDING_COMMANDS wait there at once; a viewer flooding the server loses the rest
+    """Hears the server (in its threads) and hands on to the event loop: each subscription's
+    topic to ``on_subscribe`` (and to ``on_unsubscribe`` when it ends, a viewer leaving
+    included), each viewer's command with its topic to ``on_command``. At most
+    MAX_PENDING_COMMANDS commands wait at once; a viewer flooding the server loses the rest
     (counted), never the loop's time."""
 
     def __init__(
@@ -127,9 +135,11 @@ class _Listener(ServerListener):
         loop: asyncio.AbstractEventLoop,
         on_subscribe: Callable[[str], None],
         on_command: Callable[[int, str, bytes], None],
+        on_unsubscribe: Callable[[str], None],
     ):
         self._loop = loop
         self._on_subscribe = on_subscribe
+        self._on_unsubscribe = on_unsubscribe
         self._on_command = on_command
         self._topics: dict[tuple[int, int], str] = {}  # (client, its channel) -> topic
         self._lock = threading.Lock()
@@ -138,6 +148,9 @@ class _Listener(ServerListener):
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self._loop.call_soon_threadsafe(self._on_subscribe, channel.topic)
+
+    def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
+        self._loop.call_soon_threadsafe(self._on_unsubscribe, channel.topic)
 
     def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
         self._topics[(client.id, channel.id)] = channel.topic
@@ -205,6 +218,8 @@ class VizNode(Module):
         ctx.subscribe(LocalizationState, self._on_localization)
         ctx.subscribe(SafetyState, self._on_safety)
         ctx.subscribe(DriveMode, self._on_drive_mode)
+        ctx.subscribe(CostmapUpdate, self._on_costmap)
+        ctx.subscribe(LocalTrajectory, self._on_trajectory)
         # The channels exist from here on, so a message before activation finds them (it is
         # kept, and sent to whoever subscribes once the server runs).
         context = Context()
@@ -220,6 +235,9 @@ class VizNode(Module):
         self.goal_status = Channel("/goal_status", context=context)
         self.status = Channel("/status", context=context)
         self.log = LogChannel("/log", context=context)
+        # Made by the planner only while someone watches (see ViewInterest).
+        self.costmap = GridChannel("/costmap", context=context)
+        self.trajectory = SceneUpdateChannel("/trajectory", context=context)
         # The operator page's own channels (JSON: a phone decodes it natively).
         self.page_info = Channel("/page/info", context=context)
         self.page_map = Channel("/page/map", context=context)
@@ -239,6 +257,8 @@ class VizNode(Module):
             self.goal_status,
             self.status,
             self.log,
+            self.costmap,
+            self.trajectory,
             self.page_info,
             self.page_map,
             self.page_pose,
@@ -247,6 +267,9 @@ class VizNode(Module):
             self.page_goal,
         )
         self._page_scan_throttle = _Throttle()
+        self._costmap_throttle = _Throttle()
+        self._trajectory_throttle = _Throttle()
+        self._watchers: dict[str, int] = {}  # topic -> subscriptions now
         self._page_pose_throttle = _Throttle()
         self._map_pending: MapUpdate | None = None
         # The gate starts free and says each hold and release, all heard from here on.
@@ -261,7 +284,9 @@ class VizNode(Module):
         self._remember("/footprint", lambda: self._send_footprint(now))
         self._remember("/keep_out", lambda: self._send_keep_out(now))
         self._remember("/page/info", self._send_page_info)
-        listener = _Listener(asyncio.get_running_loop(), self._resend, self._on_command)
+        listener = _Listener(
+            asyncio.get_running_loop(), self._subscribed, self._on_command, self._unsubscribed
+        )
         self._listener = listener
         try:
             self.server = foxglove.start_server(
@@ -348,11 +373,31 @@ class VizNode(Module):
         self._latest[topic] = send
         send()
 
-    def _resend(self, topic: str) -> None:
+    def _subscribed(self, topic: str) -> None:
         """Event loop: a viewer subscribed to ``topic``; it gets the latest state."""
+        self._count(topic, +1)
         send = self._latest.get(topic)
         if send is not None:
             send()
+
+    def _unsubscribed(self, topic: str) -> None:
+        self._count(topic, -1)
+
+    def _count(self, topic: str, change: int) -> None:
+        """Keep the subscriptions of ``topic``; tell the planner when the costmap or the
+        trajectory gains its first watcher or loses its last."""
+        before = self._watchers.get(topic, 0)
+        self._watchers[topic] = max(before + change, 0)
+        if topic in ("/costmap", "/trajectory") and (before > 0) != (self._watchers[topic] > 0):
+            now = self.ctx.clock.now()
+            self.ctx.publish(
+                ViewInterest(
+                    stamp=now,
+                    received=now,
+                    costmap=self._watchers.get("/costmap", 0) > 0,
+                    trajectory=self._watchers.get("/trajectory", 0) > 0,
+                )
+            )
 
     # --- handlers (event loop; cheap unless someone watches) --------------------------
 
@@ -435,6 +480,24 @@ class VizNode(Module):
         self._remember(
             "/page/goal", lambda: self._send_json_of(self.page_goal, page_data.goal_message, goal)
         )
+
+    def _on_costmap(self, update: CostmapUpdate) -> None:
+        if self._costmap_throttle.due(update.stamp, self.settings.value.map_period_s):
+            self._remember(
+                "/costmap",
+                lambda: self._send_grid(self.costmap, update),
+            )
+
+    def _send_grid(self, channel: GridChannel, update: CostmapUpdate) -> None:
+        if self.server is not None and channel.has_sinks():
+            channel.log(
+                scene.occupancy_grid(update, offset_s=self._offset_s), log_time=self._log_time()
+            )
+
+    def _on_trajectory(self, trajectory: LocalTrajectory) -> None:
+        if self._trajectory_throttle.due(trajectory.stamp, self.settings.value.pose_period_s):
+            shown = scene.trajectory_scene(trajectory, offset_s=self._offset_s)
+            self._send_scene(self.trajectory, shown)
 
     def _send_page_info(self) -> None:
         self._send_json(self.page_info, page_data.info_message(self.settings.value))

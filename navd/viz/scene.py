@@ -41,7 +41,14 @@ from foxglove.messages import (
 
 from navd.geometry.footprint import CIRCLE, Footprint
 from navd.geometry.pose import Pose2
-from navd.lifecycle.messages import Goal, MapUpdate, Path, PoseEstimate
+from navd.lifecycle.messages import (
+    CostmapUpdate,
+    Goal,
+    LocalTrajectory,
+    MapUpdate,
+    Path,
+    PoseEstimate,
+)
 from navd.lifecycle.messages import LaserScan as NavdScan
 
 __all__ = [
@@ -59,6 +66,7 @@ __all__ = [
     "occupancy_grid",
     "odometry",
     "route_scene",
+    "trajectory_scene",
 ]
 
 MAP, ODOM, BASE_LINK, LASER = "map", "odom", "base_link", "laser"
@@ -67,6 +75,7 @@ CIRCLE_SIDES = 32  # a circular footprint is drawn as this many-sided polygon
 ROUTE_COLOR = Color(r=0.1, g=0.6, b=1.0, a=1.0)
 FOOTPRINT_COLOR = Color(r=1.0, g=0.8, b=0.1, a=1.0)
 GOAL_COLOR = Color(r=0.2, g=0.9, b=0.3, a=1.0)
+TRAJECTORY_COLOR = Color(r=1.0, g=0.5, b=0.0, a=1.0)
 KEEP_OUT_COLOR = Color(r=1.0, g=0.2, b=0.2, a=1.0)
 
 
@@ -90,9 +99,9 @@ def _pose(x_m: float, y_m: float, yaw_rad: float) -> Pose:
     return Pose(position=Vector3(x=x_m, y=y_m, z=0.0), orientation=_yaw(yaw_rad))
 
 
-def occupancy_grid(update: MapUpdate, *, offset_s: float = 0.0) -> Grid:
-    """The SLAM map as a grid of int8 ``occupancy`` cells (-1 unknown, 0..100 %) in ``map``;
-    row 0 is the lowest y, as in the map."""
+def occupancy_grid(update: MapUpdate | CostmapUpdate, *, offset_s: float = 0.0) -> Grid:
+    """The SLAM map (or the costmap) as a grid of int8 ``occupancy`` cells (-1 unknown,
+    0..100) in ``map``; row 0 is the lowest y, as in the map."""
     cols = update.occupancy.shape[1]
     return Grid(
         timestamp=as_timestamp(update.stamp + offset_s),
@@ -195,6 +204,12 @@ def route_scene(path: Path, *, offset_s: float = 0.0) -> SceneUpdate:
     """The global route as a line in ``map`` (entity ``route``, replaced by the next)."""
     line = _line(path.points_m, ROUTE_COLOR, LinePrimitiveLineType.LineStrip, 0.03)
     return _entity(MAP, "route", path.stamp + offset_s, lines=[line])
+
+
+def trajectory_scene(trajectory: LocalTrajectory, *, offset_s: float = 0.0) -> SceneUpdate:
+    """The local planner's chosen rollout as a line in ``map`` (entity ``trajectory``)."""
+    line = _line(trajectory.points_m, TRAJECTORY_COLOR, LinePrimitiveLineType.LineStrip, 0.04)
+    return _entity(MAP, "trajectory", trajectory.stamp + offset_s, lines=[line])
 
 
 def footprint_scene(footprint: Footprint, stamp_s: float) -> SceneUpdate:

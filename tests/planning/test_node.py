@@ -15,12 +15,15 @@ from navd.drivers.protocol.frames import CancelFrame, GoalFrame, InitialPoseFram
 from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame
 from navd.lifecycle.messages import (
     ConfigChange,
+    CostmapUpdate,
     DriveCommand,
     Goal,
     GoalStatus,
     LaserScan,
+    LocalTrajectory,
     Path,
     VelocityCommand,
+    ViewInterest,
 )
 from navd.planning.global_planner import GlobalPlanner
 from navd.planning.node import PlannerNode
@@ -178,4 +181,40 @@ async def test_one_goal_on_a_still_map_is_searched_once(monkeypatch: pytest.Monk
         assert [s for s in searches if s is planner.nav.global_planner] == [
             planner.nav.global_planner
         ]
+        await control.close()
+
+
+async def test_the_costmap_and_trajectory_are_made_only_while_a_viewer_asks() -> None:
+    async with running_daemon() as (daemon, port):
+        costmaps = record(daemon, CostmapUpdate)
+        trajectories = record(daemon, LocalTrajectory)
+        paths = record(daemon, Path)
+        control = await connected(port, "control", "ui")
+        lidar = await connected(port, "lidar", "front")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        lidar.send(_room_scan(daemon.clock.now(), wall_x=2.0))
+        await control.request(GoalFrame(x=1.0, y=1.0, goal_id="g1"))
+        await until(lambda: bool(paths), timeout_s=10.0)
+        await asyncio.sleep(0.3)
+        assert not costmaps and not trajectories  # nobody watches: nothing made
+        now = daemon.clock.now()
+        daemon.bus.publish(ViewInterest(stamp=now, received=now, costmap=True, trajectory=True))
+        await until(lambda: len(trajectories) >= 3, timeout_s=5.0)
+        shown = trajectories[-1]
+        assert shown.goal_id == "g1" and len(shown.points_m) > 5
+        assert np.hypot(*shown.points_m[0]) < 0.3  # from the robot, where it drives
+        await control.request(GoalFrame(x=1.0, y=-1.0, goal_id="g2"))  # a plan while watched
+        await until(lambda: bool(costmaps), timeout_s=10.0)
+        cells = costmaps[-1].occupancy
+        res, x0 = costmaps[-1].resolution_m, costmaps[-1].origin_x_m
+        wall_col = int((2.0 - x0) / res)
+        assert (cells[:, wall_col - 1 : wall_col + 2] == 100).any()  # the wall is an obstacle
+        assert cells.min() >= -1 and cells.max() == 100
+        assert ((cells >= 0) & (cells < 99)).any()  # and there is free space around the robot
+        daemon.bus.publish(ViewInterest(stamp=now, received=now, costmap=False, trajectory=False))
+        await asyncio.sleep(0.1)
+        counted = len(trajectories)
+        await asyncio.sleep(0.3)
+        assert len(trajectories) == counted
+        await lidar.close()
         await control.close()

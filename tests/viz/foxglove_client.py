@@ -82,6 +82,11 @@ class FoxgloveClient:
             subscriptions.append({"id": sub_id, "channelId": channel.id})
         await self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
 
+    async def unsubscribe(self, topic: str) -> None:
+        """End our subscriptions to ``topic``."""
+        ids = [i for i, c in self._subscriptions.items() if c.topic == topic]
+        await self.ws.send(json.dumps({"op": "unsubscribe", "subscriptionIds": ids}))
+
     async def advertise(self, topic: str, schema_name: str = "") -> int:
         """Offer a channel of ours on ``topic`` (JSON), as a publishing panel does; its id."""
         channel_id = len(self._advertised) + 1

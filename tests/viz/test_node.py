@@ -13,14 +13,22 @@ import pytest
 
 from navd.config import parse_config
 from navd.lifecycle.daemon import Daemon
-from navd.lifecycle.messages import LaserScan, MapUpdate, SafetyState
+from navd.lifecycle.messages import (
+    CostmapUpdate,
+    LaserScan,
+    LocalTrajectory,
+    MapUpdate,
+    SafetyState,
+    ViewInterest,
+)
 from navd.logs import add_log_tap, get_logger, remove_log_tap
 from navd.viz import node as viz_node
 from navd.viz.node import VizNode
+from tests.drivers.conftest import record, until
 from tests.viz.foxglove_client import FoxgloveClient
 
 TOPICS = {"/map", "/scan", "/tf", "/pose", "/route", "/goal", "/footprint", "/keep_out"}
-TOPICS |= {"/goal_status", "/status", "/log"}
+TOPICS |= {"/goal_status", "/status", "/log", "/costmap", "/trajectory"}
 
 
 @asynccontextmanager
@@ -195,3 +203,52 @@ async def test_log_lines_reach_the_view_with_their_level_and_fields() -> None:
             assert line.level == 3  # foxglove.Log's WARNING
         finally:
             await client.close()
+
+
+async def test_the_costmap_and_trajectory_are_asked_for_only_while_watched() -> None:
+    async with viewed_daemon() as (daemon, node):
+        assert node.port is not None
+        interest = record(daemon, ViewInterest)
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics({"/costmap", "/trajectory"})
+            await client.subscribe("/costmap")
+            await until(lambda: bool(interest), timeout_s=5.0)
+            assert (interest[-1].costmap, interest[-1].trajectory) == (True, False)
+            now = daemon.clock.now()
+            cells = np.array([[-1, 0], [99, 100]], dtype=np.int8)
+            daemon.bus.publish(
+                CostmapUpdate(
+                    stamp=now,
+                    received=now,
+                    resolution_m=0.05,
+                    origin_x_m=1.0,
+                    origin_y_m=2.0,
+                    occupancy=cells,
+                )
+            )
+            _, grid = await client.receive("/costmap")
+            shown = np.frombuffer(grid.data, dtype=np.int8).reshape(2, 2)
+            np.testing.assert_array_equal(shown, cells)
+            assert (grid.pose.position.x, grid.pose.position.y) == (1.0, 2.0)
+            await client.subscribe("/trajectory")
+            await until(lambda: interest[-1].trajectory, timeout_s=5.0)
+            daemon.bus.publish(
+                LocalTrajectory(
+                    stamp=now,
+                    received=now,
+                    goal_id="g",
+                    linear_mps=0.3,
+                    angular_radps=0.0,
+                    points_m=np.array([[0.0, 0.0], [0.3, 0.0]]),
+                )
+            )
+            _, line = await client.receive("/trajectory")
+            assert [(p.x, p.y) for p in line.entities[0].lines[0].points] == [(0, 0), (0.3, 0)]
+            await client.unsubscribe("/costmap")
+            await until(lambda: not interest[-1].costmap, timeout_s=5.0)
+            assert interest[-1].trajectory
+        finally:
+            await client.close()
+        # the viewer gone, nothing is watched: the planner may stop making either
+        await until(lambda: not interest[-1].trajectory, timeout_s=5.0)

@@ -238,6 +238,20 @@ class DriveMode(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class ViewInterest(Message):
+    """What a viewer watches that costs its maker work to produce: the planner makes the
+    costmap and the local trajectory only while someone watches them.
+
+    Attributes:
+        costmap: someone watches the costmap.
+        trajectory: someone watches the local planner's trajectory.
+    """
+
+    costmap: bool
+    trajectory: bool
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class RecordRequest(Message):
     """Start or stop recording the session (to ``record.dir``).
 

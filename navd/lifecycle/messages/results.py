@@ -162,6 +162,49 @@ class Path(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class CostmapUpdate(Message):
+    """The inflated costmap the last route was planned on, as ROS shows a costmap: int8
+    cells, -1 unknown, 0 free .. 98 costly, 99 where the robot's centre cannot be (inscribed),
+    100 an obstacle; row 0 at ``origin_y_m``. Published only while a viewer asks for it.
+
+    Attributes:
+        resolution_m: [m] cell size.
+        origin_x_m, origin_y_m: [m] map position of cell (0, 0)'s corner.
+        occupancy: rows x cols int8 (read-only).
+    """
+
+    resolution_m: float
+    origin_x_m: float
+    origin_y_m: float
+    occupancy: npt.NDArray[np.int8]
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        object.__setattr__(self, "occupancy", read_only("occupancy", self.occupancy, np.int8, 2))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class LocalTrajectory(Message):
+    """The local planner's chosen motion, rolled out over its horizon from the robot's
+    pose. Published each control step only while a viewer asks for it.
+
+    Attributes:
+        goal_id: the goal driven to.
+        linear_mps, angular_radps: the command chosen.
+        points_m: N x 2 map positions along the rollout (read-only).
+    """
+
+    goal_id: str
+    linear_mps: float
+    angular_radps: float
+    points_m: FloatArray
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        object.__setattr__(self, "points_m", read_only("points_m", self.points_m, np.float64, 2))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class StuckDetected(Message):
     """The robot made no progress for planning.max_stuck_time_s (seed 001 §4.5).
 
