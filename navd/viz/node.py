@@ -438,7 +438,9 @@ class VizNode(Module):
         if (
             pose is not None
             and self.page_scan.has_sinks()
-            and self._page_scan_throttle.due(scan.received, period_s)
+            and self._page_scan_throttle.due(
+                scan.received, max(period_s, page_data.PAGE_SCAN_PERIOD_S)
+            )
         ):
             lidar = self.settings.value.lidar
             self._send_json(self.page_scan, page_data.scan_message(scan, pose, lidar))
@@ -448,7 +450,9 @@ class VizNode(Module):
         if (
             self.server is not None
             and self.page_pose.has_sinks()
-            and self._page_pose_throttle.due(pose.received, self.settings.value.pose_period_s)
+            and self._page_pose_throttle.due(
+                pose.received, max(self.settings.value.pose_period_s, page_data.PAGE_POSE_PERIOD_S)
+            )
         ):
             self._send_json(self.page_pose, page_data.pose_message(pose))
         if self.server is None or not (self.tf.has_sinks() or self.pose.has_sinks()):

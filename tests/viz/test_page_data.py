@@ -66,8 +66,9 @@ def test_scan_points_are_placed_in_the_map_frame_from_the_pose() -> None:
         covariance=np.diag([0.04, 0.01, 0.01]),
     )
     mount = LidarMount.of(NavdConfig.model_validate({"lidar": {"x_m": 0.1}}).lidar)
-    points = page_data.scan_message(scan, pose, mount)["points"]
-    assert points == [1.0, 3.1]  # 2.1 m ahead of a robot facing +y
+    packed = page_data.scan_message(scan, pose, mount)["points_cm"]
+    points_cm = np.frombuffer(base64.b64decode(packed), dtype="<i4")
+    assert points_cm.tolist() == [100, 310]  # 2.1 m ahead of a robot facing +y
     shown = page_data.pose_message(pose)
     assert shown["std_xy"] == 0.2 and shown["yaw"] == round(math.pi / 2, 4)
 

@@ -91,7 +91,7 @@ function take(topic, message) {
       break;
     case "/page/map": state.map = message; paintMap(message); break;
     case "/page/pose": state.pose = message; break;
-    case "/page/scan": state.scan = message; break;
+    case "/page/scan": state.scan = scanPoints(message); break;
     case "/page/route": state.route = message; break;
     case "/page/goal": state.goal = message; break;
     case "/status": state.status = message; break;
@@ -100,6 +100,17 @@ function take(topic, message) {
   if (topic === "/status" || topic === "/goal_status" || topic === "/page/pose") showStatus();
   document.body.dataset.ready = state.map && state.pose ? "1" : "0";
   requestDraw();
+}
+
+function scanPoints(message) {
+  // base64 of little-endian int32 centimetres, x0 y0 x1 y1 ... in the map frame
+  const raw = atob(message.points_cm);
+  const bytes = new Uint8Array(raw.length);
+  for (let i = 0; i < raw.length; i++) bytes[i] = raw.charCodeAt(i);
+  const cm = new Int32Array(bytes.buffer);
+  const points = new Float64Array(cm.length);
+  for (let i = 0; i < cm.length; i++) points[i] = cm[i] / 100;
+  return { stamp: message.stamp, points };
 }
 
 // --- commands ---------------------------------------------------------------------------
