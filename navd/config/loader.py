@@ -31,6 +31,7 @@ __all__ = [
     "load_config",
     "parse_config",
     "redacted",
+    "redacted_changes",
 ]
 
 REDACTED = "<redacted>"
@@ -165,6 +166,18 @@ def redacted(config: NavdConfig) -> dict[str, Any]:
             if value is not None and is_secret(model, name):
                 section[name] = REDACTED
     return data
+
+
+def redacted_changes(changes: Mapping[str, object]) -> dict[str, object]:
+    """Dotted-key changes (as ``apply_changes`` takes them) with every secret's value
+    replaced by a marker, for a log line or a recording."""
+
+    def walk(prefix: tuple[str, ...], value: object) -> object:
+        if isinstance(value, Mapping):
+            return {k: walk((*prefix, str(k)), v) for k, v in value.items()}
+        return REDACTED if _field_secret(prefix) else value
+
+    return {key: walk(tuple(key.split(".")), value) for key, value in changes.items()}
 
 
 def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:

@@ -17,11 +17,13 @@ class VizConfig(Section):
     status and log, and the operator page served over HTTP. Nothing is encoded for a channel
     nobody subscribes to.
 
-    Viewers may send goals, initial poses, velocities and cancels. On loopback (the default)
-    only this machine can connect, so they are taken as they come; listening beyond
-    loopback must be asked for with ``allow_remote``, and then every command must carry
-    ``tcp.token`` (a view without it is read-only). The SDK does not tell the address a
-    viewer connects from, so beyond loopback the token is needed from this machine too.
+    Viewers may send goals, initial poses, velocities and cancels, each carrying a token:
+    the run's own, which the operator page gets when a browser on this machine loads it,
+    or ``tcp.token``. (A web page from elsewhere, open in a browser on the robot, can reach
+    a loopback WebSocket too: the token is what keeps it from steering.) Foxglove's panels
+    send no token: ``untokened_commands`` takes theirs on loopback. Listening beyond
+    loopback must be asked for with ``allow_remote``; other machines then need
+    ``tcp.token`` (without one the view is read-only to them).
     """
 
     enabled: bool = Field(True, **restart("serve the live view"))
@@ -41,7 +43,15 @@ class VizConfig(Section):
         ),
     )
     commands: bool = Field(
-        True, description="take goals, initial poses, velocities and cancels from viewers"
+        True,
+        description="take goals, initial poses, velocities and cancels from viewers that carry "
+        "a token: the run's own (the operator page on this machine has it) or tcp.token",
+    )
+    untokened_commands: bool = Field(
+        False,
+        description="also take commands without a token on loopback, as Foxglove's publish "
+        "and teleop panels send them; any web page open in a browser on this machine (or "
+        "tunnelled to it) could then steer the robot, through the safety gate",
     )
     page_enabled: bool = Field(True, **restart("serve the operator page over HTTP"))
     page_port: int = Field(
@@ -60,10 +70,20 @@ class VizConfig(Section):
 
     @model_validator(mode="after")
     def _remote_on_purpose(self) -> VizConfig:
-        if not is_loopback(self.host) and not self.allow_remote:
+        remote = not is_loopback(self.host)
+        if remote and not self.allow_remote:
             raise ValueError(
                 f"viz.host {self.host!r} listens beyond loopback: set viz.allow_remote = true "
                 f"to let other machines watch (their commands then need tcp.token), or keep "
                 f'viz.host = "127.0.0.1"'
+            )
+        if remote and self.untokened_commands:
+            raise ValueError(
+                "viz.untokened_commands is for a view on loopback only; beyond it (viz.host "
+                f"{self.host!r}) every command needs a token"
+            )
+        if self.port != 0 and self.port == self.page_port:
+            raise ValueError(
+                f"viz.port and viz.page_port are both {self.port}: give the page a port of its own"
             )
         return self

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import threading
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -69,6 +70,14 @@ from navd.planning.warmup import warm_up
 
 __all__ = ["PlannerNode"]
 
+
+@dataclass(frozen=True, slots=True)
+class _Resume:
+    """Take up the goal ``goal_id`` again after manual driving (queued with goals)."""
+
+    goal_id: str
+
+
 POSE_TIMEOUT_S = 0.5
 STATUS_PERIOD_S = 0.5
 SOURCE = "planner"
@@ -82,7 +91,7 @@ class PlannerNode(Module):
         super().__init__("planner")
         self._lock = threading.Lock()  # the navigator: worker jobs only, never the event loop
         self._flags = threading.Lock()  # the three fields below, a few lines at a time
-        self._inbox: list[Goal | CancelGoal] = []
+        self._inbox: list[Goal | CancelGoal | _Resume] = []
         self._planning = False
         self._plan_due: str | None = None
         self._pose: Pose2 | None = None
@@ -220,19 +229,10 @@ class PlannerNode(Module):
             "auto_drive", after=operator, resumed_goal=None if goal is None else goal.goal_id
         )
         self.ctx.publish(DriveMode(stamp=now, received=now, mode="auto"))
-        if goal is None:
-            return
+        if goal is not None:  # in line with goals and cancels: none replaces another
+            self._post(_Resume(goal.goal_id))
 
-        def job() -> tuple[Message, ...]:
-            with self._lock:
-                if self.nav.goal is not goal or self.nav.state is not GoalState.ACTIVE:
-                    return ()
-                self.nav.resume()
-                return (self._status(goal.goal_id, GoalState.ACTIVE),)
-
-        self.ctx.submit("planning_goals", job)
-
-    def _post(self, request: Goal | CancelGoal) -> None:
+    def _post(self, request: Goal | CancelGoal | _Resume) -> None:
         with self._flags:
             self._inbox.append(request)
         self.ctx.submit("planning_goals", self._take_requests)
@@ -285,9 +285,23 @@ class PlannerNode(Module):
             for request in requests:
                 if isinstance(request, Goal):
                     messages += self._start(request)
-                else:
+                elif isinstance(request, CancelGoal):
                     messages += self._cancel(request)
+                else:
+                    messages += self._resume(request)
         return tuple(messages)
+
+    def _resume(self, request: _Resume) -> list[Message]:
+        """Take the goal up again after manual driving, if it is still the one paused."""
+        goal = self.nav.goal
+        if (
+            goal is None
+            or goal.goal_id != request.goal_id
+            or self.nav.state is not GoalState.ACTIVE
+        ):
+            return []
+        self.nav.resume()
+        return [self._status(goal.goal_id, GoalState.ACTIVE)]
 
     def _start(self, goal: Goal) -> list[Message]:
         previous = self.nav.cancel()
@@ -329,6 +343,7 @@ class PlannerNode(Module):
             self.ctx.bus.report_failure(self.name, {"job": "global_plan"}, broken)
         if self.manual.over(now):
             self._end_manual(now)
+            return  # the goal resumes first (its job is queued); the next tick steps
         if self.manual.active:
             return  # an operator drives: the navigator waits
         if self.nav.state is not GoalState.ACTIVE:  # a glance: the step decides under the lock
@@ -431,7 +446,7 @@ class PlannerNode(Module):
         when it is due."""
         with self._lock:
             goal = self.nav.goal
-            if goal is None or self.nav.state is not GoalState.ACTIVE:
+            if goal is None or self.nav.state is not GoalState.ACTIVE or self.manual.active:
                 return ()
             step = self.nav.step(now, pose, driven)
             replans = self.nav.stuck_replans
@@ -442,6 +457,8 @@ class PlannerNode(Module):
                 if not self._planning:
                     self._plan_due = due
         stamp = self.ctx.clock.now()
+        if self.manual.active:  # an operator took the wheel while this step ran: theirs holds
+            return ()
         messages: list[Message] = [
             VelocityCommand(
                 stamp=stamp,

@@ -9,11 +9,11 @@ A viewer advertises a channel (JSON encoding) and publishes on it. Topics unders
 - ``/initialpose``: a geometry_msgs/PoseWithCovarianceStamped (where the robot is);
 - ``/cmd_vel``: a geometry_msgs/Twist (driving by hand).
 
-The ROS-shaped ones are what Foxglove's 3D panel and teleop panel publish. Any of them may
-carry a top-level ``"token"``, which a view listening beyond loopback requires (the same
-secret as ``tcp.token``). A command is refused whole, with the reason, when it is too large,
-not JSON, of a type a viewer may not send, missing a field or out of bounds, or without the
-token where one is needed; it then never reaches the bus.
+The ROS-shaped ones are what Foxglove's 3D panel and teleop panel publish. Each carries a
+top-level ``"token"`` (one of those the caller accepts) unless the view takes commands
+without one. A command is refused whole, with the reason, when it is too large, not JSON, of
+a type a viewer may not send, missing a field or out of bounds, or without an accepted token;
+it then never reaches the bus.
 """
 
 from __future__ import annotations
@@ -100,14 +100,14 @@ COMMAND_TOPICS: dict[str, Callable[[Mapping[str, Any]], ControlRequest]] = {
 }
 
 
-def read_command(topic: str, data: bytes, token: str | None) -> ControlRequest:
+def read_command(topic: str, data: bytes, tokens: tuple[str, ...] | None) -> ControlRequest:
     """The control request a viewer published on ``topic``.
 
     Args:
         topic: the topic of the viewer's channel.
         data: the JSON message.
-        token: the secret every command must carry, or None where none is needed (a view
-            on loopback).
+        tokens: the secrets a command may carry (one of them it must), or None where none is
+            needed (``viz.untokened_commands`` on loopback).
 
     Raises:
         CommandRefusedError: naming what was wrong.
@@ -126,12 +126,14 @@ def read_command(topic: str, data: bytes, token: str | None) -> ControlRequest:
     if not isinstance(message, dict):
         raise CommandRefusedError("a command is a JSON object")
     given = message.pop("token", None)
-    if token is not None and not (
-        isinstance(given, str) and hmac.compare_digest(given.encode(), token.encode())
+    if tokens is not None and not (
+        isinstance(given, str)
+        and any(hmac.compare_digest(given.encode(), t.encode()) for t in tokens)
     ):
         raise CommandRefusedError(
-            "missing or wrong token: this view listens beyond loopback, so commands must "
-            'carry "token" (tcp.token)'
+            'missing or wrong token: a command carries "token": the run\'s own (the operator '
+            "page on this machine has it) or tcp.token; or set viz.untokened_commands on a "
+            "loopback view"
         )
     try:
         return read(message)

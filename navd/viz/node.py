@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import secrets
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -61,6 +62,7 @@ from foxglove.websocket import (
 
 from navd import __version__
 from navd.drivers.protocol.convert import control_message
+from navd.drivers.protocol.frames import TeleopFrame
 from navd.lifecycle.messages import (
     CostmapUpdate,
     DaemonStatus,
@@ -189,6 +191,8 @@ class VizNode(Module):
         self._status: dict[str, Any] = {}
         self._offset_s = 0.0  # [s] wall clock minus daemon clock, fixed at activation
         self._listener: _Listener | None = None
+        # This run's command token: the operator page on this machine gets it (PageServer).
+        self.command_token = secrets.token_urlsafe(24)
         self.page: PageServer | None = None
         self._pose: PoseEstimate | None = None  # the latest, to place the page's scan
         self._commands_taken = 0
@@ -319,7 +323,7 @@ class VizNode(Module):
         """Start the operator page's HTTP server (its own thread); a port that cannot be
         bound leaves the Foxglove stream serving."""
         try:
-            self.page = PageServer(s.host, s.page_port, ws_port, s.robot_name)
+            self.page = PageServer(s.host, s.page_port, ws_port, s.robot_name, self.command_token)
         except OSError as err:
             self.ctx.log.error(
                 "page_unavailable",
@@ -583,12 +587,14 @@ class VizNode(Module):
         try:
             if not s.commands:
                 raise CommandRefusedError("viz.commands is false: this view is read-only")
-            if s.remote and s.token is None:
-                raise CommandRefusedError(
-                    "this view listens beyond loopback and tcp.token is not set: it is "
-                    "read-only; set tcp.token to command from elsewhere"
-                )
-            frame = read_command(topic, data, s.token if s.remote else None)
+            tokens = (
+                None
+                if s.untokened_commands and not s.remote
+                else (self.command_token,) + ((s.token,) if s.token else ())
+            )
+            frame = read_command(topic, data, tokens)
+            if isinstance(frame, TeleopFrame) and not s.teleop_enabled:
+                raise CommandRefusedError("teleop.enabled is false: driving by hand is off")
         except CommandRefusedError as err:
             self._refuse(client_id, topic, str(err))
             return

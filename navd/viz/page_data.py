@@ -4,7 +4,7 @@ the Foxglove channels' protobuf would need a library the page does not carry).
 All positions are in the map frame [m]; angles [rad]. Topics:
 
 - ``/page/info``: the robot's name and outline, the keep-out zones, teleop's top speeds and
-  whether commands need the token;
+  whether viewers may command and drive;
 - ``/page/map``: the occupancy grid (int8 per cell as ROS: -1 unknown, 0..100 occupied
   percent; base64), coarsened when it has more than MAX_PAGE_CELLS cells;
 - ``/page/pose``: the fused pose and its 1-sigma position error;
@@ -136,6 +136,6 @@ def info_message(settings: VizSettings) -> dict[str, Any]:
             "max_linear": settings.teleop_linear_mps,
             "max_angular": settings.teleop_angular_radps,
         },
-        "commands": settings.commands and not (settings.remote and settings.token is None),
-        "token_required": settings.remote,
+        "commands": settings.commands,
+        "teleop_enabled": settings.teleop_enabled,
     }

@@ -6,18 +6,30 @@ loop's). It answers GET and HEAD for the files in ``navd/viz/page`` only (no lis
 path outside them) and ``/config.json`` ({"ws_port", "robot"}), so the page, loaded from
 ``http://ROBOT:PAGE_PORT/``, connects to ``ws://ROBOT:WS_PORT``. No build step, nothing
 fetched from elsewhere: it works offline and on a phone.
+
+``/config.json`` also carries the run's command token to a browser on this machine (the
+peer is loopback and the page was asked for by a loopback name, so a site whose name
+resolves to 127.0.0.1 does not get it): the page on the robot, or through an SSH tunnel,
+steers without typing a secret, while other web pages, which cannot read another origin's
+answers, cannot. Each connection is served by a thread of its own, at most
+``MAX_CONNECTIONS`` at once, and dropped after ``IDLE_TIMEOUT_S`` of silence.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
+import socket
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 
-__all__ = ["PAGE_FILES", "PageServer"]
+__all__ = ["IDLE_TIMEOUT_S", "MAX_CONNECTIONS", "PAGE_FILES", "PageServer"]
+
+MAX_CONNECTIONS = 32
+IDLE_TIMEOUT_S = 10.0  # [s] a connection that sends nothing this long is closed
 
 _TYPES = {
     ".html": "text/html; charset=utf-8",
@@ -42,8 +54,25 @@ def _page_files() -> dict[str, bytes]:
 PAGE_FILES = _page_files()
 
 
+def _loopback_address(address: str) -> bool:
+    try:
+        return ipaddress.ip_address(address.split("%", 1)[0]).is_loopback
+    except ValueError:
+        return False
+
+
+def _loopback_name(host_header: str | None) -> bool:
+    """True if a Host header names this machine by loopback (``localhost``, 127.x, [::1])."""
+    if not host_header:
+        return False
+    host = host_header.rsplit(":", 1)[0] if not host_header.startswith("[") else host_header
+    host = host.split("]", 1)[0].lstrip("[")
+    return host == "localhost" or _loopback_address(host)
+
+
 class _Handler(BaseHTTPRequestHandler):
     server: _Server
+    timeout = IDLE_TIMEOUT_S
 
     def do_GET(self) -> None:
         self._answer(body=True)
@@ -54,7 +83,12 @@ class _Handler(BaseHTTPRequestHandler):
     def _answer(self, *, body: bool) -> None:
         path = self.path.split("?", 1)[0]
         if path == "/config.json":
-            content, kind = self.server.config_json, "application/json"
+            config = dict(self.server.config)
+            if _loopback_address(self.client_address[0]) and _loopback_name(
+                self.headers.get("Host")
+            ):
+                config["command_token"] = self.server.command_token
+            content, kind = json.dumps(config).encode(), "application/json"
         elif path in PAGE_FILES:
             content = PAGE_FILES[path]
             name = "/index.html" if path == "/" else path
@@ -76,19 +110,47 @@ class _Handler(BaseHTTPRequestHandler):
 
 class _Server(ThreadingHTTPServer):
     daemon_threads = True
-    config_json: bytes
+    config: dict[str, object]
+    command_token: str
+    slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        """A thread per connection while fewer than MAX_CONNECTIONS are served; beyond,
+        the connection is closed at once."""
+        if not self.slots.acquire(blocking=False):
+            self.shutdown_request(request)
+            return
+        try:
+            super().process_request(request, client_address)
+        except BaseException:
+            self.slots.release()
+            raise
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self.slots.release()
+
+
+class _Server6(_Server):
+    address_family = socket.AF_INET6
 
 
 class PageServer:
-    """Serves the page on ``host``:``port`` (0: a free port) for a stream on ``ws_port``.
+    """Serves the page on ``host``:``port`` (0: a free port) for a stream on ``ws_port``,
+    handing ``command_token`` to browsers on this machine (see the module docstring).
 
     Raises:
         OSError: the address cannot be bound (a busy port, an address not of this machine).
     """
 
-    def __init__(self, host: str, port: int, ws_port: int, robot: str) -> None:
-        self._server = _Server((host, port), _Handler)
-        self._server.config_json = json.dumps({"ws_port": ws_port, "robot": robot}).encode()
+    def __init__(self, host: str, port: int, ws_port: int, robot: str, command_token: str) -> None:
+        server = _Server6 if ":" in host else _Server
+        self._server = server((host, port), _Handler)
+        self._server.slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        self._server.config = {"ws_port": ws_port, "robot": robot}
+        self._server.command_token = command_token
         self._thread = threading.Thread(
             target=self._server.serve_forever, kwargs={"poll_interval": 0.2}, name="viz-page"
         )

@@ -13,14 +13,21 @@ daemon drives on unrecorded.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from navd.config import NavdConfig
-from navd.lifecycle.messages import MapUpdate, Message, RecordingState, RecordRequest
+from navd.config.loader import redacted, redacted_changes
+from navd.lifecycle.messages import (
+    ConfigChange,
+    MapUpdate,
+    Message,
+    RecordingState,
+    RecordRequest,
+)
 from navd.lifecycle.module import Module, ModuleContext
 from navd.viz.record_codec import INFO, INPUTS, OUTPUTS, topic_of
 from navd.viz.recording_writer import RecordingWriter, WriterSettings
@@ -50,8 +57,6 @@ class RecorderSettings:
     def from_config(cls, config: NavdConfig) -> RecorderSettings:
         """The settings the record section describes; the token is never recorded."""
         record = config.record
-        plain: dict[str, Any] = config.model_dump(mode="json")
-        plain["tcp"]["token"] = None
         return cls(
             enabled=record.enabled,
             writer=WriterSettings(
@@ -61,7 +66,7 @@ class RecorderSettings:
                 flush_period_s=record.flush_period_s,
             ),
             map_period_s=record.map_period_s,
-            config_json=json.dumps(plain).encode(),
+            config_json=json.dumps(redacted(config)).encode(),
         )
 
 
@@ -179,6 +184,8 @@ class Recorder(Module):
             if message.stamp - self._map_at < self.settings.value.map_period_s:
                 return
             self._map_at = message.stamp
+        if isinstance(message, ConfigChange):  # a secret sent in a change is not kept either
+            message = dataclasses.replace(message, changes=redacted_changes(message.changes))
         topic = topic_of(type(message))
         assert topic is not None
         writer.put(topic, message, self._offset_ns + round(message.received * 1e9))

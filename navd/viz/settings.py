@@ -28,6 +28,8 @@ class VizSettings:
         robot_name: the name the server gives itself.
         page_enabled, page_port: the operator page's HTTP server (they need a restart).
         commands: viewers may steer (goals, initial poses, velocities, cancels).
+        untokened_commands: commands need no token (a loopback view only).
+        teleop_enabled: operators may drive by hand.
         remote: the view listens beyond loopback (commands then need ``token``).
         token: ``tcp.token``, the secret a command from beyond loopback must carry.
         teleop_linear_mps, teleop_angular_radps: [m/s, rad/s] manual driving's top speeds
@@ -47,6 +49,8 @@ class VizSettings:
     page_enabled: bool
     page_port: int
     commands: bool
+    untokened_commands: bool
+    teleop_enabled: bool
     remote: bool
     token: str | None = field(repr=False)
     teleop_linear_mps: float
@@ -70,6 +74,8 @@ class VizSettings:
             page_enabled=viz.page_enabled,
             page_port=viz.page_port,
             commands=viz.commands,
+            untokened_commands=viz.untokened_commands,
+            teleop_enabled=config.teleop.enabled,
             remote=not is_loopback(viz.host),
             token=config.tcp.token,
             teleop_linear_mps=config.teleop.max_linear_speed_mps,

@@ -8,6 +8,7 @@ import asyncio
 import json
 import math
 import socket
+import urllib.request
 from typing import Any
 
 import pytest
@@ -38,8 +39,8 @@ def _pose_stamped(x: float, y: float, yaw: float) -> dict[str, Any]:
     }
 
 
-def _read(topic: str, message: Any, token: str | None = None) -> Any:
-    return read_command(topic, json.dumps(message).encode(), token)
+def _read(topic: str, message: Any, tokens: tuple[str, ...] | None = None) -> Any:
+    return read_command(topic, json.dumps(message).encode(), tokens)
 
 
 def test_foxglove_panel_messages_read_as_control_requests() -> None:
@@ -86,17 +87,19 @@ def test_bad_commands_are_refused_naming_what_is_wrong(topic: str, data: bytes, 
 
 def test_a_token_is_checked_when_one_is_needed() -> None:
     twist = {"linear": {"x": 0.1}, "angular": {"z": 0.0}}
+    accepted = ("the-runs-own-token", TOKEN)
     with pytest.raises(CommandRefusedError, match="token"):
-        _read("/cmd_vel", twist, TOKEN)
+        _read("/cmd_vel", twist, accepted)
     with pytest.raises(CommandRefusedError, match="token"):
-        _read("/cmd_vel", {**twist, "token": "wrong"}, TOKEN)
-    assert _read("/cmd_vel", {**twist, "token": TOKEN}, TOKEN) == TeleopFrame(
-        linear_x=0.1, angular_z=0.0
-    )
+        _read("/cmd_vel", {**twist, "token": "wrong"}, accepted)
+    for token in accepted:
+        assert _read("/cmd_vel", {**twist, "token": token}, accepted) == TeleopFrame(
+            linear_x=0.1, angular_z=0.0
+        )
 
 
-async def test_a_viewer_on_loopback_steers_through_the_bus() -> None:
-    async with viewed_daemon() as (daemon, node):
+async def test_a_viewer_on_loopback_steers_through_the_bus_when_untokened_is_on() -> None:
+    async with viewed_daemon(untokened_commands=True) as (daemon, node):
         assert node.port is not None
         goals, poses = record(daemon, Goal), record(daemon, InitialPose)
         drives, cancels = record(daemon, ManualCommand), record(daemon, CancelGoal)
@@ -119,6 +122,49 @@ async def test_a_viewer_on_loopback_steers_through_the_bus() -> None:
         assert [(d.linear_mps, d.angular_radps) for d in drives] == [(0.3, 0.1)]
         assert drives[0].operator.startswith("viewer-")
         assert node.refused == 1
+
+
+async def test_on_loopback_a_command_needs_the_runs_token_from_the_page() -> None:
+    """A web page from elsewhere open in a browser on the robot reaches the loopback
+    WebSocket too: without the token the page server gives browsers on this machine, its
+    commands are refused."""
+    async with viewed_daemon() as (daemon, node):
+        assert node.port is not None and node.page is not None
+        drives = record(daemon, ManualCommand)
+        url = f"http://127.0.0.1:{node.page.port}/config.json"
+        config = json.loads(await asyncio.to_thread(_fetch, url))
+        viewer = await FoxgloveClient.open(node.port)
+        try:
+            cmd_vel = await viewer.advertise("/cmd_vel")
+            own = await viewer.advertise("/navd/command")
+            await viewer.publish(cmd_vel, {"linear": {"x": 0.3}, "angular": {"z": 0.0}})
+            await viewer.publish(own, {"type": "teleop", "linear_x": 0.3, "angular_z": 0.0})
+            await until(lambda: node.refused == 2, timeout_s=5.0)
+            assert not drives
+            teleop = {"type": "teleop", "linear_x": 0.2, "angular_z": 0.0}
+            await viewer.publish(own, {**teleop, "token": config["command_token"]})
+            await until(lambda: bool(drives), timeout_s=5.0)
+        finally:
+            await viewer.close()
+        assert drives[0].linear_mps == 0.2
+
+
+def _fetch(url: str, host: str | None = None) -> bytes:
+    request = urllib.request.Request(url, headers={"Host": host} if host else {})
+    with urllib.request.urlopen(request, timeout=5) as answer:
+        body: bytes = answer.read()
+        return body
+
+
+async def test_the_page_gives_its_token_only_to_a_browser_on_this_machine() -> None:
+    async with viewed_daemon() as (_, node):
+        assert node.page is not None
+        url = f"http://127.0.0.1:{node.page.port}/config.json"
+        local = json.loads(await asyncio.to_thread(_fetch, url))
+        assert local["command_token"] == node.command_token
+        # a site whose name resolves to 127.0.0.1 (DNS rebinding) does not get it
+        rebound = json.loads(await asyncio.to_thread(_fetch, url, "evil.example.com:80"))
+        assert "command_token" not in rebound and rebound["ws_port"] == node.port
 
 
 def _address_beyond_loopback() -> str | None:
@@ -153,6 +199,10 @@ async def test_beyond_loopback_a_viewer_without_the_token_cannot_steer() -> None
             await until(lambda: node.refused == 3, timeout_s=5.0)
             await asyncio.sleep(0.1)
             assert not any(steering)
+            # nor does the page hand this run's token to a browser on another machine
+            assert node.page is not None
+            url = f"http://{address}:{node.page.port}/config.json"
+            assert "command_token" not in json.loads(await asyncio.to_thread(_fetch, url))
             # the same viewer with the token steers
             await viewer.publish(
                 own, {"type": "teleop", "linear_x": 0.2, "angular_z": 0.0, "token": TOKEN}

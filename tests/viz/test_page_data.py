@@ -73,11 +73,11 @@ def test_scan_points_are_placed_in_the_map_frame_from_the_pose() -> None:
     assert shown["std_xy"] == 0.2 and shown["yaw"] == round(math.pi / 2, 4)
 
 
-def test_the_info_says_when_commands_need_the_token_or_are_off() -> None:
+def test_the_info_says_whether_viewers_may_command_and_drive() -> None:
     local = VizSettings.from_config(NavdConfig())
-    assert page_data.info_message(local)["commands"] is True
-    assert page_data.info_message(local)["token_required"] is False
-    assert page_data.info_message(local)["footprint"] == {"kind": "circle", "radius": 0.2}
-    remote = NavdConfig.model_validate({"viz": {"host": "0.0.0.0", "allow_remote": True}})
-    info = page_data.info_message(VizSettings.from_config(remote))
-    assert info["token_required"] is True and info["commands"] is False  # no tcp.token set
+    info = page_data.info_message(local)
+    assert (info["commands"], info["teleop_enabled"]) == (True, True)
+    assert info["footprint"] == {"kind": "circle", "radius": 0.2}
+    quiet = NavdConfig.model_validate({"viz": {"commands": False}, "teleop": {"enabled": False}})
+    info = page_data.info_message(VizSettings.from_config(quiet))
+    assert (info["commands"], info["teleop_enabled"]) == (False, False)

@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import json
+import time
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
 
 import pytest
 
-from navd.viz.page_server import PAGE_FILES, PageServer
+from navd.viz.page_server import MAX_CONNECTIONS, PAGE_FILES, PageServer
 
 
 @pytest.fixture
 def page() -> Iterator[PageServer]:
-    server = PageServer("127.0.0.1", 0, ws_port=9999, robot="rover")
+    server = PageServer("127.0.0.1", 0, ws_port=9999, robot="rover", command_token="t0k")
     try:
         yield server
     finally:
@@ -44,7 +45,7 @@ def test_the_page_and_its_files_are_served_with_their_types(page: PageServer) ->
 def test_config_json_says_where_the_stream_is(page: PageServer) -> None:
     status, kind, body = _get(page, "/config.json?nocache=1")
     assert status == 200 and kind == "application/json"
-    assert json.loads(body) == {"ws_port": 9999, "robot": "rover"}
+    assert json.loads(body) == {"ws_port": 9999, "robot": "rover", "command_token": "t0k"}
 
 
 @pytest.mark.parametrize("path", ["/../pyproject.toml", "/%2e%2e/navd/app.py", "/nothing.js"])
@@ -54,9 +55,32 @@ def test_nothing_outside_the_page_is_served(page: PageServer, path: str) -> None
 
 
 def test_a_busy_port_is_an_error_naming_the_address() -> None:
-    first = PageServer("127.0.0.1", 0, ws_port=1, robot="a")
+    first = PageServer("127.0.0.1", 0, ws_port=1, robot="a", command_token="a")
     try:
         with pytest.raises(OSError, match="in use"):
-            PageServer("127.0.0.1", first.port, ws_port=1, robot="b")
+            PageServer("127.0.0.1", first.port, ws_port=1, robot="b", command_token="b")
     finally:
         first.stop()
+
+
+def test_idle_connections_beyond_the_cap_are_closed_not_served(page: PageServer) -> None:
+    import socket
+
+    held = []
+    try:
+        for _ in range(MAX_CONNECTIONS):  # connections that never send a request
+            held.append(socket.create_connection(("127.0.0.1", page.port), timeout=5))
+        extra = socket.create_connection(("127.0.0.1", page.port), timeout=5)
+        assert extra.recv(1) == b""  # closed at once: no thread for it
+        extra.close()
+    finally:
+        for conn in held:
+            conn.close()
+    # once they are gone the page is served again
+    for _ in range(50):
+        try:
+            status, _, _ = _get(page, "/")
+            break
+        except OSError:
+            time.sleep(0.05)
+    assert status == 200

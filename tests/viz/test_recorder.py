@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import GoalFrame, RecordFrame
-from navd.lifecycle.messages import Goal, PoseEstimate, RecordingState
+from navd.drivers.protocol.frames import ConfigFrame, GoalFrame, RecordFrame
+from navd.lifecycle.messages import ConfigChange, Goal, PoseEstimate, RecordingState
 from navd.viz.recording_reader import read_recording
 from tests.drivers.conftest import connected, record, running_daemon, until
 
@@ -34,6 +34,10 @@ async def test_a_client_starts_and_stops_a_recording_of_inputs_and_outputs(
         await control.request(RecordFrame(action="start"))
         await until(lambda: bool(states) and states[-1].active, timeout_s=5.0)
         await control.request(GoalFrame(x=2.0, y=1.0, goal_id="g1"))
+        # a secret sent in a config change (refused: a restart key) is not kept either
+        await control.request(
+            ConfigFrame(changes={"tcp.token": "a-secret-sent-by-mistake", "tcp": {"token": "x"}})
+        )
         now = daemon.clock.now()
         daemon.bus.publish(
             PoseEstimate(
@@ -52,7 +56,9 @@ async def test_a_client_starts_and_stops_a_recording_of_inputs_and_outputs(
     assert [(g.goal_id, g.x_m, g.y_m) for g in goals] == [("g1", 2.0, 1.0)]
     assert any(p.x_m == 0.5 for p in poses)
     assert recording.config is not None
-    assert recording.config["tcp"]["token"] is None  # the secret is never recorded
+    assert recording.config["tcp"]["token"] == "<redacted>"  # the secret is never recorded
+    (change,) = [m for t, m in recording.messages if isinstance(m, ConfigChange)]
+    assert dict(change.changes) == {"tcp.token": "<redacted>", "tcp": {"token": "<redacted>"}}
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write any folder")

@@ -87,7 +87,7 @@ function take(topic, message) {
     case "/page/info":
       state.info = message;
       document.getElementById("robot").textContent = message.robot;
-      document.getElementById("token-box").hidden = !message.token_required;
+      if (!message.commands) say("this view is read-only (viz.commands is false)", "warn");
       break;
     case "/page/map": state.map = message; paintMap(message); break;
     case "/page/pose": state.pose = message; break;
@@ -120,7 +120,9 @@ function command(frame) {
     say("not connected: command not sent", "bad");
     return;
   }
-  const token = document.getElementById("token").value;
+  // A token typed in (tcp.token, from another machine) or the run's own, which navd gives a
+  // browser on the robot itself.
+  const token = document.getElementById("token").value || window.navdConfig.command_token;
   if (token) frame.token = token;
   const payload = new TextEncoder().encode(JSON.stringify(frame));
   const message = new Uint8Array(5 + payload.length);
@@ -414,6 +416,10 @@ function release() {
 }
 stick.addEventListener("pointerup", release);
 stick.addEventListener("pointercancel", release);
+stick.addEventListener("lostpointercapture", release);
+// A hidden tab's timers slow to one a second: stop rather than drive in bursts unattended.
+document.addEventListener("visibilitychange", () => { if (document.hidden) release(); });
+window.addEventListener("blur", release);
 
 document.getElementById("cancel").addEventListener("click", () => {
   command({ type: "cancel" });
@@ -430,5 +436,6 @@ window.navd = { state, view, mapToScreen, screenToMap, fit };
 
 fetch("config.json").then((r) => r.json()).then((config) => {
   window.navdConfig = config;
+  document.getElementById("token-box").hidden = Boolean(config.command_token);
   connect();
 });
