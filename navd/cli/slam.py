@@ -30,6 +30,9 @@ def add_commands(commands: Commands) -> None:
     replay.add_argument(
         "--out", type=Path, help="folder for the results (required for a laser log)"
     )
+    replay.add_argument(
+        "--session", help="a navd recording: which session of the folder (default: its only one)"
+    )
     replay.add_argument("--config", type=Path, help="TOML config (its slam and lidar sections)")
     replay.add_argument("--laser-x", type=float, help="[m] lidar x on the robot (lidar.x_m)")
     replay.add_argument("--laser-y", type=float, help="[m] lidar y on the robot (lidar.y_m)")
@@ -74,7 +77,11 @@ def _replay(args: argparse.Namespace) -> int:
     if _is_navd_recording(args.log):
         return _play(args)
     if args.out is None:
-        print("navd replay: --out is required for a laser log", file=sys.stderr)
+        print(
+            f"navd replay: {args.log} is not a navd recording (a .mcap file or a folder of "
+            f"them); to run SLAM over a laser log or bag, give --out DIR",
+            file=sys.stderr,
+        )
         return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.errors import SlamError  # noqa: PLC0415
@@ -135,15 +142,16 @@ def _play(args: argparse.Namespace) -> int:
     import tempfile  # noqa: PLC0415
 
     from navd.app import build_modules  # noqa: PLC0415 - only playback needs the daemon
+    from navd.viz.errors import RecordingError  # noqa: PLC0415
     from navd.viz.playback import play  # noqa: PLC0415
-    from navd.viz.recording_reader import RecordingError, read_recording  # noqa: PLC0415
+    from navd.viz.recording_reader import read_recording  # noqa: PLC0415
 
     try:
-        recording = read_recording(args.log)
+        recording = read_recording(args.log, args.session)
         with tempfile.TemporaryDirectory(prefix="navd-play-") as tmp:
             work = args.out if args.out is not None else Path(tmp)
             report = asyncio.run(play(recording, build_modules, work))
-    except (RecordingError, ConfigError) as err:
+    except RecordingError as err:
         print(f"navd replay: {err}", file=sys.stderr)
         return EXIT_USAGE
     summary = report.as_dict()

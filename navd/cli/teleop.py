@@ -97,18 +97,22 @@ class KeyDriver:
         return None
 
 
-def split_keys(data: bytes) -> list[bytes]:
-    """Bytes read from a terminal as keys: arrow escape sequences whole, others one by one."""
+def split_keys(data: bytes) -> tuple[list[bytes], bytes]:
+    """Bytes read from a terminal as keys: arrow escape sequences whole, others one by one;
+    and the start of a sequence cut off at the end of ``data`` (to go before the next read)."""
     keys: list[bytes] = []
     i = 0
     while i < len(data):
-        if data[i : i + 2] == b"\x1b[" and i + 2 < len(data):
+        rest = data[i:]
+        if rest in (b"\x1b", b"\x1b["):
+            return keys, rest  # the rest of the sequence comes with the next read
+        if rest.startswith(b"\x1b["):
             keys.append(data[i : i + 3])
             i += 3
         else:
             keys.append(data[i : i + 1])
             i += 1
-    return keys
+    return keys, b""
 
 
 def add_commands(commands: Commands) -> None:
@@ -191,26 +195,31 @@ def _drive(client: Client, keys: KeyDriver, fd: int, watch: _Replies | None) -> 
     send = client.send
     next_send = time.monotonic()
     ended = False
-    while not keys.quit:
-        now = time.monotonic()
-        ready, _, _ = select.select([] if ended else [fd], [], [], max(0.0, next_send - now))
-        if ready:
-            data = os.read(fd, 64)
-            if not data:
-                ended = True  # piped input is over: finish the motion it asked for
-            for key in split_keys(data):
-                keys.key(key, time.monotonic())
-        now = time.monotonic()
-        if now < next_send:
-            continue
-        next_send = now + SEND_PERIOD_S
-        command = keys.command(now)
-        if command is not None:
-            send(TeleopFrame(linear_x=command[0], angular_z=command[1]))
-        elif ended:
-            return
-        if watch is not None:
-            shown = "stopped" if command is None else f"v {command[0]:+.2f} w {command[1]:+.2f}"
-            sys.stdout.write(f"\r{shown:<20} {watch.line:<70}")
-            sys.stdout.flush()
-    send(TeleopFrame(linear_x=0.0, angular_z=0.0))
+    pending = b""
+    try:
+        while not keys.quit:
+            now = time.monotonic()
+            ready, _, _ = select.select([] if ended else [fd], [], [], max(0.0, next_send - now))
+            if ready:
+                data = os.read(fd, 64)
+                if not data:
+                    ended = True  # piped input is over: finish the motion it asked for
+                split, pending = split_keys(pending + data)
+                for key in split:
+                    keys.key(key, time.monotonic())
+            now = time.monotonic()
+            if now < next_send:
+                continue
+            next_send = now + SEND_PERIOD_S
+            command = keys.command(now)
+            if command is not None:
+                send(TeleopFrame(linear_x=command[0], angular_z=command[1]))
+            elif ended:
+                return
+            if watch is not None:
+                shown = "stopped" if command is None else f"v {command[0]:+.2f} w {command[1]:+.2f}"
+                sys.stdout.write(f"\r{shown:<20} {watch.line:<70}")
+                sys.stdout.flush()
+    finally:  # q, Ctrl-C or the end: the robot stops now, not at the deadman
+        with contextlib.suppress(OSError):
+            send(TeleopFrame(linear_x=0.0, angular_z=0.0))

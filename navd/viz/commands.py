@@ -35,17 +35,21 @@ from navd.drivers.protocol.frames import (
     InitialPoseFrame,
     TeleopFrame,
 )
+from navd.viz.errors import CommandRefusedError
+from navd.viz.settings import VizSettings
 
-__all__ = ["COMMAND_TOPICS", "MAX_COMMAND_BYTES", "CommandRefusedError", "read_command"]
+__all__ = [
+    "COMMAND_TOPICS",
+    "MAX_COMMAND_BYTES",
+    "CommandRefusedError",
+    "read_command",
+    "viewer_request",
+]
 
 MAX_COMMAND_BYTES = 16_384
 NAVD_TOPIC = "/navd/command"
 # What a viewer may ask for on navd's own topic: steering, not configuring.
 VIEWER_REQUESTS = (GoalFrame, InitialPoseFrame, TeleopFrame, CancelFrame)
-
-
-class CommandRefusedError(ValueError):
-    """A viewer's command that is not carried out; the message says why."""
 
 
 def _yaw(orientation: Mapping[str, Any]) -> float:
@@ -148,3 +152,26 @@ def read_command(topic: str, data: bytes, tokens: tuple[str, ...] | None) -> Con
         raise CommandRefusedError(text) from err
     except (KeyError, TypeError, ValueError, AttributeError) as err:
         raise CommandRefusedError(f"not a {topic} message: {type(err).__name__}: {err}") from err
+
+
+def viewer_request(
+    topic: str, data: bytes, settings: VizSettings, command_token: str
+) -> ControlRequest:
+    """A viewer's command as the request it becomes, by the view's rules: commands on
+    (``viz.commands``), a token accepted (this run's ``command_token`` or ``tcp.token``; none
+    with ``viz.untokened_commands`` on loopback), and driving by hand on for a velocity.
+
+    Raises:
+        CommandRefusedError: naming the rule or the field that refused it.
+    """
+    if not settings.commands:
+        raise CommandRefusedError("viz.commands is false: this view is read-only")
+    tokens = (
+        None
+        if settings.untokened_commands and not settings.remote
+        else (command_token, *((settings.token,) if settings.token else ()))
+    )
+    frame = read_command(topic, data, tokens)
+    if isinstance(frame, TeleopFrame) and not settings.teleop_enabled:
+        raise CommandRefusedError("teleop.enabled is false: driving by hand is off")
+    return frame

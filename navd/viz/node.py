@@ -62,7 +62,6 @@ from foxglove.websocket import (
 
 from navd import __version__
 from navd.drivers.protocol.convert import control_message
-from navd.drivers.protocol.frames import TeleopFrame
 from navd.lifecycle.messages import (
     CostmapUpdate,
     DaemonStatus,
@@ -81,7 +80,8 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
 from navd.viz import page_data, scene
-from navd.viz.commands import CommandRefusedError, read_command
+from navd.viz.commands import viewer_request
+from navd.viz.errors import CommandRefusedError
 from navd.viz.page_server import PageServer
 from navd.viz.settings import VizSettings
 
@@ -195,6 +195,7 @@ class VizNode(Module):
         self.command_token = secrets.token_urlsafe(24)
         self.page: PageServer | None = None
         self._pose: PoseEstimate | None = None  # the latest, to place the page's scan
+        self._page_map: tuple[MapUpdate, dict[str, Any]] | None = None  # the last built
         self._commands_taken = 0
         self._refused_logged: dict[int, float] = {}  # viewer -> when its last refusal was logged
         self.refused = 0  # commands refused, for the status and tests
@@ -368,6 +369,7 @@ class VizNode(Module):
         self._status.clear()
         self._map_pending = None
         self._pose = None
+        self._page_map = None
         self._context = None
 
     # --- state a new viewer gets at once ----------------------------------------------
@@ -417,9 +419,25 @@ class VizNode(Module):
             return
         self._map_pending = None
         self._remember("/map", lambda: self._send_map(update))
-        self._remember(
-            "/page/map", lambda: self._send_json_of(self.page_map, page_data.map_message, update)
-        )
+        self._remember("/page/map", lambda: self._send_page_map(update))
+
+    def _send_page_map(self, update: MapUpdate) -> None:
+        """The page's map, built in a worker (coarsening a large map takes tens of ms) once
+        per map: a viewer subscribing later gets the same message."""
+        if self.server is None or not self.page_map.has_sinks():
+            return
+        built = self._page_map
+        if built is not None and built[0] is update:
+            self.page_map.log(built[1], log_time=self._log_time())
+            return
+        log_time = self._log_time()
+
+        def job() -> None:
+            message = page_data.map_message(update)
+            self._page_map = (update, message)
+            self.page_map.log(message, log_time=log_time)  # the SDK's channels take any thread
+
+        self.ctx.submit("viz_page_map", job)
 
     def _log_time(self) -> int:
         """[ns] now, on the wall clock as the view shows it."""
@@ -582,19 +600,9 @@ class VizNode(Module):
     def _on_command(self, client_id: int, topic: str, data: bytes) -> None:
         """A viewer published ``data`` on ``topic``: the same request a control client could
         send, published on the bus (and so through the safety gate), or refused with why."""
-        s = self.settings.value
         operator = f"viewer-{client_id}"
         try:
-            if not s.commands:
-                raise CommandRefusedError("viz.commands is false: this view is read-only")
-            tokens = (
-                None
-                if s.untokened_commands and not s.remote
-                else (self.command_token,) + ((s.token,) if s.token else ())
-            )
-            frame = read_command(topic, data, tokens)
-            if isinstance(frame, TeleopFrame) and not s.teleop_enabled:
-                raise CommandRefusedError("teleop.enabled is false: driving by hand is off")
+            frame = viewer_request(topic, data, self.settings.value, self.command_token)
         except CommandRefusedError as err:
             self._refuse(client_id, topic, str(err))
             return

@@ -15,7 +15,6 @@ Maps go to a folder of the replay's own, never the robot's.
 from __future__ import annotations
 
 import asyncio
-import bisect
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
@@ -25,7 +24,9 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from pydantic import ValidationError
 
+from navd import __version__
 from navd.config import NavdConfig
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.daemon import Daemon
@@ -41,8 +42,9 @@ from navd.lifecycle.messages import (
     Path as Route,
 )
 from navd.lifecycle.module import Module
+from navd.viz.errors import RecordingError
 from navd.viz.record_codec import OUTPUTS
-from navd.viz.recording_reader import Recording, RecordingError
+from navd.viz.recording_reader import Recording
 
 __all__ = ["EDGE_MODULES", "PlaybackReport", "map_iou", "play", "replay_config"]
 
@@ -55,7 +57,22 @@ OCCUPIED = 50  # a cell above this [% occupied] is an obstacle when maps are com
 
 def replay_config(recorded: dict[str, Any], maps: Path) -> NavdConfig:
     """The recorded config, run on simulated time without its edges, saving maps to
-    ``maps``."""
+    ``maps``.
+
+    Raises:
+        RecordingError: the recorded config does not suit this navd (a key it does not know,
+            from another version), naming the keys.
+    """
+    try:
+        return NavdConfig.model_validate(_replayable(recorded, maps))
+    except (ValidationError, TypeError, AttributeError) as err:
+        raise RecordingError(
+            f"the recorded config does not suit this navd {__version__} (was it recorded by "
+            f"another version?): {err}"
+        ) from err
+
+
+def _replayable(recorded: dict[str, Any], maps: Path) -> dict[str, Any]:
     plain = {k: dict(v) if isinstance(v, dict) else v for k, v in recorded.items()}
     plain["tcp"] = {}  # not run; its recorded host may need the token that was not recorded
     plain["viz"] = {"enabled": False}
@@ -65,7 +82,7 @@ def replay_config(recorded: dict[str, Any], maps: Path) -> NavdConfig:
     plain["slam"] = {**plain.get("slam", {}), "map_dir": str(maps)}
     # the replayed daemon's own log: what went wrong, not every step (it repeats a past run)
     plain["logging"] = {**plain.get("logging", {}), "level": "warning"}
-    return NavdConfig.model_validate(plain)
+    return plain
 
 
 def map_iou(a: MapUpdate, b: MapUpdate) -> float:
@@ -123,10 +140,96 @@ class PlaybackReport:
         return dataclasses.asdict(self)
 
 
+class _Outputs:
+    """What a run decided, kept compactly as it streams past (a long recording is never
+    held whole): pose and wheel-command tracks, the last route of each goal, each goal's
+    last state, and the last map."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {kind.__name__: 0 for kind in OUTPUTS}
+        self._poses: list[tuple[float, float, float]] = []  # [s, m, m]
+        self._wheels: list[tuple[float, float]] = []  # [s, m/s]
+        self.routes: dict[str, npt.NDArray[np.float64]] = {}
+        self.goals: dict[str, str] = {}
+        self.map: MapUpdate | None = None
+
+    def add(self, message: Message, shift_s: float = 0.0) -> None:
+        self.counts[type(message).__name__] += 1
+        t = message.received + shift_s
+        if isinstance(message, PoseEstimate):
+            self._poses.append((t, message.x_m, message.y_m))
+        elif isinstance(message, DriveCommand):
+            self._wheels.append((message.stamp + shift_s, message.linear_mps))
+        elif isinstance(message, Route):
+            self.routes[message.goal_id] = np.asarray(message.points_m, dtype=np.float64)
+        elif isinstance(message, GoalStatus):
+            self.goals[message.goal_id] = message.state
+        elif isinstance(message, MapUpdate):
+            self.map = message
+
+    @property
+    def poses(self) -> npt.NDArray[np.float64]:
+        """N x 3: time [s], x [m], y [m]."""
+        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def wheels(self) -> npt.NDArray[np.float64]:
+        """N x 2: time [s], linear command [m/s]."""
+        return np.array(self._wheels, dtype=np.float64).reshape(-1, 2)
+
+
 def _shifted(message: Message, shift_s: float) -> Message:
     return dataclasses.replace(
         message, stamp=message.stamp + shift_s, received=message.received + shift_s
     )
+
+
+class _Feed:
+    """Puts a recording's inputs on a daemon's bus at their instants, and keeps the
+    recorded outputs beside the replayed ones."""
+
+    def __init__(self, daemon: Daemon, lockstep: Lockstep, replayed: _Outputs) -> None:
+        self.daemon = daemon
+        self.lockstep = lockstep
+        self.replayed = replayed
+        self.recorded = _Outputs()
+        self.early: list[Message] = []  # outputs before the first input: shifted once known
+        self.shift: float | None = None  # [s] replay time minus recorded time
+        self.first = self.last = 0.0  # [s] recorded times of the first and last inputs
+        self.inputs = 0
+        # The last recorded map, and the replay's map when the recording reached it (the
+        # replay keeps pace with the recording's inputs).
+        self.maps: tuple[MapUpdate, MapUpdate | None] | None = None
+
+    async def take(self, topic: str, message: Message) -> None:
+        if topic.startswith("/navd/out/"):
+            if isinstance(message, MapUpdate):
+                self.maps = (message, self.replayed.map)
+            if self.shift is None:
+                self.early.append(message)
+            else:
+                self.recorded.add(message, self.shift)
+            return
+        if not topic.startswith("/navd/in/"):
+            return
+        if self.shift is None:
+            self.shift = START_S - message.received
+            self.first = message.received
+            for early in self.early:
+                self.recorded.add(early, self.shift)
+            self.early.clear()
+        moved = _shifted(message, self.shift)
+        if moved.received > self.daemon.clock.now():
+            await self.lockstep.step_to(moved.received, {}, STEP_TIMEOUT_S)
+        self.daemon.bus.publish(moved)
+        self.inputs += 1
+        self.last = message.received
+
+    async def finish(self) -> None:
+        """Run on past the last input (the work it started ends)."""
+        if self.shift is None:
+            raise RecordingError("the recording holds no inputs to replay")
+        await self.lockstep.step_to(self.last + self.shift + AFTER_S, {}, STEP_TIMEOUT_S)
 
 
 async def play(
@@ -134,86 +237,85 @@ async def play(
 ) -> PlaybackReport:
     """Replay ``recording`` with the modules ``build`` makes of its config, and compare.
 
+    The recording is read once, as it streams: each input goes to the daemon at its
+    instant; each recorded output is kept (compactly) for the comparison.
+
     Raises:
-        ConfigError: the recorded config is not valid for this navd.
-        RecordingError: the recording holds no inputs.
+        RecordingError: the recorded config does not suit this navd, or the recording holds
+            no inputs.
     """
-    assert recording.config is not None
-    inputs = [(t, m) for t, m in recording.messages if t.startswith("/navd/in/")]
-    if not inputs:
-        raise RecordingError("the recording holds no inputs to replay")
     config = replay_config(recording.config, work_dir / "maps")
     modules = [m for m in build(config) if m.name not in EDGE_MODULES]
     daemon = Daemon(config, modules, handle_signals=False)
-    replayed: dict[type[Message], list[Message]] = {kind: [] for kind in OUTPUTS}
+    replayed = _Outputs()
     replaying = True  # what the daemon says once it is told to stop is not the replay's
 
     def keep(message: Message) -> None:
         if replaying:
-            replayed[type(message)].append(message)
+            replayed.add(message)
 
     for kind in OUTPUTS:
         daemon.bus.subscribe(kind, keep, module="playback")
-    shift = START_S - inputs[0][1].received
     task = asyncio.create_task(daemon.run())
     try:
         await asyncio.wait_for(daemon.ready.wait(), STEP_TIMEOUT_S)
         assert isinstance(daemon.clock, SimClock)  # replay_config asks for simulated time
-        lockstep = Lockstep(daemon.clock, daemon.workers, daemon.traffic)
-        for _, message in inputs:
-            moved = _shifted(message, shift)
-            if moved.received > daemon.clock.now():
-                await lockstep.step_to(moved.received, {}, STEP_TIMEOUT_S)
-            daemon.bus.publish(moved)
-        end = inputs[-1][1].received + shift + AFTER_S
-        await lockstep.step_to(end, {}, STEP_TIMEOUT_S)
+        feed = _Feed(daemon, Lockstep(daemon.clock, daemon.workers, daemon.traffic), replayed)
+        for topic, message in recording.messages():
+            await feed.take(topic, message)
+        await feed.finish()
     finally:
         replaying = False
         daemon.request_shutdown("replay over")
         await asyncio.wait_for(task, 60.0)
-    recorded: dict[type[Message], list[Message]] = {kind: [] for kind in OUTPUTS}
-    for topic, message in recording.messages:
-        if topic.startswith("/navd/out/"):
-            recorded[type(message)].append(_shifted(message, shift))
-    report = _compare(recorded, replayed)
-    report.inputs = len(inputs)
-    report.duration_s = round(inputs[-1][1].received - inputs[0][1].received, 3)
+    report = _compare(feed.recorded, replayed, feed.maps)
+    report.inputs = feed.inputs
+    report.duration_s = round(feed.last - feed.first, 3)
     report.cut_short = [str(p) for p in recording.cut_short]
+    header = recording.header
+    if header.get("had_map") or header.get("seeded_pose"):
+        report.differences.insert(
+            0,
+            f"the recording began {header.get('into_run_s', '?')} s into the daemon's run: "
+            "the replay starts from the pose the robot had then"
+            + (", without the map the daemon had built" if header.get("had_map") else ""),
+        )
     return report
 
 
-def _at(times: npt.NDArray[np.float64], t: float) -> int:
-    """The index of the last time at or before ``t`` (0 when none)."""
-    return max(bisect.bisect_right(times.tolist(), t) - 1, 0)
+def _at(times: npt.NDArray[np.float64], t: npt.NDArray[np.float64]) -> npt.NDArray[np.intp]:
+    """For each of ``t``, the index of the last of ``times`` at or before it (0 when none)."""
+    found: npt.NDArray[np.intp] = np.searchsorted(times, t, side="right") - 1
+    return np.maximum(found, 0)
 
 
 def _compare(
-    recorded: dict[type[Message], list[Message]], replayed: dict[type[Message], list[Message]]
+    recorded: _Outputs,
+    replayed: _Outputs,
+    maps: tuple[MapUpdate, MapUpdate | None] | None,
 ) -> PlaybackReport:
     report = PlaybackReport(
-        outputs={k.__name__: (len(recorded[k]), len(replayed[k])) for k in recorded}
+        outputs={k: (recorded.counts[k], replayed.counts[k]) for k in recorded.counts}
     )
-    _compare_poses(recorded[PoseEstimate], replayed[PoseEstimate], report)
-    _compare_maps(recorded[MapUpdate], replayed[MapUpdate], report)
-    _compare_routes(recorded[Route], replayed[Route], report)
-    _compare_goals(recorded[GoalStatus], replayed[GoalStatus], report)
-    _compare_wheels(recorded[DriveCommand], replayed[DriveCommand], report)
+    _compare_poses(recorded.poses, replayed.poses, report)
+    if maps is not None:
+        _compare_maps(*maps, report)
+    _compare_routes(recorded.routes, replayed.routes, report)
+    _compare_goals(recorded.goals, replayed.goals, report)
+    _compare_wheels(recorded.wheels, replayed.wheels, report)
     return report
 
 
-def _compare_poses(mine: list[Message], theirs: list[Message], report: PlaybackReport) -> None:
-    if not mine or not theirs:
-        if mine or theirs:
+def _compare_poses(
+    mine: npt.NDArray[np.float64], theirs: npt.NDArray[np.float64], report: PlaybackReport
+) -> None:
+    if not len(mine) or not len(theirs):
+        if len(mine) or len(theirs):
             report.differences.append(f"poses: {len(mine)} recorded, {len(theirs)} replayed")
         return
-    times = np.array([p.received for p in theirs])
-    errors = []
-    for pose in mine:
-        assert isinstance(pose, PoseEstimate)
-        other = theirs[_at(times, pose.received)]
-        assert isinstance(other, PoseEstimate)
-        errors.append(math.hypot(pose.x_m - other.x_m, pose.y_m - other.y_m))
-    report.pose_error_m = (round(float(np.median(errors)), 4), round(float(np.max(errors)), 4))
+    other = theirs[_at(theirs[:, 0], mine[:, 0])]
+    errors = np.hypot(mine[:, 1] - other[:, 1], mine[:, 2] - other[:, 2])
+    report.pose_error_m = (round(float(np.median(errors)), 4), round(float(errors.max()), 4))
     if report.pose_error_m[1] > 0.1:
         report.differences.append(
             f"poses: up to {report.pose_error_m[1]:.3f} m apart "
@@ -221,19 +323,12 @@ def _compare_poses(mine: list[Message], theirs: list[Message], report: PlaybackR
         )
 
 
-def _compare_maps(mine: list[Message], theirs: list[Message], report: PlaybackReport) -> None:
-    if not mine:
-        return
-    last = mine[-1]
-    assert isinstance(last, MapUpdate)
-    earlier = [m for m in theirs if m.stamp <= last.stamp + 1e-6]
-    if not earlier:
+def _compare_maps(mine: MapUpdate, other: MapUpdate | None, report: PlaybackReport) -> None:
+    if other is None:
         report.differences.append("map: the replay built none by the last recorded map's time")
         report.map_iou = 0.0
         return
-    other = earlier[-1]
-    assert isinstance(other, MapUpdate)
-    report.map_iou = round(map_iou(last, other), 4)
+    report.map_iou = round(map_iou(mine, other), 4)
     if report.map_iou < 0.95:
         report.differences.append(f"map: occupied cells agree at IoU {report.map_iou:.3f}")
 
@@ -248,17 +343,13 @@ def _apart(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> float:
     return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
 
 
-def _compare_routes(mine: list[Message], theirs: list[Message], report: PlaybackReport) -> None:
-    def last_routes(routes: list[Message]) -> dict[str, npt.NDArray[np.float64]]:
-        kept: dict[str, npt.NDArray[np.float64]] = {}
-        for route in routes:
-            assert isinstance(route, Route)
-            kept[route.goal_id] = np.asarray(route.points_m, dtype=np.float64).reshape(-1, 2)
-        return kept
-
-    recorded, replayed = last_routes(mine), last_routes(theirs)
-    for goal_id, points in recorded.items():
-        other = replayed.get(goal_id)
+def _compare_routes(
+    mine: dict[str, npt.NDArray[np.float64]],
+    theirs: dict[str, npt.NDArray[np.float64]],
+    report: PlaybackReport,
+) -> None:
+    for goal_id, points in mine.items():
+        other = theirs.get(goal_id)
         if other is None or not len(other) or not len(points):
             report.differences.append(f"route of {goal_id!r}: not planned in the replay")
             continue
@@ -272,30 +363,19 @@ def _compare_routes(mine: list[Message], theirs: list[Message], report: Playback
             report.differences.append(f"route of {goal_id!r}: up to {apart:.2f} m apart")
 
 
-def _compare_goals(mine: list[Message], theirs: list[Message], report: PlaybackReport) -> None:
-    def finals(statuses: list[Message]) -> dict[str, str]:
-        states: dict[str, str] = {}
-        for status in statuses:
-            assert isinstance(status, GoalStatus)
-            states[status.goal_id] = status.state
-        return states
-
-    recorded, replayed = finals(mine), finals(theirs)
-    for goal_id, state in recorded.items():
-        other = replayed.get(goal_id, "never heard of")
+def _compare_goals(mine: dict[str, str], theirs: dict[str, str], report: PlaybackReport) -> None:
+    for goal_id, state in mine.items():
+        other = theirs.get(goal_id, "never heard of")
         report.goals[goal_id] = (state, other)
         if other != state:
             report.differences.append(f"goal {goal_id!r}: {state} when recorded, {other} replayed")
 
 
-def _compare_wheels(mine: list[Message], theirs: list[Message], report: PlaybackReport) -> None:
-    if not mine or not theirs:
+def _compare_wheels(
+    mine: npt.NDArray[np.float64], theirs: npt.NDArray[np.float64], report: PlaybackReport
+) -> None:
+    if not len(mine) or not len(theirs):
         return
-    times = np.array([c.stamp for c in theirs])
-    gaps = []
-    for command in mine:
-        assert isinstance(command, DriveCommand)
-        other = theirs[_at(times, command.stamp)]
-        assert isinstance(other, DriveCommand)
-        gaps.append(abs(command.linear_mps - other.linear_mps))
-    report.wheel_difference_mps = (round(float(np.median(gaps)), 4), round(float(max(gaps)), 4))
+    other = theirs[_at(theirs[:, 0], mine[:, 0])]
+    gaps = np.abs(mine[:, 1] - other[:, 1])
+    report.wheel_difference_mps = (round(float(np.median(gaps)), 4), round(float(gaps.max()), 4))

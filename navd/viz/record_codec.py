@@ -7,8 +7,8 @@ A message reads back equal to the one written (arrays equal, element by element)
 
 Topics: ``/navd/in/<Type>`` for what the daemon received (replayed), ``/navd/out/<Type>``
 for what it decided (compared after a replay), ``/navd/info/<Type>`` for what is neither
-(a GPS goal, whose map-frame goal is recorded as received input), and ``/navd/config`` for
-the config the daemon ran on.
+(a GPS goal, whose map-frame goal is recorded as received input), ``/navd/config`` for the
+config the daemon ran on and ``/navd/session`` for the session's header.
 """
 
 from __future__ import annotations
@@ -53,11 +53,13 @@ from navd.lifecycle.messages import (
     Vector3,
     WheelOdometry,
 )
+from navd.viz.errors import RecordCodecError
 
 __all__ = [
     "CONFIG_TOPIC",
     "INPUTS",
     "OUTPUTS",
+    "SESSION_TOPIC",
     "RecordCodecError",
     "decode",
     "encode",
@@ -96,6 +98,9 @@ OUTPUTS: tuple[type[Message], ...] = (
 # Kept for people, not replayed (the goal it becomes is an input).
 INFO: tuple[type[Message], ...] = (GeoGoal,)
 CONFIG_TOPIC = "/navd/config"
+# The session's header (JSON): its name, the file's index, when it began in the daemon's run
+# and what the daemon knew then.
+SESSION_TOPIC = "/navd/session"
 
 _BY_TOPIC: dict[str, type[Message]] = {
     **{f"/navd/in/{kind.__name__}": kind for kind in INPUTS},
@@ -104,10 +109,6 @@ _BY_TOPIC: dict[str, type[Message]] = {
 }
 _TOPIC_OF = {kind: topic for topic, kind in _BY_TOPIC.items()}
 _NOT_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
-
-
-class RecordCodecError(ValueError):
-    """A recorded message that cannot be read back; the message says which and why."""
 
 
 def topic_of(kind: type[Message]) -> str | None:

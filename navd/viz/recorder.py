@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,18 +24,23 @@ from navd.config import NavdConfig
 from navd.config.loader import redacted, redacted_changes
 from navd.lifecycle.messages import (
     ConfigChange,
+    InitialPose,
     MapUpdate,
     Message,
+    PoseEstimate,
     RecordingState,
     RecordRequest,
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.viz.record_codec import INFO, INPUTS, OUTPUTS, topic_of
-from navd.viz.recording_writer import RecordingWriter, WriterSettings
+from navd.viz.recording_writer import CLOSE_TIMEOUT_S, RecordingWriter, WriterSettings
 
 __all__ = ["Recorder", "RecorderSettings"]
 
 MB = 1_000_000
+# A recording's starting pose is never given as more certain than this [m], [rad].
+MIN_SEED_STD_M = 0.01
+MIN_SEED_STD_RAD = 0.005
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,8 +82,13 @@ class Recorder(Module):
     def __init__(self) -> None:
         super().__init__("recorder")
         self.writer: RecordingWriter | None = None
+        self._starting = False
         self._offset_ns = 0  # wall clock minus daemon clock [ns], fixed at each start
         self._map_at = -float("inf")
+        self._activated_s = 0.0  # [s] daemon time the module came up
+        # What the daemon knew last, so a recording begun mid-run starts from it.
+        self._last_pose: PoseEstimate | None = None
+        self._last_map: MapUpdate | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -87,8 +98,9 @@ class Recorder(Module):
         ctx.subscribe(RecordRequest, self._on_request)
 
     async def on_activate(self) -> None:
+        self._activated_s = self.ctx.clock.now()
         if self.settings.value.enabled:
-            self._start("record.enabled")
+            await self._start("record.enabled")
 
     async def on_deactivate(self) -> None:
         await self._stop("the daemon is stopping")
@@ -101,25 +113,37 @@ class Recorder(Module):
     # --- starting and stopping ------------------------------------------------------------
 
     def _on_request(self, request: RecordRequest) -> None:
+        who = request.source or "a client"
         if request.start:
-            self._start(request.source or "a client")
+            self.ctx.spawn(self._start(who), name="record")
         else:
-            self.ctx.spawn(self._stop(f"stopped by {request.source or 'a client'}"), name="record")
+            self.ctx.spawn(self._stop(f"stopped by {who}"), name="record")
 
-    def _start(self, why: str) -> None:
-        if self.writer is not None:
-            self._publish_state()  # already recording: say where
+    async def _start(self, why: str) -> None:
+        if self.writer is not None or self._starting:
+            self._publish_state()  # already recording (or about to): say where
             return
         s = self.settings.value
-        self._offset_ns = time.time_ns() - round(self.ctx.clock.now() * 1e9)
+        now = self.ctx.clock.now()
+        self._offset_ns = time.time_ns() - round(now * 1e9)
         self._map_at = -float("inf")
         loop = asyncio.get_running_loop()
 
         def failed(reason: str) -> None:  # the writer's thread
             loop.call_soon_threadsafe(self._writer_failed, reason)
 
-        try:
-            self.writer = RecordingWriter(s.writer, s.config_json, failed)
+        pose, known_map = self._last_pose, self._last_map
+        header = {
+            "began_s": now,  # [s] daemon time
+            "into_run_s": round(now - self._activated_s, 3),
+            "had_map": known_map is not None,
+            "seeded_pose": pose is not None,
+        }
+        self._starting = True
+        try:  # a folder made, old files deleted, a file opened: not on the loop
+            writer = await asyncio.to_thread(
+                RecordingWriter, s.writer, s.config_json, header, failed
+            )
         except OSError as err:
             reason = f"cannot write {s.writer.folder}: {err}"
             self.ctx.log.error(
@@ -129,14 +153,30 @@ class Recorder(Module):
             )
             self._publish_state(reason)
             return
-        self.ctx.log.info("recording", file=str(self.writer.file), asked_by=why)
+        finally:
+            self._starting = False
+        # Begun mid-run: the replay starts where the robot then was, and compares with the
+        # map the daemon had then.
+        if pose is not None:
+            self._put(writer, _seed(pose, now))
+        if known_map is not None:
+            self._put(writer, known_map)
+        self.writer = writer
+        self.ctx.log.info("recording", file=str(writer.file), asked_by=why, **header)
         self._publish_state()
 
     async def _stop(self, why: str) -> None:
         writer, self.writer = self.writer, None
         if writer is None:
             return
-        await asyncio.to_thread(writer.close)  # the last chunk and the index: off the loop
+        closed = await asyncio.to_thread(writer.close)  # the last chunk, the index: off the loop
+        if not closed:
+            self.ctx.log.warning(
+                "record_close_slow",
+                file=str(writer.file),
+                waited_s=CLOSE_TIMEOUT_S,
+                fix="the disk is slow or stuck; the file is readable to its last flush",
+            )
         self.ctx.log.info(
             "recording_stopped",
             file=str(writer.file),
@@ -156,8 +196,8 @@ class Recorder(Module):
             "record_failed",
             file=str(writer.file),
             reason=reason,
-            fix="free disk space or lower record.budget_mb; the file is readable to its last "
-            "chunk. The daemon drives on unrecorded",
+            fix="if the disk is full, free space or lower record.budget_mb; the file is "
+            "readable to its last chunk. The daemon drives on unrecorded",
         )
         self._publish_state(reason)
 
@@ -177,15 +217,35 @@ class Recorder(Module):
     # --- messages (event loop: one append each) -------------------------------------------
 
     def _on_message(self, message: Message) -> None:
+        if isinstance(message, PoseEstimate):
+            self._last_pose = message
         writer = self.writer
-        if writer is None:
-            return
         if isinstance(message, MapUpdate):
-            if message.stamp - self._map_at < self.settings.value.map_period_s:
+            self._last_map = message
+            if writer is None or message.stamp - self._map_at < self.settings.value.map_period_s:
                 return
             self._map_at = message.stamp
+        if writer is None:
+            return
         if isinstance(message, ConfigChange):  # a secret sent in a change is not kept either
             message = dataclasses.replace(message, changes=redacted_changes(message.changes))
+        self._put(writer, message)
+
+    def _put(self, writer: RecordingWriter, message: Message) -> None:
         topic = topic_of(type(message))
         assert topic is not None
         writer.put(topic, message, self._offset_ns + round(message.received * 1e9))
+
+
+def _seed(pose: PoseEstimate, now: float) -> InitialPose:
+    """Where the robot was when a recording began, as the replay's initial pose."""
+    cov = pose.covariance
+    return InitialPose(
+        stamp=now,
+        received=now,
+        x_m=pose.x_m,
+        y_m=pose.y_m,
+        yaw_rad=pose.yaw_rad,
+        std_xy_m=max(math.sqrt(max(cov[0, 0], cov[1, 1], 0.0)), MIN_SEED_STD_M),
+        std_yaw_rad=max(math.sqrt(max(cov[2, 2], 0.0)), MIN_SEED_STD_RAD),
+    )

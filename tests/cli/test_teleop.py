@@ -9,8 +9,11 @@ from navd.cli.teleop import DOWN, HOLD_S, LEFT, RIGHT, UP, KeyDriver, split_keys
 
 
 def test_arrow_sequences_are_read_whole_and_other_bytes_one_by_one() -> None:
-    assert split_keys(UP + b" " + LEFT + b"q") == [UP, b" ", LEFT, b"q"]
-    assert split_keys(b"\x1b[") == [b"\x1b", b"["]  # a sequence cut short is no arrow
+    assert split_keys(UP + b" " + LEFT + b"q") == ([UP, b" ", LEFT, b"q"], b"")
+    # a sequence cut by the end of a read is kept for the next one
+    keys, rest = split_keys(b"q" + UP[:2])
+    assert (keys, rest) == ([b"q"], UP[:2])
+    assert split_keys(rest + UP[2:] + DOWN) == ([UP, DOWN], b"")
 
 
 @pytest.mark.parametrize(

@@ -66,10 +66,10 @@ async def test_a_recording_cut_by_sigkill_opens_and_replays_to_its_last_chunk(
         poses_at_kill = s.sim.truth[-1]
     (file,) = recording_files(folder)
     recording = read_recording(file)
-    assert recording.cut_short == [file]  # no end: the writer never closed it
-    poses = [m for t, m in recording.messages if t == "/navd/out/PoseEstimate"]
+    poses = [m for t, m in recording.messages() if t == "/navd/out/PoseEstimate"]
     assert len(poses) > 20
-    report = await play(recording, build_modules, tmp_path / "replay")
+    assert recording.cut_short == [file]  # no end: the writer never closed it
+    report = await play(read_recording(file), build_modules, tmp_path / "replay")
     assert report.inputs > 100 and report.cut_short == [str(file)]
     # on real time the replay's inputs keep their instants but not the live run's timing
     # of work, so poses agree closely, not exactly

@@ -15,8 +15,14 @@ from navd.drivers.protocol.frames import (
     SubscribeFrame,
     TeleopFrame,
 )
-from navd.drivers.protocol.replies import StatusFrame
-from navd.lifecycle.messages import DriveCommand, DriveMode, GoalStatus, VelocityCommand
+from navd.drivers.protocol.replies import ErrorFrame, StatusFrame
+from navd.lifecycle.messages import (
+    DriveCommand,
+    DriveMode,
+    GoalStatus,
+    ManualCommand,
+    VelocityCommand,
+)
 from navd.logs import add_log_tap, remove_log_tap
 from navd.planning.manual import ManualDriving, ManualSettings
 from tests.drivers.conftest import connected, record, running_daemon, until
@@ -99,26 +105,43 @@ async def test_canceling_while_an_operator_drives_does_not_stop_the_operator() -
 
 
 async def test_teleop_switched_off_drives_nothing_and_says_so() -> None:
+    async with running_daemon(teleop={"enabled": False}) as (daemon, port):
+        commands = record(daemon, VelocityCommand)
+        drives = record(daemon, DriveCommand)
+        pad = await connected(port, "control", "pad")
+        pad.send(TeleopFrame(linear_x=0.3, angular_z=0.0))
+        refusal = await pad.receive_type(ErrorFrame)
+        assert refusal.field == "type" and "teleop.enabled is false" in refusal.reason
+        await asyncio.sleep(0.2)
+        assert not commands and not drives
+        await pad.close()
+
+
+async def test_the_planner_holds_to_teleop_switched_off_as_well() -> None:
+    """A ManualCommand reaching the planner anyway (teleop switched off while it was on its
+    way) drives nothing, and the planner says so once per operator."""
     lines: list[dict[str, Any]] = []
 
     def tap(event: Mapping[str, Any]) -> None:
         lines.append(dict(event))  # a copy: the renderer takes the line apart afterwards
 
-    async with running_daemon(teleop={"enabled": False}) as (daemon, port):
+    async with running_daemon(teleop={"enabled": False}) as (daemon, _):
         commands = record(daemon, VelocityCommand)
-        drives = record(daemon, DriveCommand)
-        pad = await connected(port, "control", "pad")
         add_log_tap(tap)
         try:
             for _ in range(3):
-                pad.send(TeleopFrame(linear_x=0.3, angular_z=0.0))
-            await asyncio.sleep(0.3)
+                now = daemon.clock.now()
+                daemon.bus.publish(
+                    ManualCommand(
+                        stamp=now, received=now, linear_mps=0.3, angular_radps=0.0, operator="pad"
+                    )
+                )
+            await asyncio.sleep(0.1)
         finally:
             remove_log_tap(tap)
-        assert not commands and not drives
+        assert not commands
         refusals = [line for line in lines if line["event"] == "teleop_refused"]
         assert len(refusals) == 1 and "teleop.enabled" in refusals[0]["reason"]
-        await pad.close()
 
 
 def test_teleop_settings_come_from_the_teleop_section() -> None:

@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 
+from navd.config import NavdConfig
 from navd.drivers.protocol.frames import (
     CancelFrame,
     GoalFrame,
@@ -20,7 +21,8 @@ from navd.drivers.protocol.frames import (
     TeleopFrame,
 )
 from navd.lifecycle.messages import CancelGoal, Goal, InitialPose, ManualCommand
-from navd.viz.commands import MAX_COMMAND_BYTES, CommandRefusedError, read_command
+from navd.viz.commands import MAX_COMMAND_BYTES, CommandRefusedError, read_command, viewer_request
+from navd.viz.settings import VizSettings
 from tests.drivers.conftest import record, until
 from tests.viz.foxglove_client import FoxgloveClient
 from tests.viz.test_node import viewed_daemon
@@ -225,3 +227,31 @@ async def test_a_view_beyond_loopback_without_a_token_is_read_only() -> None:
         finally:
             await viewer.close()
         assert not goals
+
+
+@pytest.mark.parametrize(
+    ("config", "message", "named"),
+    [
+        ({"viz": {"commands": False}}, {"type": "cancel"}, "read-only"),
+        (
+            {"teleop": {"enabled": False}},
+            {"type": "teleop", "linear_x": 0.1, "angular_z": 0.0, "token": "run-token"},
+            "teleop.enabled is false",
+        ),
+        ({}, {"type": "cancel"}, "missing or wrong token"),
+    ],
+)
+def test_the_views_rules_refuse_by_name(
+    config: dict[str, Any], message: dict[str, Any], named: str
+) -> None:
+    settings = VizSettings.from_config(NavdConfig.model_validate(config))
+    with pytest.raises(CommandRefusedError, match=named):
+        viewer_request("/navd/command", json.dumps(message).encode(), settings, "run-token")
+    if named == "missing or wrong token":  # the run's token lets it through
+        frame = viewer_request(
+            "/navd/command",
+            json.dumps({**message, "token": "run-token"}).encode(),
+            settings,
+            "run-token",
+        )
+        assert frame == CancelFrame()

@@ -12,7 +12,14 @@ import pytest
 
 from navd.drivers.client import AsyncClient
 from navd.drivers.protocol.frames import ConfigFrame, GoalFrame, RecordFrame
-from navd.lifecycle.messages import ConfigChange, Goal, PoseEstimate, RecordingState
+from navd.lifecycle.messages import (
+    ConfigChange,
+    Goal,
+    InitialPose,
+    MapUpdate,
+    PoseEstimate,
+    RecordingState,
+)
 from navd.viz.recording_reader import read_recording
 from tests.drivers.conftest import connected, record, running_daemon, until
 
@@ -51,13 +58,13 @@ async def test_a_client_starts_and_stops_a_recording_of_inputs_and_outputs(
     file = Path(states[0].file)
     assert file.parent == folder and "stopped by ui" in states[-1].reason
     recording = read_recording(file)
-    goals = [m for t, m in recording.messages if isinstance(m, Goal)]
-    poses = [m for t, m in recording.messages if isinstance(m, PoseEstimate)]
+    goals = [m for t, m in recording.messages() if isinstance(m, Goal)]
+    poses = [m for t, m in recording.messages() if isinstance(m, PoseEstimate)]
     assert [(g.goal_id, g.x_m, g.y_m) for g in goals] == [("g1", 2.0, 1.0)]
     assert any(p.x_m == 0.5 for p in poses)
     assert recording.config is not None
     assert recording.config["tcp"]["token"] == "<redacted>"  # the secret is never recorded
-    (change,) = [m for t, m in recording.messages if isinstance(m, ConfigChange)]
+    (change,) = [m for t, m in recording.messages() if isinstance(m, ConfigChange)]
     assert dict(change.changes) == {"tcp.token": "<redacted>", "tcp": {"token": "<redacted>"}}
 
 
@@ -88,3 +95,49 @@ async def _unwritable(folder: Path) -> None:
         assert daemon.manager.states["recorder"].value == "active"
         await control.request(GoalFrame(x=1.0, y=0.0))  # still taking requests
         await control.close()
+
+
+async def test_a_recording_begun_mid_run_starts_from_what_the_daemon_knew(
+    tmp_path: Path,
+) -> None:
+    folder = tmp_path / "rec"
+    async with running_daemon(record={"dir": str(folder)}) as (daemon, port):
+        states = record(daemon, RecordingState)
+        now = daemon.clock.now()
+        daemon.bus.publish(
+            PoseEstimate(
+                stamp=now,
+                received=now,
+                x_m=3.0,
+                y_m=-1.0,
+                yaw_rad=-3.1,
+                covariance=np.diag([0.04, 0.01, 0.0025]),
+            )
+        )
+        cells = np.zeros((4, 5), dtype=np.int8)
+        daemon.bus.publish(
+            MapUpdate(
+                stamp=now,
+                received=now,
+                revision=7,
+                resolution_m=0.05,
+                origin_x_m=0.0,
+                origin_y_m=0.0,
+                occupancy=cells,
+            )
+        )
+        control = await connected(port, "control", "ui")
+        await control.request(RecordFrame(action="start"))
+        await until(lambda: bool(states) and states[-1].active, timeout_s=5.0)
+        await control.request(RecordFrame(action="stop"))
+        await until(lambda: not states[-1].active, timeout_s=5.0)
+        await control.close()
+    recording = read_recording(folder)
+    assert recording.header["had_map"] and recording.header["seeded_pose"]
+    messages = list(recording.messages())
+    seed = messages[0][1]
+    assert isinstance(seed, InitialPose) and messages[0][0] == "/navd/in/InitialPose"
+    assert (seed.x_m, seed.y_m, seed.yaw_rad) == (3.0, -1.0, -3.1)
+    assert seed.std_xy_m == pytest.approx(0.2) and seed.std_yaw_rad == pytest.approx(0.05)
+    known = messages[1][1]
+    assert isinstance(known, MapUpdate) and known.revision == 7

@@ -13,10 +13,16 @@ from navd.lifecycle.messages import LaserScan
 from navd.viz import recording_writer
 from navd.viz.record_codec import topic_of
 from navd.viz.recording_reader import RecordingError, read_recording
-from navd.viz.recording_writer import RecordingWriter, WriterSettings, recording_files
+from navd.viz.recording_writer import (
+    RecordingWriter,
+    WriterSettings,
+    recording_files,
+    session_of,
+)
 
 SCAN_TOPIC = topic_of(LaserScan)
 CONFIG = b'{"robot": {"name": "test"}}'
+HEADER = {"began_s": 12.0, "had_map": False}
 
 
 def scan(i: int) -> LaserScan:
@@ -46,6 +52,7 @@ def write(folder: Path, count: int, **settings: float) -> RecordingWriter:
             options["flush_period_s"],
         ),
         CONFIG,
+        HEADER,
         failures.append,
     )
     for i in range(count):
@@ -63,8 +70,8 @@ def test_every_message_is_read_back_in_order_with_the_config(tmp_path: Path) -> 
     recording = read_recording(tmp_path)
     assert writer.written == 120 and writer.dropped == 0
     assert recording.config == {"robot": {"name": "test"}}
-    assert [m.stamp for _, m in recording.messages] == [i * 0.1 for i in range(120)]
-    np.testing.assert_array_equal(recording.messages[7][1].ranges, scan(7).ranges)
+    assert [m.stamp for _, m in recording.messages()] == [i * 0.1 for i in range(120)]
+    np.testing.assert_array_equal(list(recording.messages())[7][1].ranges, scan(7).ranges)
     assert not recording.cut_short
 
 
@@ -75,7 +82,7 @@ def test_files_rotate_by_size_and_the_oldest_go_past_the_budget(tmp_path: Path) 
     assert sum(f.stat().st_size for f in files) <= 1_000_000 + 300_000  # the budget, plus
     # the overshoot of the file being written past its size at its last flush
     recording = read_recording(tmp_path)
-    stamps = [m.stamp for _, m in recording.messages]
+    stamps = [m.stamp for _, m in recording.messages()]
     assert stamps == sorted(stamps) and stamps[-1] == pytest.approx(59.9)  # the newest kept
     assert stamps[0] > 0.0  # the oldest file is gone
     for file in files:  # each file replays on its own: it starts with the config
@@ -90,8 +97,8 @@ def test_a_file_cut_mid_write_reads_to_its_last_whole_chunk(tmp_path: Path) -> N
     cut.parent.mkdir()
     cut.write_bytes(data[: len(data) * 2 // 3])  # a kill -9 mid-chunk
     recording = read_recording(cut)
+    stamps = [m.stamp for _, m in recording.messages()]
     assert recording.cut_short == [cut]
-    stamps = [m.stamp for _, m in recording.messages]
     assert 10 <= len(stamps) < 100 and stamps == [i * 0.1 for i in range(len(stamps))]
 
 
@@ -99,13 +106,13 @@ def test_a_flood_beyond_the_queue_drops_the_oldest_and_counts_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(recording_writer, "MAX_QUEUED", 50)
-    writer = RecordingWriter(WriterSettings(tmp_path, 10**9, 10**10, 30.0), CONFIG, print)
+    writer = RecordingWriter(WriterSettings(tmp_path, 10**9, 10**10, 30.0), CONFIG, HEADER, print)
     for i in range(80):  # the writer sleeps 30 s between flushes: all of these wait
         assert SCAN_TOPIC is not None
         writer.put(SCAN_TOPIC, scan(i), i)
     writer.close()
     assert writer.dropped == 30
-    stamps = [m.stamp for _, m in read_recording(tmp_path).messages]
+    stamps = [m.stamp for _, m in read_recording(tmp_path).messages()]
     assert stamps == [i * 0.1 for i in range(30, 80)]
 
 
@@ -118,3 +125,18 @@ def test_what_is_not_a_recording_is_named(tmp_path: Path) -> None:
     junk.write_bytes(b"this is not mcap at all")
     with pytest.raises(RecordingError, match="not an MCAP file"):
         read_recording(junk)
+
+
+def test_sessions_share_a_folder_without_mixing(tmp_path: Path) -> None:
+    first = write(tmp_path, 30)
+    second = write(tmp_path, 20)  # begun within the same second: a session of its own
+    assert first.session != second.session
+    with pytest.raises(RecordingError, match="2 sessions") as refused:
+        read_recording(tmp_path)
+    assert first.session in str(refused.value) and second.session in str(refused.value)
+    one = read_recording(tmp_path, second.session)
+    assert one.header["session"] == second.session and one.header["began_s"] == 12.0
+    assert len(list(one.messages())) == 20
+    assert session_of(first.file) == first.session
+    with pytest.raises(RecordingError, match="no session 'nope'"):
+        read_recording(tmp_path, "nope")

@@ -58,6 +58,7 @@ class ControlRole:
             session among them).
         status: builds the status frame a subscriber receives.
         allow_privileged: whether control clients may change privileged config keys now.
+        teleop_enabled: whether control clients may drive by hand now.
     """
 
     def __init__(
@@ -66,11 +67,13 @@ class ControlRole:
         sessions: Callable[[], Iterable[Session]],
         status: Callable[[], StatusFrame],
         allow_privileged: Callable[[], bool],
+        teleop_enabled: Callable[[], bool],
     ) -> None:
         self._server = server
         self._sessions = sessions
         self._status = status
         self._allow_privileged = allow_privileged
+        self._teleop_enabled = teleop_enabled
         self._config_requests: dict[str, Session] = {}
         self._map_area: tuple[float, float, float, float] | None = None  # [m] x0, y0, x1, y1
         ctx = server.ctx
@@ -123,7 +126,9 @@ class ControlRole:
             if isinstance(message, InitialPose):
                 self._check_on_map(message)
             if isinstance(message, ManualCommand):
-                pass  # a stream, like a sensor's: not acknowledged, errors are answered
+                # a stream, like a sensor's: not acknowledged, errors are answered
+                if not self._teleop_enabled():
+                    raise WireError("type", "teleop.enabled is false: driving by hand is off")
             elif isinstance(message, ConfigChange):
                 self._config_requests[message.request_id] = session
                 conn.send(Ack(request=frame.type, request_id=message.request_id))

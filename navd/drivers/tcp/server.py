@@ -77,6 +77,7 @@ class TcpServer(Module):
             self.sessions.values,
             self.status_frame,
             lambda: self.settings.value.allow_privileged_changes,
+            lambda: self.settings.value.teleop_enabled,
         )
         sensors = SensorRole(self)
         self._roles: dict[DeviceKind, Role] = {DeviceKind(r): sensors for r in SENSOR_FRAMES}

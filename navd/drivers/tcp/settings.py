@@ -32,6 +32,7 @@ class TcpSettings:
         stale_after_s: [s] per sensor kind, silence that makes a device stale.
         lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
         robot_name: the name status frames carry.
+        teleop_enabled: control clients may drive by hand (``teleop.enabled``).
     """
 
     host: str
@@ -50,6 +51,7 @@ class TcpSettings:
     stale_after_s: tuple[tuple[DeviceKind, float], ...]
     lockstep_timeout_s: float
     robot_name: str
+    teleop_enabled: bool
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> TcpSettings:
@@ -79,6 +81,7 @@ class TcpSettings:
             ),
             lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
             robot_name=config.robot.name,
+            teleop_enabled=config.teleop.enabled,
         )
 
 
