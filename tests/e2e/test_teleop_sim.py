@@ -92,9 +92,10 @@ async def test_an_operator_who_goes_quiet_is_stopped_within_the_reaction_timeout
         stops = [t for t, left, right in log if t > last_sent and (left, right) == (0, 0)]
         assert stops, "the chassis never stopped"
         chassis_period_s = 1.0 / s.config.chassis.command_rate_hz
-        # The deadline runs from the last command's arrival (at most a few ms after it was
-        # sent here); the chassis writes its zero at its next period.
-        allowed_s = s.config.safety.reaction_timeout_s + chassis_period_s + 0.05
+        # The deadline runs from the last command's arrival (a few ms after it was sent here);
+        # the chassis writes its zero at its next period, and the simulator reads it from
+        # the pseudo-terminal at its next turn (0.1 s covers both ends on a loaded machine).
+        allowed_s = s.config.safety.reaction_timeout_s + chassis_period_s + 0.1
         assert stops[0] - last_sent <= allowed_s
         assert not [t for t, left, right in log if t > stops[0] and (left, right) != (0, 0)]
         assert math.isclose(s.sim.body.linear_mps, 0.0, abs_tol=1e-9)
