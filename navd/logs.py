@@ -5,11 +5,16 @@ formatted strings. Loggers follow the configuration in force when they write, so
 changed at runtime (``set_level``) applies to every logger at once, including the ones
 modules took at import. A tap (``add_log_tap``) sees every line written, as its fields: the
 live view streams them.
+
+Under systemd (``JOURNAL_STREAM`` set: the stream goes to the journal) each JSON line starts
+with its syslog priority (``<4>`` for a warning), which journald takes as the line's
+PRIORITY and strips, so ``journalctl -u navd -p warning`` shows navd's warnings and worse.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import sys
 import threading
 from collections.abc import Callable, Mapping
@@ -71,6 +76,21 @@ def _run_taps(_logger: Any, _method: str, event: dict[str, Any]) -> dict[str, An
     return event
 
 
+# syslog priorities (RFC 5424) of the levels, for journald's line prefix
+_PRIORITY = {"debug": 7, "info": 6, "warning": 4, "error": 3, "critical": 2}
+
+
+class _JournalPrefix:
+    """Puts the line's syslog priority in front of what ``render`` makes of it."""
+
+    def __init__(self, render: Callable[[Any, str, Any], str]) -> None:
+        self._render = render
+
+    def __call__(self, logger: Any, method: str, event: Any) -> str:
+        priority = _PRIORITY.get(str(event.get("level", "info")), 6)
+        return f"<{priority}>{self._render(logger, method, event)}"
+
+
 def tap_failures() -> int:
     """How many times a tap raised (the lines were written all the same)."""
     failures: int = _state.get("tap_failures", 0)
@@ -117,10 +137,10 @@ def _apply(level: str) -> None:
         _run_taps,
     ]
     if _state["renderer"] == "json":
-        processors += [
-            structlog.processors.dict_tracebacks,
-            structlog.processors.JSONRenderer(),
-        ]
+        render: Any = structlog.processors.JSONRenderer()
+        if os.environ.get("JOURNAL_STREAM"):
+            render = _JournalPrefix(render)
+        processors += [structlog.processors.dict_tracebacks, render]
     else:
         processors.append(structlog.dev.ConsoleRenderer(colors=_stream().isatty()))
     structlog.configure(
