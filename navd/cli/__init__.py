@@ -2,7 +2,7 @@
 
 The only place in navd that prints and chooses exit codes.
 Exit codes: 0 success, 1 the daemon (or a command's work) failed at run time, 2 bad usage or
-bad config.
+bad config, 3 a goal followed with ``navd goal --wait`` was canceled.
 """
 
 from __future__ import annotations
@@ -12,14 +12,14 @@ import sys
 from collections.abc import Sequence
 
 from navd import __version__
-from navd.cli import bench, config, control, run, sim, slam, teleop, viz
+from navd.cli import bench, config, control, robot, run, sim, slam, teleop, viz
 from navd.cli.common import EXIT_USAGE
 from navd.logs import configure_logging
 
 __all__ = ["main"]
 
 # The command groups, in the order `navd --help` lists them.
-GROUPS = (run, config, control, teleop, bench, slam, sim, viz)
+GROUPS = (run, config, control, robot, teleop, bench, slam, sim, viz)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

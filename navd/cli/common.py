@@ -12,6 +12,7 @@ from typing import Any
 from navd.config import NavdConfig, load_config
 
 __all__ = [
+    "EXIT_CANCELED",
     "EXIT_FAILED",
     "EXIT_OK",
     "EXIT_USAGE",
@@ -25,6 +26,7 @@ __all__ = [
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+EXIT_CANCELED = 3  # ``navd goal --wait``: the goal was canceled
 
 Commands = Any  # argparse's sub-parsers action (its class is private)
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 
 from pydantic import ValidationError
 
 from navd.cli.common import (
+    EXIT_CANCELED,
     EXIT_FAILED,
     EXIT_OK,
     EXIT_USAGE,
@@ -30,6 +32,7 @@ from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 __all__ = ["add_commands", "format_status"]
 
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
+PROGRESS_PERIOD_S = 5.0  # [s] ``navd goal --wait`` writes a progress line this often to a file
 RECORD_VERDICT_STATUSES = 10  # status frames ``navd record`` reads for the outcome (1 s)
 
 
@@ -43,6 +46,12 @@ def add_commands(commands: Commands) -> None:
     goal.add_argument("y", type=float, help="[m] map y")
     goal.add_argument("--yaw", type=float, help="[rad] final heading (default: any)")
     goal.add_argument("--id", dest="goal_id", help="goal id (default: chosen by navd)")
+    goal.add_argument(
+        "--wait",
+        action="store_true",
+        help="follow the goal to its end with a progress line; exit 0 reached, 1 failed, "
+        "3 canceled",
+    )
     connection_options(goal)
     goal.set_defaults(handler=_goal)
 
@@ -89,14 +98,57 @@ def _goal(args: argparse.Namespace) -> int:
         with connect(args) as client:
             ack = client.request(frame)
             print(ack.model_dump_json(exclude_none=True), flush=True)
-            verdict = _first_status(client, ack.goal_id)
+            verdict = (
+                _follow(client, ack.goal_id) if args.wait else _first_status(client, ack.goal_id)
+            )
     except (ClientError, ConfigError) as err:
         print(f"navd goal: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        print("\nnavd goal: stopped following; the goal goes on", file=sys.stderr)
         return EXIT_FAILED
     if verdict is not None and verdict.state == "failed":
         print(f"navd goal: {verdict.goal_id} failed: {verdict.reason}", file=sys.stderr)
         return EXIT_FAILED
+    if verdict is not None and verdict.state == "canceled":
+        print(f"navd goal: {verdict.goal_id} canceled: {verdict.reason}", file=sys.stderr)
+        return EXIT_CANCELED
     return EXIT_OK
+
+
+def _follow(client: Client, goal_id: str | None) -> GoalStatusFrame:
+    """Follow the goal to its end, showing its progress (rewritten in place on a terminal,
+    a line every PROGRESS_PERIOD_S otherwise); its last status."""
+    client.timeout_s = None  # a long drive: wait as long as it takes
+    client.sock.settimeout(None)
+    terminal = sys.stderr.isatty()
+    shown_at = -math.inf
+    while True:
+        status = client.receive_type(GoalStatusFrame)
+        if status.goal_id != goal_id:
+            continue
+        if status.state in ("reached", "failed", "canceled"):
+            if terminal:
+                print(file=sys.stderr)
+            print(status.model_dump_json(), flush=True)
+            return status
+        now = time.monotonic()
+        if terminal or now - shown_at >= PROGRESS_PERIOD_S:
+            shown_at = now
+            left = status.distance_remaining
+            eta = status.eta_s
+            line = (
+                f"{goal_id}: {status.state}"
+                + (f", {left:.1f} m to go" if left is not None else "")
+                + (f", {eta:.0f} s" if eta is not None else "")
+                + (f" ({status.reason})" if status.reason else "")
+            )
+            print(
+                f"\r{line:<70}" if terminal else line,
+                end="" if terminal else "\n",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def _first_status(client: Client, goal_id: str | None) -> GoalStatusFrame | None:

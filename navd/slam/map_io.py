@@ -25,7 +25,15 @@ import numpy.typing as npt
 from navd.slam.errors import MapFileError
 from navd.slam.occupancy import OccupancyGrid
 
-__all__ = ["MapYaml", "clean_leftovers", "load_map", "read_map_yaml", "read_pgm", "save_map"]
+__all__ = [
+    "MapYaml",
+    "clean_leftovers",
+    "load_map",
+    "read_map_yaml",
+    "read_pgm",
+    "save_map",
+    "saved_files",
+]
 
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
@@ -177,6 +185,15 @@ def save_map(
     _write_atomic(yaml_path, _yaml_text(meta).encode("utf-8"))
     _remove_old(directory, name, keep=stem)
     return yaml_path
+
+
+def saved_files(yaml_path: Path) -> tuple[Path, ...]:
+    """The files a save wrote: the YAML, the image it names, and the state beside it."""
+    for line in yaml_path.read_text(encoding="utf-8").splitlines():
+        if line.startswith("image:"):
+            image = yaml_path.parent / line.split(":", 1)[1].strip()
+            return (yaml_path, image, image.with_suffix(".npz"))
+    return (yaml_path,)
 
 
 def _npz_bytes(grid: OccupancyGrid, keyframe_poses: npt.NDArray[np.float64] | None) -> bytes:

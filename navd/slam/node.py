@@ -40,7 +40,7 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
-from navd.slam.map_io import clean_leftovers, load_map, save_map
+from navd.slam.map_io import clean_leftovers, load_map, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.settings import MapperSettings
@@ -283,7 +283,7 @@ class SlamNode(Module):
             self.ctx.log.error("map_not_saved", name=name, folder=folder, reason=str(err))
             return self._saved(name, reason=f"cannot write to {folder}: {err}")
         self.ctx.log.info("map_saved", path=str(path))
-        return self._saved(name, path=str(path))
+        return self._saved(name, path=str(path), files=tuple(str(f) for f in saved_files(path)))
 
     def _clean_map_dir(self) -> None:
         """Worker: remove what saves cut short by a crash or a power cut left behind."""
@@ -297,6 +297,8 @@ class SlamNode(Module):
                 first=[p.name for p in removed[:10]],
             )
 
-    def _saved(self, name: str, *, path: str = "", reason: str = "") -> MapSaved:
+    def _saved(
+        self, name: str, *, path: str = "", reason: str = "", files: tuple[str, ...] = ()
+    ) -> MapSaved:
         now = self.ctx.clock.now()
-        return MapSaved(stamp=now, received=now, name=name, path=path, reason=reason)
+        return MapSaved(stamp=now, received=now, name=name, path=path, reason=reason, files=files)

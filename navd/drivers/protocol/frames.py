@@ -27,6 +27,7 @@ __all__ = [
     "ClockFrame",
     "ClockRequest",
     "ConfigFrame",
+    "ConfigGetFrame",
     "ControlRequest",
     "FixFrame",
     "Frame",
@@ -236,6 +237,14 @@ class ConfigFrame(Frame):
     changes: dict[str, Any] = Field(min_length=1)
 
 
+class ConfigGetFrame(Frame):
+    """Read a key of the running config (a dotted key, or a whole section); secrets come back
+    redacted."""
+
+    type: Literal["config_get"] = "config_get"
+    key: str = Field(pattern=r"^[a-z][a-z0-9_]*(\.[a-z][a-z0-9_]*)?$", max_length=128)
+
+
 class InitialPoseFrame(Frame):
     """Where the robot is, by a person: [m, m, rad] in the map, with 1-sigma errors."""
 
@@ -306,6 +315,7 @@ ControlRequest = (
     GoalFrame
     | CancelFrame
     | ConfigFrame
+    | ConfigGetFrame
     | InitialPoseFrame
     | SaveMapFrame
     | TeleopFrame

@@ -74,7 +74,8 @@ class ErrorFrame(ReplyPart):
 
 class Ack(ReplyPart):
     """A control request was accepted (``goal_id``, ``request_id``, ``rate_hz`` when they
-    apply to it)."""
+    apply to it; ``key`` and ``value`` answer a ``config_get``, the value left out when it is
+    null)."""
 
     OMIT_NONE: ClassVar[bool] = True
 
@@ -83,6 +84,8 @@ class Ack(ReplyPart):
     goal_id: str | None = None
     request_id: str | None = None
     rate_hz: float | None = None
+    key: str | None = None
+    value: Any = None
 
 
 class Pong(ReplyPart):
@@ -126,6 +129,7 @@ class MapSavedFrame(ReplyPart):
     name: str
     path: str = ""
     reason: str = ""
+    files: list[str] = []
 
 
 class GoalInfo(ReplyPart):

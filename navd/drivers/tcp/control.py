@@ -1,15 +1,18 @@
-"""The control role: goals, cancels, config changes, initial poses and map saves from a
-client, each acknowledged; status streams; goal progress and routes sent to every client.
+"""The control role: goals, cancels, config changes and reads, initial poses, map saves,
+recordings and driving by hand from a client, each acknowledged (driving excepted); status
+streams; goal progress and routes sent to every control client.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+from navd.config.loader import redacted
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_control, encode
 from navd.drivers.protocol.convert import control_message
 from navd.drivers.protocol.frames import (
+    ConfigGetFrame,
     PingFrame,
     SubscribeFrame,
     UnsubscribeFrame,
@@ -77,6 +80,7 @@ class ControlRole:
         self._config_requests: dict[str, Session] = {}
         self._map_area: tuple[float, float, float, float] | None = None  # [m] x0, y0, x1, y1
         ctx = server.ctx
+        self._config = ctx.startup_config  # the config in force (ConfigApplied keeps it)
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(Path, self._on_path)
         ctx.subscribe(ConfigApplied, self._on_config_answer)
@@ -111,6 +115,8 @@ class ControlRole:
                 self._stream_status(session, frame.rate_hz), name=f"status:{session.device_id}"
             )
             conn.send(Ack(request=frame.type, rate_hz=frame.rate_hz))
+        elif isinstance(frame, ConfigGetFrame):
+            conn.send(Ack(request=frame.type, key=frame.key, value=self._config_value(frame.key)))
         elif isinstance(frame, UnsubscribeFrame):
             if session.status_task is not None:
                 session.status_task.cancel()
@@ -145,7 +151,26 @@ class ControlRole:
             session.conn.send(self._status(), droppable=True)
             await clock.sleep(1.0 / rate_hz)
 
+    def _config_value(self, key: str) -> object:
+        """The running config's value at ``key`` (a section as a table), secrets redacted.
+
+        Raises:
+            WireError: naming the sections, or the section's keys, when ``key`` is unknown.
+        """
+        plain = redacted(self._config)
+        section, _, name = key.partition(".")
+        if section not in plain:
+            raise WireError("key", f"no section {section!r}; sections: {', '.join(plain)}")
+        if not name:
+            return plain[section]
+        if name not in plain[section]:
+            known = ", ".join(plain[section])
+            raise WireError("key", f"no key {name!r} in section {section!r}; its keys: {known}")
+        return plain[section][name]
+
     def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
+        if isinstance(answer, ConfigApplied):
+            self._config = answer.config  # what config_get reads from now on
         session = self._config_requests.pop(answer.request_id, None)
         if session is None:
             return
@@ -188,7 +213,11 @@ class ControlRole:
         self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))
 
     def _on_map_saved(self, saved: MapSaved) -> None:
-        self._broadcast(MapSavedFrame(name=saved.name, path=saved.path, reason=saved.reason))
+        self._broadcast(
+            MapSavedFrame(
+                name=saved.name, path=saved.path, reason=saved.reason, files=list(saved.files)
+            )
+        )
 
     def _on_path(self, path: Path) -> None:
         points = [(round(float(x), 3), round(float(y), 3)) for x, y in path.points_m]

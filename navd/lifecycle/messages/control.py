@@ -90,11 +90,13 @@ class MapSaved(Message):
         name: the map's name.
         path: the YAML written ("" when nothing was).
         reason: why nothing was written ("" when it was).
+        files: every file written (the YAML, its image, navd's state).
     """
 
     name: str
     path: str = ""
     reason: str = ""
+    files: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:

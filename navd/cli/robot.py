@@ -1,0 +1,97 @@
+"""``navd pose set`` and ``navd map save``: telling the running daemon where the robot is,
+and having it save its map."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pydantic import ValidationError
+
+from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, connect, connection_options
+from navd.config import ConfigError
+from navd.drivers.client import ClientError
+from navd.drivers.protocol.frames import InitialPoseFrame, SaveMapFrame
+from navd.drivers.protocol.replies import MapSavedFrame
+
+__all__ = ["add_commands"]
+
+MAP_SAVE_TIMEOUT_S = 30.0  # [s] a large map takes a while to write
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``pose set`` and ``map save``."""
+    pose = commands.add_parser("pose", help="tell the running daemon where the robot is")
+    pose_actions = pose.add_subparsers(dest="pose_command", metavar="ACTION", required=True)
+    pose_set = pose_actions.add_parser(
+        "set", help="the robot's pose in the map: localization starts again from it"
+    )
+    pose_set.add_argument("x", type=float, help="[m] map x")
+    pose_set.add_argument("y", type=float, help="[m] map y")
+    pose_set.add_argument("yaw", type=float, help="[rad] heading, counter-clockwise from +x")
+    pose_set.add_argument("--std-xy", type=float, default=0.5, help="[m] how sure, 1 sigma (0.5)")
+    pose_set.add_argument(
+        "--std-yaw", type=float, default=0.3, help="[rad] how sure of the heading (0.3)"
+    )
+    connection_options(pose_set)
+    pose_set.set_defaults(handler=_pose_set)
+
+    maps = commands.add_parser("map", help="the running daemon's map")
+    map_actions = maps.add_subparsers(dest="map_command", metavar="ACTION", required=True)
+    save = map_actions.add_parser(
+        "save", help="save the map now (ROS map_server .yaml and .pgm, and navd's state)"
+    )
+    save.add_argument(
+        "name", nargs="?", default="", help="file name in slam.map_dir (default: slam.map_name)"
+    )
+    connection_options(save)
+    save.set_defaults(handler=_map_save)
+
+
+def _usage(command: str, err: ValidationError) -> int:
+    problem = err.errors()[0]
+    where = ".".join(str(p) for p in problem["loc"]) or command
+    print(f"navd {command}: {where}: {problem['msg']}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _pose_set(args: argparse.Namespace) -> int:
+    try:
+        frame = InitialPoseFrame(
+            x=args.x, y=args.y, yaw=args.yaw, std_xy=args.std_xy, std_yaw=args.std_yaw
+        )
+    except ValidationError as err:
+        return _usage("pose set", err)
+    try:
+        with connect(args) as client:
+            client.request(frame)
+    except (ClientError, ConfigError) as err:
+        print(f"navd pose set: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"pose set: ({args.x:.3f}, {args.y:.3f}) m, {args.yaw:.3f} rad")
+    return EXIT_OK
+
+
+def _map_save(args: argparse.Namespace) -> int:
+    try:
+        frame = SaveMapFrame(name=args.name)
+    except ValidationError as err:
+        return _usage("map save", err)
+    try:
+        with connect(args) as client:
+            client.request(frame)
+            client.timeout_s = MAP_SAVE_TIMEOUT_S
+            client.sock.settimeout(MAP_SAVE_TIMEOUT_S)
+            while True:
+                saved = client.receive_type(MapSavedFrame)
+                if not args.name or saved.name == args.name:
+                    break
+    except (ClientError, ConfigError) as err:
+        print(f"navd map save: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if saved.reason:
+        print(f"navd map save: {saved.name}: nothing written: {saved.reason}", file=sys.stderr)
+        return EXIT_FAILED
+    for file in saved.files or [saved.path]:
+        print(f"wrote {file}")
+    return EXIT_OK
