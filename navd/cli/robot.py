@@ -1,5 +1,5 @@
-"""``navd pose set`` and ``navd map save``: telling the running daemon where the robot is,
-and having it save its map."""
+"""``navd pose set``, ``navd map save`` and ``navd map load``: telling the running daemon
+where the robot is, having it save its map, or replacing its map with a saved one."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from pydantic import ValidationError
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, connect, connection_options
 from navd.config import ConfigError
 from navd.drivers.client import ClientError
-from navd.drivers.protocol.frames import InitialPoseFrame, SaveMapFrame
-from navd.drivers.protocol.replies import MapSavedFrame
+from navd.drivers.protocol.frames import InitialPoseFrame, LoadMapFrame, SaveMapFrame
+from navd.drivers.protocol.replies import MapLoadedFrame, MapSavedFrame
 
 __all__ = ["add_commands"]
 
@@ -20,7 +20,7 @@ MAP_SAVE_TIMEOUT_S = 30.0  # [s] a large map takes a while to write
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``pose set`` and ``map save``."""
+    """Add ``pose set``, ``map save`` and ``map load``."""
     pose = commands.add_parser("pose", help="tell the running daemon where the robot is")
     pose_actions = pose.add_subparsers(dest="pose_command", metavar="ACTION", required=True)
     pose_set = pose_actions.add_parser(
@@ -46,6 +46,14 @@ def add_commands(commands: Commands) -> None:
     )
     connection_options(save)
     save.set_defaults(handler=_map_save)
+    load = map_actions.add_parser(
+        "load",
+        help="replace the map with a saved one from slam.map_dir (the robot is then "
+        "searched for on it)",
+    )
+    load.add_argument("name", help="the map's name in slam.map_dir (NAME.yaml)")
+    connection_options(load)
+    load.set_defaults(handler=_map_load)
 
 
 def _usage(command: str, err: ValidationError) -> int:
@@ -94,4 +102,28 @@ def _map_save(args: argparse.Namespace) -> int:
         return EXIT_FAILED
     for file in saved.files or [saved.path]:
         print(f"wrote {file}")
+    return EXIT_OK
+
+
+def _map_load(args: argparse.Namespace) -> int:
+    try:
+        frame = LoadMapFrame(name=args.name)
+    except ValidationError as err:
+        return _usage("map load", err)
+    try:
+        with connect(args) as client:
+            client.request(frame)
+            client.timeout_s = MAP_SAVE_TIMEOUT_S
+            client.sock.settimeout(MAP_SAVE_TIMEOUT_S)
+            while True:
+                loaded = client.receive_type(MapLoadedFrame)
+                if loaded.name == frame.name.removesuffix(".yaml"):
+                    break
+    except (ClientError, ConfigError) as err:
+        print(f"navd map load: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if loaded.reason:
+        print(f"navd map load: the map in use was kept: {loaded.reason}", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"loaded {loaded.path}; the robot is searched for on it at the next scan")
     return EXIT_OK

@@ -30,6 +30,8 @@ from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
     InitialPose,
     LaserScan,
+    LoadMapRequest,
+    MapLoaded,
     MapSaved,
     MapUpdate,
     Message,
@@ -124,6 +126,7 @@ class SlamNode(Module):
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(SaveMapRequest, self._on_save)
+        ctx.subscribe(LoadMapRequest, self._on_load)
 
     async def on_activate(self) -> None:
         # Compile (or load from the cache) the kernels before the first scan; a scan job
@@ -256,6 +259,39 @@ class SlamNode(Module):
         self._saves.append((name, settings.map_dir))
         # the slot keeps one waiting job, and each job saves every request waiting
         self.ctx.submit("map_save", self._save_waiting)
+
+    def _on_load(self, request: LoadMapRequest) -> None:
+        folder = self.settings.value.map_dir
+        self.ctx.submit("map_load", lambda: self._load(request.name, folder))
+
+    def _load(self, name: str, folder: str) -> tuple[Message, ...]:
+        """Worker: read ``folder/name.yaml`` and start over on it: a fresh mapper on the
+        loaded grid, the robot searched for on all of it at the next scan. A file that cannot
+        be used keeps the map in use, with the reason."""
+        path = Path(folder) / f"{name}.yaml"
+        now = self.ctx.clock.now()
+        try:
+            grid = load_map(path)  # outside the lock: reading a large map takes a while
+        except MapFileError as err:
+            self.ctx.log.warning("map_not_loaded", name=name, reason=str(err))
+            return (MapLoaded(stamp=now, received=now, name=name, reason=str(err)),)
+        with self._lock:
+            self.mapper = ScanMapper(self._in_force.mapper)
+            self.mapper.grid = grid
+            self._relocate = GLOBAL
+            self._map_revision = grid.revision
+            self._map_published_at = now
+        self.ctx.log.info("map_loaded", path=str(path), cells=grid.logodds.shape)
+        shown = MapUpdate(
+            stamp=now,
+            received=now,
+            revision=grid.revision,
+            resolution_m=grid.resolution,
+            origin_x_m=grid.origin_x,
+            origin_y_m=grid.origin_y,
+            occupancy=grid.occupancy_percent(),
+        )
+        return (MapLoaded(stamp=now, received=now, name=name, path=str(path)), shown)
 
     def _save_waiting(self) -> tuple[MapSaved, ...]:
         """Worker: every save asked for since the last job, each answered."""

@@ -72,6 +72,12 @@ def test_pose_set_and_map_save_report_what_happened(daemon_on_port: Any, tmp_pat
     assert all(p.is_file() and p.parent == maps for p in written)
     bad = run_navd("pose", "set", "1", "2", "100", *at)
     assert bad.returncode == 2 and "yaw" in bad.stderr
+    loaded = run_navd("map", "load", "lab", *at)
+    assert loaded.returncode == 0 and str(maps / "lab.yaml") in loaded.stdout, loaded.stderr
+    missing = run_navd("map", "load", "nosuch", *at)
+    assert missing.returncode == 1 and "nosuch.yaml" in missing.stderr
+    sneaky = run_navd("map", "load", "../etc/passwd", *at)
+    assert sneaky.returncode == 2  # only names in slam.map_dir
 
 
 def test_map_save_into_a_folder_it_cannot_write_says_why(
@@ -98,6 +104,7 @@ def test_without_a_daemon_each_command_says_it_cannot_reach_it() -> None:
         ("config", "set", "planning.goal_weight", "2"),
         ("pose", "set", "0", "0", "0"),
         ("map", "save"),
+        ("map", "load", "lab"),
         ("goal", "1", "0", "--wait"),
     ):
         done = run_navd(*command, "--port", port)

@@ -15,6 +15,7 @@ from navd.drivers.protocol.frames import (
     HeadingFrame,
     ImuFrame,
     InitialPoseFrame,
+    LoadMapFrame,
     OdomFrame,
     RecordFrame,
     SaveMapFrame,
@@ -32,6 +33,7 @@ from navd.lifecycle.messages import (
     Imu,
     InitialPose,
     LaserScan,
+    LoadMapRequest,
     ManualCommand,
     Message,
     RecordRequest,
@@ -191,6 +193,8 @@ def control_message(
         )
     if isinstance(frame, SaveMapFrame):
         return SaveMapRequest(stamp=now, received=now, name=frame.name)
+    if isinstance(frame, LoadMapFrame):
+        return LoadMapRequest(stamp=now, received=now, name=frame.name.removesuffix(".yaml"))
     if isinstance(frame, RecordFrame):
         return RecordRequest(
             stamp=now, received=now, start=frame.action == "start", source=client_id

@@ -36,6 +36,7 @@ __all__ = [
     "Hello",
     "ImuFrame",
     "InitialPoseFrame",
+    "LoadMapFrame",
     "OdomFrame",
     "PingFrame",
     "RecordFrame",
@@ -280,6 +281,14 @@ class RecordFrame(Frame):
     action: Literal["start", "stop"]
 
 
+class LoadMapFrame(Frame):
+    """Replace the map with ``name``.yaml from ``slam.map_dir`` (a saved map); the robot is
+    then searched for on it."""
+
+    type: Literal["load_map"] = "load_map"
+    name: str = Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}$")
+
+
 class SubscribeFrame(Frame):
     """Receive status frames at ``rate_hz``."""
 
@@ -318,6 +327,7 @@ ControlRequest = (
     | ConfigGetFrame
     | InitialPoseFrame
     | SaveMapFrame
+    | LoadMapFrame
     | TeleopFrame
     | RecordFrame
     | SubscribeFrame

@@ -23,6 +23,7 @@ __all__ = [
     "ErrorFrame",
     "GoalStatusFrame",
     "LocalizationInfo",
+    "MapLoadedFrame",
     "MapSavedFrame",
     "ModuleInfo",
     "PathFrame",
@@ -120,6 +121,15 @@ class ConfigRejectedFrame(ReplyPart):
     type: Literal["config_rejected"] = "config_rejected"
     request_id: str
     reason: str
+
+
+class MapLoadedFrame(ReplyPart):
+    """What became of a map load: the YAML read, or why the map in use was kept."""
+
+    type: Literal["map_loaded"] = "map_loaded"
+    name: str
+    path: str = ""
+    reason: str = ""
 
 
 class MapSavedFrame(ReplyPart):
@@ -279,5 +289,6 @@ Reply = (
     | GoalStatusFrame
     | PathFrame
     | MapSavedFrame
+    | MapLoadedFrame
     | StatusFrame
 )

@@ -22,6 +22,7 @@ from navd.drivers.protocol.replies import (
     ConfigAppliedFrame,
     ConfigRejectedFrame,
     GoalStatusFrame,
+    MapLoadedFrame,
     MapSavedFrame,
     PathFrame,
     Pong,
@@ -41,6 +42,7 @@ from navd.lifecycle.messages import (
     GoalStatus,
     InitialPose,
     ManualCommand,
+    MapLoaded,
     MapSaved,
     MapUpdate,
     Path,
@@ -86,6 +88,7 @@ class ControlRole:
         ctx.subscribe(ConfigApplied, self._on_config_answer)
         ctx.subscribe(ConfigRejected, self._on_config_answer)
         ctx.subscribe(MapSaved, self._on_map_saved)
+        ctx.subscribe(MapLoaded, self._on_map_loaded)
         ctx.subscribe(MapUpdate, self._on_map)
 
     def opened(self, session: Session) -> None:
@@ -218,6 +221,9 @@ class ControlRole:
                 name=saved.name, path=saved.path, reason=saved.reason, files=list(saved.files)
             )
         )
+
+    def _on_map_loaded(self, loaded: MapLoaded) -> None:
+        self._broadcast(MapLoadedFrame(name=loaded.name, path=loaded.path, reason=loaded.reason))
 
     def _on_path(self, path: Path) -> None:
         points = [(round(float(x), 3), round(float(y), 3)) for x, y in path.points_m]

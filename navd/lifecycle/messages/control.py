@@ -105,6 +105,29 @@ class MapSaved(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class LoadMapRequest(Message):
+    """Replace the map with ``name``.yaml from ``slam.map_dir``; the robot is then searched
+    for on it."""
+
+    name: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MapLoaded(Message):
+    """What became of a map load: the YAML read, or why the map was kept.
+
+    Attributes:
+        name: the map's name.
+        path: the YAML read ("" when none was).
+        reason: why the map in use was kept ("" when it was replaced).
+    """
+
+    name: str
+    path: str = ""
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class GoalStatus(Message):
     """Progress towards a goal, published by the planner.
 
