@@ -1,5 +1,6 @@
-"""``navd pose set``, ``navd map save`` and ``navd map load``: telling the running daemon
-where the robot is, having it save its map, or replacing its map with a saved one."""
+"""``navd pose set|find`` and ``navd map save|load``: telling the running daemon where the
+robot is or having it search its map for it, having it save its map, or replacing its map
+with a saved one."""
 
 from __future__ import annotations
 
@@ -11,16 +12,22 @@ from pydantic import ValidationError
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, connect, connection_options
 from navd.config import ConfigError
 from navd.drivers.client import ClientError
-from navd.drivers.protocol.frames import InitialPoseFrame, LoadMapFrame, SaveMapFrame
-from navd.drivers.protocol.replies import MapLoadedFrame, MapSavedFrame
+from navd.drivers.protocol.frames import (
+    FindPoseFrame,
+    InitialPoseFrame,
+    LoadMapFrame,
+    SaveMapFrame,
+)
+from navd.drivers.protocol.replies import MapLoadedFrame, MapSavedFrame, PoseFoundFrame
 
 __all__ = ["add_commands"]
 
 MAP_SAVE_TIMEOUT_S = 30.0  # [s] a large map takes a while to write
+FIND_TIMEOUT_S = 15.0  # [s] the search runs at the next scan: a lidar and a map are needed
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``pose set``, ``map save`` and ``map load``."""
+    """Add ``pose set``, ``pose find``, ``map save`` and ``map load``."""
     pose = commands.add_parser("pose", help="tell the running daemon where the robot is")
     pose_actions = pose.add_subparsers(dest="pose_command", metavar="ACTION", required=True)
     pose_set = pose_actions.add_parser(
@@ -35,6 +42,11 @@ def add_commands(commands: Commands) -> None:
     )
     connection_options(pose_set)
     pose_set.set_defaults(handler=_pose_set)
+    pose_find = pose_actions.add_parser(
+        "find", help="search the whole map for the robot (lost, or moved by hand)"
+    )
+    connection_options(pose_find)
+    pose_find.set_defaults(handler=_pose_find)
 
     maps = commands.add_parser("map", help="the running daemon's map")
     map_actions = maps.add_subparsers(dest="map_command", metavar="ACTION", required=True)
@@ -126,4 +138,31 @@ def _map_load(args: argparse.Namespace) -> int:
         print(f"navd map load: the map in use was kept: {loaded.reason}", file=sys.stderr)
         return EXIT_FAILED
     print(f"loaded {loaded.path}; the robot is searched for on it at the next scan")
+    return EXIT_OK
+
+
+def _pose_find(args: argparse.Namespace) -> int:
+    try:
+        with connect(args) as client:
+            client.request(FindPoseFrame())
+            client.timeout_s = FIND_TIMEOUT_S
+            client.sock.settimeout(FIND_TIMEOUT_S)
+            while True:
+                found = client.receive_type(PoseFoundFrame)
+                if found.whole_map:
+                    break
+    except ConfigError as err:
+        print(f"navd pose find: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except ClientError as err:
+        print(
+            f"navd pose find: {err}; navd searches at the next scan, on its map: is a lidar "
+            "connected, and is there a map?",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    print(
+        f"found at ({found.x:.3f}, {found.y:.3f}) m, {found.yaw:.3f} rad; "
+        f"{found.score:.0%} of the scan on mapped obstacles"
+    )
     return EXIT_OK

@@ -28,6 +28,7 @@ from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
+    FindPoseRequest,
     InitialPose,
     LaserScan,
     LoadMapRequest,
@@ -35,6 +36,7 @@ from navd.lifecycle.messages import (
     MapSaved,
     MapUpdate,
     Message,
+    PoseFound,
     PoseMeasurement,
     SaveMapRequest,
     WheelOdometry,
@@ -55,6 +57,9 @@ MAX_WAITING_SAVES = 8  # save requests waiting at once; more are answered at onc
 
 MAP_PERIOD_S = 1.0
 GLOBAL = "global"
+# How sure the estimate is told to be of a pose a search asked for by a person found [m], [rad].
+RESEED_STD_M = 0.2
+RESEED_STD_RAD = 0.1
 _SLOT = "scan_match"
 
 
@@ -104,6 +109,7 @@ class SlamNode(Module):
         self._map_revision = -1
         # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
         self._relocate: Pose2 | str | None = None
+        self._reseed = False  # the next search's pose re-seeds the estimate (pose find)
         self._scan_odometry: ScanOdometry | None = None
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
 
@@ -127,6 +133,7 @@ class SlamNode(Module):
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(SaveMapRequest, self._on_save)
         ctx.subscribe(LoadMapRequest, self._on_load)
+        ctx.subscribe(FindPoseRequest, self._on_find)
 
     async def on_activate(self) -> None:
         # Compile (or load from the cache) the kernels before the first scan; a scan job
@@ -194,6 +201,7 @@ class SlamNode(Module):
                 self.mapper.set_pose(self._relocate)
                 self.mapper.forget_odometry()
                 self._relocate = None
+            pose_found: PoseFound | None = None
             if self._relocate is not None and not self.mapper.grid.empty:
                 guess = None if self._relocate == GLOBAL else self._relocate
                 assert guess is None or isinstance(guess, Pose2)
@@ -214,6 +222,17 @@ class SlamNode(Module):
                 self.mapper.set_pose(found.pose)
                 self.mapper.forget_odometry()
                 self._relocate = None
+                stamp = self.ctx.clock.now()
+                pose_found = PoseFound(
+                    stamp=scan.stamp,
+                    received=stamp,
+                    x_m=found.pose.x,
+                    y_m=found.pose.y,
+                    yaw_rad=found.pose.yaw,
+                    score=found.score,
+                    whole_map=guess is None,
+                )
+            reseed, self._reseed = self._reseed and pose_found is not None, False
             result = self.mapper.add(scan.stamp, points, odom)
             now = self.ctx.clock.now()
             messages: list[Message] = [
@@ -242,6 +261,20 @@ class SlamNode(Module):
                         occupancy=grid.occupancy_percent(),
                     )
                 )
+        if pose_found is not None:
+            messages.append(pose_found)
+            if reseed:  # asked for by a person: the estimate starts again from it
+                messages.append(
+                    InitialPose(
+                        stamp=scan.stamp,
+                        received=now,
+                        x_m=pose_found.x_m,
+                        y_m=pose_found.y_m,
+                        yaw_rad=pose_found.yaw_rad,
+                        std_xy_m=RESEED_STD_M,
+                        std_yaw_rad=RESEED_STD_RAD,
+                    )
+                )
         return tuple(messages)
 
     def _on_initial_pose(self, pose: InitialPose) -> None:
@@ -259,6 +292,12 @@ class SlamNode(Module):
         self._saves.append((name, settings.map_dir))
         # the slot keeps one waiting job, and each job saves every request waiting
         self.ctx.submit("map_save", self._save_waiting)
+
+    def _on_find(self, _request: FindPoseRequest) -> None:
+        # The next scan searches the whole map; the estimate is re-seeded with what it finds.
+        with self._lock:
+            self._relocate = GLOBAL
+            self._reseed = True
 
     def _on_load(self, request: LoadMapRequest) -> None:
         folder = self.settings.value.map_dir

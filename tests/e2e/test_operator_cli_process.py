@@ -63,6 +63,7 @@ def test_pose_set_and_map_save_report_what_happened(daemon_on_port: Any, tmp_pat
         while saved.returncode != 0 and time.monotonic() < deadline:  # the first scans map
             time.sleep(0.5)
             saved = run_navd("map", "save", "lab", *at)
+        found = run_navd("pose", "find", *at)  # the whole map searched at the next scan
     finally:
         lidar.halt.set()
         lidar.join()
@@ -70,6 +71,9 @@ def test_pose_set_and_map_save_report_what_happened(daemon_on_port: Any, tmp_pat
     written = [Path(line.removeprefix("wrote ")) for line in saved.stdout.splitlines()]
     assert [p.suffix for p in written] == [".yaml", ".pgm", ".npz"]
     assert all(p.is_file() and p.parent == maps for p in written)
+    assert found.returncode == 0, found.stderr
+    x, y = (float(v) for v in found.stdout.split("(")[1].split(")")[0].split(","))
+    assert abs(x) < 0.3 and abs(y) < 0.3  # the middle of the square room it maps
     bad = run_navd("pose", "set", "1", "2", "100", *at)
     assert bad.returncode == 2 and "yaw" in bad.stderr
     loaded = run_navd("map", "load", "lab", *at)
@@ -103,6 +107,7 @@ def test_without_a_daemon_each_command_says_it_cannot_reach_it() -> None:
         ("config", "get", "planning.goal_weight"),
         ("config", "set", "planning.goal_weight", "2"),
         ("pose", "set", "0", "0", "0"),
+        ("pose", "find"),
         ("map", "save"),
         ("map", "load", "lab"),
         ("goal", "1", "0", "--wait"),

@@ -7,10 +7,23 @@ import math
 from pathlib import Path
 
 from navd.bench.room import cast
-from navd.drivers.protocol.frames import ConfigFrame, InitialPoseFrame, SaveMapFrame, ScanFrame
+from navd.drivers.protocol.frames import (
+    ConfigFrame,
+    FindPoseFrame,
+    InitialPoseFrame,
+    SaveMapFrame,
+    ScanFrame,
+)
 from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame
 from navd.geometry.pose import Pose2
-from navd.lifecycle.messages import MapUpdate, PoseEstimate, PoseMeasurement, SafeStop
+from navd.lifecycle.messages import (
+    InitialPose,
+    MapUpdate,
+    PoseEstimate,
+    PoseFound,
+    PoseMeasurement,
+    SafeStop,
+)
 from navd.slam.map_io import load_map
 from navd.slam.node import SlamNode
 from tests.drivers.conftest import connected, record, running_daemon, until
@@ -182,5 +195,37 @@ async def test_every_save_asked_for_is_answered_even_in_a_burst(tmp_path: Path) 
         answered = [(await control.receive_type(MapSavedFrame)) for _ in names]
         assert sorted(a.name for a in answered) == names
         assert all(a.reason == "" and (tmp_path / f"{a.name}.yaml").exists() for a in answered)
+        await lidar.close()
+        await control.close()
+
+
+async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
+    tmp_path: Path,
+) -> None:
+    from navd.geometry.scan import scan_points
+    from navd.slam.map_io import save_map
+    from navd.slam.occupancy import OccupancyGrid
+
+    grid = OccupancyGrid(0.05)
+    for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
+        a0, inc, r = cast(pose)
+        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    path = save_map(grid, tmp_path, "room")
+    slam = {"load_map": str(path), "updating_map": False, "map_dir": str(tmp_path)}
+    async with running_daemon(slam=slam) as (daemon, port):
+        found = record(daemon, PoseFound)
+        seeds = record(daemon, InitialPose)
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
+        lidar.send(_frame(Pose2(2.0, -2.5, 2.5), 50.0))
+        await until(lambda: bool(found), timeout_s=15.0)  # the loaded map's first search
+        assert not seeds  # nobody asked: the estimate is not re-seeded
+        carried = Pose2(-4.5, 0.5, -1.0)  # picked up and put down far away, nobody says where
+        await control.request(FindPoseFrame())
+        lidar.send(_frame(carried, 50.1))
+        await until(lambda: len(found) > 1 and bool(seeds), timeout_s=15.0)
+        assert found[1].whole_map and found[1].score > 0.5
+        assert math.hypot(found[1].x_m - carried.x, found[1].y_m - carried.y) < 0.05
+        assert math.hypot(seeds[0].x_m - carried.x, seeds[0].y_m - carried.y) < 0.05
         await lidar.close()
         await control.close()

@@ -10,6 +10,7 @@ from navd.drivers.protocol.frames import (
     CancelFrame,
     ConfigFrame,
     ControlRequest,
+    FindPoseFrame,
     FixFrame,
     GoalFrame,
     HeadingFrame,
@@ -27,6 +28,7 @@ from navd.lifecycle.messages import (
     CancelGoal,
     CompassHeading,
     ConfigChange,
+    FindPoseRequest,
     GeoGoal,
     Goal,
     GpsFix,
@@ -193,6 +195,8 @@ def control_message(
         )
     if isinstance(frame, SaveMapFrame):
         return SaveMapRequest(stamp=now, received=now, name=frame.name)
+    if isinstance(frame, FindPoseFrame):
+        return FindPoseRequest(stamp=now, received=now, source=client_id)
     if isinstance(frame, LoadMapFrame):
         return LoadMapRequest(stamp=now, received=now, name=frame.name.removesuffix(".yaml"))
     if isinstance(frame, RecordFrame):

@@ -29,6 +29,7 @@ __all__ = [
     "ConfigFrame",
     "ConfigGetFrame",
     "ControlRequest",
+    "FindPoseFrame",
     "FixFrame",
     "Frame",
     "GoalFrame",
@@ -281,6 +282,12 @@ class RecordFrame(Frame):
     action: Literal["start", "stop"]
 
 
+class FindPoseFrame(Frame):
+    """Search the whole map for the robot at the next scan; answered with ``pose_found``."""
+
+    type: Literal["find_pose"] = "find_pose"
+
+
 class LoadMapFrame(Frame):
     """Replace the map with ``name``.yaml from ``slam.map_dir`` (a saved map); the robot is
     then searched for on it."""
@@ -328,6 +335,7 @@ ControlRequest = (
     | InitialPoseFrame
     | SaveMapFrame
     | LoadMapFrame
+    | FindPoseFrame
     | TeleopFrame
     | RecordFrame
     | SubscribeFrame

@@ -28,6 +28,7 @@ __all__ = [
     "ModuleInfo",
     "PathFrame",
     "Pong",
+    "PoseFoundFrame",
     "PoseInfo",
     "RejectedInfo",
     "Reply",
@@ -121,6 +122,18 @@ class ConfigRejectedFrame(ReplyPart):
     type: Literal["config_rejected"] = "config_rejected"
     request_id: str
     reason: str
+
+
+class PoseFoundFrame(ReplyPart):
+    """Where a search of the map put the robot: [m, m, rad], and the share of the scan's
+    points on mapped obstacles there (``score``, 0..1)."""
+
+    type: Literal["pose_found"] = "pose_found"
+    x: float
+    y: float
+    yaw: float
+    score: float
+    whole_map: bool
 
 
 class MapLoadedFrame(ReplyPart):
@@ -290,5 +303,6 @@ Reply = (
     | PathFrame
     | MapSavedFrame
     | MapLoadedFrame
+    | PoseFoundFrame
     | StatusFrame
 )

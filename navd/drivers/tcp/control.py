@@ -26,6 +26,7 @@ from navd.drivers.protocol.replies import (
     MapSavedFrame,
     PathFrame,
     Pong,
+    PoseFoundFrame,
     ReplyPart,
     StatusFrame,
 )
@@ -46,6 +47,7 @@ from navd.lifecycle.messages import (
     MapSaved,
     MapUpdate,
     Path,
+    PoseFound,
 )
 
 __all__ = ["ControlRole"]
@@ -89,6 +91,7 @@ class ControlRole:
         ctx.subscribe(ConfigRejected, self._on_config_answer)
         ctx.subscribe(MapSaved, self._on_map_saved)
         ctx.subscribe(MapLoaded, self._on_map_loaded)
+        ctx.subscribe(PoseFound, self._on_pose_found)
         ctx.subscribe(MapUpdate, self._on_map)
 
     def opened(self, session: Session) -> None:
@@ -224,6 +227,17 @@ class ControlRole:
 
     def _on_map_loaded(self, loaded: MapLoaded) -> None:
         self._broadcast(MapLoadedFrame(name=loaded.name, path=loaded.path, reason=loaded.reason))
+
+    def _on_pose_found(self, found: PoseFound) -> None:
+        self._broadcast(
+            PoseFoundFrame(
+                x=round(found.x_m, 4),
+                y=round(found.y_m, 4),
+                yaw=round(found.yaw_rad, 4),
+                score=round(found.score, 4),
+                whole_map=found.whole_map,
+            )
+        )
 
     def _on_path(self, path: Path) -> None:
         points = [(round(float(x), 3), round(float(y), 3)) for x, y in path.points_m]

@@ -105,6 +105,31 @@ class MapSaved(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class FindPoseRequest(Message):
+    """Search the whole map for the robot at the next scan (the robot is lost, or was moved
+    by hand)."""
+
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class PoseFound(Message):
+    """Where a search of the map put the robot.
+
+    Attributes:
+        x_m, y_m, yaw_rad: [m, m, rad] the pose found.
+        score: [ratio] the share of the scan's points on mapped obstacles there (0..1).
+        whole_map: the whole map was searched (else around a given pose).
+    """
+
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    score: float
+    whole_map: bool
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class LoadMapRequest(Message):
     """Replace the map with ``name``.yaml from ``slam.map_dir``; the robot is then searched
     for on it."""
