@@ -12,14 +12,26 @@ import sys
 from collections.abc import Sequence
 
 from navd import __version__
-from navd.cli import bench, completion, config, control, robot, run, sim, slam, teleop, viz
+from navd.cli import (
+    bench,
+    completion,
+    config,
+    control,
+    robot,
+    run,
+    sensor,
+    sim,
+    slam,
+    teleop,
+    viz,
+)
 from navd.cli.common import EXIT_USAGE
 from navd.logs import configure_logging
 
 __all__ = ["main"]
 
 # The command groups, in the order `navd --help` lists them.
-GROUPS = (run, config, control, robot, teleop, bench, slam, sim, viz, completion)
+GROUPS = (run, config, control, robot, teleop, sensor, bench, slam, sim, viz, completion)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

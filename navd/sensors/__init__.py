@@ -1,0 +1,1 @@
+"""Sensor programs (``navd sensor KIND``): read a device, stream to navd over TCP."""

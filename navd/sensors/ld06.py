@@ -1,0 +1,215 @@
+"""LDRobot LD06 / LD19 / STL-19P lidars: their serial packets, and whole turns as scans.
+
+Written from LDRobot's published protocol (the LD06 and LD19 development manuals). The
+lidar streams 47-byte packets at 230400 baud, each carrying 12 points:
+
+====== ======== =============================================================
+bytes  field    meaning
+====== ======== =============================================================
+0      header   0x54
+1      ver_len  0x2C (the low 5 bits: 12 points)
+2-3    speed    [deg/s] rotation speed, little-endian
+4-5    start    [0.01 deg] angle of the first point
+6-41   points   12 x (distance [mm] u16, intensity u8)
+42-43  end      [0.01 deg] angle of the last point
+44-45  time     [ms] the lidar's clock, wrapping at 30000
+46     crc      CRC-8 (polynomial 0x4D, initial 0, not reflected) of bytes 0-45
+====== ======== =============================================================
+
+Angles grow clockwise seen from above (the lidar turns clockwise), from its front (the
+cable side faces back). A point's angle is interpolated between the packet's start and end.
+A distance of 0 is no return. One revolution (the start angle wrapping past 360°) becomes
+one ScanFrame, in the ROS convention: counter-clockwise from the front, ``angle_min`` -π,
+a fixed increment, NaN (``null``) where no point fell.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.drivers.protocol.frames import ScanFrame
+
+__all__ = [
+    "PACKET_BYTES",
+    "Ld06Packet",
+    "PacketReader",
+    "ScanAssembler",
+    "crc8",
+    "encode_packet",
+]
+
+HEADER = 0x54
+VER_LEN = 0x2C
+POINTS = 12
+PACKET_BYTES = 47
+POLYNOMIAL = 0x4D
+RANGE_MIN_M = 0.02
+RANGE_MAX_M = 12.0
+# Bins of the scan a turn becomes: 0.5 deg, finer than the ~0.8 deg between points at 10 Hz.
+SCAN_BINS = 720
+_PACKET = struct.Struct("<BBHH" + "HB" * POINTS + "HHB")
+
+
+def _table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ POLYNOMIAL) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC_TABLE = _table()
+
+
+def crc8(data: bytes) -> int:
+    """The LD06's CRC-8 of ``data``."""
+    crc = 0
+    for byte in data:
+        crc = _CRC_TABLE[(crc ^ byte) & 0xFF]
+    return crc
+
+
+@dataclass(frozen=True, slots=True)
+class Ld06Packet:
+    """One packet: [deg/s], [deg] clockwise, [m], intensities, [ms] of the lidar's clock."""
+
+    speed_dps: float
+    start_deg: float
+    end_deg: float
+    distances_m: tuple[float, ...]
+    intensities: tuple[int, ...]
+    time_ms: int
+
+    def angles_deg(self) -> npt.NDArray[np.float64]:
+        """[deg] clockwise angle of each point (interpolated, across 360 when it wraps)."""
+        span = (self.end_deg - self.start_deg) % 360.0
+        return (self.start_deg + span * np.arange(POINTS) / (POINTS - 1)) % 360.0
+
+
+def encode_packet(
+    speed_dps: float, start_deg: float, end_deg: float, distances_m: list[float], time_ms: int
+) -> bytes:
+    """A packet as the lidar sends it (for tests and the simulator)."""
+    fields: list[int] = [HEADER, VER_LEN, round(speed_dps), round(start_deg * 100) % 36000]
+    for d in distances_m:
+        fields += [round(d * 1000), 200 if d > 0 else 0]
+    fields += [round(end_deg * 100) % 36000, time_ms % 30000]
+    body = _PACKET.pack(*fields, 0)[:-1]
+    return body + bytes([crc8(body)])
+
+
+def _decode(raw: bytes) -> Ld06Packet:
+    values = _PACKET.unpack(raw)
+    points = values[4 : 4 + 2 * POINTS]
+    return Ld06Packet(
+        speed_dps=float(values[2]),
+        start_deg=values[3] / 100.0,
+        end_deg=values[4 + 2 * POINTS] / 100.0,
+        distances_m=tuple(d / 1000.0 for d in points[0::2]),
+        intensities=tuple(points[1::2]),
+        time_ms=values[5 + 2 * POINTS],
+    )
+
+
+@dataclass
+class PacketReader:
+    """Bytes from the serial port in, whole packets out; what cannot be a packet is
+    skipped to the next header and counted.
+
+    Attributes:
+        skipped_bytes: bytes that were not part of a good packet.
+        bad_checksums: packets whose CRC did not match (dropped).
+    """
+
+    skipped_bytes: int = 0
+    bad_checksums: int = 0
+    _buffer: bytearray = field(default_factory=bytearray)
+
+    def feed(self, data: bytes) -> list[Ld06Packet]:
+        """Take ``data``; the packets it completed."""
+        buffer = self._buffer
+        buffer.extend(data)
+        packets: list[Ld06Packet] = []
+        while True:
+            start = buffer.find(bytes([HEADER, VER_LEN]))
+            if start < 0:
+                keep = 1 if buffer and buffer[-1] == HEADER else 0
+                self.skipped_bytes += len(buffer) - keep
+                del buffer[: len(buffer) - keep]
+                return packets
+            if start:
+                self.skipped_bytes += start
+                del buffer[:start]
+            if len(buffer) < PACKET_BYTES:
+                return packets
+            raw = bytes(buffer[:PACKET_BYTES])
+            if crc8(raw[:-1]) != raw[-1]:
+                self.bad_checksums += 1
+                self.skipped_bytes += 1
+                del buffer[:1]  # look for the next header inside it
+                continue
+            del buffer[:PACKET_BYTES]
+            packets.append(_decode(raw))
+
+
+@dataclass
+class ScanAssembler:
+    """Packets in, one ScanFrame per turn out (see the module docstring).
+
+    Args:
+        min_intensity: points below this intensity are taken as no return.
+    """
+
+    min_intensity: int = 1
+    _angles: list[npt.NDArray[np.float64]] = field(default_factory=list)
+    _ranges: list[npt.NDArray[np.float64]] = field(default_factory=list)
+    _last_start: float | None = None
+    _stamp: float = 0.0
+
+    def add(self, packet: Ld06Packet, stamp: float) -> ScanFrame | None:
+        """Take a packet received at ``stamp`` [s, this computer's clock]; the turn it
+        completed, if it did."""
+        done = None
+        if self._last_start is not None and packet.start_deg < self._last_start:
+            done = self._scan()  # the angle wrapped: a turn is complete
+        if not self._angles:
+            self._stamp = stamp
+        self._last_start = packet.start_deg
+        ranges = np.array(packet.distances_m)
+        weak = np.array(packet.intensities) < self.min_intensity
+        ranges[(ranges <= 0.0) | weak] = np.nan
+        self._angles.append(packet.angles_deg())
+        self._ranges.append(ranges)
+        return done
+
+    def _scan(self) -> ScanFrame | None:
+        angles_cw = np.concatenate(self._angles)
+        ranges = np.concatenate(self._ranges)
+        self._angles.clear()
+        self._ranges.clear()
+        # clockwise degrees from the front -> counter-clockwise radians in (-pi, pi]
+        ccw = np.mod(-np.radians(angles_cw) + math.pi, 2.0 * math.pi) - math.pi
+        increment = 2.0 * math.pi / SCAN_BINS
+        bins = np.clip(((ccw + math.pi) / increment).astype(np.int64), 0, SCAN_BINS - 1)
+        binned = np.full(SCAN_BINS, np.nan)
+        valid = np.isfinite(ranges)
+        # the nearest point of a bin wins (an obstacle is never hidden behind a far one)
+        order = np.argsort(-ranges[valid])
+        binned[bins[valid][order]] = ranges[valid][order]
+        if not valid.any():
+            return None
+        return ScanFrame(
+            stamp=self._stamp,
+            angle_min=-math.pi,
+            angle_increment=increment,
+            range_min=RANGE_MIN_M,
+            range_max=RANGE_MAX_M,
+            ranges=[None if not math.isfinite(r) else round(float(r), 3) for r in binned],
+        )

@@ -1,0 +1,95 @@
+"""Sensor programs on the real daemon: ``navd sensor KIND`` reads a device on a real
+pseudo-terminal and streams to navd; a port that vanishes is logged and waited for, and the
+program goes on."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from navd.drivers.client import Client
+from navd.drivers.protocol.frames import SubscribeFrame
+from navd.drivers.protocol.replies import StatusFrame
+from navd.sensors.ld06 import encode_packet
+from tests.sensors.test_nmea import GGA
+
+pytestmark = pytest.mark.e2e
+
+
+def _ld06_turn(k0: int) -> bytes:
+    """One turn of a square room 3 m around, as 30 packets."""
+    packets = []
+    for k in range(30):
+        start = 12.0 * k
+        packets.append(encode_packet(3600, start, start + 11.0, [3.0] * 12, (k0 + k) * 3))
+    return b"".join(packets)
+
+
+def _device(kind: str, step: int) -> bytes:
+    return _ld06_turn(step) if kind == "ld06" else (GGA + "\r\n").encode()
+
+
+def _devices(port: int) -> dict[str, Any]:
+    with Client("127.0.0.1", port, device_id="watcher", timeout_s=5.0) as ui:
+        ui.request(SubscribeFrame(rate_hz=20))
+        status = ui.receive_type(StatusFrame)
+    return {d.device_id: d for d in status.devices}
+
+
+@pytest.mark.parametrize(("kind", "role"), [("ld06", "lidar"), ("nmea", "gps")])
+def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
+    daemon_on_port: Any, tmp_path: Path, kind: str, role: str
+) -> None:
+    _, port = daemon_on_port()
+    master, slave = os.openpty()
+    device = os.ttyname(slave)
+    log = (tmp_path / "sensor.log").open("w")
+    program = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "navd",
+            "sensor",
+            kind,
+            "--port",
+            device,
+            "--navd",
+            f"127.0.0.1:{port}",
+            "--device-id",
+            f"{kind}0",
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        deadline = time.monotonic() + 20.0
+        seen = None
+        step = 0
+        while time.monotonic() < deadline:
+            os.write(master, _device(kind, step))
+            step += 1
+            time.sleep(0.1)
+            if step % 10 == 0:
+                seen = _devices(port).get(f"{kind}0")
+                if seen is not None and seen.accepted > 2:
+                    break
+        assert seen is not None and seen.kind == role and seen.accepted > 2
+        assert seen.rejected == 0
+        # The port vanishes (a USB adapter pulled out): the program says so and waits.
+        os.close(master)
+        os.close(slave)
+        time.sleep(2.0)
+        assert program.poll() is None, "the sensor program died with its port"
+    finally:
+        program.terminate()
+        program.wait(10)
+        log.close()
+    said = (tmp_path / "sensor.log").read_text()
+    assert "device_lost" in said or "device_unavailable" in said
+    assert said.count("device_unavailable") <= 1  # said once, not once per retry
