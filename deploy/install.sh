@@ -6,8 +6,9 @@
 #   sudo deploy/install.sh --uninstall [--purge]
 #
 # What it does: creates the system user `navd` (in the dialout group, for the UART), a
-# virtual environment under PREFIX/venv with navd and its dependencies, the systemd unit
-# /etc/systemd/system/navd.service, the default config /etc/navd/navd.toml (never
+# virtual environment under PREFIX/venv with navd and its dependencies, the systemd units
+# /etc/systemd/system/navd.service and navd-sensor@.service (one sensor program per device,
+# described in /etc/navd/sensors/NAME.env), the default config /etc/navd/navd.toml (never
 # overwriting an edited one: a newer default is written beside it as navd.toml.new), the
 # state directory /var/lib/navd (maps, numba cache), then enables and starts the service.
 # Everything it installed is listed in PREFIX/share/navd/installed, which --uninstall
@@ -47,7 +48,7 @@ while [[ $# -gt 0 ]]; do
     --python) python=$2; shift 2 ;;
     --uninstall) action=uninstall; shift ;;
     --purge) purge=1; shift ;;
-    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) die "unknown option '$1' (see --help)" ;;
   esac
 done
@@ -61,6 +62,8 @@ root="$destdir"
 venv="$prefix/venv"
 conf_dir=/etc/navd
 unit=/etc/systemd/system/navd.service
+sensor_unit=/etc/systemd/system/navd-sensor@.service
+sensors_dir=$conf_dir/sensors
 state_dir=/var/lib/navd
 share="$prefix/share/navd"
 manifest="$share/installed"
@@ -95,6 +98,9 @@ install_navd() {
 
   sed "s|/opt/navd|$prefix|g" "$here/navd.service" > "$root$unit.tmp"
   mv "$root$unit.tmp" "$root$unit"
+  sed "s|/opt/navd|$prefix|g" "$here/navd-sensor@.service" > "$root$sensor_unit.tmp"
+  mv "$root$sensor_unit.tmp" "$root$sensor_unit"
+  mkdir -p "$root$sensors_dir"  # NAME.env per device: see navd-sensor@.service
 
   local config="$root$conf_dir/navd.toml"
   if [[ ! -e $config ]]; then
@@ -110,7 +116,7 @@ install_navd() {
   fi
   install -m 0644 "$shipped_config" "$root$default_copy"
 
-  printf '%s\n' "$unit" "$venv" "$default_copy" "$manifest" > "$root$manifest"
+  printf '%s\n' "$unit" "$sensor_unit" "$venv" "$default_copy" "$manifest" > "$root$manifest"
 
   if [[ $system == 1 ]]; then
     chown root:navd "$root$conf_dir" "$root$conf_dir/navd.toml"
@@ -131,6 +137,7 @@ install_navd() {
 uninstall_navd() {
   [[ -f $root$manifest ]] || die "nothing to uninstall: $manifest not found"
   if [[ $system == 1 ]]; then
+    systemctl disable --now 'navd-sensor@*.service' 2>/dev/null || true
     systemctl disable --now navd.service 2>/dev/null || true
   fi
   local config="$root$conf_dir/navd.toml"
@@ -145,6 +152,11 @@ uninstall_navd() {
     rm -rf "${root:?}$path"
   done < "$root$manifest"
   rmdir "$root$share" "$root$prefix/share" "$root$prefix" 2>/dev/null || true
+  if [[ $purge == 1 ]]; then
+    rm -rf "${root:?}$sensors_dir"
+  else
+    rmdir "$root$sensors_dir" 2>/dev/null || say "kept your $sensors_dir (--purge removes it)"
+  fi
   rmdir "$root$conf_dir" 2>/dev/null || true
   if [[ $purge == 1 ]]; then
     rm -rf "${root:?}$state_dir"

@@ -80,8 +80,13 @@ def test_install_tree_idempotent_and_keeps_an_edited_config(tmp_path: Path, whee
     unit = (root / "etc/systemd/system/navd.service").read_text()
     assert "ExecStart=/opt/navd/venv/bin/navd run --config /etc/navd/navd.toml" in unit
     assert (root / "var/lib/navd").is_dir()
+    sensor_unit = (root / "etc/systemd/system/navd-sensor@.service").read_text()
+    assert "ExecStart=/opt/navd/venv/bin/navd sensor ${KIND} --port ${PORT}" in sensor_unit
+    assert "EnvironmentFile=/etc/navd/sensors/%i.env" in sensor_unit
+    assert (root / "etc/navd/sensors").is_dir()
     assert (root / "opt/navd/share/navd/installed").read_text().split() == [
         "/etc/systemd/system/navd.service",
+        "/etc/systemd/system/navd-sensor@.service",
         "/opt/navd/venv",
         "/opt/navd/share/navd/navd.toml.default",
         "/opt/navd/share/navd/installed",
@@ -122,6 +127,7 @@ def test_uninstall_removes_what_it_installed_and_nothing_else(tmp_path: Path, wh
     assert "kept your edited /etc/navd/navd.toml" in result.stdout
     assert not (root / "opt/navd").exists()
     assert not (root / "etc/systemd/system/navd.service").exists()
+    assert not (root / "etc/systemd/system/navd-sensor@.service").exists()
     assert config.read_text().endswith("# my robot\n")
     assert (root / "var/lib/navd/maps/office.yaml").exists()
     assert (root / "etc/hostname").read_text() == "robot\n"
@@ -156,12 +162,18 @@ def test_bad_invocations_say_what_is_wrong(args: list[str], message: str) -> Non
     shutil.which("systemd-analyze") is None,
     reason="systemd-analyze is not installed (make test installs it as root)",
 )
-def test_installed_unit_passes_systemd_analyze_verify(tmp_path: Path, wheel: Path) -> None:
+@pytest.mark.parametrize(
+    ("installed", "checked"),
+    [("navd.service", "navd.service"), ("navd-sensor@.service", "navd-sensor@lidar0.service")],
+)
+def test_installed_units_pass_systemd_analyze_verify(
+    tmp_path: Path, wheel: Path, installed: str, checked: str
+) -> None:
     root = tmp_path / "root"
     assert install(root, wheel).returncode == 0
     # verify checks that ExecStart exists: point it at the staged binary, change nothing else
-    unit = (root / "etc/systemd/system/navd.service").read_text()
-    staged = tmp_path / "navd.service"
+    unit = (root / "etc/systemd/system" / installed).read_text()
+    staged = tmp_path / checked  # a template is verified as one of its instances
     staged.write_text(unit.replace("/opt/navd/venv/bin/navd", f"{root}/opt/navd/venv/bin/navd"))
     result = subprocess.run(
         ["systemd-analyze", "verify", str(staged)],
