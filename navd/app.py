@@ -29,11 +29,13 @@ def build_modules(config: NavdConfig) -> list[Module]:
     modules: list[Module] = [
         guard,
         SafetyGate(limiters=(guard,)),
+        # before anything that decides or hears: a recording from start-up misses nothing,
+        # and stops after them
+        Recorder(),
         EstimationNode(),
         SlamNode(),
         PlannerNode(),
         TcpServer(),
-        Recorder(),
     ]
     if config.viz.enabled:
         modules.append(VizNode())

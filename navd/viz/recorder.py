@@ -38,6 +38,8 @@ from navd.viz.recording_writer import CLOSE_TIMEOUT_S, RecordingWriter, WriterSe
 __all__ = ["Recorder", "RecorderSettings"]
 
 MB = 1_000_000
+# Messages kept while the writer is set up (some 10 ms; a slow disk: a few seconds at most).
+MAX_EARLY = 20_000
 # A recording's starting pose is never given as more certain than this [m], [rad].
 MIN_SEED_STD_M = 0.01
 MIN_SEED_STD_RAD = 0.005
@@ -83,6 +85,7 @@ class Recorder(Module):
         super().__init__("recorder")
         self.writer: RecordingWriter | None = None
         self._starting = False
+        self._early: list[Message] = []  # what came while the writer was being set up
         self._offset_ns = 0  # wall clock minus daemon clock [ns], fixed at each start
         self._map_at = -float("inf")
         self._activated_s = 0.0  # [s] daemon time the module came up
@@ -100,7 +103,9 @@ class Recorder(Module):
     async def on_activate(self) -> None:
         self._activated_s = self.ctx.clock.now()
         if self.settings.value.enabled:
-            await self._start("record.enabled")
+            started = self._begin("record.enabled")
+            if started is not None:
+                await started  # recording before the modules after this one speak
 
     async def on_deactivate(self) -> None:
         await self._stop("the daemon is stopping")
@@ -115,14 +120,21 @@ class Recorder(Module):
     def _on_request(self, request: RecordRequest) -> None:
         who = request.source or "a client"
         if request.start:
-            self.ctx.spawn(self._start(who), name="record")
+            self._begin(who)
         else:
             self.ctx.spawn(self._stop(f"stopped by {who}"), name="record")
 
-    async def _start(self, why: str) -> None:
+    def _begin(self, why: str) -> asyncio.Task[None] | None:
+        """Start recording (the writer is set up off the loop); what comes meanwhile is kept
+        and written first. None when already recording or starting."""
         if self.writer is not None or self._starting:
             self._publish_state()  # already recording (or about to): say where
-            return
+            return None
+        self._starting = True
+        self._early.clear()
+        return self.ctx.spawn(self._start(why), name="record")
+
+    async def _start(self, why: str) -> None:
         s = self.settings.value
         now = self.ctx.clock.now()
         self._offset_ns = time.time_ns() - round(now * 1e9)
@@ -139,12 +151,12 @@ class Recorder(Module):
             "had_map": known_map is not None,
             "seeded_pose": pose is not None,
         }
-        self._starting = True
         try:  # a folder made, old files deleted, a file opened: not on the loop
             writer = await asyncio.to_thread(
                 RecordingWriter, s.writer, s.config_json, header, failed
             )
         except OSError as err:
+            self._early.clear()
             reason = f"cannot write {s.writer.folder}: {err}"
             self.ctx.log.error(
                 "record_failed",
@@ -161,6 +173,9 @@ class Recorder(Module):
             self._put(writer, _seed(pose, now))
         if known_map is not None:
             self._put(writer, known_map)
+        for message in self._early:  # what came meanwhile, in order
+            self._put(writer, message)
+        self._early.clear()
         self.writer = writer
         self.ctx.log.info("recording", file=str(writer.file), asked_by=why, **header)
         self._publish_state()
@@ -225,11 +240,12 @@ class Recorder(Module):
             if writer is None or message.stamp - self._map_at < self.settings.value.map_period_s:
                 return
             self._map_at = message.stamp
-        if writer is None:
-            return
         if isinstance(message, ConfigChange):  # a secret sent in a change is not kept either
             message = dataclasses.replace(message, changes=redacted_changes(message.changes))
-        self._put(writer, message)
+        if writer is not None:
+            self._put(writer, message)
+        elif self._starting and len(self._early) < MAX_EARLY:
+            self._early.append(message)
 
     def _put(self, writer: RecordingWriter, message: Message) -> None:
         topic = topic_of(type(message))

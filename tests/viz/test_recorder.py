@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import asyncio
 import os
+import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -141,3 +143,28 @@ async def test_a_recording_begun_mid_run_starts_from_what_the_daemon_knew(
     assert seed.std_xy_m == pytest.approx(0.2) and seed.std_yaw_rad == pytest.approx(0.05)
     known = messages[1][1]
     assert isinstance(known, MapUpdate) and known.revision == 7
+
+
+async def test_what_comes_while_the_writer_is_set_up_is_recorded_too(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from navd.viz import recorder
+
+    class SlowWriter(recorder.RecordingWriter):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            time.sleep(0.3)  # a slow disk: the folder and the first file take a while
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(recorder, "RecordingWriter", SlowWriter)
+    folder = tmp_path / "rec"
+    async with running_daemon(record={"dir": str(folder)}) as (daemon, port):
+        states = record(daemon, RecordingState)
+        control = await connected(port, "control", "ui")
+        control.send(RecordFrame(action="start"))
+        await control.request(GoalFrame(x=1.0, y=2.0, goal_id="early"))  # during the set-up
+        await until(lambda: bool(states) and states[-1].active, timeout_s=5.0)
+        await control.request(RecordFrame(action="stop"))
+        await until(lambda: not states[-1].active, timeout_s=5.0)
+        await control.close()
+    goals = [m for _, m in read_recording(folder).messages() if isinstance(m, Goal)]
+    assert [g.goal_id for g in goals] == ["early"]
