@@ -14,6 +14,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.frames import (
+    ROS_SENSOR_FRAMES,
     SENSOR_FRAMES,
     ClockRequest,
     ControlRequest,
@@ -48,6 +49,9 @@ _CLOCK: TypeAdapter[ClockRequest] = TypeAdapter(_tagged(ClockRequest))
 _SENSOR: dict[str, TypeAdapter[SensorFrame | PingFrame]] = {
     role: TypeAdapter(_tagged(frame | PingFrame)) for role, frame in SENSOR_FRAMES.items()
 }
+_ROS_SENSOR: dict[str, TypeAdapter[SensorFrame | PingFrame]] = {
+    role: TypeAdapter(_tagged(frame | PingFrame)) for role, frame in ROS_SENSOR_FRAMES.items()
+}
 _REPLY: TypeAdapter[Reply] = TypeAdapter(_tagged(Reply))
 
 
@@ -78,12 +82,15 @@ def decode_hello(line: bytes) -> Hello:
 
 def decode_sensor(role: str, line: bytes) -> SensorFrame | PingFrame:
     """Decode a line from a sensor of ``role`` ("lidar", "imu", ...): its data frame or a
-    ping.
+    ping. A line with a ROS ``header`` or ``{x, y, z}`` vectors is read as the ROS message
+    (``ROS_SENSOR_FRAMES``); others skip that reading's cost.
 
     Raises:
         WireError: naming the bad field.
     """
-    return _decode(_SENSOR[role], line, role)
+    # what only a ROS message dumped as JSON carries: a header, or an {x, y, z} vector
+    ros = (b'"header"' in line or b'"x"' in line) and role in _ROS_SENSOR
+    return _decode((_ROS_SENSOR if ros else _SENSOR)[role], line, role)
 
 
 def decode_control(line: bytes) -> ControlRequest:

@@ -19,6 +19,9 @@ from navd.drivers.protocol.frames import (
     LoadMapFrame,
     OdomFrame,
     RecordFrame,
+    RosFixFrame,
+    RosImuFrame,
+    RosScanFrame,
     SaveMapFrame,
     ScanFrame,
     SensorFrame,
@@ -116,6 +119,9 @@ _CONVERTERS: dict[type[Any], Callable[[Any, str, float, float], Message | None]]
     FixFrame: _fix,
     HeadingFrame: _heading,
     OdomFrame: _odom,
+    RosScanFrame: _scan,
+    RosImuFrame: _imu,
+    RosFixFrame: _fix,
 }
 
 

@@ -15,13 +15,21 @@ import math
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    model_validator,
+)
 
 from navd.drivers.errors import WireError
 
 __all__ = [
     "DEVICE_ID_PATTERN",
     "PROTOCOL_VERSION",
+    "ROS_SENSOR_FRAMES",
     "SENSOR_FRAMES",
     "CancelFrame",
     "ClockFrame",
@@ -42,6 +50,9 @@ __all__ = [
     "PingFrame",
     "RecordFrame",
     "Role",
+    "RosFixFrame",
+    "RosImuFrame",
+    "RosScanFrame",
     "SaveMapFrame",
     "ScanFrame",
     "SensorFrame",
@@ -111,7 +122,41 @@ class Hello(Frame):
 
 
 Stamp = Annotated[float | None, Field(None, ge=0)]
+
+
+def _xyz(value: Any) -> Any:
+    """A ROS vector ``{"x", "y", "z"}`` as the [x, y, z] navd takes; a JSON array as the
+    tuple the strict model wants (anything else as is, for the model to refuse)."""
+    if isinstance(value, dict) and set(value) == {"x", "y", "z"}:
+        return (value["x"], value["y"], value["z"])
+    if isinstance(value, list):
+        return tuple(value)
+    return value
+
+
 Vec3 = tuple[float, float, float]
+RosVec3 = Annotated[tuple[float, float, float], BeforeValidator(_xyz)]
+Covariance = Annotated[list[float], Field(min_length=9, max_length=9)]
+
+
+def _ros_header(data: Any) -> Any:
+    """A ROS message's ``header`` as navd's ``stamp``: ``{"stamp": {"sec", "nanosec"}}``
+    (``nsec`` in ROS 1) becomes seconds, unless the frame gives ``stamp`` itself; the
+    ``frame_id`` is not used (where a sensor sits is in the config)."""
+    if not isinstance(data, dict) or "header" not in data:
+        return data
+    data = dict(data)
+    header = data.pop("header")
+    if not isinstance(header, dict):
+        raise ValueError("header: a ROS header is an object with stamp and frame_id")
+    when = header.get("stamp")
+    if "stamp" not in data and isinstance(when, dict):
+        nanos = when.get("nanosec", when.get("nsec", 0))
+        sec = when.get("sec", when.get("secs"))
+        if not isinstance(sec, int) or not isinstance(nanos, int):
+            raise ValueError("header.stamp: sec and nanosec must be integers")
+        data["stamp"] = sec + nanos * 1e-9
+    return data
 
 
 class ScanFrame(Frame):
@@ -162,17 +207,33 @@ class ScanFrame(Frame):
 
 
 class ImuFrame(Frame):
-    """An IMU sample (sensor_msgs/Imu): rad/s, m/s², and tesla for the magnetometer."""
+    """An IMU sample (sensor_msgs/Imu): rad/s, m/s², and tesla for the magnetometer. An Imu
+    message's ``header``, ``{x, y, z}`` vectors, ``orientation`` and covariances are taken
+    too (navd fuses its own orientation; the covariances are not used)."""
 
     type: Literal["imu"] = "imu"
     stamp: Stamp
     angular_velocity: Vec3
     linear_acceleration: Vec3
     magnetic_field: Vec3 | None = None
+    orientation: dict[str, float] | None = None
+    orientation_covariance: Covariance | None = None
+    angular_velocity_covariance: Covariance | None = None
+    linear_acceleration_covariance: Covariance | None = None
+
+
+def _navsat_status(value: Any) -> Any:
+    """NavSatFix's ``status`` object ``{"status", "service"}`` as its status number."""
+    if isinstance(value, dict) and "status" in value:
+        return value["status"]
+    return value
 
 
 class FixFrame(Frame):
-    """A GNSS fix (sensor_msgs/NavSatFix); ``status`` -1 means no fix (ignored, not an error)."""
+    """A GNSS fix (sensor_msgs/NavSatFix); ``status`` -1 means no fix (ignored, not an error).
+    A NavSatFix's ``header``, ``status`` object and ``position_covariance`` are taken too:
+    without ``horizontal_accuracy``, a known covariance gives it (the larger of the east and
+    north standard deviations)."""
 
     type: Literal["fix"] = "fix"
     stamp: Stamp
@@ -181,6 +242,8 @@ class FixFrame(Frame):
     altitude: float = 0.0
     horizontal_accuracy: float = Field(gt=0)
     status: int = Field(0, ge=-1, le=2)
+    position_covariance: Covariance | None = None
+    position_covariance_type: int = Field(0, ge=0, le=3)
 
 
 class HeadingFrame(Frame):
@@ -191,6 +254,92 @@ class HeadingFrame(Frame):
     bearing_deg: float = Field(ge=0, lt=360)
     accuracy_deg: float = Field(gt=0, le=180)
     true_north: bool = False
+
+
+# --- the same frames from ROS messages dumped as JSON, field for field ------------------
+# Read only for lines that carry a ROS ``header`` or ``{x, y, z}`` vectors (``codec``): their
+# validators run Python for every line, which the plain frames, at 1 kHz, do without.
+
+
+class RosScanFrame(ScanFrame):
+    """A sensor_msgs/LaserScan: its header gives the stamp; ``angle_max`` is checked against
+    the rest, ``scan_time`` and ``intensities`` are taken and not used."""
+
+    angle_max: float | None = Field(None, allow_inf_nan=False)
+    scan_time: float | None = Field(None, ge=0, allow_inf_nan=False)
+    intensities: list[float | None] | None = Field(None, max_length=MAX_RAYS)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_ros(cls, data: Any) -> Any:
+        return _ros_header(data)
+
+    @model_validator(mode="after")
+    def _ros_consistent(self) -> RosScanFrame:
+        if (
+            self.intensities
+            and self.ranges is not None
+            and len(self.intensities) != len(self.ranges)
+        ):
+            raise ValueError(
+                f"intensities: {len(self.intensities)} values for {len(self.ranges)} ranges "
+                f"(give one per ray, or none)"
+            )
+        if self.angle_max is not None and self.ranges is not None and self.ranges:
+            last = self.angle_min + self.angle_increment * (len(self.ranges) - 1)
+            if abs(last - self.angle_max) > abs(self.angle_increment):
+                raise ValueError(
+                    f"angle_max: {self.angle_max} does not match angle_min + angle_increment "
+                    f"x (rays - 1) = {last:.6f}"
+                )
+        return self
+
+
+class RosImuFrame(ImuFrame):
+    """A sensor_msgs/Imu: its header gives the stamp; ``{x, y, z}`` vectors; ``orientation``
+    and the covariances are taken and not used (navd fuses its own orientation)."""
+
+    angular_velocity: RosVec3
+    linear_acceleration: RosVec3
+    magnetic_field: RosVec3 | None = None
+    orientation: dict[str, float] | None = None
+    orientation_covariance: Covariance | None = None
+    angular_velocity_covariance: Covariance | None = None
+    linear_acceleration_covariance: Covariance | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_ros(cls, data: Any) -> Any:
+        return _ros_header(data)
+
+
+class RosFixFrame(FixFrame):
+    """A sensor_msgs/NavSatFix: its header gives the stamp, its status object the status,
+    and a known covariance the accuracy when none is given."""
+
+    status: Annotated[int, BeforeValidator(_navsat_status)] = Field(0, ge=-1, le=2)
+    position_covariance: Covariance | None = None
+    position_covariance_type: int = Field(0, ge=0, le=3)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_ros(cls, data: Any) -> Any:
+        return _accuracy_from_covariance(_ros_header(data))
+
+
+def _accuracy_from_covariance(data: Any) -> Any:
+    if not isinstance(data, dict) or "horizontal_accuracy" in data:
+        return data
+    covariance = data.get("position_covariance")
+    known = isinstance(data.get("position_covariance_type"), int) and (
+        data["position_covariance_type"] > 0
+    )
+    if known and isinstance(covariance, list) and len(covariance) == 9:
+        east, north = covariance[0], covariance[4]
+        numbers = isinstance(east, int | float) and isinstance(north, int | float)
+        if numbers and max(east, north) > 0:
+            return {**data, "horizontal_accuracy": math.sqrt(max(east, north))}
+    return data
 
 
 class OdomFrame(Frame):
@@ -345,6 +494,13 @@ ControlRequest = (
 ClockRequest = ClockFrame | PingFrame
 
 # The data frame of each sensor role.
+# The ROS-shaped frame of each sensor role that has one.
+ROS_SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
+    "lidar": RosScanFrame,
+    "imu": RosImuFrame,
+    "gps": RosFixFrame,
+}
+
 SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
     "lidar": ScanFrame,
     "imu": ImuFrame,
