@@ -295,6 +295,10 @@ class SlamNode(Module):
 
     def _on_find(self, _request: FindPoseRequest) -> None:
         # The next scan searches the whole map; the estimate is re-seeded with what it finds.
+        # A glance at the map without the lock: an empty one has nothing to search yet.
+        if self.mapper.grid.empty:
+            self.ctx.log.warning("pose_find_ignored", reason="no map yet: nothing to search")
+            return
         with self._lock:
             self._relocate = GLOBAL
             self._reseed = True
@@ -318,6 +322,7 @@ class SlamNode(Module):
             self.mapper = ScanMapper(self._in_force.mapper)
             self.mapper.grid = grid
             self._relocate = GLOBAL
+            self._reseed = True  # the estimate, in the old map's frame, starts again too
             self._map_revision = grid.revision
             self._map_published_at = now
         self.ctx.log.info("map_loaded", path=str(path), cells=grid.logodds.shape)

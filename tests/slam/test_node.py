@@ -229,3 +229,36 @@ async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
         assert math.hypot(seeds[0].x_m - carried.x, seeds[0].y_m - carried.y) < 0.05
         await lidar.close()
         await control.close()
+
+
+async def test_a_map_loaded_at_run_time_searches_for_the_robot_and_restarts_the_estimate(
+    tmp_path: Path,
+) -> None:
+    from navd.drivers.protocol.frames import LoadMapFrame
+    from navd.geometry.scan import scan_points
+    from navd.slam.map_io import save_map
+    from navd.slam.occupancy import OccupancyGrid
+
+    grid = OccupancyGrid(0.05)
+    for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
+        a0, inc, r = cast(pose)
+        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    save_map(grid, tmp_path, "room")
+    async with running_daemon(slam={"map_dir": str(tmp_path), "updating_map": False}) as (
+        daemon,
+        port,
+    ):
+        found = record(daemon, PoseFound)
+        seeds = record(daemon, InitialPose)
+        control = await connected(port, "control", "ui")
+        lidar = await connected(port, "lidar", "lidar0")
+        await control.request(LoadMapFrame(name="room"))
+        await asyncio.sleep(0.5)  # loaded in a worker
+        robot = Pose2(-4.5, 0.5, -1.0)
+        lidar.send(_frame(robot, 50.0))
+        await until(lambda: bool(found) and bool(seeds), timeout_s=15.0)
+        assert found[0].whole_map
+        assert math.hypot(found[0].x_m - robot.x, found[0].y_m - robot.y) < 0.05
+        assert math.hypot(seeds[0].x_m - robot.x, seeds[0].y_m - robot.y) < 0.05
+        await lidar.close()
+        await control.close()
