@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from typing import TypeVar
 
 from pydantic import ValidationError
 
@@ -14,15 +16,22 @@ from navd.config import ConfigError
 from navd.drivers.client import ClientError
 from navd.drivers.protocol.frames import (
     FindPoseFrame,
+    Frame,
     InitialPoseFrame,
     LoadMapFrame,
     SaveMapFrame,
 )
-from navd.drivers.protocol.replies import MapLoadedFrame, MapSavedFrame, PoseFoundFrame
+from navd.drivers.protocol.replies import (
+    MapLoadedFrame,
+    MapSavedFrame,
+    PoseFoundFrame,
+    ReplyPart,
+)
 
 __all__ = ["add_commands"]
 
 MAP_SAVE_TIMEOUT_S = 30.0  # [s] a large map takes a while to write
+R = TypeVar("R", bound=ReplyPart)
 FIND_TIMEOUT_S = 15.0  # [s] the search runs at the next scan: a lidar and a map are needed
 
 
@@ -92,20 +101,43 @@ def _pose_set(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _ask(
+    args: argparse.Namespace,
+    frame: Frame,
+    answer: type[R],
+    wanted: Callable[[R], bool],
+    timeout_s: float,
+) -> R:
+    """Send ``frame`` and wait up to ``timeout_s`` for the first ``answer`` frame that is
+    ``wanted`` (the daemon's answers go to every control client).
+
+    Raises:
+        ClientError: navd cannot be reached, refused the request, or did not answer in time.
+        ConfigError: the config file named by the options is bad.
+    """
+    with connect(args) as client:
+        client.request(frame)
+        client.timeout_s = timeout_s
+        client.sock.settimeout(timeout_s)
+        while True:
+            reply: R = client.receive_type(answer)
+            if wanted(reply):
+                return reply
+
+
 def _map_save(args: argparse.Namespace) -> int:
     try:
         frame = SaveMapFrame(name=args.name)
     except ValidationError as err:
         return _usage("map save", err)
     try:
-        with connect(args) as client:
-            client.request(frame)
-            client.timeout_s = MAP_SAVE_TIMEOUT_S
-            client.sock.settimeout(MAP_SAVE_TIMEOUT_S)
-            while True:
-                saved = client.receive_type(MapSavedFrame)
-                if not args.name or saved.name == args.name:
-                    break
+        saved = _ask(
+            args,
+            frame,
+            MapSavedFrame,
+            lambda f: not args.name or f.name == args.name,
+            MAP_SAVE_TIMEOUT_S,
+        )
     except (ClientError, ConfigError) as err:
         print(f"navd map save: {err}", file=sys.stderr)
         return EXIT_FAILED
@@ -122,15 +154,9 @@ def _map_load(args: argparse.Namespace) -> int:
         frame = LoadMapFrame(name=args.name)
     except ValidationError as err:
         return _usage("map load", err)
+    name = frame.name.removesuffix(".yaml")
     try:
-        with connect(args) as client:
-            client.request(frame)
-            client.timeout_s = MAP_SAVE_TIMEOUT_S
-            client.sock.settimeout(MAP_SAVE_TIMEOUT_S)
-            while True:
-                loaded = client.receive_type(MapLoadedFrame)
-                if loaded.name == frame.name.removesuffix(".yaml"):
-                    break
+        loaded = _ask(args, frame, MapLoadedFrame, lambda f: f.name == name, MAP_SAVE_TIMEOUT_S)
     except (ClientError, ConfigError) as err:
         print(f"navd map load: {err}", file=sys.stderr)
         return EXIT_FAILED
@@ -143,14 +169,7 @@ def _map_load(args: argparse.Namespace) -> int:
 
 def _pose_find(args: argparse.Namespace) -> int:
     try:
-        with connect(args) as client:
-            client.request(FindPoseFrame())
-            client.timeout_s = FIND_TIMEOUT_S
-            client.sock.settimeout(FIND_TIMEOUT_S)
-            while True:
-                found = client.receive_type(PoseFoundFrame)
-                if found.whole_map:
-                    break
+        found = _ask(args, FindPoseFrame(), PoseFoundFrame, lambda f: f.whole_map, FIND_TIMEOUT_S)
     except ConfigError as err:
         print(f"navd pose find: {err}", file=sys.stderr)
         return EXIT_FAILED

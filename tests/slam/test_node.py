@@ -82,9 +82,8 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         await asyncio.sleep(0)
 
 
-async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose(
-    tmp_path: Path,
-) -> None:
+def _room_map(folder: Path) -> Path:
+    """The test room mapped from four poses, saved as ``folder/room.yaml``."""
     from navd.geometry.scan import scan_points
     from navd.slam.map_io import save_map
     from navd.slam.occupancy import OccupancyGrid
@@ -93,7 +92,13 @@ async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose
     for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
         a0, inc, r = cast(pose)
         grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
-    path = save_map(grid, tmp_path, "room")
+    return save_map(grid, folder, "room")
+
+
+async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose(
+    tmp_path: Path,
+) -> None:
+    path = _room_map(tmp_path)
     slam = {"load_map": str(path), "updating_map": False, "map_dir": str(tmp_path)}
     async with running_daemon(slam=slam) as (daemon, port):
         poses = record(daemon, PoseMeasurement)
@@ -202,15 +207,7 @@ async def test_every_save_asked_for_is_answered_even_in_a_burst(tmp_path: Path) 
 async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
     tmp_path: Path,
 ) -> None:
-    from navd.geometry.scan import scan_points
-    from navd.slam.map_io import save_map
-    from navd.slam.occupancy import OccupancyGrid
-
-    grid = OccupancyGrid(0.05)
-    for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
-        a0, inc, r = cast(pose)
-        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
-    path = save_map(grid, tmp_path, "room")
+    path = _room_map(tmp_path)
     slam = {"load_map": str(path), "updating_map": False, "map_dir": str(tmp_path)}
     async with running_daemon(slam=slam) as (daemon, port):
         found = record(daemon, PoseFound)
@@ -235,15 +232,8 @@ async def test_a_map_loaded_at_run_time_searches_for_the_robot_and_restarts_the_
     tmp_path: Path,
 ) -> None:
     from navd.drivers.protocol.frames import LoadMapFrame
-    from navd.geometry.scan import scan_points
-    from navd.slam.map_io import save_map
-    from navd.slam.occupancy import OccupancyGrid
 
-    grid = OccupancyGrid(0.05)
-    for pose in (Pose2(0, 0, 0), Pose2(-3, -1, 1.0), Pose2(4, 2.5, -2.0), Pose2(-4, 2, 0.5)):
-        a0, inc, r = cast(pose)
-        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
-    save_map(grid, tmp_path, "room")
+    _room_map(tmp_path)
     async with running_daemon(slam={"map_dir": str(tmp_path), "updating_map": False}) as (
         daemon,
         port,
