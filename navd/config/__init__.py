@@ -5,6 +5,13 @@ from navd.config.errors import ConfigError
 from navd.config.loader import apply_changes, dump_toml, load_config, parse_config
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
+from navd.config.mounts import (
+    CompassMountConfig,
+    GpsMountConfig,
+    ImuMountConfig,
+    LidarMountConfig,
+    MountsConfig,
+)
 from navd.config.planning import PlanningConfig
 from navd.config.record import RecordConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
@@ -13,11 +20,16 @@ from navd.config.viz import VizConfig
 
 __all__ = [
     "ChassisConfig",
+    "CompassMountConfig",
     "ConfigError",
     "EstimationConfig",
+    "GpsMountConfig",
+    "ImuMountConfig",
     "LidarConfig",
+    "LidarMountConfig",
     "LifecycleConfig",
     "LoggingConfig",
+    "MountsConfig",
     "NavdConfig",
     "PlanningConfig",
     "RecordConfig",

@@ -48,7 +48,8 @@ class RobotConfig(Section):
 
 
 class LidarConfig(Section):
-    """The 2D lidar: where it sits on the robot and its shortest trusted range."""
+    """The 2D lidar: where it sits on the robot and its shortest trusted range (every lidar's,
+    unless ``mounts.lidars`` places them one by one)."""
 
     x_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar x in base_link (forward)")
     y_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar y in base_link (left)")
@@ -57,6 +58,9 @@ class LidarConfig(Section):
         ge=-3.1416,
         le=3.1416,
         description="[rad] lidar yaw in base_link, counter-clockwise from the robot's forward",
+    )
+    upside_down: bool = Field(
+        False, description="mounted upside down: its bearings turn clockwise in base_link"
     )
     min_range_m: float = Field(
         0.1,

@@ -210,12 +210,32 @@ def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
                 note += " (privileged: from the config file only, see tcp.allow_privileged_changes)"
             lines += textwrap.wrap(note, width=98, initial_indent="# ", subsequent_indent="# ")
             value = getattr(section, name)
-            if value is None:
+            if isinstance(value, dict):  # a table of tables by name (the sensor mounts)
+                lines += _named_tables(f"{section_name}.{name}", value, field.examples)
+            elif value is None:
                 example = field.examples[0] if field.examples else ""
                 lines.append(f"# {tomli_w.dumps({name: example}).strip()}")
             else:
                 lines.append(tomli_w.dumps({name: _plain(value)}).strip())
     return "\n".join(lines) + "\n"
+
+
+def _named_tables(
+    prefix: str, tables: dict[str, BaseModel], examples: list[Any] | None
+) -> list[str]:
+    """``[prefix.name]`` tables, or the first example commented out when there are none."""
+    if not tables:
+        example: dict[str, Any] = examples[0] if examples else {}
+        return [
+            f"# {line}".rstrip()
+            for key, item in example.items()
+            for line in [f"[{prefix}.{key}]", *tomli_w.dumps(item).strip().splitlines()]
+        ]
+    lines: list[str] = []
+    for key, item in tables.items():
+        lines.append(f"[{prefix}.{key}]")
+        lines += tomli_w.dumps(item.model_dump(exclude_none=True)).strip().splitlines()
+    return lines
 
 
 def _plain(value: Any) -> Any:

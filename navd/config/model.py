@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
+from navd.config.mounts import MountsConfig
 from navd.config.planning import PlanningConfig
 from navd.config.record import RecordConfig
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
@@ -33,6 +34,7 @@ class NavdConfig(BaseModel):
 
     robot: RobotConfig = Field(default_factory=RobotConfig)
     lidar: LidarConfig = Field(default_factory=LidarConfig)
+    mounts: MountsConfig = Field(default_factory=MountsConfig)
     chassis: ChassisConfig = Field(default_factory=ChassisConfig)
     tcp: TcpConfig = Field(default_factory=TcpConfig)
     safety: SafetyConfig = Field(default_factory=SafetyConfig)

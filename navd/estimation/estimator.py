@@ -10,6 +10,7 @@ pose from a client); until then nothing is estimated.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -45,6 +46,7 @@ from navd.lifecycle.messages import (
     InitialPose,
     PoseEstimate,
     PoseMeasurement,
+    Vector3,
     WheelOdometry,
 )
 from navd.logs import get_logger
@@ -56,6 +58,20 @@ FloatArray = npt.NDArray[np.float64]
 
 _log = get_logger("estimation")
 _IMU_ROWS = (Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT)
+
+_Rows = tuple[tuple[float, ...], ...]  # a 3 x 3 rotation, row by row
+_UNKNOWN: _Rows = ()  # an IMU whose mount is not looked up yet
+
+
+def _rotate(rows: _Rows, v: Vector3) -> Vector3:
+    """``rows`` times the vector ``v`` (plain floats: cheaper than numpy at 1 kHz)."""
+    x, y, z = v
+    a, b, c = rows
+    return Vector3(
+        a[0] * x + a[1] * y + a[2] * z,
+        b[0] * x + b[1] * y + b[2] * z,
+        c[0] * x + c[1] * y + c[2] * z,
+    )
 
 
 class Localization:
@@ -96,6 +112,8 @@ class StateEstimator:
         self._counts = _Counts()
         self.geo: GeoFrame | None = None
         self._last_compass_yaw: _CompassYaw | None = None
+        # each IMU's rotation to base_link as rows, None when aligned (found on first use)
+        self._imu_rows: dict[str, _Rows | None] = {}
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
@@ -115,6 +133,7 @@ class StateEstimator:
         geo = self._regeo(settings.world) if settings.world != self.settings.world else self.geo
         self.settings = settings
         self.geo = geo
+        self._imu_rows = {}
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.madgwick.configure(est)
@@ -164,7 +183,20 @@ class StateEstimator:
     # --- inputs ---------------------------------------------------------------------------
 
     def add_imu(self, imu: Imu) -> bool:
-        """Feed one IMU sample to Madgwick's filter; False if it was out of order."""
+        """Feed one IMU sample, turned into base_link by its mount, to Madgwick's filter;
+        False if it was out of order."""
+        rows = self._imu_rows.get(imu.device_id, _UNKNOWN)
+        if rows is _UNKNOWN:
+            rotation = self.settings.mounts.imu_rotation(imu.device_id)
+            rows = None if rotation is None else tuple(tuple(map(float, r)) for r in rotation)
+            self._imu_rows[imu.device_id] = rows
+        if rows is not None:
+            imu = dataclasses.replace(
+                imu,
+                gyro_radps=_rotate(rows, imu.gyro_radps),
+                accel_mps2=_rotate(rows, imu.accel_mps2),
+                mag_ut=None if imu.mag_ut is None else _rotate(rows, imu.mag_ut),
+            )
         return self.madgwick.update(imu)
 
     def add_pose(self, pose: PoseMeasurement, now: float) -> Insert | None:
@@ -203,8 +235,14 @@ class StateEstimator:
                 yaw, yaw_std = compass.yaw_rad, compass.std_rad
             else:
                 yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
+            dx, dy = self._antenna_m(fix.device_id, yaw)
+            x, y = x - dx, y - dy
             self._start(fix.stamp, x, y, yaw, np.diag([variance, variance, yaw_std**2]))
             return None
+        # The fix is the antenna's; the centre is the lever arm behind it, turned by the
+        # heading the filter predicts for the fix's time.
+        dx, dy = self._antenna_m(fix.device_id, None, fix.stamp)
+        x, y = x - dx, y - dy
         measurement = self._measurement(
             (Row.X, Row.Y), [x, y], np.diag([variance, variance]), fix.stamp
         )
@@ -219,7 +257,8 @@ class StateEstimator:
         at_xy = (0.0, 0.0)
         if self.history.initialized:
             estimate = self._predict(self.history.latest.x, fix.stamp)
-            at_xy = (float(estimate[X]), float(estimate[Y]))
+            dx, dy = self._antenna_m(fix.device_id, float(estimate[TH]))
+            at_xy = (float(estimate[X]) + dx, float(estimate[Y]) + dy)
         try:
             self.geo = self._geo_frame(fix.latitude_deg, fix.longitude_deg, at_xy)
         except GeoError:
@@ -237,6 +276,8 @@ class StateEstimator:
             grid_convergence_rad=self.geo.grid_convergence_rad if self.geo else 0.0,
             map_rotation_rad=world.map_rotation_rad,
         )
+        # the compass's forward axis is turned on the robot by its mount's yaw
+        yaw = wrap_angle(yaw - self.settings.mounts.compass_yaw_rad(heading.device_id))
         std = math.radians(heading.accuracy_deg)
         self._last_compass_yaw = _CompassYaw(heading.stamp, yaw, std)
         if not self.history.initialized:
@@ -329,6 +370,19 @@ class StateEstimator:
         }
 
     # --- helpers --------------------------------------------------------------------------
+
+    def _antenna_m(
+        self, device_id: str, yaw_rad: float | None, stamp: float = 0.0
+    ) -> tuple[float, float]:
+        """[m] the antenna's offset from the robot's centre in the map frame, at heading
+        ``yaw_rad`` (None: the filter's predicted heading at ``stamp``)."""
+        ox, oy = self.settings.mounts.gps_offset_m(device_id)
+        if ox == 0.0 and oy == 0.0:
+            return 0.0, 0.0
+        if yaw_rad is None:
+            yaw_rad = float(self._predict(self.history.latest.x, stamp)[TH])
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+        return c * ox - s * oy, s * ox + c * oy
 
     def _insert(self, event: Event, now: float) -> Insert:
         counters = self.history.counters

@@ -1,10 +1,11 @@
-"""The estimator's settings: the estimation and world sections, as frozen values."""
+"""The estimator's settings: the estimation, world and mounts sections, as frozen values."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from navd.config import EstimationConfig, NavdConfig, WorldConfig
+from navd.geometry.mount import SensorMounts
 
 __all__ = ["EstimatorSettings"]
 
@@ -16,12 +17,14 @@ class EstimatorSettings:
     Attributes:
         estimation: gains, noises, gates, history and localization thresholds.
         world: the geographic frame (datum, UTM zone, map rotation, declination).
+        mounts: where the IMU, GNSS antenna and compass sit (by device id).
     """
 
     estimation: EstimationConfig
     world: WorldConfig
+    mounts: SensorMounts
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> EstimatorSettings:
-        """The settings the estimation and world sections describe."""
-        return cls(config.estimation, config.world)
+        """The settings the estimation, world and mounts sections describe."""
+        return cls(config.estimation, config.world, SensorMounts.of(config))

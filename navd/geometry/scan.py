@@ -139,14 +139,16 @@ def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) 
 
     Args:
         scan: the sweep.
-        mount: where the lidar sits, and its shortest trusted range.
+        mount: where the lidar sits, and its shortest trusted range (upside down, its
+            bearings are mirrored: a ray at +a in the lidar is at -a in base_link).
         max_range_m: [m] longest range the caller uses (SLAM's matching reach, the
             obstacle layer's, the collision guard's); farther readings become misses.
     """
+    flip = -1.0 if mount.upside_down else 1.0
     return scan_points(
         scan.ranges,
-        scan.angle_min,
-        scan.angle_increment,
+        flip * scan.angle_min,
+        flip * scan.angle_increment,
         range_min=max(scan.range_min, mount.min_range_m),
         range_max=scan.range_max,
         mount=mount.pose,

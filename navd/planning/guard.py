@@ -19,7 +19,7 @@ from numba import njit
 
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount
+from navd.geometry.mount import SensorMounts
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import LaserScan
 from navd.lifecycle.module import Module, ModuleContext
@@ -48,11 +48,11 @@ class GuardSettings:
     angular_decel_radps2: float
     period_s: float
     enabled: bool
-    mount: LidarMount
+    mounts: SensorMounts
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> GuardSettings:
-        """The settings the safety, robot, chassis and lidar sections describe."""
+        """The settings the safety, robot, chassis, lidar and mounts sections describe."""
         safety, robot = config.safety, config.robot
         return cls(
             footprint=Footprint.of(robot),
@@ -63,7 +63,7 @@ class GuardSettings:
             angular_decel_radps2=robot.max_angular_accel_radps2,
             period_s=1.0 / config.chassis.command_rate_hz,
             enabled=safety.use_collisions,
-            mount=LidarMount.of(config.lidar),
+            mounts=SensorMounts.of(config),
         )
 
 
@@ -157,11 +157,13 @@ def _warm_up(settings: GuardSettings) -> None:
 
 
 class CollisionGuard(Module):
-    """Keeps the latest scan in the robot frame; the safety gate asks it about each command."""
+    """Keeps each lidar's latest scan in the robot frame; the safety gate asks it about each
+    command, against all of them together."""
 
     def __init__(self) -> None:
         super().__init__("collision_guard")
         self._points: FloatArray = np.empty((0, 2))
+        self._by_lidar: dict[str, FloatArray] = {}
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -178,8 +180,12 @@ class CollisionGuard(Module):
         return (self.settings.value,)
 
     def _on_scan(self, scan: LaserScan) -> None:
-        points = laser_points(scan, self.settings.value.mount, max_range_m=GUARD_REACH_M)
-        self._points = points.hits
+        mount = self.settings.value.mounts.lidar(scan.device_id)
+        hits = laser_points(scan, mount, max_range_m=GUARD_REACH_M).hits
+        by_lidar = self._by_lidar
+        by_lidar[scan.device_id] = hits
+        # A lidar gone quiet keeps its last points: the safety gate holds the robot for it.
+        self._points = hits if len(by_lidar) == 1 else np.concatenate(list(by_lidar.values()))
 
     def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
         """The command scaled by the guard, and why ("" when untouched)."""

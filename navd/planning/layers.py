@@ -31,6 +31,9 @@ Zones = tuple[tuple[tuple[float, float], ...], ...]
 FRAME_MARGIN_M = 3.0
 # Cell size [m] before a map arrives.
 DEFAULT_RESOLUTION_M = 0.05
+# [s] another lidar's latest scan joins the live obstacle points while it is this much older
+# than the newest at most (two lidars at 5-10 Hz; a silent one leaves no ghosts behind).
+LIVE_SCAN_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,8 +76,10 @@ class Layers:
         self.map: tuple[GridFrame, BoolArray, BoolArray] | None = None
         self._occupancy: npt.NDArray[np.int8] | None = None
         self.obstacles: ObstacleLayer | None = None
-        self.scan_points: FloatArray = np.empty((0, 2))
-        self.view = ALL_AROUND  # what the latest scan covered
+        # Each lidar's latest scan: (stamp [s], hits in the map frame [m], what it covered).
+        self._live: dict[str, tuple[float, FloatArray, FieldOfView]] = {}
+        self.scan_points: FloatArray = np.empty((0, 2))  # the live scans' hits together
+        self.views: tuple[FieldOfView, ...] = (ALL_AROUND,)  # what the live scans covered
         self._keep_out: tuple[GridFrame, Zones, BoolArray] | None = None
 
     def configure(self, settings: LayerSettings) -> None:
@@ -109,13 +114,23 @@ class Layers:
         misses_robot_m: FloatArray,
         stamp: float,
         view: FieldOfView = ALL_AROUND,
+        *,
+        lidar: str = "",
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``, its rays
-        covering ``view``: its hits become the live obstacle points; its rays mark and clear
-        the obstacle layer."""
+        """Take a scan (points in the robot frame) of lidar ``lidar`` seen from ``pose`` at
+        ``stamp``, its rays covering ``view``: its hits join the live obstacle points (with
+        the other lidars' latest, those within ``LIVE_SCAN_S`` of it); its rays mark and
+        clear the obstacle layer."""
         hits = pose.transform(hits_robot_m)
-        self.scan_points = hits
-        self.view = view
+        live = self._live
+        live[lidar] = (stamp, hits, view)
+        if len(live) == 1:
+            self.scan_points, self.views = hits, (view,)
+        else:
+            for device in [d for d, (t, _, _) in live.items() if t < stamp - LIVE_SCAN_S]:
+                del live[device]
+            self.scan_points = np.concatenate([h for _, h, _ in live.values()])
+            self.views = tuple(v for _, _, v in live.values())
         if self.obstacles is not None:
             self.obstacles.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
 
@@ -173,9 +188,9 @@ class Layers:
 
     def local_points(self, pose: Pose2, radius_m: float, now: float) -> FloatArray:
         """[m] obstacle points near the robot: live scan hits; the scan obstacles still
-        remembered at ``now`` in the latest scan's blind sector (what a lidar that does not
-        see all around saw on the way in, and sees no more as the robot backs out); map and
-        keep-out cells."""
+        remembered at ``now`` where no live scan looks (what lidars that do not see all
+        around saw on the way in, and see no more as the robot backs out); map and keep-out
+        cells."""
         parts = [self.scan_points]
         if self.map is not None:
             frame, occupied, _ = self.map
@@ -183,10 +198,14 @@ class Layers:
         layer = self.obstacles
         if layer is not None:
             window = _window(layer.frame, pose, radius_m)
-            if window is not None and not self.view.all_around:
+            if window is not None and not any(v.all_around for v in self.views):
                 remembered = layer.last_seen[window] >= now - layer.persistence_s
                 marks = _cells_of(layer.frame, remembered, window)
-                parts.append(marks[self.view.unseen(pose.inverse().transform(marks))])
+                local = pose.inverse().transform(marks)
+                unseen = self.views[0].unseen(local)
+                for view in self.views[1:]:
+                    unseen &= view.unseen(local)
+                parts.append(marks[unseen])
             if self.settings.keep_out_zones:
                 frame = layer.frame
                 parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))

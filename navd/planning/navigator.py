@@ -157,11 +157,13 @@ class Navigator:
         misses_robot_m: FloatArray,
         stamp: float,
         view: FieldOfView = ALL_AROUND,
+        *,
+        lidar: str = "",
     ) -> None:
-        """Take a scan (points in the robot frame) seen from ``pose`` at ``stamp``, its rays
-        covering ``view``: its hits are the DWA's live obstacles; it marks and clears the
-        obstacle layer."""
-        self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp, view)
+        """Take a scan of lidar ``lidar`` (points in the robot frame) seen from ``pose`` at
+        ``stamp``, its rays covering ``view``: its hits are the DWA's live obstacles (with the
+        other lidars' latest); it marks and clears the obstacle layer."""
+        self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp, view, lidar=lidar)
 
     # --- planning --------------------------------------------------------------------------
 

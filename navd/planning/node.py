@@ -268,9 +268,12 @@ class PlannerNode(Module):
         settings = self.settings.value
 
         def job() -> None:
-            points = laser_points(scan, settings.mount, max_range_m=settings.obstacle_range_m)
+            mount = settings.mounts.lidar(scan.device_id)
+            points = laser_points(scan, mount, max_range_m=settings.obstacle_range_m)
             with self._lock:
-                self.nav.add_scan(pose, points.hits, points.misses, scan.stamp, points.view)
+                self.nav.add_scan(
+                    pose, points.hits, points.misses, scan.stamp, points.view, lidar=scan.device_id
+                )
 
         self.ctx.submit("planning_scan", job)
 

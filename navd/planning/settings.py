@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount
+from navd.geometry.mount import SensorMounts
 from navd.planning.costmap import CostmapSettings
 from navd.planning.dwa import DwaSettings
 from navd.planning.global_planner import SearchSettings
@@ -103,7 +103,7 @@ class PlannerSettings:
     Attributes:
         navigator: what the navigator runs on.
         control_period_s: [s] period of the control tick.
-        mount: where the lidar sits, for the scan obstacles.
+        mounts: where each lidar sits, for the scan obstacles.
         obstacle_range_m: [m] farther ranges neither mark nor clear scan obstacles.
         reaction_timeout_s: [s] the chassis stops itself on a command older than this.
         manual: what operators driving by hand may do.
@@ -111,18 +111,19 @@ class PlannerSettings:
 
     navigator: NavigatorSettings
     control_period_s: float
-    mount: LidarMount
+    mounts: SensorMounts
     obstacle_range_m: float
     reaction_timeout_s: float
     manual: ManualSettings
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> PlannerSettings:
-        """The settings the robot, safety, planning, lidar and teleop sections describe."""
+        """The settings the robot, safety, planning, lidar, mounts and teleop sections
+        describe."""
         return cls(
             navigator=NavigatorSettings.from_config(config),
             control_period_s=1.0 / config.planning.control_rate_hz,
-            mount=LidarMount.of(config.lidar),
+            mounts=SensorMounts.of(config),
             obstacle_range_m=config.planning.obstacle_range_m,
             reaction_timeout_s=config.safety.reaction_timeout_s,
             manual=ManualSettings.from_config(config),

@@ -9,6 +9,7 @@ frame is a function of the state and the seeded noise, stamped with the time giv
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ from navd.drivers.protocol.frames import (
     SensorFrame,
 )
 from navd.estimation.geo import GeoFrame
+from navd.geometry.mount import SensorMounts
 from navd.geometry.pose import Pose2
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.physics import SimRobot
@@ -99,6 +101,11 @@ class SensorModels:
         self.lidar_silent = False
         self.imu_silent = False
         self._sensors: list[SimSensor] | None = None
+        # Where the first listed IMU, GNSS antenna and compass sit (their mounts' inverse).
+        mounts = SensorMounts.of(config)
+        self._imu_to_base = mounts.imu_rotation(next(iter(config.mounts.imus), ""))
+        self._antenna_m = mounts.gps_offset_m(next(iter(config.mounts.gps), ""))
+        self._compass_yaw_rad = mounts.compass_yaw_rad(next(iter(config.mounts.compasses), ""))
 
     def sensors(self) -> list[SimSensor]:
         """The sensors this robot has (the same objects on every call)."""
@@ -118,22 +125,25 @@ class SensorModels:
         raise KeyError(f"the simulated robot has no {role}")
 
     def _make_sensors(self) -> list[SimSensor]:
-        s = self.settings
+        s, mounts = self.settings, self.config.mounts
+        # One lidar per mount the config lists (the lidar section's single one without).
+        lidars = list(mounts.lidars) or ["sim-lidar"]
         sensors = [
             SimSensor(
                 "lidar",
-                "sim-lidar",
+                device_id,
                 s.lidar_rate_hz,
-                self.scan,
+                functools.partial(self.scan, lidar=device_id),
                 lambda: self.lidar_plugged,
                 lambda: self.lidar_silent,
             )
+            for device_id in lidars
         ]
         if s.imu_rate_hz > 0:
             sensors.append(
                 SimSensor(
                     "imu",
-                    "sim-imu",
+                    next(iter(mounts.imus), "sim-imu"),
                     s.imu_rate_hz,
                     self.imu,
                     lambda: self.imu_plugged,
@@ -141,21 +151,27 @@ class SensorModels:
                 )
             )
         if s.gps_rate_hz > 0 and self.geo is not None:
-            sensors.append(
-                SimSensor("gps", "sim-gps", s.gps_rate_hz, self.fix, lambda: self.gps_plugged)
-            )
+            gps = next(iter(mounts.gps), "sim-gps")
+            sensors.append(SimSensor("gps", gps, s.gps_rate_hz, self.fix, lambda: self.gps_plugged))
         if s.compass_rate_hz > 0:
-            sensors.append(SimSensor("compass", "sim-compass", s.compass_rate_hz, self.heading))
+            compass = next(iter(mounts.compasses), "sim-compass")
+            sensors.append(SimSensor("compass", compass, s.compass_rate_hz, self.heading))
         return sensors
 
-    def scan(self, now: float) -> ScanFrame:
-        """A 360° sweep from the lidar's mount, with range noise; no return is null."""
-        s, lidar = self.settings, self.config.lidar
+    def scan(self, now: float, lidar: str = "sim-lidar") -> ScanFrame:
+        """A sweep of ``lidar_fov_rad`` centred on the lidar's forward axis, from its mount
+        (``mounts.lidars`` or the lidar section), with range noise; no return is null."""
+        s = self.settings
+        mount = self.config.mounts.lidars.get(lidar) or self.config.lidar
         b = self.robot.body
-        where = Pose2(b.x_m, b.y_m, b.yaw_rad).compose(Pose2(lidar.x_m, lidar.y_m, 0.0))
-        increment = 2.0 * math.pi / s.lidar_beams
-        local = -math.pi + increment * np.arange(s.lidar_beams)
-        angles = (local + b.yaw_rad + lidar.yaw_rad).astype(np.float64)
+        where = Pose2(b.x_m, b.y_m, b.yaw_rad).compose(Pose2(mount.x_m, mount.y_m, 0.0))
+        fov = min(s.lidar_fov_rad, 2.0 * math.pi)
+        increment = fov / s.lidar_beams
+        first = -fov / 2.0 if fov < 2.0 * math.pi else -math.pi
+        local = first + increment * np.arange(s.lidar_beams)
+        # upside down, the lidar's own bearings run clockwise in the robot's frame
+        flip = -1.0 if mount.upside_down else 1.0
+        angles = (flip * local + b.yaw_rad + mount.yaw_rad).astype(np.float64)
         w = self.robot.world
         ranges = cast_rays(
             w.grid,
@@ -171,7 +187,7 @@ class SensorModels:
         ranges = ranges + self._rng.normal(0.0, s.lidar_noise_m, ranges.size)
         return ScanFrame.model_construct(
             stamp=now,
-            angle_min=-math.pi,
+            angle_min=first,
             angle_increment=increment,
             range_min=LIDAR_RANGE_MIN_M,
             range_max=s.lidar_max_range_m,
@@ -183,22 +199,26 @@ class SensorModels:
         s = self.settings
         noise = self._rng.normal(0.0, 1.0, 6)
         ax, ay = self.robot.last_accel
+        gyro = np.array(
+            [
+                s.gyro_noise_radps * noise[0],
+                s.gyro_noise_radps * noise[1],
+                self.robot.body.angular_radps + s.gyro_bias_radps + s.gyro_noise_radps * noise[2],
+            ]
+        )
+        accel = np.array(
+            [
+                ax + s.accel_noise_mps2 * noise[3],
+                ay + s.accel_noise_mps2 * noise[4],
+                GRAVITY_MPS2 + s.accel_noise_mps2 * noise[5],
+            ]
+        )
+        if self._imu_to_base is not None:  # what an IMU turned on its mount measures
+            gyro, accel = self._imu_to_base.T @ gyro, self._imu_to_base.T @ accel
         return ImuFrame(
             stamp=now,
-            angular_velocity=(
-                float(s.gyro_noise_radps * noise[0]),
-                float(s.gyro_noise_radps * noise[1]),
-                float(
-                    self.robot.body.angular_radps
-                    + s.gyro_bias_radps
-                    + s.gyro_noise_radps * noise[2]
-                ),
-            ),
-            linear_acceleration=(
-                float(ax + s.accel_noise_mps2 * noise[3]),
-                float(ay + s.accel_noise_mps2 * noise[4]),
-                float(GRAVITY_MPS2 + s.accel_noise_mps2 * noise[5]),
-            ),
+            angular_velocity=(float(gyro[0]), float(gyro[1]), float(gyro[2])),
+            linear_acceleration=(float(accel[0]), float(accel[1]), float(accel[2])),
         )
 
     def fix(self, now: float) -> FixFrame:
@@ -206,7 +226,10 @@ class SensorModels:
         assert self.geo is not None, "a GNSS receiver needs the daemon's datum"
         sigma = self.settings.gps_noise_m
         dx, dy = self._rng.normal(0.0, sigma, 2)
-        lat, lon = self.geo.to_wgs84(self.robot.body.x_m + dx, self.robot.body.y_m + dy)
+        b = self.robot.body
+        (ax, ay), c, s = self._antenna_m, math.cos(b.yaw_rad), math.sin(b.yaw_rad)
+        x, y = b.x_m + c * ax - s * ay, b.y_m + s * ax + c * ay
+        lat, lon = self.geo.to_wgs84(x + dx, y + dy)
         return FixFrame(
             stamp=now,
             latitude=float(lat),
@@ -219,7 +242,8 @@ class SensorModels:
         """A magnetic bearing of the true yaw: the inverse of the daemon's conversion."""
         world = self.config.world
         convergence = self.geo.grid_convergence_rad if self.geo is not None else 0.0
-        enu_yaw = self.robot.body.yaw_rad + world.map_rotation_rad + convergence
+        enu_yaw = self.robot.body.yaw_rad + self._compass_yaw_rad + world.map_rotation_rad
+        enu_yaw += convergence
         true_bearing = 90.0 - math.degrees(enu_yaw)
         noise = self._rng.normal(0.0, self.settings.compass_noise_deg)
         magnetic = (true_bearing - world.magnetic_declination_deg + noise) % 360.0

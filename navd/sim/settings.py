@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -16,7 +17,8 @@ class SimSettings:
     Attributes:
         host, port: the daemon's TCP server; token: its ``tcp.token`` when it has one.
         tty_link: path of the symlink to the chassis end of the pseudo-terminal.
-        lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: the 2D lidar.
+        lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: each 2D lidar.
+        lidar_fov_rad: [rad] each lidar's field of view, centred on its forward axis.
         imu_rate_hz, gyro_noise_radps, gyro_bias_radps, accel_noise_mps2: the IMU (0 Hz: none).
         gps_rate_hz, gps_noise_m: a GNSS receiver, streaming only when the daemon's config
             has a datum (``world.datum_latitude_deg``/``longitude_deg``, at map (0, 0)).
@@ -37,6 +39,7 @@ class SimSettings:
     lidar_rate_hz: float = 10.0
     lidar_noise_m: float = 0.01
     lidar_max_range_m: float = 12.0
+    lidar_fov_rad: float = 2.0 * math.pi
     imu_rate_hz: float = 100.0
     gyro_noise_radps: float = 0.002
     gyro_bias_radps: float = 0.003

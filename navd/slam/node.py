@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.geometry.mount import LidarMount
+from navd.geometry.mount import SensorMounts
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
@@ -70,14 +70,14 @@ class SlamSettings:
     Attributes:
         mapper: what the mapper runs on.
         odometry: what kiss-icp runs on (without wheel odometry).
-        mount: where the lidar sits.
+        mounts: where each lidar sits.
         map_dir, map_name: where maps are saved, and their default name.
         save_on_shutdown: save the map when the daemon stops.
     """
 
     mapper: MapperSettings
     odometry: ScanOdometrySettings
-    mount: LidarMount
+    mounts: SensorMounts
     map_dir: str
     map_name: str
     save_on_shutdown: bool
@@ -89,7 +89,7 @@ class SlamSettings:
         return cls(
             mapper=MapperSettings.from_config(config),
             odometry=ScanOdometrySettings.from_config(config),
-            mount=LidarMount.of(config.lidar),
+            mounts=SensorMounts.of(config),
             map_dir=slam.map_dir,
             map_name=slam.map_name,
             save_on_shutdown=slam.save_on_shutdown,
@@ -190,7 +190,8 @@ class SlamNode(Module):
         with self._lock:
             settings = self._in_force
             mapper = settings.mapper
-            points = laser_points(scan, settings.mount, max_range_m=mapper.max_range_m)
+            mount = settings.mounts.lidar(scan.device_id)
+            points = laser_points(scan, mount, max_range_m=mapper.max_range_m)
             if odom is None:
                 # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
                 if self._scan_odometry is None:

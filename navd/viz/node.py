@@ -211,7 +211,7 @@ class VizNode(Module):
         self.ctx = ctx
         self.settings = ctx.settings(VizSettings, self._settings_changed)
         self._map_throttle = _Throttle()
-        self._scan_throttle = _Throttle()
+        self._scan_throttles: dict[str, _Throttle] = {}  # by lidar
         self._pose_throttle = _Throttle()
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
@@ -271,7 +271,7 @@ class VizNode(Module):
             self.page_route,
             self.page_goal,
         )
-        self._page_scan_throttle = _Throttle()
+        self._page_scan_throttles: dict[str, _Throttle] = {}  # by lidar
         self._costmap_throttle = _Throttle()
         self._trajectory_throttle = _Throttle()
         self._watchers: dict[str, int] = {}  # topic -> subscriptions now
@@ -451,21 +451,21 @@ class VizNode(Module):
     def _on_scan(self, scan: LaserScan) -> None:
         if self.server is None:
             return
-        period_s = self.settings.value.scan_period_s
-        if self.scan.has_sinks() and self._scan_throttle.due(scan.received, period_s):
-            min_range_m = self.settings.value.lidar.min_range_m
-            shown = scene.laser_scan(scan, min_range_m=min_range_m, offset_s=self._offset_s)
+        settings = self.settings.value
+        period_s, lidar = settings.scan_period_s, scan.device_id
+        mount = settings.mounts.lidar(lidar)
+        throttle = self._scan_throttles.setdefault(lidar, _Throttle())
+        if self.scan.has_sinks() and throttle.due(scan.received, period_s):
+            shown = scene.laser_scan(scan, mount, offset_s=self._offset_s)
             self.scan.log(shown, log_time=self._log_time())
         pose = self._pose
+        page_throttle = self._page_scan_throttles.setdefault(lidar, _Throttle())
         if (
             pose is not None
             and self.page_scan.has_sinks()
-            and self._page_scan_throttle.due(
-                scan.received, max(period_s, page_data.PAGE_SCAN_PERIOD_S)
-            )
+            and page_throttle.due(scan.received, max(period_s, page_data.PAGE_SCAN_PERIOD_S))
         ):
-            lidar = self.settings.value.lidar
-            self._send_json(self.page_scan, page_data.scan_message(scan, pose, lidar))
+            self._send_json(self.page_scan, page_data.scan_message(scan, pose, mount))
 
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = pose
@@ -483,7 +483,7 @@ class VizNode(Module):
             return
         t, offset = self._log_time(), self._offset_s
         if self.tf.has_sinks():
-            lidar = self.settings.value.lidar.pose
+            lidar = self.settings.value.mounts.default_lidar.pose
             self.tf.log(scene.frame_tree(pose, lidar, offset_s=offset), log_time=t)
         if self.pose.has_sinks():
             self.pose.log(scene.odometry(pose, offset_s=offset), log_time=t)

@@ -94,7 +94,7 @@ def pose_message(pose: PoseEstimate) -> dict[str, Any]:
 
 
 def scan_message(scan: LaserScan, pose: PoseEstimate, mount: LidarMount) -> dict[str, Any]:
-    """The scan's hits in the map frame, seen from ``pose``."""
+    """The scan's hits in the map frame, seen from ``pose``, and which lidar saw them."""
     hits = laser_points(scan, mount, max_range_m=PAGE_SCAN_RANGE_M).hits
     if len(hits) > MAX_SCAN_POINTS:
         hits = hits[:: -(-len(hits) // MAX_SCAN_POINTS)]
@@ -102,7 +102,11 @@ def scan_message(scan: LaserScan, pose: PoseEstimate, mount: LidarMount) -> dict
     x = pose.x_m + c * hits[:, 0] - s * hits[:, 1]
     y = pose.y_m + s * hits[:, 0] + c * hits[:, 1]
     cm = np.rint(np.column_stack((x, y)).ravel() * 100.0).astype("<i4")
-    return {"stamp": scan.stamp, "points_cm": base64.b64encode(cm.tobytes()).decode("ascii")}
+    return {
+        "stamp": scan.stamp,
+        "lidar": scan.device_id,
+        "points_cm": base64.b64encode(cm.tobytes()).decode("ascii"),
+    }
 
 
 def route_message(path: Path) -> dict[str, Any]:

@@ -40,6 +40,7 @@ from foxglove.messages import (
 )
 
 from navd.geometry.footprint import CIRCLE, Footprint
+from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     CostmapUpdate,
@@ -118,20 +119,23 @@ def occupancy_grid(update: MapUpdate | CostmapUpdate, *, offset_s: float = 0.0) 
     )
 
 
-def laser_scan(scan: NavdScan, *, min_range_m: float = 0.0, offset_s: float = 0.0) -> LaserScan:
-    """The scan in the ``laser`` frame; rays outside [range_min, range_max] (no return, or
-    not to be trusted) and shorter than ``min_range_m`` (the lidar mount's: the robot's own
-    body) are NaN, which the view leaves out."""
+def laser_scan(scan: NavdScan, mount: LidarMount, *, offset_s: float = 0.0) -> LaserScan:
+    """The scan in ``base_link`` at its lidar's mount; rays outside [range_min, range_max]
+    (no return, or not to be trusted) and shorter than the mount's ``min_range_m`` (the
+    robot's own body) are NaN, which the view leaves out. An upside-down lidar's bearings
+    are mirrored."""
     ranges = np.asarray(scan.ranges, dtype=np.float64)
-    valid = (ranges >= max(scan.range_min, min_range_m)) & (ranges <= scan.range_max)
+    valid = (ranges >= max(scan.range_min, mount.min_range_m)) & (ranges <= scan.range_max)
     shown = np.where(valid, ranges, np.nan)
     last = scan.angle_min + scan.angle_increment * max(ranges.size - 1, 0)
+    flip = -1.0 if mount.upside_down else 1.0
+    at = mount.pose
     return LaserScan(
         timestamp=as_timestamp(scan.stamp + offset_s),
-        frame_id=LASER,
-        pose=_pose(0.0, 0.0, 0.0),
-        start_angle=scan.angle_min,
-        end_angle=last,
+        frame_id=BASE_LINK,
+        pose=_pose(at.x, at.y, at.yaw),
+        start_angle=flip * scan.angle_min,
+        end_angle=flip * last,
         ranges=shown.tolist(),
     )
 

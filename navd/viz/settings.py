@@ -8,7 +8,7 @@ from typing import Literal
 from navd.config import NavdConfig
 from navd.config.fields import is_loopback
 from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount
+from navd.geometry.mount import SensorMounts
 
 __all__ = ["VizSettings"]
 
@@ -43,7 +43,7 @@ class VizSettings:
     pose_period_s: float
     log_level: Literal["debug", "info", "warning", "error"]
     footprint: Footprint
-    lidar: LidarMount
+    mounts: SensorMounts
     keep_out_zones: tuple[tuple[tuple[float, float], ...], ...]
     robot_name: str
     page_enabled: bool
@@ -68,7 +68,7 @@ class VizSettings:
             pose_period_s=1.0 / viz.pose_rate_hz,
             log_level=viz.log_level,
             footprint=Footprint.of(config.robot),
-            lidar=LidarMount.of(config.lidar),
+            mounts=SensorMounts.of(config),
             keep_out_zones=config.planning.keep_out_zones,
             robot_name=config.robot.name,
             page_enabled=viz.page_enabled,

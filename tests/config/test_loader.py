@@ -28,7 +28,25 @@ def test_default_file_names_every_key() -> None:
     for section, field in NavdConfig.model_fields.items():
         assert field.annotation is not None
         for key in field.annotation.model_fields:  # type: ignore[union-attr]
-            assert key in document[section] or f"# {key} = " in text, f"{section}.{key} missing"
+            shown = key in document[section] or f"# {key} = " in text
+            # a table of named tables shows an example table: ``# [mounts.lidars.front]``
+            shown = shown or f"# [{section}.{key}." in text
+            assert shown, f"{section}.{key} missing"
+
+
+def test_mount_examples_in_the_default_file_load(tmp_path: Path) -> None:
+    """The commented-out mount tables, uncommented, are a valid config with those mounts."""
+    text = DEFAULT_FILE.read_text()
+    start = text.index("[mounts]")
+    block = text[start:].split("\n\n")[0]
+    uncommented = "\n".join(
+        line[2:] if line.startswith("# [mounts.") or "=" in line else ""
+        for line in block.splitlines()
+    )
+    config = load_config_from(tmp_path, uncommented.replace("# ", ""))
+    assert set(config.mounts.lidars) == {"front", "rear"}
+    assert config.mounts.lidars["rear"].upside_down
+    assert config.mounts.gps["gnss0"].x_m == 0.3
 
 
 def test_plain_dump_round_trips(tmp_path: Path) -> None:

@@ -60,7 +60,7 @@ async def test_the_defaults_serve_the_view_and_a_scan_reaches_it(
             except TimeoutError:
                 continue
         assert shown is not None, "no scan reached the view"
-        assert shown.frame_id == "laser"
+        assert shown.frame_id == "base_link"  # at the lidar's mount, by its pose
         np.testing.assert_allclose(shown.ranges, SCAN.ranges, rtol=1e-6)
         assert shown.start_angle == pytest.approx(-3.14)
     finally:

@@ -65,9 +65,9 @@ async def test_the_view_of_a_drive_matches_the_simulated_world(tmp_path: Path) -
     cells = np.frombuffer(grid.data, dtype=np.int8).reshape(-1, grid.column_count)
     viewed = ViewedMap(cells, grid.cell_size.x, grid.pose.position.x, grid.pose.position.y)
     assert tolerant_iou(world, viewed, tolerance_m=0.05) >= 0.85
-    # The route ends at the goal; the scan is the simulated lidar's, in its frame.
+    # The route ends at the goal; the scan is the simulated lidar's, at its mount.
     end = latest["/route"].entities[0].lines[0].points[-1]
     assert world.goal is not None
     assert math.hypot(end.x - world.goal[0], end.y - world.goal[1]) <= 0.05
     scan = latest["/scan"]
-    assert scan.frame_id == "laser" and len(scan.ranges) > 100
+    assert scan.frame_id == "base_link" and len(scan.ranges) > 100

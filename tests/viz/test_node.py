@@ -113,7 +113,7 @@ async def test_a_viewer_gets_the_state_at_once_and_then_what_changes() -> None:
             sent = scan(daemon.clock.now())
             daemon.bus.publish(sent)
             _, shown = await client.receive("/scan")
-            assert shown.frame_id == "laser"
+            assert shown.frame_id == "base_link"  # placed at the mount by its pose
             np.testing.assert_allclose(shown.ranges, sent.ranges, rtol=1e-6)
         finally:
             await client.close()
@@ -125,9 +125,9 @@ async def test_nothing_is_encoded_for_a_channel_nobody_watches(
     encoded: list[float] = []
     real = viz_node.scene.laser_scan
 
-    def counting(message: LaserScan, **kw: Any) -> Any:
+    def counting(message: LaserScan, *args: Any, **kw: Any) -> Any:
         encoded.append(message.stamp)
-        return real(message, **kw)
+        return real(message, *args, **kw)
 
     monkeypatch.setattr(viz_node.scene, "laser_scan", counting)
     async with viewed_daemon(scan_rate_hz=100.0) as (daemon, node):

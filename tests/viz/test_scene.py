@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from navd.geometry.footprint import Footprint
+from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import Goal, LaserScan, MapUpdate, Path, PoseEstimate
 from navd.viz import scene
@@ -63,8 +64,10 @@ def test_a_scan_hides_rays_without_a_trusted_return_and_keeps_its_angles() -> No
         range_min=0.1,
         range_max=30.0,
     )
-    shown = decoded(scene.laser_scan(scan))
-    assert shown.frame_id == "laser"
+    mount = LidarMount(Pose2(0.2, -0.1, 0.5), min_range_m=0.0)
+    shown = decoded(scene.laser_scan(scan, mount))
+    assert shown.frame_id == "base_link"
+    assert (shown.pose.position.x, shown.pose.position.y) == pytest.approx((0.2, -0.1))
     assert shown.start_angle == pytest.approx(1.0)
     assert shown.end_angle == pytest.approx(0.0)
     got = np.array(shown.ranges)

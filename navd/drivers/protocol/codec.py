@@ -8,6 +8,7 @@ only requests, the clock client only clock steps.
 
 from __future__ import annotations
 
+import json
 from typing import Annotated, Any, TypeVar, get_args
 
 from pydantic import Field, TypeAdapter, ValidationError
@@ -90,7 +91,30 @@ def decode_sensor(role: str, line: bytes) -> SensorFrame | PingFrame:
     """
     # what only a ROS message dumped as JSON carries: a header, or an {x, y, z} vector
     ros = (b'"header"' in line or b'"x"' in line) and role in _ROS_SENSOR
+    if ros and b'"op"' in line:
+        return _decode_rosbridge(role, line)
     return _decode((_ROS_SENSOR if ros else _SENSOR)[role], line, role)
+
+
+def _decode_rosbridge(role: str, line: bytes) -> SensorFrame:
+    """A rosbridge ``publish`` operation: ``{"op": "publish", "topic": .., "msg": {..}}``,
+    its message read as the ROS message of the connection's role (the tag is implied).
+    Python's JSON reader is used: rosbridge writes NaN and Infinity as bare words."""
+    try:
+        envelope = json.loads(line)
+    except ValueError as err:
+        raise WireError("", f"not valid JSON: {err}") from err
+    if not isinstance(envelope, dict) or envelope.get("op") != "publish":
+        raise WireError("op", "a rosbridge line must be a publish operation (op: publish)")
+    msg = envelope.get("msg")
+    if not isinstance(msg, dict):
+        raise WireError("msg", "a rosbridge publish carries its message as an object in msg")
+    model = ROS_SENSOR_FRAMES[role]
+    tag = get_args(model.model_fields["type"].annotation)[0]
+    try:
+        return model.model_validate({**msg, "type": tag})
+    except ValidationError as err:
+        raise _wire_error(err, role) from err
 
 
 def decode_control(line: bytes) -> ControlRequest:

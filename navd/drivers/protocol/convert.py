@@ -21,6 +21,7 @@ from navd.drivers.protocol.frames import (
     RecordFrame,
     RosFixFrame,
     RosImuFrame,
+    RosOdomFrame,
     RosScanFrame,
     SaveMapFrame,
     ScanFrame,
@@ -122,6 +123,7 @@ _CONVERTERS: dict[type[Any], Callable[[Any, str, float, float], Message | None]]
     RosScanFrame: _scan,
     RosImuFrame: _imu,
     RosFixFrame: _fix,
+    RosOdomFrame: _odom,
 }
 
 

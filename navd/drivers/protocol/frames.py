@@ -137,21 +137,26 @@ def _xyz(value: Any) -> Any:
 Vec3 = tuple[float, float, float]
 RosVec3 = Annotated[tuple[float, float, float], BeforeValidator(_xyz)]
 Covariance = Annotated[list[float], Field(min_length=9, max_length=9)]
+Covariance6 = Annotated[list[float], Field(min_length=36, max_length=36)]
+FrameId = Annotated[str | None, Field(None, min_length=1, max_length=128)]
 
 
 def _ros_header(data: Any) -> Any:
-    """A ROS message's ``header`` as navd's ``stamp``: ``{"stamp": {"sec", "nanosec"}}``
-    (``nsec`` in ROS 1) becomes seconds, unless the frame gives ``stamp`` itself; the
-    ``frame_id`` is not used (where a sensor sits is in the config)."""
+    """A ROS message's ``header`` as navd's ``stamp`` and ``frame_id``: ``{"stamp": {"sec",
+    "nanosec"}}`` (``secs`` and ``nsecs`` in ROS 1) becomes seconds, unless the frame gives
+    ``stamp`` itself; the ``frame_id`` is checked against the device's mount."""
     if not isinstance(data, dict) or "header" not in data:
         return data
     data = dict(data)
     header = data.pop("header")
     if not isinstance(header, dict):
         raise ValueError("header: a ROS header is an object with stamp and frame_id")
+    frame_id = header.get("frame_id")
+    if frame_id not in (None, "") and "frame_id" not in data:
+        data["frame_id"] = frame_id
     when = header.get("stamp")
     if "stamp" not in data and isinstance(when, dict):
-        nanos = when.get("nanosec", when.get("nsec", 0))
+        nanos = when.get("nanosec", when.get("nsecs", when.get("nsec", 0)))
         sec = when.get("sec", when.get("secs"))
         if not isinstance(sec, int) or not isinstance(nanos, int):
             raise ValueError("header.stamp: sec and nanosec must be integers")
@@ -265,6 +270,7 @@ class RosScanFrame(ScanFrame):
     """A sensor_msgs/LaserScan: its header gives the stamp; ``angle_max`` is checked against
     the rest, ``scan_time`` and ``intensities`` are taken and not used."""
 
+    frame_id: FrameId = None
     angle_max: float | None = Field(None, allow_inf_nan=False)
     scan_time: float | None = Field(None, ge=0, allow_inf_nan=False)
     intensities: list[float | None] | None = Field(None, max_length=MAX_RAYS)
@@ -299,6 +305,7 @@ class RosImuFrame(ImuFrame):
     """A sensor_msgs/Imu: its header gives the stamp; ``{x, y, z}`` vectors; ``orientation``
     and the covariances are taken and not used (navd fuses its own orientation)."""
 
+    frame_id: FrameId = None
     angular_velocity: RosVec3
     linear_acceleration: RosVec3
     magnetic_field: RosVec3 | None = None
@@ -317,6 +324,7 @@ class RosFixFrame(FixFrame):
     """A sensor_msgs/NavSatFix: its header gives the stamp, its status object the status,
     and a known covariance the accuracy when none is given."""
 
+    frame_id: FrameId = None
     status: Annotated[int, BeforeValidator(_navsat_status)] = Field(0, ge=-1, le=2)
     position_covariance: Covariance | None = None
     position_covariance_type: int = Field(0, ge=0, le=3)
@@ -349,6 +357,36 @@ class OdomFrame(Frame):
     stamp: Stamp
     linear_x: float
     angular_z: float
+
+
+class RosOdomFrame(OdomFrame):
+    """A nav_msgs/Odometry: its header gives the stamp, its twist (in ``child_frame_id``,
+    the robot's body) the velocity: ``twist.twist.linear.x`` and ``twist.twist.angular.z``.
+    Its pose (the odometry's own dead reckoning) and covariances are read and not used."""
+
+    frame_id: FrameId = None
+    child_frame_id: str | None = Field(None, max_length=128)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_ros(cls, data: Any) -> Any:
+        data = _ros_header(data)
+        if not isinstance(data, dict) or "twist" not in data:
+            return data
+        data = dict(data)
+        twist = data.pop("twist")
+        data.pop("pose", None)
+        inner = twist.get("twist") if isinstance(twist, dict) else None
+        linear = inner.get("linear") if isinstance(inner, dict) else None
+        angular = inner.get("angular") if isinstance(inner, dict) else None
+        if not isinstance(linear, dict) or not isinstance(angular, dict):
+            raise ValueError(
+                "twist: an Odometry's twist is {twist: {linear: {x, y, z}, angular: {x, y, z}}, "
+                "covariance}"
+            )
+        data.setdefault("linear_x", linear.get("x"))
+        data.setdefault("angular_z", angular.get("z"))
+        return data
 
 
 class GoalFrame(Frame):
@@ -499,6 +537,7 @@ ROS_SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
     "lidar": RosScanFrame,
     "imu": RosImuFrame,
     "gps": RosFixFrame,
+    "wheel_odometry": RosOdomFrame,
 }
 
 SENSOR_FRAMES: dict[str, type[SensorFrame]] = {

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 
+from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_sensor
 from navd.drivers.protocol.convert import sensor_message
 from navd.drivers.protocol.frames import PingFrame
@@ -51,6 +52,7 @@ class SensorRole:
             session.stamps,
         )
         publish = ctx.publish
+        mounts = self._server.settings.value.mounts
         for line in lines:
             if not line or line.isspace():
                 continue
@@ -59,6 +61,11 @@ class SensorRole:
                 if isinstance(frame, PingFrame):
                     conn.send(Pong(id=frame.id))
                     continue
+                frame_id = getattr(frame, "frame_id", None)  # only ROS-shaped frames have one
+                if frame_id is not None:
+                    refusal = mounts.frame_refusal(device_id, frame_id)
+                    if refusal is not None:
+                        raise WireError("header.frame_id", refusal)
                 message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
             except Exception as err:
                 self._server.reject(conn, line, err)

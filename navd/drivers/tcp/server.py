@@ -324,6 +324,23 @@ class TcpServer(Module):
                 f"{hello.device_id!r} is in use by {holder.conn.peer} (a {holder.kind.value}); "
                 "a sensor's id stays with its connection until it leaves or falls silent"
             )
+        mounts = self.settings.value.mounts
+        unmounted = mounts.refusal(hello.role, hello.device_id)
+        if unmounted is not None:
+            return "device_id", unmounted
+        if hello.role == "lidar" and not mounts.lidars:
+            # One implicit mount (the lidar section) cannot place two lidars.
+            for other in self.sessions.values():
+                if (
+                    other.kind is DeviceKind.LIDAR
+                    and other.device_id != hello.device_id
+                    and not other.stale
+                ):
+                    return "device_id", (
+                        f"{hello.device_id!r} would be a second lidar beside "
+                        f"{other.device_id!r}: give each lidar its mount under "
+                        "[mounts.lidars] in the config"
+                    )
         if hello.role == "clock":
             refusal = self.clock_role.refusal(hello.device_id, self.sessions.values())
             if refusal:

@@ -12,9 +12,11 @@ from typing import Protocol
 
 from navd.drivers.protocol.frames import ClockFrame
 from navd.drivers.tcp.connection import Connection
+from navd.drivers.tcp.settings import TcpSettings
 from navd.drivers.timesync import StampMapper
 from navd.lifecycle.messages import DeviceKind
 from navd.lifecycle.module import ModuleContext
+from navd.lifecycle.settings import Live
 
 __all__ = ["ARRIVALS_KEPT", "Role", "Server", "Session"]
 
@@ -81,6 +83,7 @@ class Server(Protocol):
     """What a role handler uses of the server."""
 
     ctx: ModuleContext
+    settings: Live[TcpSettings]
 
     def reject(self, conn: Connection, line: bytes, err: Exception) -> None:
         """Answer a line that could not be used (the supervised boundary per line)."""

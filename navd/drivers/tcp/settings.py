@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from navd.config import NavdConfig
+from navd.geometry.mount import SensorMounts
 from navd.lifecycle.messages import DeviceKind
 
 __all__ = ["STATUS_FRAME_BYTES", "ConnectionLimits", "SensorPacing", "TcpSettings"]
@@ -33,6 +34,8 @@ class TcpSettings:
         lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
         robot_name: the name status frames carry.
         teleop_enabled: control clients may drive by hand (``teleop.enabled``).
+        mounts: the sensors' mounts: which device ids may connect, which ROS frame_ids
+            their frames may name.
     """
 
     host: str
@@ -52,6 +55,7 @@ class TcpSettings:
     lockstep_timeout_s: float
     robot_name: str
     teleop_enabled: bool
+    mounts: SensorMounts
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> TcpSettings:
@@ -82,6 +86,7 @@ class TcpSettings:
             lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
             robot_name=config.robot.name,
             teleop_enabled=config.teleop.enabled,
+            mounts=SensorMounts.of(config),
         )
 
 

@@ -14,7 +14,7 @@ const TELEOP_PERIOD_MS = 100; // joystick commands go out at 10 Hz (the daemon's
 const RECONNECT_MS = 1000;
 
 const state = {
-  info: null, map: null, pose: null, scan: null, route: null, goal: null,
+  info: null, map: null, pose: null, scans: {}, route: null, goal: null,
   status: null, goalStatus: null, connected: false,
 };
 // px per m, and the map point at the centre; the view follows the growing map until the
@@ -91,7 +91,7 @@ function take(topic, message) {
       break;
     case "/page/map": state.map = message; paintMap(message); break;
     case "/page/pose": state.pose = message; break;
-    case "/page/scan": state.scan = scanPoints(message); break;
+    case "/page/scan": state.scans[message.lidar || ""] = scanPoints(message); break;
     case "/page/route": state.route = message; break;
     case "/page/goal": state.goal = message; break;
     case "/status": state.status = message; break;
@@ -237,9 +237,11 @@ function draw() {
     ctx.fill();
     if (state.goal.yaw !== null) arrow(state.goal.x, state.goal.y, state.goal.yaw, 22, "#2fb84f");
   }
-  if (state.scan) {
-    ctx.fillStyle = "#ff3b30";
-    const p = state.scan.points;
+  ctx.fillStyle = "#ff3b30";
+  const newest = Math.max(...Object.values(state.scans).map((s) => s.stamp));
+  for (const scan of Object.values(state.scans)) {
+    if (scan.stamp < newest - 1.0) continue;  // a lidar gone quiet: its points are old
+    const p = scan.points;
     for (let i = 0; i + 1 < p.length; i += 2) {
       const [px, py] = mapToScreen(p[i], p[i + 1]);
       ctx.fillRect(px - 1.5, py - 1.5, 3, 3);

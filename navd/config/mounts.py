@@ -1,0 +1,138 @@
+"""Where each sensor sits on the robot, keyed by the device id it says in its hello.
+
+A robot with one lidar needs none of this: the ``lidar`` section places it, and the IMU,
+GNSS antenna and compass are taken as aligned with base_link at its centre. Once a kind has
+a mount here, every device of that kind must have one (a device without is refused by name
+when it connects), so two lidars can never be read through one mount by mistake.
+"""
+
+from __future__ import annotations
+
+import re
+
+from pydantic import Field, model_validator
+
+from navd.config.fields import Section, restart
+
+__all__ = [
+    "CompassMountConfig",
+    "GpsMountConfig",
+    "ImuMountConfig",
+    "LidarMountConfig",
+    "MountsConfig",
+]
+
+# The device ids a hello may give (the protocol's pattern, repeated here: config sits below
+# the protocol).
+_DEVICE_ID = re.compile(r"^[A-Za-z0-9_.:\-]{1,64}$")
+_PI = 3.1416
+
+_FRAME_ID = Field(
+    None,
+    min_length=1,
+    max_length=128,
+    description=(
+        "the ROS frame_id this device's frames carry in their header (default: the device "
+        "id); a header naming another frame is refused"
+    ),
+)
+
+
+def _yaw(what: str) -> object:
+    return Field(
+        0.0,
+        ge=-_PI,
+        le=_PI,
+        description=f"[rad] {what} yaw in base_link, counter-clockwise from the robot's forward",
+    )
+
+
+class LidarMountConfig(Section):
+    """A 2D lidar's pose on the robot."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] lidar y in base_link (left)")
+    yaw_rad: float = _yaw("lidar")  # type: ignore[assignment]
+    upside_down: bool = Field(
+        False, description="mounted upside down: its bearings turn clockwise in base_link"
+    )
+    min_range_m: float = Field(
+        0.1,
+        ge=0,
+        le=10,
+        description="[m] shorter ranges are ignored (the robot's own body, dust on the window)",
+    )
+    frame_id: str | None = _FRAME_ID
+
+
+class ImuMountConfig(Section):
+    """An IMU's rotation to base_link (roll, then pitch, then yaw: the sensor's axes as
+    seen from base_link)."""
+
+    roll_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about x")
+    pitch_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about y")
+    yaw_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about z")
+    frame_id: str | None = _FRAME_ID
+
+
+class GpsMountConfig(Section):
+    """A GNSS antenna's place on the robot: a fix is where the antenna is, not the centre."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] antenna x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] antenna y in base_link (left)")
+    frame_id: str | None = _FRAME_ID
+
+
+class CompassMountConfig(Section):
+    """A compass's heading offset: the yaw of its forward axis in base_link."""
+
+    yaw_rad: float = _yaw("compass forward axis")  # type: ignore[assignment]
+    frame_id: str | None = _FRAME_ID
+
+
+class MountsConfig(Section):
+    """Sensor mounts by device id: ``[mounts.lidars.front]``, ``[mounts.gps.gnss0]``..."""
+
+    lidars: dict[str, LidarMountConfig] = Field(
+        default_factory=dict,
+        examples=[
+            {
+                "front": {"x_m": 0.15, "yaw_rad": 0.0},
+                "rear": {"x_m": -0.15, "yaw_rad": 3.1416, "upside_down": True},
+            }
+        ],
+        **restart("lidar mounts by device id (none: the lidar section places the one lidar)"),
+    )
+    imus: dict[str, ImuMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"imu0": {"roll_rad": 0.0, "pitch_rad": 0.0, "yaw_rad": 1.5708}}],
+        **restart("IMU mounts by device id (none: any IMU is aligned with base_link)"),
+    )
+    gps: dict[str, GpsMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"gnss0": {"x_m": 0.3, "y_m": 0.0}}],
+        **restart("GNSS antenna mounts by device id (none: at the robot's centre)"),
+    )
+    compasses: dict[str, CompassMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"compass0": {"yaw_rad": 0.0}}],
+        **restart("compass mounts by device id (none: aligned with base_link)"),
+    )
+
+    @model_validator(mode="after")
+    def _ids(self) -> MountsConfig:
+        seen: dict[str, str] = {}
+        for kind in ("lidars", "imus", "gps", "compasses"):
+            for device_id in getattr(self, kind):
+                if not _DEVICE_ID.match(device_id):
+                    raise ValueError(
+                        f"mounts.{kind}.{device_id}: a device id is 1-64 letters, digits "
+                        "and _ . : -"
+                    )
+                if device_id in seen:
+                    raise ValueError(
+                        f"mounts.{kind}.{device_id}: the id is also under mounts.{seen[device_id]}"
+                        "; each device has one kind"
+                    )
+                seen[device_id] = kind
+        return self
