@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -30,7 +31,7 @@ from navd.lifecycle.messages import (
     WheelOdometry,
 )
 
-__all__ = ["FigureEight", "SensorSuite", "TruthPose", "drive", "replay"]
+__all__ = ["FigureEight", "SensorSuite", "SpinInPlace", "TruePath", "TruthPose", "drive", "replay"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,6 +71,25 @@ class FigureEight:
 
 
 @dataclass(frozen=True, slots=True)
+class SpinInPlace:
+    """Turning on the spot at (0, 0) at ``yaw_rate_radps``: the heading changes, the centre
+    does not (what a GNSS antenna off the centre gets wrong)."""
+
+    yaw_rate_radps: float = 0.5
+
+    def at(self, t: float) -> TruthPose:
+        """The true motion at ``t`` [s]."""
+        w = self.yaw_rate_radps
+        return TruthPose(0.0, 0.0, wrap_angle(w * t), 0.0, 0.0, 0.0, 0.0, w)
+
+
+class TruePath(Protocol):
+    """A true motion: its pose, velocity and acceleration at any time."""
+
+    def at(self, t: float) -> TruthPose: ...
+
+
+@dataclass(frozen=True, slots=True)
 class SensorSuite:
     """Which sensors run, how fast, how noisy and how late.
 
@@ -93,6 +113,7 @@ class SensorSuite:
     wheel_linear_std_mps: float = 0.02
     wheel_angular_std_radps: float = 0.02
     datum: tuple[float, float] = (52.52, 13.405)
+    gps_antenna_m: tuple[float, float] = (0.0, 0.0)  # (x, y) in base_link
     seed: int = 7
 
 
@@ -105,7 +126,7 @@ def _times(rate_hz: float, duration_s: float, offset_s: float) -> Iterator[float
 
 
 def drive(
-    path: FigureEight,
+    path: TruePath,
     suite: SensorSuite,
     duration_s: float,
     *,
@@ -170,7 +191,9 @@ def drive(
             continue
         truth = path.at(t)
         nx, ny = rng.normal(0, suite.gps_std_m, 2)
-        lat, lon = geo.to_wgs84(truth.x + nx, truth.y + ny)
+        (ox, oy), c, s = suite.gps_antenna_m, math.cos(truth.yaw), math.sin(truth.yaw)
+        antenna_x, antenna_y = truth.x + c * ox - s * oy, truth.y + s * ox + c * oy
+        lat, lon = geo.to_wgs84(antenna_x + nx, antenna_y + ny)
         messages.append(
             GpsFix(
                 stamp=t,

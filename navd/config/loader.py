@@ -260,6 +260,9 @@ def _set_dotted(data: dict[str, Any], key: str, value: object) -> list[str]:
                 return [f"{key}: is a section; give a table of its keys, got {value!r}"]
             node[part] = value
             return []
+        if not is_section and restart_required(model, part):
+            # a table of named tables (the sensor mounts): settable only in the file
+            return [f"{key}: cannot change while navd runs; edit the file and restart"]
         if not is_section:
             return [f"{key}: {'.'.join(parts[: depth + 1])} is a value, not a section"]
         assert isinstance(annotation, type) and issubclass(annotation, BaseModel)

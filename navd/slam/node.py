@@ -42,6 +42,7 @@ from navd.lifecycle.messages import (
     WheelOdometry,
 )
 from navd.lifecycle.module import Module, ModuleContext
+from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.map_io import clean_leftovers, load_map, save_map, saved_files
@@ -120,6 +121,8 @@ class SlamNode(Module):
         # in a worker, so one scan never mixes a new mount with an old mapper.
         self._in_force = self.settings.value
         self.mapper = ScanMapper(self._in_force.mapper)
+        lidars = self._in_force.mounts.lidars  # mounts need a restart
+        self._assembler = ScanAssembler(lidars) if len(lidars) > 1 else None
         load = ctx.startup_config.slam.load_map
         if load is not None:
             try:
@@ -184,7 +187,10 @@ class SlamNode(Module):
 
     def _on_scan(self, scan: LaserScan) -> None:
         odom = self._odom if self._has_odometry else None
-        self.ctx.submit(_SLOT, lambda: self._match(scan, odom))
+        # With several lidars each has a slot of its own: a busy mapper must not keep
+        # dropping one lidar's sweeps in favour of another's.
+        slot = _SLOT if self._assembler is None else f"{_SLOT}:{scan.device_id}"
+        self.ctx.submit(slot, lambda: self._match(scan, odom))
 
     def _match(self, scan: LaserScan, odom: Pose2 | None) -> tuple[Message, ...]:
         with self._lock:
@@ -192,6 +198,12 @@ class SlamNode(Module):
             mapper = settings.mapper
             mount = settings.mounts.lidar(scan.device_id)
             points = laser_points(scan, mount, max_range_m=mapper.max_range_m)
+            stamp = scan.stamp
+            if self._assembler is not None:
+                gathered = self._assembler.add(scan.device_id, stamp, points, odom)
+                if gathered is None:
+                    return ()  # the other lidars' sweeps of this round are still to come
+                stamp, points, odom = gathered.stamp, gathered.points, gathered.odom
             if odom is None:
                 # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
                 if self._scan_odometry is None:
@@ -225,7 +237,7 @@ class SlamNode(Module):
                 self._relocate = None
                 stamp = self.ctx.clock.now()
                 pose_found = PoseFound(
-                    stamp=scan.stamp,
+                    stamp=stamp,
                     received=stamp,
                     x_m=found.pose.x,
                     y_m=found.pose.y,
@@ -234,11 +246,11 @@ class SlamNode(Module):
                     whole_map=guess is None,
                 )
             reseed, self._reseed = self._reseed and pose_found is not None, False
-            result = self.mapper.add(scan.stamp, points, odom)
+            result = self.mapper.add(stamp, points, odom)
             now = self.ctx.clock.now()
             messages: list[Message] = [
                 PoseMeasurement(
-                    stamp=scan.stamp,
+                    stamp=stamp,
                     received=now,
                     source="lidar",
                     x_m=result.pose.x,
@@ -267,7 +279,7 @@ class SlamNode(Module):
             if reseed:  # asked for by a person: the estimate starts again from it
                 messages.append(
                     InitialPose(
-                        stamp=scan.stamp,
+                        stamp=stamp,
                         received=now,
                         x_m=pose_found.x_m,
                         y_m=pose_found.y_m,

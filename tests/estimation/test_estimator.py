@@ -2,23 +2,27 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
 import numpy as np
 import pytest
 
-from navd.bench.motion_scenario import FigureEight, SensorSuite, drive, replay
+from navd.bench.motion_scenario import FigureEight, SensorSuite, SpinInPlace, drive, replay
 from navd.config import NavdConfig
 from navd.config.loader import apply_changes
 from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.settings import EstimatorSettings
+from navd.geometry.mount import rotation_rpy
 from navd.lifecycle.messages import (
     CompassHeading,
     GpsFix,
+    Imu,
     InitialPose,
     PoseEstimate,
     PoseMeasurement,
+    Vector3,
 )
 
 PATH = FigureEight()
@@ -185,3 +189,78 @@ def test_localization_degrades_then_is_lost_without_position_updates() -> None:
     assert changes == [Localization.OK, Localization.DEGRADED, Localization.LOST]
     stds = [std for _, std, _ in sweep]
     assert stds == sorted(stds)  # predict-only: the position only gets less certain
+
+
+def _mounted(**mounts: object) -> NavdConfig:
+    """The config with the datum and these ``mounts`` tables."""
+    world = {key.split(".")[1]: value for key, value in DATUM.items()}
+    return NavdConfig.model_validate({"world": world, "mounts": mounts})
+
+
+def _spin_spread(antenna_config: dict[str, object] | None) -> float:
+    """[m] farthest the estimate strays from the true centre of a robot turning on the spot
+    with a GNSS antenna 0.3 m ahead of its centre (RTK-grade fixes, IMU and compass)."""
+    suite = SensorSuite(
+        imu_hz=200, lidar_hz=0, gps_hz=5, gps_std_m=0.02, compass_hz=10, gps_antenna_m=(0.3, 0.0)
+    )
+    messages = drive(SpinInPlace(0.6), suite, 40.0)
+    estimator = StateEstimator(EstimatorSettings.from_config(_mounted(gps=antenna_config or {})))
+    estimates = [e for e in replay(estimator, messages) if e.stamp >= 10.0]
+    return max(math.hypot(e.x_m, e.y_m) for e in estimates)
+
+
+def test_a_gnss_antenna_ahead_of_the_centre_no_longer_moves_a_robot_turning_in_place() -> None:
+    unmounted = _spin_spread(None)  # the fix is taken for the centre: the estimate circles
+    mounted = _spin_spread({"gps": {"x_m": 0.3, "y_m": 0.0}})  # the drive's receiver id
+    assert unmounted >= 0.2
+    assert mounted <= 0.08
+
+
+def test_a_compass_turned_on_its_mount_gives_the_robots_heading() -> None:
+    # The compass's forward axis points 90° to the robot's left: it reads the robot's
+    # bearing minus 90°. With the mount the estimate's heading is the robot's.
+    turned = SensorSuite(lidar_hz=0, gps_hz=5, compass_hz=10)
+    messages = [
+        dataclasses.replace(m, bearing_deg=(m.bearing_deg - 90.0) % 360.0)
+        if isinstance(m, CompassHeading)
+        else m
+        for m in drive(PATH, turned, 30.0)
+    ]
+    # the drive's compass has the id "compass"
+    config = _mounted(compasses={"compass": {"yaw_rad": math.pi / 2}})
+    estimates = replay(StateEstimator(EstimatorSettings.from_config(config)), messages)
+    errors = [
+        abs(math.remainder(e.yaw_rad - PATH.at(e.stamp).yaw, 2 * math.pi))
+        for e in estimates
+        if e.stamp >= 10.0
+    ]
+    assert max(errors) < math.radians(10)
+
+
+def test_an_imu_mounted_sideways_and_upside_down_is_turned_into_base_link() -> None:
+    # The same drive with the IMU rolled half a turn and yawed 90°: what the filter is fed
+    # must match what an aligned IMU gives.
+    rpy = (math.pi, 0.0, math.pi / 2)
+    rotation = rotation_rpy(*rpy)
+    aligned = [m for m in drive(PATH, SensorSuite(lidar_hz=0), 2.0) if isinstance(m, Imu)][:50]
+    mounted = [
+        dataclasses.replace(
+            m,
+            gyro_radps=Vector3(*(rotation.T @ np.array(m.gyro_radps))),
+            accel_mps2=Vector3(*(rotation.T @ np.array(m.accel_mps2))),
+        )
+        for m in aligned
+    ]
+    roll, pitch, yaw = rpy
+    mounts = {"imu": {"roll_rad": roll, "pitch_rad": pitch, "yaw_rad": yaw}}  # the drive's id
+    plain = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
+    turned = StateEstimator(EstimatorSettings.from_config(_mounted(imus=mounts)))
+    unmounted = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
+    for a, b in zip(aligned, mounted, strict=True):
+        plain.add_imu(a)
+        turned.add_imu(b)
+        unmounted.add_imu(b)
+    np.testing.assert_allclose(turned.madgwick.quaternion, plain.madgwick.quaternion, atol=1e-9)
+    # without the mount the filter thinks the robot is upside down
+    tilt = np.array(unmounted.madgwick.quaternion) - np.array(plain.madgwick.quaternion)
+    assert np.abs(tilt).max() > 0.5

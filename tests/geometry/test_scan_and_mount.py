@@ -74,3 +74,25 @@ def test_a_scan_knows_the_bearings_its_rays_cover(
     assert bool(points.view.unseen(behind)[0]) is not all_around
     assert not points.view.unseen(ahead)[0]
     assert not points.view.unseen(points.hits).any()  # every ray's end is in view
+
+
+def test_an_upside_down_lidar_sees_its_left_on_the_robots_right() -> None:
+    scan = LaserScan(
+        stamp=0.0,
+        received=0.0,
+        device_id="l",
+        angle_min=0.0,
+        angle_increment=math.pi / 2,
+        ranges=np.array([1.0, 2.0], dtype=np.float32),  # ahead, then to the lidar's left
+        range_min=0.05,
+        range_max=10.0,
+    )
+    upright = laser_points(scan, LidarMount(Pose2(0.0, 0.0, 0.0), 0.1), max_range_m=5.0)
+    hanging = laser_points(scan, LidarMount(Pose2(0.0, 0.0, 0.0), 0.1, True), max_range_m=5.0)
+    np.testing.assert_allclose(upright.hits, [[1.0, 0.0], [0.0, 2.0]], atol=1e-6)
+    np.testing.assert_allclose(hanging.hits, [[1.0, 0.0], [0.0, -2.0]], atol=1e-6)
+    # facing backwards too: its left is the robot's left again
+    back = LidarMount(Pose2(-0.1, 0.0, math.pi), 0.1, upside_down=True)
+    np.testing.assert_allclose(
+        laser_points(scan, back, max_range_m=5.0).hits, [[-1.1, 0.0], [-0.1, 2.0]], atol=1e-6
+    )

@@ -10,7 +10,7 @@ import pytest
 
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
-from navd.geometry.scan import FieldOfView
+from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.errors import GoalRefusedError
 from navd.planning.layers import FRAME_MARGIN_M, Layers, LayerSettings
 from navd.planning.route import Route
@@ -59,6 +59,26 @@ def test_what_a_270_degree_lidar_saw_stays_an_obstacle_in_its_blind_sector() -> 
     # a lidar that sees all around would see it if it were there: nothing is added
     layers.add_scan(turned, np.empty((0, 2)), np.empty((0, 2)), 0.6)
     assert layers.local_points(turned, 2.0, now=1.0).shape[0] == 0
+
+
+def test_two_lidars_scans_are_live_together_and_their_views_join() -> None:
+    front = FieldOfView(0.1, 0.0, -0.5 * math.pi, math.pi)
+    left = FieldOfView(0.0, 0.1, 0.0, math.pi)  # front-left and rear-left: blind on the right
+    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    layers.snapshot(0.0, [(0.0, 0.0)])
+    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, front, lidar="a")
+    layers.add_scan(IDENTITY, np.array([[0.0, 1.0]]), np.empty((0, 2)), 0.05, left, lidar="b")
+    np.testing.assert_allclose(layers.scan_points, [[1.0, 0.0], [0.0, 1.0]])
+    # a mark on the right that neither lidar looks at now stays; one ahead is theirs to say
+    behind_right = np.array([[-0.7, -0.7]])
+    layers.add_scan(IDENTITY, behind_right, np.empty((0, 2)), 0.1, ALL_AROUND, lidar="c")
+    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.8, front, lidar="a")
+    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.85, left, lidar="b")
+    near = layers.local_points(IDENTITY, 2.0, now=0.9)
+    assert np.min(np.hypot(near[:, 0] + 0.7, near[:, 1] + 0.7)) < 0.05
+    assert np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) > 0.5
+    # lidar c, silent for more than LIVE_SCAN_S, is no longer live
+    assert layers.scan_points.shape[0] == 0
 
 
 def test_a_far_goal_does_not_grow_every_later_snapshot_nor_exceed_the_cell_limit() -> None:

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount
+from navd.geometry.mount import LidarMount, SensorMounts
 from navd.geometry.pose import IDENTITY, Pose2
-from navd.planning.guard import GuardSettings, guard_scale
+from navd.lifecycle.messages import LaserScan
+from navd.planning.guard import CollisionGuard, GuardSettings, guard_scale
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckMonitor, StuckPhase, StuckSettings
 
@@ -72,8 +74,8 @@ def test_stuck_monitor_phases_follow_the_configured_times() -> None:
     assert monitor.update(10.5, Pose2(0.0, 0.0, 0.6)).phase is StuckPhase.STUCK
 
 
-MOUNT = LidarMount(IDENTITY, 0.1)
-GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, True, MOUNT)
+MOUNTS = SensorMounts(LidarMount(IDENTITY, 0.1))
+GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0.05, True, MOUNTS)
 
 
 @pytest.mark.parametrize(
@@ -97,3 +99,41 @@ def test_guard_passes_everything_when_collisions_are_off() -> None:
     disabled = dataclasses.replace(GUARD, enabled=False)
     wall = np.column_stack([np.full(201, 0.25), np.linspace(-1.0, 1.0, 201)])
     assert guard_scale(wall, 0.5, 0.0, disabled) == (1.0, "")
+
+
+def _half_scan(device_id: str, ranges: list[float]) -> LaserScan:
+    """A 180° sweep of four rays from -90° to +90° (the lidar's own frame)."""
+    return LaserScan(
+        stamp=1.0,
+        received=1.0,
+        device_id=device_id,
+        angle_min=-math.pi / 2,
+        angle_increment=math.pi / 3,
+        ranges=np.array(ranges, dtype=np.float32),
+        range_min=0.05,
+        range_max=10.0,
+    )
+
+
+def test_the_guard_sees_what_either_of_two_lidars_sees() -> None:
+    config = NavdConfig.model_validate(
+        {
+            "mounts": {
+                "lidars": {
+                    "front": {"x_m": 0.1},
+                    "rear": {"x_m": -0.1, "yaw_rad": 3.1416, "upside_down": True},
+                }
+            }
+        }
+    )
+    guard = CollisionGuard()
+    guard.settings = SimpleNamespace(value=GuardSettings.from_config(config))  # type: ignore[assignment]
+    far = 9.0
+    guard._on_scan(_half_scan("front", [far, far, far, far]))
+    guard._on_scan(_half_scan("rear", [far, 0.2, 0.2, far]))  # something right behind
+    back = guard.limit(-0.2, 0.0)
+    assert back[0] == 0.0 and "obstacle" in back[2]  # the rear lidar's: no reversing
+    assert guard.limit(0.3, 0.0) == (0.3, 0.0, "")  # the way ahead is free
+    guard._on_scan(_half_scan("front", [far, 0.25, 0.25, far]))  # and now ahead too
+    assert guard.limit(0.3, 0.0)[0] == 0.0
+    assert guard.limit(-0.2, 0.0)[0] == 0.0  # the rear lidar's latest still counts

@@ -156,7 +156,7 @@ def _ros_header(data: Any) -> Any:
         data["frame_id"] = frame_id
     when = header.get("stamp")
     if "stamp" not in data and isinstance(when, dict):
-        nanos = when.get("nanosec", when.get("nsecs", when.get("nsec", 0)))
+        nanos = when.get("nanosec", when.get("nsecs", 0))
         sec = when.get("sec", when.get("secs"))
         if not isinstance(sec, int) or not isinstance(nanos, int):
             raise ValueError("header.stamp: sec and nanosec must be integers")

@@ -12,8 +12,8 @@ import pytest
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_sensor
 from navd.drivers.protocol.convert import sensor_message
-from navd.drivers.protocol.frames import FixFrame, ImuFrame, ScanFrame
-from navd.lifecycle.messages import GpsFix, Imu, LaserScan
+from navd.drivers.protocol.frames import FixFrame, ImuFrame, OdomFrame, ScanFrame
+from navd.lifecycle.messages import GpsFix, Imu, LaserScan, WheelOdometry
 
 HEADER = {"stamp": {"sec": 1700000000, "nanosec": 250000000}, "frame_id": "laser"}
 SCAN: dict[str, Any] = {
@@ -31,7 +31,7 @@ SCAN: dict[str, Any] = {
 }
 IMU: dict[str, Any] = {
     "type": "imu",
-    "header": {"stamp": {"secs": 12, "nsec": 5}, "frame_id": "imu_link"},  # ROS 1 names
+    "header": {"stamp": {"secs": 12, "nsecs": 5}, "frame_id": "imu_link"},  # ROS 1 names
     "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
     "orientation_covariance": [-1.0] + [0.0] * 8,
     "angular_velocity": {"x": 0.01, "y": -0.02, "z": 0.3},
@@ -48,6 +48,22 @@ FIX: dict[str, Any] = {
     "altitude": 34.0,
     "position_covariance": [2.25, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 9.0],
     "position_covariance_type": 2,
+}
+
+ODOMETRY: dict[str, Any] = {
+    "header": {"stamp": {"sec": 40, "nanosec": 500000000}, "frame_id": "odom"},
+    "child_frame_id": "base_link",
+    "pose": {
+        "pose": {
+            "position": {"x": 3.0, "y": 1.0, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+        },
+        "covariance": [0.0] * 36,
+    },
+    "twist": {
+        "twist": {"linear": {"x": 0.4, "y": 0.0, "z": 0.0}, "angular": {"x": 0, "y": 0, "z": -0.2}},
+        "covariance": [0.0] * 36,
+    },
 }
 
 
@@ -102,3 +118,67 @@ def test_a_malformed_ros_message_is_refused_naming_the_field(
 ) -> None:
     with pytest.raises(WireError, match=named):
         _decode(role, message)
+
+
+def test_an_odometry_message_gives_the_body_velocity_of_its_twist() -> None:
+    frame = _decode("wheel_odometry", {"type": "odom", **ODOMETRY})
+    assert isinstance(frame, OdomFrame) and frame.stamp == pytest.approx(40.5)
+    odom = sensor_message(frame, "wheels", 1.0, 1.0)
+    assert isinstance(odom, WheelOdometry)
+    assert (odom.linear_mps, odom.angular_radps) == (0.4, -0.2)
+    with pytest.raises(WireError, match="twist"):
+        _decode("wheel_odometry", {"type": "odom", **ODOMETRY, "twist": {"linear": 1}})
+
+
+def _rosbridge(topic: str, msg: dict[str, Any]) -> bytes:
+    # what rosbridge_server sends a subscriber; no navd type: the connection's role says it
+    line = json.dumps({"op": "publish", "topic": topic, "msg": msg}, allow_nan=True)
+    return line.encode()
+
+
+@pytest.mark.parametrize(
+    ("role", "topic", "message", "kind"),
+    [
+        ("lidar", "/scan", SCAN, LaserScan),
+        ("imu", "/imu/data", IMU, Imu),
+        ("gps", "/fix", FIX, GpsFix),
+        ("wheel_odometry", "/odom", ODOMETRY, WheelOdometry),
+    ],
+)
+def test_rosbridge_publish_lines_are_taken_for_each_kind(
+    role: str, topic: str, message: dict[str, Any], kind: type
+) -> None:
+    untagged = {k: v for k, v in message.items() if k != "type"}
+    frame = decode_sensor(role, _rosbridge(topic, untagged))
+    assert isinstance(sensor_message(frame, "dev", 1.0, 1.0), kind)
+    assert frame.stamp == _decode(role, {**untagged, "type": frame.type}).stamp
+
+
+def test_rosbridge_writes_a_missing_range_as_bare_nan_and_infinity() -> None:
+    msg = {k: v for k, v in SCAN.items() if k != "type"}
+    line = _rosbridge("/scan", {**msg, "ranges": [1.0, math.nan, math.inf, 4.0]})
+    assert b"NaN" in line and b"Infinity" in line
+    scan = sensor_message(decode_sensor("lidar", line), "front", 1.0, 1.0)
+    assert isinstance(scan, LaserScan)
+    assert math.isnan(scan.ranges[1]) and math.isinf(scan.ranges[2])
+
+
+@pytest.mark.parametrize(
+    ("line", "named"),
+    [
+        (b'{"op": "subscribe", "topic": "/scan", "header": 1}', "op"),
+        (b'{"op": "publish", "topic": "/scan", "msg": [1], "header": 1}', "msg"),
+        (b'{"op": "publish", "msg": {"header": {}, "ranges": 5}}', "angle_min"),
+        (b'{"op": "publish", "header": ', ""),
+    ],
+)
+def test_a_bad_rosbridge_line_is_refused_naming_what(line: bytes, named: str) -> None:
+    with pytest.raises(WireError) as caught:
+        decode_sensor("lidar", line)
+    assert caught.value.field.startswith(named)
+
+
+def test_the_header_frame_id_is_kept_for_the_mount_check() -> None:
+    assert _decode("lidar", SCAN).frame_id == "laser"
+    assert _decode("imu", IMU).frame_id == "imu_link"
+    assert _decode("lidar", {**SCAN, "header": {"stamp": HEADER["stamp"]}}).frame_id is None
