@@ -17,16 +17,23 @@ from navd.logs import configure_logging
 
 __all__ = ["add_commands"]
 
-KIND_NAMES = ("ld06", "ld19", "stl19p", "nmea")
+KIND_NAMES = ("rplidar", "rplidar-express", "ld06", "ld19", "stl19p", "nmea")
 
 
 def add_commands(commands: Commands) -> None:
     """Add ``sensor``."""
     sensor = commands.add_parser(
         "sensor",
-        help="read a device (LD06/LD19/STL-19P lidar, NMEA GNSS receiver) and stream it to navd",
+        help=(
+            "read a device (RPLIDAR, LD06/LD19/STL-19P lidar, NMEA GNSS receiver) and stream "
+            "it to navd"
+        ),
     )
-    sensor.add_argument("kind", choices=KIND_NAMES, help="what the device is")
+    sensor.add_argument(
+        "kind",
+        choices=KIND_NAMES,
+        help="what the device is (rplidar-express: an RPLIDAR in its express scan)",
+    )
     sensor.add_argument("--port", required=True, help="its serial port, e.g. /dev/ttyUSB0")
     sensor.add_argument("--baud", type=int, help="serial rate (default: the kind's usual one)")
     sensor.add_argument(

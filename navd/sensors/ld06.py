@@ -25,7 +25,6 @@ a fixed increment, NaN (``null``) where no point fell.
 
 from __future__ import annotations
 
-import math
 import struct
 from dataclasses import dataclass, field
 
@@ -33,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.drivers.protocol.frames import ScanFrame
+from navd.sensors.turns import turn_scan
 
 __all__ = [
     "PACKET_BYTES",
@@ -194,22 +194,11 @@ class ScanAssembler:
         ranges = np.concatenate(self._ranges)
         self._angles.clear()
         self._ranges.clear()
-        # clockwise degrees from the front -> counter-clockwise radians in (-pi, pi]
-        ccw = np.mod(-np.radians(angles_cw) + math.pi, 2.0 * math.pi) - math.pi
-        increment = 2.0 * math.pi / SCAN_BINS
-        bins = np.clip(((ccw + math.pi) / increment).astype(np.int64), 0, SCAN_BINS - 1)
-        binned = np.full(SCAN_BINS, np.nan)
-        valid = np.isfinite(ranges)
-        # the nearest point of a bin wins (an obstacle is never hidden behind a far one)
-        order = np.argsort(-ranges[valid])
-        binned[bins[valid][order]] = ranges[valid][order]
-        if not valid.any():
-            return None
-        return ScanFrame(
+        return turn_scan(
+            angles_cw,
+            ranges,
             stamp=self._stamp,
-            angle_min=-math.pi,
-            angle_increment=increment,
-            range_min=RANGE_MIN_M,
-            range_max=RANGE_MAX_M,
-            ranges=[None if not math.isfinite(r) else round(float(r), 3) for r in binned],
+            bins=SCAN_BINS,
+            range_min_m=RANGE_MIN_M,
+            range_max_m=RANGE_MAX_M,
         )

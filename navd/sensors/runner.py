@@ -11,6 +11,7 @@ itself when its frames stop.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import select
 import threading
@@ -26,6 +27,7 @@ from navd.drivers.protocol.frames import Role, SensorFrame
 from navd.logs import get_logger
 from navd.sensors.ld06 import PacketReader, ScanAssembler
 from navd.sensors.nmea import NmeaReader
+from navd.sensors.rplidar import RplidarDecoder, ScanMode
 
 __all__ = ["KINDS", "Decoder", "Link", "SensorKind", "run_sensor"]
 
@@ -37,14 +39,71 @@ READ_BYTES = 4096
 
 
 class Decoder(Protocol):
-    """A device's bytes in, navd's frames out."""
+    """A device's bytes in, navd's frames out; a device that must be asked to send is asked
+    when its port opens, and asked again when it falls silent."""
 
     def feed(self, data: bytes, stamp: float) -> list[SensorFrame]: ...
 
     def counts(self) -> dict[str, int]: ...
 
+    def opened(self, device: serial.Serial) -> None: ...
 
-class _Ld06:
+    def silent(self) -> None: ...
+
+    def closing(self, device: serial.Serial) -> None: ...
+
+
+class _Streaming:
+    """A device that streams by itself: nothing to ask."""
+
+    def opened(self, device: serial.Serial) -> None:
+        """Nothing to start."""
+
+    def silent(self) -> None:
+        """Nothing to ask again."""
+
+    def closing(self, device: serial.Serial) -> None:
+        """Nothing to stop."""
+
+
+def _set_dtr(device: serial.Serial) -> Callable[[bool], None]:
+    def set_dtr(level: bool) -> None:
+        # a pseudo-terminal or an adapter without modem lines has no DTR: nothing to do
+        with contextlib.suppress(OSError, serial.SerialException):
+            device.dtr = level
+
+    return set_dtr
+
+
+class _Rplidar:
+    """A Slamtec RPLIDAR: asked for its health, info and scan; one scan per turn."""
+
+    def __init__(self, mode: ScanMode) -> None:
+        self.log = get_logger("sensor")
+        self.lidar = RplidarDecoder(mode, notes=self._note)
+
+    def _note(self, event: str, fields: dict[str, object]) -> None:
+        level = self.log.info if event == "lidar_info" else self.log.warning
+        level(event, **fields)
+
+    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
+        return self.lidar.feed(data, stamp)
+
+    def counts(self) -> dict[str, int]:
+        return self.lidar.counts()
+
+    def opened(self, device: serial.Serial) -> None:
+        self.lidar.opened(device.write, _set_dtr(device))
+
+    def silent(self) -> None:
+        self.lidar.restart()
+
+    def closing(self, device: serial.Serial) -> None:
+        with contextlib.suppress(OSError, serial.SerialException):
+            self.lidar.closing(_set_dtr(device))
+
+
+class _Ld06(_Streaming):
     """LD06 packets, one scan per turn."""
 
     def __init__(self) -> None:
@@ -66,7 +125,7 @@ class _Ld06:
         }
 
 
-class _Nmea:
+class _Nmea(_Streaming):
     """NMEA sentences, fixes and headings."""
 
     def __init__(self) -> None:
@@ -95,6 +154,8 @@ class SensorKind:
 
 
 KINDS: dict[str, SensorKind] = {
+    "rplidar": SensorKind("lidar", 115200, lambda: _Rplidar(ScanMode.STANDARD)),
+    "rplidar-express": SensorKind("lidar", 115200, lambda: _Rplidar(ScanMode.EXPRESS)),
     "ld06": SensorKind("lidar", 230400, _Ld06),
     "ld19": SensorKind("lidar", 230400, _Ld06),
     "stl19p": SensorKind("lidar", 230400, _Ld06),
@@ -150,7 +211,7 @@ class _Program:
         self.device: serial.Serial | None = None
         self.client: Client | None = None
         self.backoff = BACKOFF_S
-        self.heard_at = time.monotonic()
+        self.heard_at = self.asked_at = time.monotonic()
         self.summary_at = time.monotonic()
         self.logged: dict[str, int] = {}
         self.navd = f"{link.host}:{link.navd_port}"
@@ -163,7 +224,14 @@ class _Program:
             return False
         self.trouble.end("device_unavailable", "device_opened", port=self.link.port)
         self.trouble.end("device_lost", "device_opened", port=self.link.port)
-        self.heard_at = time.monotonic()
+        self.heard_at = self.asked_at = time.monotonic()
+        try:
+            self.decoder.opened(self.device)
+        except (serial.SerialException, OSError) as err:
+            self.trouble.begin("device_lost", port=self.link.port, error=str(err))
+            self.device.close()
+            self.device = None
+            return False
         return True
 
     def connect(self) -> bool:
@@ -198,6 +266,14 @@ class _Program:
             if now - self.heard_at > SILENT_S:
                 silent_s = round(now - self.heard_at, 1)
                 self.trouble.begin("device_silent", port=self.link.port, silent_s=silent_s)
+                if now - self.asked_at > SILENT_S:  # a device that must be asked: ask again
+                    self.asked_at = now
+                    try:
+                        self.decoder.silent()
+                    except (serial.SerialException, OSError) as err:
+                        self.trouble.begin("device_lost", port=self.link.port, error=str(err))
+                        self.device.close()
+                        self.device = None
             return
         self.heard_at = now
         self.trouble.end("device_silent", "device_speaks", port=self.link.port)
@@ -224,6 +300,7 @@ class _Program:
 
     def close(self) -> None:
         if self.device is not None:
+            self.decoder.closing(self.device)
             self.device.close()
         if self.client is not None:
             self.client.close()
