@@ -11,13 +11,21 @@ import contextlib
 import os
 import re
 import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-from navd.cli.common import EXIT_OK, EXIT_USAGE, Commands
+from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands
 from navd.logs import configure_logging
+
+if TYPE_CHECKING:
+    from navd.sensors.runner import Link
 
 __all__ = ["add_commands"]
 
-KIND_NAMES = ("rplidar", "rplidar-express", "ld06", "ld19", "stl19p", "nmea")
+SERIAL_KINDS = ("rplidar", "rplidar-express", "ld06", "ld19", "stl19p", "nmea")
+I2C_KINDS = ("mpu6050", "mpu9250", "bno055", "qmc5883l", "hmc5883l")
+KIND_NAMES = (*SERIAL_KINDS, *I2C_KINDS, "calibrate-compass")
+DEFAULT_CONFIG = "/etc/navd/navd.toml"
 
 
 def add_commands(commands: Commands) -> None:
@@ -25,16 +33,40 @@ def add_commands(commands: Commands) -> None:
     sensor = commands.add_parser(
         "sensor",
         help=(
-            "read a device (RPLIDAR, LD06/LD19/STL-19P lidar, NMEA GNSS receiver) and stream "
-            "it to navd"
+            "read a device (RPLIDAR, LD06/LD19/STL-19P lidar, NMEA GNSS receiver, I2C IMU or "
+            "magnetometer) and stream it to navd; or calibrate a magnetometer"
         ),
     )
     sensor.add_argument(
         "kind",
         choices=KIND_NAMES,
-        help="what the device is (rplidar-express: an RPLIDAR in its express scan)",
+        help=(
+            "what the device is (rplidar-express: an RPLIDAR in its express scan); "
+            "calibrate-compass records a turn in place and writes the correction"
+        ),
     )
-    sensor.add_argument("--port", required=True, help="its serial port, e.g. /dev/ttyUSB0")
+    sensor.add_argument(
+        "--port",
+        required=True,
+        help="its serial port (/dev/ttyUSB0) or, for an I2C chip, its bus (/dev/i2c-1 or 1)",
+    )
+    sensor.add_argument("--address", help="an I2C chip's address, e.g. 0x69 (default: its usual)")
+    sensor.add_argument("--rate", type=float, help="[Hz] how often an I2C chip is read")
+    sensor.add_argument(
+        "--chip",
+        choices=("qmc5883l", "hmc5883l"),
+        help="calibrate-compass: which magnetometer",
+    )
+    sensor.add_argument(
+        "--seconds", type=float, default=40.0, help="calibrate-compass: how long to record (40)"
+    )
+    sensor.add_argument(
+        "--config",
+        help=(
+            "navd's config file: a magnetometer's calibration is read from (and written to) "
+            f"[mounts.compasses.ID] there (default: $NAVD_CONFIG, else {DEFAULT_CONFIG})"
+        ),
+    )
     sensor.add_argument("--baud", type=int, help="serial rate (default: the kind's usual one)")
     sensor.add_argument(
         "--device-id", help="the name navd knows it by (default: KIND-PORTNAME, e.g. ld06-ttyUSB0)"
@@ -51,28 +83,105 @@ def add_commands(commands: Commands) -> None:
 
 def _sensor(args: argparse.Namespace) -> int:
     from navd.drivers.protocol.frames import DEVICE_ID_PATTERN  # noqa: PLC0415
-    from navd.sensors.runner import KINDS, Link, run_sensor  # noqa: PLC0415 - pyserial etc.
+    from navd.sensors.runner import KINDS, Link  # noqa: PLC0415 - pyserial etc.
 
     host, _, port_text = args.navd.rpartition(":")
     if not host or not port_text.isdigit():
         print(f"navd sensor: --navd {args.navd!r} is not HOST:PORT", file=sys.stderr)
         return EXIT_USAGE
-    device_id = args.device_id or f"{args.kind}-{os.path.basename(args.port)}"
+    i2c = args.kind in I2C_KINDS or args.kind == "calibrate-compass"
+    port = f"/dev/i2c-{args.port}" if i2c and args.port.isdigit() else args.port
+    named = args.chip if args.kind == "calibrate-compass" and args.chip else args.kind
+    device_id = args.device_id or f"{named}-{os.path.basename(port)}"
     if not re.match(DEVICE_ID_PATTERN, device_id):
         print(
             f"navd sensor: device id {device_id!r} must be 1-64 letters, digits, _ . : -",
             file=sys.stderr,
         )
         return EXIT_USAGE
+    try:
+        address = None if args.address is None else int(args.address, 0)
+    except ValueError:
+        print(f"navd sensor: --address {args.address!r} is not a number", file=sys.stderr)
+        return EXIT_USAGE
     configure_logging(args.log_level, "auto")
     link = Link(
-        port=args.port,
-        baud=args.baud or KINDS[args.kind].baud,
+        port=port,
+        baud=args.baud or (KINDS[args.kind].baud if args.kind in KINDS else 0),
         host=host,
         navd_port=int(port_text),
         device_id=device_id,
         token=args.token or os.environ.get("NAVD_TOKEN"),
     )
+    if args.kind == "calibrate-compass":
+        return _calibrate(args, link, address)
+    if i2c:
+        return _run_i2c(args, link, address)
+    from navd.sensors.runner import run_sensor  # noqa: PLC0415
+
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: the program ends, ports closed
         run_sensor(args.kind, link)
+    return EXIT_OK
+
+
+def _config_path(args: argparse.Namespace) -> Path:
+    return Path(args.config or os.environ.get("NAVD_CONFIG") or DEFAULT_CONFIG)
+
+
+def _run_i2c(args: argparse.Namespace, link: Link, address: int | None) -> int:
+    """Stream an I2C chip; a magnetometer through its calibration in navd's config."""
+    from navd.config import ConfigError, load_config  # noqa: PLC0415
+    from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor  # noqa: PLC0415
+    from navd.sensors.magnetometer import CompassCalibration  # noqa: PLC0415
+
+    calibration = None
+    path = _config_path(args)
+    if args.kind in ("qmc5883l", "hmc5883l") and (path.exists() or args.config is not None):
+        try:
+            mount = load_config(path).mounts.compasses.get(link.device_id)
+        except ConfigError as err:
+            print(f"navd sensor: {err}", file=sys.stderr)
+            return EXIT_USAGE
+        if mount is not None:
+            calibration = CompassCalibration(mount.hard_iron_ut, mount.soft_iron)
+    with contextlib.suppress(KeyboardInterrupt):
+        run_i2c_sensor(args.kind, link, I2cOptions(address, args.rate, calibration))
+    return EXIT_OK
+
+
+def _calibrate(args: argparse.Namespace, link: Link, address: int | None) -> int:
+    """Record the raw field while the robot turns in place; write the fitted correction."""
+    from navd.config import ConfigError  # noqa: PLC0415
+    from navd.config.edit import set_table_keys  # noqa: PLC0415
+    from navd.sensors.calibration import record_turn  # noqa: PLC0415
+    from navd.sensors.i2c import ChipError  # noqa: PLC0415
+    from navd.sensors.i2c_runner import I2cOptions  # noqa: PLC0415
+
+    if args.chip is None:
+        print("navd sensor calibrate-compass: say which magnetometer: --chip", file=sys.stderr)
+        return EXIT_USAGE
+    print(
+        f"Turn the robot slowly in place, one full turn or more, within {args.seconds:g} s "
+        "(level, away from steel)...",
+        flush=True,
+    )
+    options = I2cOptions(address, args.rate)
+    try:
+        fit, samples = record_turn(args.chip, link.port, options, args.seconds)
+    except (OSError, ChipError, ValueError) as err:
+        print(f"navd sensor calibrate-compass: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    path = _config_path(args)
+    table = f"mounts.compasses.{link.device_id}"
+    values = {
+        "hard_iron_ut": list(fit.hard_iron_ut),
+        "soft_iron": [list(row) for row in fit.soft_iron],
+    }
+    try:
+        set_table_keys(path, table, values)
+    except (ConfigError, OSError) as err:
+        print(f"navd sensor calibrate-compass: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    x, y = fit.hard_iron_ut
+    print(f"{samples} samples: hard iron ({x:.1f}, {y:.1f}) µT; written to [{table}] in {path}")
     return EXIT_OK

@@ -41,6 +41,8 @@ Point2 = tuple[float, float]
 Polygon = Annotated[tuple[Point2, ...], BeforeValidator(_lists_to_tuples)]
 Table = Annotated[tuple[Point2, ...], BeforeValidator(_lists_to_tuples)]
 Polygons = Annotated[tuple[Polygon, ...], BeforeValidator(_lists_to_tuples)]
+Vector2 = Annotated[Point2, BeforeValidator(_lists_to_tuples)]
+Matrix2 = Annotated[tuple[Point2, Point2], BeforeValidator(_lists_to_tuples)]
 
 
 def restart(description: str, *, secret: bool = False) -> dict[str, Any]:

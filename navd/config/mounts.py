@@ -12,7 +12,7 @@ import re
 
 from pydantic import Field, model_validator
 
-from navd.config.fields import Section, restart
+from navd.config.fields import Matrix2, Section, Vector2, restart
 
 __all__ = [
     "CompassMountConfig",
@@ -84,10 +84,26 @@ class GpsMountConfig(Section):
 
 
 class CompassMountConfig(Section):
-    """A compass's heading offset: the yaw of its forward axis in base_link."""
+    """A compass's heading offset (the yaw of its forward axis in base_link) and, for a bare
+    magnetometer, its calibration (read by its sensor program; written by ``navd sensor
+    calibrate-compass``)."""
 
     yaw_rad: float = _yaw("compass forward axis")  # type: ignore[assignment]
+    hard_iron_ut: Vector2 = Field(
+        (0.0, 0.0), description="[µT] the field's offset from the robot's own magnetism (x, y)"
+    )
+    soft_iron: Matrix2 = Field(
+        ((1.0, 0.0), (0.0, 1.0)),
+        description="2 x 2 matrix (rows) that turns the offset field's ellipse into a circle",
+    )
     frame_id: str | None = _FRAME_ID
+
+    @model_validator(mode="after")
+    def _soft_iron_invertible(self) -> CompassMountConfig:
+        (a, b), (c, d) = self.soft_iron
+        if abs(a * d - b * c) < 1e-6:
+            raise ValueError("soft_iron: the matrix is singular; calibrate the compass again")
+        return self
 
 
 class MountsConfig(Section):

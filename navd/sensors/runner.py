@@ -29,7 +29,7 @@ from navd.sensors.ld06 import PacketReader, ScanAssembler
 from navd.sensors.nmea import NmeaReader
 from navd.sensors.rplidar import RplidarDecoder, ScanMode
 
-__all__ = ["KINDS", "Decoder", "Link", "SensorKind", "run_sensor"]
+__all__ = ["KINDS", "Decoder", "Link", "SensorKind", "Trouble", "drain_replies", "run_sensor"]
 
 BACKOFF_S = 0.5
 MAX_BACKOFF_S = 10.0
@@ -163,7 +163,7 @@ KINDS: dict[str, SensorKind] = {
 }
 
 
-class _Trouble:
+class Trouble:
     """Each kind of trouble logged once when it begins and once when it ends."""
 
     def __init__(self) -> None:
@@ -207,7 +207,7 @@ class _Program:
         self.sensor = KINDS[kind]
         self.link = link
         self.decoder = self.sensor.decoder()
-        self.trouble = _Trouble()
+        self.trouble = Trouble()
         self.device: serial.Serial | None = None
         self.client: Client | None = None
         self.backoff = BACKOFF_S
@@ -280,7 +280,7 @@ class _Program:
         try:
             for frame in self.decoder.feed(data, now):
                 self.client.send(frame)
-            _drain(self.client, self.trouble)
+            drain_replies(self.client, self.trouble)
         except OSError as err:
             self.trouble.begin("navd_lost", navd=self.navd, error=str(err))
             self.client.close()
@@ -328,7 +328,7 @@ def run_sensor(kind: str, link: Link, stop: threading.Event | None = None) -> No
         program.close()
 
 
-def _drain(client: Client, trouble: _Trouble) -> None:
+def drain_replies(client: Client, trouble: Trouble) -> None:
     """Read what navd sent without waiting (its error frames, said once), so nothing piles
     up unread."""
     while select.select([client.sock], [], [], 0.0)[0]:
