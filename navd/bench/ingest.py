@@ -39,6 +39,7 @@ LAG_PROBE_S = 0.05  # the daemon's default probe period
 IDLE_S = 3.0  # [s] idle measurement before streaming: the daemon's own baseline
 GOAL_AFTER_S = 1.0  # [s] streaming before the whole daemon gets its goal
 SETTLED_PERCENT = 5.0  # [% of a core] below this, start-up work is taken to be over
+SENSOR_PROGRAM = (sys.executable, "-m", "navd", "sensor", "ld06", "--log-level", "warning")
 
 
 @dataclass(frozen=True)
@@ -91,22 +92,31 @@ def _status(port: int) -> StatusFrame:
 
 
 def run(
+    *,
     seconds: float = 10.0,
     rays: int = 1440,
     binary: bool = False,
     imu_batch: int = 1,
     view: bool = False,
+    lidar_program: int = 0,
 ) -> dict[str, Any]:
     """Run the benchmark on the ingest path alone, then on the whole daemon; their figures.
     With ``view``, the whole daemon twice more: with the live view off, and with a viewer
-    subscribed to every channel (in its own process); and what the view costs."""
-    load = (seconds, rays, binary, imu_batch)
+    subscribed to every channel (in its own process); and what the view costs. With
+    ``lidar_program`` (points per turn), the lidar is an emulated LD06 on a pseudo-terminal
+    read by ``navd sensor ld06``, whose own CPU use is reported too."""
+    load = (seconds, rays, binary, imu_batch, lidar_program)
     ingest = _measure("navd.bench.ingest_daemon", *load)
     whole = _measure("navd", *load)
     figures = {
         "seconds": ingest["seconds"],
         "lidar_rays": rays,
         "lidar_encoding": "base64 float32" if binary else "json",
+        **(
+            {"lidar_program": f"navd sensor ld06, {lidar_program} points per turn"}
+            if lidar_program
+            else {}
+        ),
         "imu_lines_per_write": imu_batch,
         "ingest_path": ingest["figures"],
         "whole_daemon": whole["figures"],
@@ -130,6 +140,7 @@ def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
     rays: int,
     binary: bool,
     imu_batch: int,
+    lidar_program: int,
     view: str = "unwatched",
 ) -> dict[str, Any]:
     """Stream at full load into the daemon started by ``python -m <module>``; its figures.
@@ -140,20 +151,7 @@ def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
     window = int(seconds / LAG_PROBE_S)
     with tempfile.TemporaryDirectory() as tmp:
         config = Path(tmp) / "navd.toml"
-        # The defaults, but for staleness timeouts long enough for the clients to start one
-        # by one, a lag window that covers the streaming exactly, and the live view (on,
-        # nobody watching) on a free port. (The status goes out
-        # at its default 1 Hz: a viewer subscribed at 10 Hz costs about half a percent more.)
-        config.write_text(
-            f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
-            f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
-            '[logging]\nlevel = "warning"\n'
-            + (
-                "[viz]\nenabled = false\n"
-                if view == "off"
-                else f"[viz]\nport = {view_port}\npage_port = 0\n"
-            )
-        )
+        _write_config(config, port, view_port, window, view)
         command = [sys.executable, "-m", module]
         launched = time.monotonic()
         daemon = subprocess.Popen(
@@ -165,45 +163,34 @@ def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
         )
         clients: list[subprocess.Popen[str]] = []
         viewer: subprocess.Popen[str] | None = None
+        program: subprocess.Popen[bytes] | None = None
         try:
             _wait_listening(port, daemon)
             ready_s = time.monotonic() - launched
             _wait_settled(daemon.pid)  # start-up work (imports, kernel warm-ups) is over
-            idle_cpu, idle_wall = _Cpu.read(daemon.pid), time.monotonic()
-            time.sleep(IDLE_S)
-            idle_percent = _Cpu.read(daemon.pid).percent_since(
-                idle_cpu, time.monotonic() - idle_wall
-            )
+            idle_percent = _idle_percent(daemon.pid)
             viewer = _start_viewer(view_port) if view == "watched" else None
-            clients = _start_clients(port, seconds, rays, binary, imu_batch)
-            for client in clients:  # every client started and connected: measure from here
-                assert client.stdout is not None
-                json.loads(client.stdout.readline())
+            clients = _start_clients(port, seconds, rays, binary, imu_batch, lidar_program)
+            said = [_ready(client) for client in clients]  # all connected: measure from here
+            if lidar_program:
+                program = _start_lidar_program(port, said[1]["tty"])
             cpu_start, wall_start = _Cpu.read(daemon.pid), time.monotonic()
-            for client in clients:
-                assert client.stdin is not None
-                client.stdin.write("go\n")
-                client.stdin.flush()
+            program_start = None if program is None else _Cpu.read(program.pid)
+            _say(clients, "go")
             if module == "navd":
                 time.sleep(GOAL_AFTER_S)  # a map and a pose to plan on
                 _send_goal(port)
-            sent = {}
-            for (role, _), client in zip(STREAMS, clients, strict=True):
-                assert client.stdout is not None
-                sent[role] = json.loads(client.stdout.readline())["sent"]
+            sent = {
+                role: _ready(client)["sent"]
+                for (role, _), client in zip(STREAMS, clients, strict=True)
+            }
             cpu_end, wall_end = _Cpu.read(daemon.pid), time.monotonic()
+            program_percent = _percent_since(program, program_start, wall_end - wall_start)
             status = _status(port)
             rss_mb, peak_rss_mb = _rss_mb(daemon.pid)
             viewed = None if viewer is None else _stop_viewer(viewer)
         finally:
-            if viewer is not None and viewer.poll() is None:
-                viewer.kill()
-            for client in clients:
-                if client.stdin is not None:
-                    client.stdin.close()
-                client.wait(10)
-            daemon.terminate()
-            daemon.wait(10)
+            _stop_all(daemon, clients, viewer, program)
     accepted = {d.kind: d.accepted for d in status.devices}
     total_percent = cpu_end.percent_since(cpu_start, wall_end - wall_start)
     diag = status.diagnostics
@@ -224,17 +211,47 @@ def _measure(  # noqa: PLR0917 - the load's parameters, as ``run`` takes them
             "peak_rss_mb": round(peak_rss_mb, 1),
             "ready_s": round(ready_s, 3),
             "goal": None if status.goal is None else status.goal.state,
+            **(
+                {}
+                if program_percent is None
+                else {"sensor_program_cpu_percent_of_one_core": round(program_percent, 2)}
+            ),
             **({} if viewed is None else {"viewer_received": viewed}),
         },
     }
 
 
-def _start_clients(
-    port: int, seconds: float, rays: int, binary: bool, imu_batch: int
+def _write_config(path: Path, port: int, view_port: int, window: int, view: str) -> None:
+    """The defaults, but for staleness timeouts long enough for the clients to start one by
+    one, a lag window that covers the streaming exactly, and the live view (on, nobody
+    watching) on a free port. (The status goes out at its default 1 Hz: a viewer subscribed
+    at 10 Hz costs about half a percent more.)"""
+    path.write_text(
+        f"[tcp]\nport = {port}\nimu_timeout_s = 5.0\nlidar_timeout_s = 5.0\n"
+        f"[lifecycle]\nlag_sample_period_s = {LAG_PROBE_S}\nlag_window = {window}\n"
+        '[logging]\nlevel = "warning"\n'
+        + (
+            "[viz]\nenabled = false\n"
+            if view == "off"
+            else f"[viz]\nport = {view_port}\npage_port = 0\n"
+        )
+    )
+
+
+def _start_clients(  # noqa: PLR0917 - the load's parameters
+    port: int, seconds: float, rays: int, binary: bool, imu_batch: int, lidar_program: int
 ) -> list[subprocess.Popen[str]]:
-    """One sensor client process per stream, each waiting for "go" on its standard input."""
+    """One sensor client process per stream, each waiting for "go" on its standard input;
+    with ``lidar_program``, the lidar's is an emulated LD06 instead."""
     clients: list[subprocess.Popen[str]] = []
     for role, rate in STREAMS:
+        if role == "lidar" and lidar_program:
+            device = [sys.executable, "-m", "navd.bench.ld06_device", "--seconds", str(seconds)]
+            device += ["--points", str(lidar_program)]
+            clients.append(
+                subprocess.Popen(device, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+            )
+            continue
         command = [
             sys.executable,
             "-m",
@@ -258,6 +275,72 @@ def _start_clients(
             subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         )
     return clients
+
+
+def _idle_percent(pid: int) -> float:
+    """[% of one core] the process uses over IDLE_S with nothing to do."""
+    before, wall = _Cpu.read(pid), time.monotonic()
+    time.sleep(IDLE_S)
+    return _Cpu.read(pid).percent_since(before, time.monotonic() - wall)
+
+
+def _stop_all(
+    daemon: subprocess.Popen[str],
+    clients: list[subprocess.Popen[str]],
+    viewer: subprocess.Popen[str] | None,
+    program: subprocess.Popen[bytes] | None,
+) -> None:
+    if program is not None:
+        program.terminate()
+        program.wait(10)
+    if viewer is not None and viewer.poll() is None:
+        viewer.kill()
+    for client in clients:
+        if client.stdin is not None:
+            client.stdin.close()
+        client.wait(10)
+    daemon.terminate()
+    daemon.wait(10)
+
+
+def _percent_since(
+    process: subprocess.Popen[bytes] | None, before: _Cpu | None, wall_s: float
+) -> float | None:
+    """[% of one core] a process used since ``before`` (None without the process)."""
+    if process is None or before is None:
+        return None
+    return _Cpu.read(process.pid).percent_since(before, wall_s)
+
+
+def _say(clients: list[subprocess.Popen[str]], line: str) -> None:
+    for client in clients:
+        assert client.stdin is not None
+        client.stdin.write(line + "\n")
+        client.stdin.flush()
+
+
+def _ready(client: subprocess.Popen[str]) -> dict[str, Any]:
+    """The next line a client process says (when it is connected, or has its terminal, or
+    has sent all)."""
+    assert client.stdout is not None
+    said: dict[str, Any] = json.loads(client.stdout.readline())
+    return said
+
+
+def _start_lidar_program(port: int, tty: str) -> subprocess.Popen[bytes]:
+    """``navd sensor ld06`` on the emulated lidar's terminal, once navd lists it."""
+    navd = f"127.0.0.1:{port}"
+    program = subprocess.Popen(
+        [*SENSOR_PROGRAM, "--port", tty, "--navd", navd, "--device-id", "lidar0"],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 15.0
+    while not any(d.device_id == "lidar0" for d in _status(port).devices):
+        if time.monotonic() > deadline or program.poll() is not None:
+            raise RuntimeError("navd sensor ld06 did not connect to navd")
+        time.sleep(0.2)
+    return program
 
 
 def _start_viewer(port: int) -> subprocess.Popen[str]:

@@ -30,6 +30,14 @@ def add_commands(commands: Commands) -> None:
         help="also the whole daemon with the live view off, and watched by a viewer of every "
         "channel (needs the websockets package, a development dependency)",
     )
+    ingest.add_argument(
+        "--lidar-program",
+        type=int,
+        default=0,
+        metavar="POINTS",
+        help="the lidar as an emulated LD06 of POINTS points per turn at 10 Hz on a "
+        "pseudo-terminal, read by `navd sensor ld06` (its CPU use is reported)",
+    )
     ingest.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     ingest.set_defaults(handler=_ingest)
     estimation = names.add_parser(
@@ -74,6 +82,7 @@ def _ingest(args: argparse.Namespace) -> int:
         binary=args.binary,
         imu_batch=args.imu_batch,
         view=args.view,
+        lidar_program=args.lidar_program,
     )
     print_figures(figures, args.json)
     return EXIT_OK
