@@ -83,6 +83,11 @@ install_navd() {
         --groups dialout --comment "navd navigation daemon" navd
       say "created user navd"
     fi
+    # I2C buses (IMUs, magnetometers): the group exists where the board's image made one
+    if getent group i2c >/dev/null && ! id -nG navd | grep -qw i2c; then
+      usermod --append --groups i2c navd
+      say "added navd to the i2c group"
+    fi
   fi
 
   mkdir -p "$root$prefix" "$root$share" "$root$conf_dir" "$root$state_dir" \
