@@ -4,6 +4,7 @@ program goes on."""
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -11,12 +12,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from navd.drivers.client import Client
 from navd.drivers.protocol.frames import SubscribeFrame
 from navd.drivers.protocol.replies import StatusFrame
+from navd.lifecycle.messages import GpsFix, LaserScan
 from navd.sensors.ld06 import encode_packet
+from navd.viz.recording_reader import read_recording
+from navd.viz.recording_writer import recording_files
 from tests.sensors.test_nmea import GGA
 
 pytestmark = pytest.mark.e2e
@@ -42,11 +47,36 @@ def _devices(port: int) -> dict[str, Any]:
     return {d.device_id: d for d in status.devices}
 
 
+def _received(folder: Path) -> list[Any]:
+    """The sensor messages the daemon recorded."""
+    (file,) = recording_files(folder)
+    return [m for _, m in read_recording(file).messages() if isinstance(m, LaserScan | GpsFix)]
+
+
+def _check_values(kind: str, messages: list[Any]) -> None:
+    assert len(messages) >= 3
+    for message in messages:
+        assert message.device_id == f"{kind}0"
+        # stamped by the program at the device's bytes, mapped onto navd's clock: never
+        # after their arrival, and not long before it
+        assert 0.0 <= message.received - message.stamp < 0.5
+        if kind == "ld06":
+            assert message.angle_min == pytest.approx(-math.pi)
+            assert message.angle_increment == pytest.approx(math.pi / 360)
+            seen = message.ranges[np.isfinite(message.ranges)]
+            assert seen.size > 300 and np.allclose(seen, 3.0, atol=0.001)  # the 3 m room
+        else:
+            assert message.latitude_deg == pytest.approx(48.1173, abs=1e-6)
+            assert message.longitude_deg == pytest.approx(11.516667, abs=1e-6)
+            assert message.horizontal_accuracy_m == pytest.approx(0.9 * 4.0)  # HDOP x 4 m
+
+
 @pytest.mark.parametrize(("kind", "role"), [("ld06", "lidar"), ("nmea", "gps")])
 def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
     daemon_on_port: Any, tmp_path: Path, kind: str, role: str
 ) -> None:
-    _, port = daemon_on_port()
+    folder = tmp_path / "recorded"
+    daemon, port = daemon_on_port(f'[record]\nenabled = true\ndir = "{folder}"\n')
     master, slave = os.openpty()
     device = os.ttyname(slave)
     log = (tmp_path / "sensor.log").open("w")
@@ -90,6 +120,9 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
         program.terminate()
         program.wait(10)
         log.close()
+    daemon.proc.terminate()  # the recording is closed: what navd received, value by value
+    daemon.proc.wait(10)
+    _check_values(kind, _received(folder))
     said = (tmp_path / "sensor.log").read_text()
     assert "device_lost" in said or "device_unavailable" in said
     assert said.count("device_unavailable") <= 1  # said once, not once per retry
