@@ -127,7 +127,8 @@ async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path
             await asyncio.to_thread(driver.save_screenshot, str(shot))
             drawn = await asyncio.to_thread(
                 driver.execute_script,
-                "return [navd.state.route !== null, navd.state.scan.points.length,"
+                "return [navd.state.route !== null,"
+                " Object.values(navd.state.scans).reduce((n, s) => n + s.points.length, 0),"
                 " document.getElementById('goal').textContent,"
                 " document.getElementById('safety').textContent]",
             )

@@ -9,6 +9,7 @@ naming the field; the lines around it are used.
 from __future__ import annotations
 
 import functools
+import math
 
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_sensor
@@ -16,7 +17,7 @@ from navd.drivers.protocol.convert import sensor_message
 from navd.drivers.protocol.frames import PingFrame
 from navd.drivers.protocol.replies import Pong
 from navd.drivers.tcp.session import Server, Session
-from navd.lifecycle.messages import DeviceResumed
+from navd.lifecycle.messages import DeviceKind, DeviceResumed
 
 __all__ = ["SensorRole"]
 
@@ -26,6 +27,7 @@ class SensorRole:
 
     def __init__(self, server: Server) -> None:
         self._server = server
+        self._lidar = ("", -math.inf)  # the lidar that spoke last, and when [s]
 
     def opened(self, session: Session) -> None:
         """Nothing to start: a sensor just streams."""
@@ -66,6 +68,8 @@ class SensorRole:
                     refusal = mounts.frame_refusal(device_id, frame_id)
                     if refusal is not None:
                         raise WireError("header.frame_id", refusal)
+                if role == "lidar" and not mounts.lidars:
+                    self._one_lidar(device_id, now)
                 message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
             except Exception as err:
                 self._server.reject(conn, line, err)
@@ -76,6 +80,26 @@ class SensorRole:
             session.accepted += 1
             if message is not None:
                 publish(message)
+
+    def _one_lidar(self, device_id: str, now: float) -> None:
+        """Without lidar mounts, the ``lidar`` section places one lidar: a scan of another
+        while the first speaks is refused (two lidars connected before either spoke).
+
+        Raises:
+            WireError: another lidar sent a scan within its staleness timeout.
+        """
+        speaking, last_s = self._lidar
+        if speaking not in ("", device_id) and now - last_s < self._lidar_timeout_s():
+            raise WireError(
+                "device_id",
+                f"{device_id!r} is a second lidar beside {speaking!r}: give each lidar its "
+                "mount under [mounts.lidars] in the config",
+            )
+        self._lidar = (device_id, now)
+
+    def _lidar_timeout_s(self) -> float:
+        timeouts = dict(self._server.settings.value.stale_after_s)
+        return timeouts[DeviceKind.LIDAR]
 
     def _heard(self, session: Session, now: float) -> None:
         """The sensor sent data at ``now`` [s]: it is fresh again if it was stale."""

@@ -334,6 +334,7 @@ class TcpServer(Module):
                 if (
                     other.kind is DeviceKind.LIDAR
                     and other.device_id != hello.device_id
+                    and other.accepted > 0  # a lidar that is speaking, not just connected
                     and not other.stale
                 ):
                     return "device_id", (

@@ -46,9 +46,14 @@ async def test_a_device_without_a_mount_is_refused_by_name_when_mounts_are_liste
 
 
 async def test_a_second_lidar_without_mounts_is_refused_while_the_first_speaks() -> None:
+    # (a lidar that has connected but sent nothing yet does not keep another out: a
+    # program restarted under a new id while its old connection lingers)
     async with running_daemon(tcp={"lidar_timeout_s": 0.2}) as (daemon, port):
         stale = record(daemon, DeviceStale)
         first = await connected(port, "lidar", "lidar0")
+        scans = record(daemon, LaserScan)
+        first.send_raw(_line({"type": "scan", **ROS_SCAN}))
+        await until(lambda: len(scans) == 1)
         second, refusal = await hello(port, "lidar", "lidar1")
         assert isinstance(refusal, ErrorFrame) and refusal.field == "device_id"
         assert "second lidar beside 'lidar0'" in refusal.reason
@@ -59,6 +64,22 @@ async def test_a_second_lidar_without_mounts_is_refused_while_the_first_speaks()
         third, welcome = await hello(port, "lidar", "lidar1")
         assert isinstance(welcome, Welcome)
         for client in (first, third):
+            await client.close()
+
+
+async def test_two_lidars_connected_before_either_spoke_cannot_both_speak() -> None:
+    async with running_daemon() as (daemon, port):
+        scans = record(daemon, LaserScan)
+        first = await connected(port, "lidar", "lidar0")
+        second = await connected(port, "lidar", "lidar1")  # neither has spoken: both let in
+        first.send_raw(_line({"type": "scan", **ROS_SCAN}))
+        await until(lambda: len(scans) == 1)
+        second.send_raw(_line({"type": "scan", **ROS_SCAN}))
+        error = await second.receive(3.0)
+        assert isinstance(error, ErrorFrame) and error.field == "device_id"
+        assert "second lidar beside 'lidar0'" in error.reason
+        assert [s.device_id for s in scans] == ["lidar0"]
+        for client in (first, second):
             await client.close()
 
 
