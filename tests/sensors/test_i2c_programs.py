@@ -8,6 +8,7 @@ import asyncio
 import math
 import threading
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -19,7 +20,14 @@ from navd.sensors.calibration import record_turn
 from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor
 from navd.sensors.runner import Link
 from tests.drivers.conftest import record, running_daemon, until
-from tests.sensors.chip_fakes import GRAVITY, FakeBno055, FakeBus, FakeMpu, FakeQmc5883l
+from tests.sensors.chip_fakes import (
+    GRAVITY,
+    FakeBno055,
+    FakeBus,
+    FakeHmc5883l,
+    FakeMpu,
+    FakeQmc5883l,
+)
 
 
 def _program(
@@ -60,6 +68,32 @@ async def test_an_mpu6050_streams_samples_and_survives_a_chip_that_stops_answeri
         finally:
             stop.set()
             await asyncio.to_thread(thread.join, 5.0)
+
+
+@pytest.mark.parametrize(
+    ("kind", "chip"),
+    [
+        ("mpu9250", FakeMpu(who=0x71, gyro_dps=(0.0, 0.0, 45.0))),
+        ("qmc5883l", FakeQmc5883l(field_ut=(0.0, 30.0, -40.0))),
+        ("hmc5883l", FakeHmc5883l(field_ut=(0.0, 30.0, -40.0))),
+    ],
+)
+async def test_every_i2c_kind_reaches_navd_with_its_values(kind: str, chip: Any) -> None:
+    async with running_daemon() as (daemon, port):
+        samples, headings = record(daemon, Imu), record(daemon, CompassHeading)
+        thread, stop = _program(kind, FakeBus(chip), port, "dev0")
+        try:
+            await until(lambda: len(samples) + len(headings) >= 5, 10.0)
+        finally:
+            stop.set()
+            await asyncio.to_thread(thread.join, 5.0)
+    if kind == "mpu9250":
+        last = samples[-1]
+        assert last.gyro_radps[2] == pytest.approx(math.radians(45.0), abs=1e-3)
+        assert last.mag_ut is not None  # the AK8963's field came along
+    else:  # the field along +y: facing east, bearing 90 degrees
+        assert headings[-1].device_id == "dev0"
+        assert headings[-1].bearing_deg == pytest.approx(90.0, abs=0.5)
 
 
 async def test_a_bno055_is_an_imu_and_a_compass_to_navd() -> None:
