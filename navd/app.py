@@ -8,6 +8,7 @@ from navd.drivers.tcp.server import TcpServer
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate
+from navd.missions.node import MissionNode
 from navd.planning.guard import CollisionGuard
 from navd.planning.node import PlannerNode
 from navd.slam.node import SlamNode
@@ -35,6 +36,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
         EstimationNode(),
         SlamNode(),
         PlannerNode(),
+        MissionNode(),  # stops before the planner: its goal is cancelled while it listens
         TcpServer(),
     ]
     if config.viz.enabled:

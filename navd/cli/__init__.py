@@ -2,7 +2,8 @@
 
 The only place in navd that prints and chooses exit codes.
 Exit codes: 0 success, 1 the daemon (or a command's work) failed at run time, 2 bad usage or
-bad config, 3 a goal followed with ``navd goal --wait`` was canceled.
+bad config, 3 a goal followed with ``navd goal --wait`` (or a mission with ``navd mission run
+--wait``) was canceled.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from navd.cli import (
     completion,
     config,
     control,
+    mission,
     robot,
     run,
     sensor,
@@ -31,7 +33,7 @@ from navd.logs import configure_logging
 __all__ = ["main"]
 
 # The command groups, in the order `navd --help` lists them.
-GROUPS = (run, config, control, robot, teleop, sensor, bench, slam, sim, viz, completion)
+GROUPS = (run, config, control, mission, robot, teleop, sensor, bench, slam, sim, viz, completion)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

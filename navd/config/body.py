@@ -133,7 +133,11 @@ class SafetyConfig(Section):
         0.1, ge=0, le=5, description="[m] margin around the footprint a trajectory must keep"
     )
     stop_distance_m: float = Field(
-        0.15, ge=0, le=5, description="[m] scan points this close ahead of the footprint stop it"
+        0.1,
+        ge=0,
+        le=5,
+        description="[m] scan points this close ahead of the footprint stop it (planned motion "
+        "keeps at least this far: a larger value closes narrow doors)",
     )
     slowdown_distance_m: float = Field(
         0.5, ge=0, le=10, description="[m] scan points this close ahead slow the robot down"

@@ -22,12 +22,14 @@ class GoalState(StrEnum):
 
 @dataclass(frozen=True, slots=True)
 class NavGoal:
-    """A goal in the map frame: [m, m], and [rad] or None for any heading."""
+    """A goal in the map frame: [m, m], and [rad] or None for any heading; a top speed
+    [m/s] of its own, or None for the robot's."""
 
     goal_id: str
     x_m: float
     y_m: float
     yaw_rad: float | None = None
+    max_speed_mps: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

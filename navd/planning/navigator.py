@@ -322,9 +322,12 @@ class Navigator:
                 else math.atan2(carrot[1] - pose.y, carrot[0] - pose.x)
             )
             target = Pose2(carrot[0], carrot[1], heading)
+            cap = self.profile.speed_cap(remaining, now - self._moving_since)
+            if goal.max_speed_mps is not None:
+                cap = min(cap, goal.max_speed_mps)
             window = Window(
-                self.profile.speed_cap(remaining, now - self._moving_since),
-                min_speed_mps=stuck.min_speed_mps,
+                cap,
+                min_speed_mps=min(stuck.min_speed_mps, cap),
                 backward=stuck.phase is StuckPhase.BACKING,
             )
         choice = self.local.choose(

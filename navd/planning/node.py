@@ -308,7 +308,9 @@ class PlannerNode(Module):
 
     def _start(self, goal: Goal) -> list[Message]:
         previous = self.nav.cancel()
-        self.nav.set_goal(NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad))
+        self.nav.set_goal(
+            NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad, goal.max_speed_mps)
+        )
         with self._flags:
             self._plan_due = "new goal"
         messages: list[Message] = []

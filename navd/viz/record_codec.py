@@ -46,6 +46,7 @@ from navd.lifecycle.messages import (
     ManualCommand,
     MapUpdate,
     Message,
+    MissionStatus,
     Path,
     PoseEstimate,
     SafetyState,
@@ -95,8 +96,8 @@ OUTPUTS: tuple[type[Message], ...] = (
     DriveMode,
     MapUpdate,
 )
-# Kept for people, not replayed (the goal it becomes is an input).
-INFO: tuple[type[Message], ...] = (GeoGoal,)
+# Kept for people, not replayed (the goals they become are inputs).
+INFO: tuple[type[Message], ...] = (GeoGoal, MissionStatus)
 CONFIG_TOPIC = "/navd/config"
 # The session's header (JSON): its name, the file's index, when it began in the daemon's run
 # and what the daemon knew then.

@@ -3,6 +3,7 @@ their client."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -17,6 +18,9 @@ from navd.drivers.protocol.frames import (
     ImuFrame,
     InitialPoseFrame,
     LoadMapFrame,
+    MissionControlFrame,
+    MissionFrame,
+    MissionStepSpec,
     OdomFrame,
     RecordFrame,
     RosFixFrame,
@@ -42,6 +46,9 @@ from navd.lifecycle.messages import (
     LoadMapRequest,
     ManualCommand,
     Message,
+    MissionCommand,
+    MissionRequest,
+    MissionStep,
     RecordRequest,
     SaveMapRequest,
     Vector3,
@@ -180,6 +187,18 @@ def control_message(
             longitude_deg=frame.longitude,
             yaw_rad=frame.yaw,
         )
+    if isinstance(frame, MissionFrame):
+        return MissionRequest(
+            stamp=now,
+            received=now,
+            mission_id=frame.mission_id or f"{client_id}-{serial}",
+            name=frame.name,
+            steps=tuple(_mission_step(step, frame) for step in frame.steps),
+            rounds=frame.rounds,
+            client_id=client_id,
+        )
+    if isinstance(frame, MissionControlFrame):
+        return MissionCommand(stamp=now, received=now, action=frame.action, client_id=client_id)
     if isinstance(frame, CancelFrame):
         return CancelGoal(stamp=now, received=now, goal_id=frame.goal_id)
     if isinstance(frame, ConfigFrame):
@@ -220,3 +239,23 @@ def control_message(
             operator=client_id,
         )
     raise TypeError(f"{type(frame).__name__} is a session request, not a bus message")
+
+
+def _mission_step(step: MissionStepSpec, mission: MissionFrame) -> MissionStep:
+    """A mission file's step as the mission module runs it (the mission's failure policy
+    where the step gives none)."""
+    nan = math.nan
+    return MissionStep(
+        kind=step.kind,
+        x_m=nan if step.x is None else step.x,
+        y_m=nan if step.y is None else step.y,
+        yaw_rad=step.yaw,
+        latitude_deg=nan if step.latitude is None else step.latitude,
+        longitude_deg=nan if step.longitude is None else step.longitude,
+        seconds=step.seconds or 0.0,
+        message=step.message,
+        stop_distance_m=step.stop_distance,
+        speed_mps=step.speed,
+        on_failure=step.on_failure or mission.on_failure,
+        retries=mission.retries if step.retries is None else step.retries,
+    )

@@ -25,6 +25,8 @@ __all__ = [
     "LocalizationInfo",
     "MapLoadedFrame",
     "MapSavedFrame",
+    "MissionInfo",
+    "MissionStatusFrame",
     "ModuleInfo",
     "PathFrame",
     "Pong",
@@ -84,6 +86,7 @@ class Ack(ReplyPart):
     type: Literal["ack"] = "ack"
     request: str
     goal_id: str | None = None
+    mission_id: str | None = None
     request_id: str | None = None
     rate_hz: float | None = None
     key: str | None = None
@@ -169,6 +172,35 @@ class GoalStatusFrame(GoalInfo):
     """Sent to every control client when a goal's progress changes."""
 
     type: Literal["goal_status"] = "goal_status"
+
+
+class MissionInfo(ReplyPart):
+    """Where a mission is (unknown numbers are null): its state, step ``step`` of ``steps``
+    (from 1), round ``round`` of ``rounds`` (0: until cancelled), the step's kind, what just
+    happened, the distance and time to the step's goal, a pause's words to the person, why
+    it stopped, and how many steps are done and failed."""
+
+    mission_id: str
+    name: str
+    state: str
+    step: int
+    steps: int
+    round: int
+    rounds: int
+    kind: str = ""
+    event: str = ""
+    distance_m: float | None = None
+    eta_s: float | None = None
+    message: str = ""
+    reason: str = ""
+    done: int = 0
+    failed: int = 0
+
+
+class MissionStatusFrame(MissionInfo):
+    """Sent to every control client on each event of a mission (and as it drives)."""
+
+    type: Literal["mission_status"] = "mission_status"
 
 
 class PathFrame(ReplyPart):
@@ -287,6 +319,7 @@ class StatusFrame(ReplyPart):
     pose: PoseInfo | None
     velocity: VelocityInfo | None
     goal: GoalInfo | None
+    mission: MissionInfo | None = None
     devices: list[DeviceInfo]
     diagnostics: Diagnostics
 
@@ -300,6 +333,7 @@ Reply = (
     | ConfigAppliedFrame
     | ConfigRejectedFrame
     | GoalStatusFrame
+    | MissionStatusFrame
     | PathFrame
     | MapSavedFrame
     | MapLoadedFrame

@@ -24,6 +24,7 @@ from navd.drivers.protocol.replies import (
     GoalStatusFrame,
     MapLoadedFrame,
     MapSavedFrame,
+    MissionStatusFrame,
     PathFrame,
     Pong,
     PoseFoundFrame,
@@ -31,7 +32,7 @@ from navd.drivers.protocol.replies import (
     StatusFrame,
 )
 from navd.drivers.tcp.session import Server, Session
-from navd.drivers.tcp.status_board import goal_info
+from navd.drivers.tcp.status_board import goal_info, mission_info
 from navd.lifecycle.messages import (
     CancelGoal,
     ConfigApplied,
@@ -46,6 +47,8 @@ from navd.lifecycle.messages import (
     MapLoaded,
     MapSaved,
     MapUpdate,
+    MissionRequest,
+    MissionStatus,
     Path,
     PoseFound,
 )
@@ -86,6 +89,7 @@ class ControlRole:
         ctx = server.ctx
         self._config = ctx.startup_config  # the config in force (ConfigApplied keeps it)
         ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(MissionStatus, self._on_mission_status)
         ctx.subscribe(Path, self._on_path)
         ctx.subscribe(ConfigApplied, self._on_config_answer)
         ctx.subscribe(ConfigRejected, self._on_config_answer)
@@ -148,7 +152,8 @@ class ControlRole:
                 goal_id = (
                     message.goal_id if isinstance(message, Goal | GeoGoal | CancelGoal) else None
                 )
-                conn.send(Ack(request=frame.type, goal_id=goal_id))
+                mission_id = message.mission_id if isinstance(message, MissionRequest) else None
+                conn.send(Ack(request=frame.type, goal_id=goal_id, mission_id=mission_id))
             self._server.ctx.publish(message)
 
     async def _stream_status(self, session: Session, rate_hz: float) -> None:
@@ -214,6 +219,9 @@ class ControlRole:
                 f"({pose.x_m:.1f}, {pose.y_m:.1f}) m lies {outside_m:.0f} m outside the map "
                 f"(x {x0:.1f}..{x1:.1f}, y {y0:.1f}..{y1:.1f}); give a pose on the map",
             )
+
+    def _on_mission_status(self, status: MissionStatus) -> None:
+        self._broadcast(MissionStatusFrame(**mission_info(status).model_dump()))
 
     def _on_goal_status(self, status: GoalStatus) -> None:
         self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))

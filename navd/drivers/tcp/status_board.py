@@ -16,6 +16,7 @@ from navd.drivers.protocol.replies import (
     Diagnostics,
     GoalInfo,
     LocalizationInfo,
+    MissionInfo,
     ModuleInfo,
     PoseInfo,
     RejectedInfo,
@@ -32,13 +33,14 @@ from navd.lifecycle.messages import (
     Goal,
     GoalStatus,
     LocalizationState,
+    MissionStatus,
     PoseEstimate,
     RecordingState,
     SafetyState,
 )
 from navd.lifecycle.module import ModuleContext
 
-__all__ = ["StatusBoard", "goal_info"]
+__all__ = ["StatusBoard", "goal_info", "mission_info"]
 
 
 class StatusBoard:
@@ -49,6 +51,7 @@ class StatusBoard:
         self.localization: LocalizationState | None = None
         self.drive: DriveCommand | None = None
         self.goal: GoalStatus | None = None
+        self.mission: MissionStatus | None = None
         self.daemon: DaemonStatus | None = None
         self.safety: tuple[str, ...] = ()
         self.operator = ""  # who drives by hand ("" while the navigator does)
@@ -66,6 +69,7 @@ class StatusBoard:
         ctx.subscribe(RecordingState, self._recording)
         ctx.subscribe(Goal, self._goal)
         ctx.subscribe(GoalStatus, self._goal_status)
+        ctx.subscribe(MissionStatus, self._mission_status)
         ctx.subscribe(ConfigApplied, self._config_applied)
         ctx.subscribe(ConfigRejected, self._config_rejected)
 
@@ -103,6 +107,7 @@ class StatusBoard:
             if drive is None
             else VelocityInfo(linear=drive.linear_mps, angular=drive.angular_radps),
             goal=None if self.goal is None else goal_info(self.goal),
+            mission=None if self.mission is None else mission_info(self.mission),
             devices=devices,
             diagnostics=Diagnostics(
                 safety=list(self.safety),
@@ -152,6 +157,10 @@ class StatusBoard:
     def _goal_status(self, status: GoalStatus) -> None:
         self.goal = status
 
+    def _mission_status(self, status: MissionStatus) -> None:
+        if status.event != "refused":  # a refused command changes nothing
+            self.mission = status
+
     def _config_applied(self, applied: ConfigApplied) -> None:
         news = AppliedInfo(
             request_id=applied.request_id, stamp=applied.stamp, changed=list(applied.changed_keys)
@@ -175,6 +184,27 @@ def goal_info(status: GoalStatus) -> GoalInfo:
         distance_remaining=status.distance_remaining_m,
         eta_s=status.eta_s,
         reason=status.reason,
+    )
+
+
+def mission_info(status: MissionStatus) -> MissionInfo:
+    """A mission's status as sent to clients (unknown numbers become null on the wire)."""
+    return MissionInfo(
+        mission_id=status.mission_id,
+        name=status.name,
+        state=status.state,
+        step=status.step,
+        steps=status.steps,
+        round=status.round,
+        rounds=status.rounds,
+        kind=status.kind,
+        event=status.event,
+        distance_m=status.distance_m,
+        eta_s=status.eta_s,
+        message=status.message,
+        reason=status.reason,
+        done=status.done,
+        failed=status.failed,
     )
 
 

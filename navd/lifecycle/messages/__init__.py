@@ -37,6 +37,13 @@ from navd.lifecycle.messages.control import (
     VelocityCommand,
     ViewInterest,
 )
+from navd.lifecycle.messages.mission import (
+    MISSION_ACTIONS,
+    MissionCommand,
+    MissionRequest,
+    MissionStatus,
+    MissionStep,
+)
 from navd.lifecycle.messages.results import (
     CostmapUpdate,
     DaemonStatus,
@@ -64,6 +71,7 @@ from navd.lifecycle.messages.sensors import (
 )
 
 __all__ = [
+    "MISSION_ACTIONS",
     "CancelGoal",
     "CompassHeading",
     "ConfigApplied",
@@ -94,6 +102,10 @@ __all__ = [
     "MapSaved",
     "MapUpdate",
     "Message",
+    "MissionCommand",
+    "MissionRequest",
+    "MissionStatus",
+    "MissionStep",
     "ModuleHealth",
     "Orientation",
     "Path",

@@ -10,6 +10,7 @@ from types import MappingProxyType
 
 from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
+from navd.lifecycle.errors import MessageError
 from navd.lifecycle.messages.base import (
     Message,
     require_finite,
@@ -27,12 +28,15 @@ class Goal(Message):
         x_m: [m] map x.
         y_m: [m] map y.
         yaw_rad: [rad] final yaw, or None when any heading will do.
+        max_speed_mps: [m/s] top forward speed on the way (a mission's slow approach), or
+            None for the robot's own.
     """
 
     goal_id: str
     x_m: float
     y_m: float
     yaw_rad: float | None = None
+    max_speed_mps: float | None = None
 
     def __post_init__(self) -> None:
         Message.__post_init__(self)
@@ -40,6 +44,8 @@ class Goal(Message):
         require_finite("y_m", self.y_m)
         if self.yaw_rad is not None:
             require_finite("yaw_rad", self.yaw_rad)
+        if self.max_speed_mps is not None and not self.max_speed_mps > 0.0:
+            raise MessageError(f"max_speed_mps must be > 0, got {self.max_speed_mps}")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -1,0 +1,188 @@
+"""``navd mission run|status|pause|resume|cancel|continue``: missions on the running daemon."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from navd.cli.common import (
+    EXIT_CANCELED,
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    Commands,
+    connect,
+    connection_options,
+)
+from navd.config import ConfigError
+from navd.drivers.client import Client, ClientError
+from navd.drivers.protocol.frames import MissionControlFrame, MissionFrame, SubscribeFrame
+from navd.drivers.protocol.replies import MissionStatusFrame, StatusFrame
+
+__all__ = ["add_commands", "load_mission", "mission_line"]
+
+ENDED = ("completed", "failed", "canceled")
+MAX_FILE_BYTES = 1 << 20
+
+
+def add_commands(commands: Commands) -> None:
+    """Add ``mission``."""
+    mission = commands.add_parser(
+        "mission", help="run a mission from a file, follow it, pause, resume or cancel it"
+    )
+    actions = mission.add_subparsers(dest="mission_command", metavar="ACTION", required=True)
+    run = actions.add_parser("run", help="send a mission file (TOML or JSON) to navd")
+    run.add_argument("file", type=Path, help="the mission (see docs/missions.md)")
+    run.add_argument("--id", dest="mission_id", help="the mission's id (default: chosen by navd)")
+    run.add_argument(
+        "--wait",
+        action="store_true",
+        help="follow it to its end, a line per step; exit 0 completed, 1 failed, 3 canceled",
+    )
+    connection_options(run)
+    run.set_defaults(handler=_run)
+    status = actions.add_parser("status", help="print where the mission is")
+    connection_options(status)
+    status.set_defaults(handler=_status)
+    for action, words in (
+        ("pause", "pause the mission (its goal is cancelled; resume takes it up again)"),
+        ("resume", "take a paused mission up again at its step"),
+        ("cancel", "stop the mission"),
+        ("continue", "let a pause step go on"),
+    ):
+        command = actions.add_parser(action, help=words)
+        connection_options(command)
+        command.set_defaults(handler=_control, action=action)
+
+
+def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
+    """The mission in a TOML (``.toml``) or JSON file.
+
+    Raises:
+        ConfigError: the file cannot be read or parsed, or a field is wrong (named).
+    """
+    try:
+        raw = path.read_bytes()[: MAX_FILE_BYTES + 1]
+    except OSError as err:
+        raise ConfigError([f"{path}: cannot be read: {err.strerror}"]) from err
+    if len(raw) > MAX_FILE_BYTES:
+        raise ConfigError([f"{path}: larger than {MAX_FILE_BYTES} bytes: not a mission"])
+    try:
+        text = raw.decode("utf-8")
+        data: Any = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError, json.JSONDecodeError) as err:
+        kind = "TOML" if path.suffix == ".toml" else "JSON"
+        raise ConfigError([f"{path}: not valid {kind}: {err}"]) from err
+    if not isinstance(data, dict):
+        raise ConfigError([f"{path}: a mission is a table (an object) with steps"])
+    data = {k: v for k, v in data.items() if k != "type"}
+    if mission_id is not None:
+        data["mission_id"] = mission_id
+    try:
+        return MissionFrame.model_validate(data)
+    except ValidationError as err:
+        problems = [
+            f"{'.'.join(str(p) for p in e['loc']) or 'mission'}: {e['msg']}"
+            for e in err.errors(include_url=False)
+        ]
+        raise ConfigError(problems, source=str(path)) from err
+
+
+def mission_line(status: MissionStatusFrame) -> str:
+    """One readable line for a mission's status."""
+    if status.state == "none":
+        return status.reason or "no mission"
+    rounds = "" if status.rounds == 1 else f" round {status.round}/{status.rounds or 'inf'}"
+    where = f"step {status.step}/{status.steps}{rounds}"
+    text = f"{status.mission_id} {status.state}: {where} {status.kind}".rstrip()
+    if status.event not in ("progress", ""):
+        text += f" [{status.event}]"
+    if status.distance_m is not None:
+        text += f", {status.distance_m:.1f} m to go"
+    if status.eta_s is not None:
+        text += f", {status.eta_s:.0f} s"
+    if status.message:
+        text += f" - {status.message} (navd mission continue)"
+    if status.reason:
+        text += f" ({status.reason})"
+    return text
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        mission = load_mission(args.file, args.mission_id)
+    except ConfigError as err:
+        print(f"navd mission run: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        with connect(args) as client:
+            ack = client.request(mission)
+            print(ack.model_dump_json(exclude_none=True), flush=True)
+            if not args.wait:
+                return EXIT_OK
+            last = _follow(client, ack.mission_id)
+    except (ClientError, ConfigError) as err:
+        print(f"navd mission run: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        print("\nnavd mission run: stopped following; the mission goes on", file=sys.stderr)
+        return EXIT_FAILED
+    if last.state == "failed":
+        return EXIT_FAILED
+    return EXIT_CANCELED if last.state == "canceled" else EXIT_OK
+
+
+def _follow(client: Client, mission_id: str | None) -> MissionStatusFrame:
+    """Print a line for each event of the mission until it ends; its last status."""
+    client.timeout_s = None  # a patrol may run for hours
+    client.sock.settimeout(None)
+    shown = math.nan
+    while True:
+        status = client.receive_type(MissionStatusFrame)
+        if status.mission_id != mission_id:
+            continue
+        if status.event == "progress":
+            left = status.distance_m
+            if left is None or (not math.isnan(shown) and abs(left - shown) < 1.0):
+                continue  # a line for each metre driven, not for each planner tick
+            shown = left
+        print(mission_line(status), flush=True)
+        if status.state in ENDED:
+            return status
+
+
+def _status(args: argparse.Namespace) -> int:
+    try:
+        with connect(args) as client:
+            client.request(SubscribeFrame(rate_hz=10))
+            frame = client.receive_type(StatusFrame)
+    except (ClientError, ConfigError) as err:
+        print(f"navd mission status: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if frame.mission is None:
+        print("no mission")
+        return EXIT_OK
+    print(mission_line(frame.mission))
+    return EXIT_OK
+
+
+def _control(args: argparse.Namespace) -> int:
+    """Send the action; print how navd answered it (refused: exit 1)."""
+    try:
+        with connect(args) as client:
+            client.request(MissionControlFrame(action=args.action))
+            status = client.receive_type(MissionStatusFrame)
+            while status.event == "progress":  # the drive's own reports, not the answer
+                status = client.receive_type(MissionStatusFrame)
+    except (ClientError, ConfigError) as err:
+        print(f"navd mission {args.action}: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print(mission_line(status))
+    return EXIT_FAILED if status.event == "refused" else EXIT_OK

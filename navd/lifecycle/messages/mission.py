@@ -1,0 +1,125 @@
+"""Missions: an ordered list of steps driven one after the other, and their progress."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from navd.lifecycle.messages.base import Message
+
+__all__ = [
+    "MISSION_ACTIONS",
+    "MissionCommand",
+    "MissionRequest",
+    "MissionStatus",
+    "MissionStep",
+]
+
+StepKind = Literal["goto", "goto_gps", "wait", "pause", "approach"]
+FailurePolicy = Literal["skip", "retry", "abort"]
+MISSION_ACTIONS = ("pause", "resume", "cancel", "continue")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MissionStep:
+    """One step of a mission.
+
+    Attributes:
+        kind: "goto" (a map pose), "goto_gps" (a WGS84 position), "wait" (``seconds``),
+            "pause" (until a person says continue; ``message`` tells them what for),
+            "approach" (drive near (x, y), then the last ``stop_distance_m`` short of it
+            slowly, at ``speed_mps``, along ``yaw_rad`` when given).
+        x_m, y_m, yaw_rad: [m, m, rad] the pose of goto and approach (yaw None: any).
+        latitude_deg, longitude_deg: [deg] goto_gps's position.
+        seconds: [s] wait's length.
+        message: what a pause asks the person to do.
+        stop_distance_m: [m] approach: how far short of (x, y) to stop.
+        speed_mps: [m/s] top speed of the step (approach: of its slow part); None: the robot's.
+        on_failure: what a failed step does: "skip" it, "retry" it up to ``retries`` times
+            (then the mission fails), or "abort" the mission.
+        retries: attempts after the first, for "retry".
+    """
+
+    kind: StepKind
+    x_m: float = math.nan
+    y_m: float = math.nan
+    yaw_rad: float | None = None
+    latitude_deg: float = math.nan
+    longitude_deg: float = math.nan
+    seconds: float = 0.0
+    message: str = ""
+    stop_distance_m: float = 0.0
+    speed_mps: float | None = None
+    on_failure: FailurePolicy = "abort"
+    retries: int = 0
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MissionRequest(Message):
+    """Run a mission (replacing any running one).
+
+    Attributes:
+        mission_id: its name on the wire and in the goals it sends.
+        name: what the person called it.
+        steps: the steps, in order.
+        rounds: how many times through the steps; 0: until cancelled (a patrol).
+        client_id: who asked.
+    """
+
+    mission_id: str
+    name: str
+    steps: tuple[MissionStep, ...]
+    rounds: int = 1
+    client_id: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MissionCommand(Message):
+    """Pause, resume or cancel the running mission, or let a paused step continue.
+
+    Attributes:
+        action: one of MISSION_ACTIONS.
+        client_id: who asked.
+    """
+
+    action: str
+    client_id: str = ""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MissionStatus(Message):
+    """Where a mission is, published on every change of step or state and as it drives.
+
+    Attributes:
+        mission_id, name: which mission.
+        state: "running", "paused", "waiting" (for a person's continue), "completed",
+            "failed" or "canceled".
+        step: the step being run, from 1 (0 before the first); steps: how many there are.
+        round: the round, from 1; rounds: how many (0: until cancelled).
+        kind: the step's kind.
+        event: what just happened: "started", "step_started", "step_done", "step_failed",
+            "step_skipped", "step_retried", "progress", "paused", "resumed", "waiting",
+            "completed", "failed", "canceled".
+        distance_m: [m] to the step's goal along the route, NaN when not driving.
+        eta_s: [s] to the step's goal, NaN when unknown.
+        message: a pause's words to the person.
+        reason: why a step failed or the mission stopped.
+        done: steps completed so far (all rounds); failed: steps that failed (skipped too).
+    """
+
+    mission_id: str
+    name: str
+    state: str
+    step: int
+    steps: int
+    round: int
+    rounds: int
+    kind: str = ""
+    event: str = ""
+    distance_m: float = math.nan
+    eta_s: float = math.nan
+    message: str = ""
+    reason: str = ""
+    done: int = 0
+    failed: int = 0

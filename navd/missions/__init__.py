@@ -1,0 +1,1 @@
+"""Missions: ordered steps (goals, waits, pauses, approaches) run through the planner."""

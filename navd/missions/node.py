@@ -1,0 +1,92 @@
+"""The missions module: runs one mission at a time through the planner's goals.
+
+A mission request replaces the running mission (its goal is cancelled). Goals, their
+statuses, the pose and a person's commands go through the bus like everyone else's, so a
+mission drives through the same planner and safety gate as a goal sent by hand.
+"""
+
+from __future__ import annotations
+
+from navd.geometry.pose import Pose2
+from navd.lifecycle.messages import GoalStatus, Message, PoseEstimate
+from navd.lifecycle.messages.mission import MissionCommand, MissionRequest, MissionStatus
+from navd.lifecycle.module import Module, ModuleContext
+from navd.missions.executor import MissionExecutor, no_mission
+
+__all__ = ["TICK_S", "MissionNode"]
+
+TICK_S = 0.1  # [s] how often a wait step looks at the clock
+
+
+class MissionNode(Module):
+    """Runs missions (see the module docstring)."""
+
+    def __init__(self) -> None:
+        super().__init__("missions")
+        self.mission: MissionExecutor | None = None
+        self._pose: Pose2 | None = None
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        ctx.subscribe(MissionRequest, self._on_request)
+        ctx.subscribe(MissionCommand, self._on_command)
+        ctx.subscribe(GoalStatus, self._on_goal_status)
+        ctx.subscribe(PoseEstimate, self._on_pose)
+
+    async def on_activate(self) -> None:
+        self.ctx.every(TICK_S, self._tick, name="mission-clock")
+
+    async def on_deactivate(self) -> None:
+        mission = self.mission
+        if mission is not None and not mission.ended:
+            self._publish(mission.command("cancel", self.ctx.clock.now(), self._pose)[0])
+
+    def _publish(self, messages: list[Message]) -> None:
+        for message in messages:
+            if isinstance(message, MissionStatus) and message.event != "progress":
+                self.ctx.log.info(
+                    "mission",
+                    mission_id=message.mission_id,
+                    what=message.event,
+                    state=message.state,
+                    step=message.step,
+                    steps=message.steps,
+                    round=message.round,
+                    reason=message.reason or None,
+                )
+            self.ctx.publish(message)
+
+    def _on_pose(self, pose: PoseEstimate) -> None:
+        self._pose = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
+
+    def _on_request(self, request: MissionRequest) -> None:
+        now = self.ctx.clock.now()
+        old = self.mission
+        if old is not None and not old.ended:
+            self._publish(old.command("cancel", now, self._pose)[0])
+        self.mission = MissionExecutor(request)
+        self._publish(self.mission.start(now, self._pose))
+
+    def _on_command(self, command: MissionCommand) -> None:
+        now = self.ctx.clock.now()
+        mission = self.mission
+        if mission is None:
+            refusal = "no mission has been run"
+            messages: list[Message] = [no_mission(now, f"{command.action}: {refusal}")]
+        else:
+            messages, refusal = mission.command(command.action, now, self._pose)
+            if refusal:
+                messages = [mission.refused(now, f"{command.action}: {refusal}")]
+        if refusal:
+            self.ctx.log.warning("mission_command_refused", action=command.action, reason=refusal)
+        self._publish(messages)
+
+    def _on_goal_status(self, status: GoalStatus) -> None:
+        mission = self.mission
+        if mission is not None:
+            self._publish(mission.on_goal_status(status, self.ctx.clock.now(), self._pose))
+
+    def _tick(self, now: float) -> None:
+        mission = self.mission
+        if mission is not None:
+            self._publish(mission.on_tick(now, self._pose))

@@ -1,0 +1,179 @@
+"""A mission's state machine, step by step: goals sent and their ends, waits, pauses for a
+person, approaches, failure policies, rounds, and a person's pause, resume and cancel."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from navd.geometry.pose import Pose2
+from navd.lifecycle.messages import CancelGoal, GeoGoal, Goal, GoalStatus, Message
+from navd.lifecycle.messages.mission import MissionRequest, MissionStatus, MissionStep
+from navd.missions.executor import STAGING_M, MissionExecutor
+
+HERE = Pose2(0.0, 0.0, 0.0)
+
+
+def _mission(*steps: MissionStep, rounds: int = 1) -> MissionExecutor:
+    request = MissionRequest(
+        stamp=0.0, received=0.0, mission_id="m", name="test", steps=steps, rounds=rounds
+    )
+    return MissionExecutor(request)
+
+
+def _goals(messages: list[Message]) -> list[Goal]:
+    return [m for m in messages if isinstance(m, Goal)]
+
+
+def _events(messages: list[Message]) -> list[str]:
+    return [m.event for m in messages if isinstance(m, MissionStatus)]
+
+
+def _end(goal: Goal | GeoGoal, state: str, reason: str = "") -> GoalStatus:
+    return GoalStatus(stamp=1.0, received=1.0, goal_id=goal.goal_id, state=state, reason=reason)
+
+
+def goto(x: float, y: float, **kw: object) -> MissionStep:
+    return MissionStep(kind="goto", x_m=x, y_m=y, **kw)  # type: ignore[arg-type]
+
+
+def test_a_patrol_sends_each_goal_in_turn_and_goes_round_again() -> None:
+    mission = _mission(goto(1, 0), goto(1, 1), rounds=2)
+    out = mission.start(0.0, HERE)
+    assert _events(out) == ["started", "step_started"]
+    seen = []
+    for _ in range(4):
+        (goal,) = _goals(out)
+        seen.append((goal.x_m, goal.y_m, goal.goal_id))
+        out = mission.on_goal_status(_end(goal, "reached"), 1.0, HERE)
+    assert [s[:2] for s in seen] == [(1, 0), (1, 1), (1, 0), (1, 1)]
+    assert [s[2] for s in seen] == ["m.1.1.0a", "m.1.2.0a", "m.2.1.0a", "m.2.2.0a"]
+    assert _events(out) == ["step_done", "completed"]
+    assert mission.state == "completed" and mission.done == 4
+
+
+def test_only_the_steps_own_goal_moves_the_mission_on() -> None:
+    mission = _mission(goto(1, 0), goto(2, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    other = Goal(stamp=0.0, received=0.0, goal_id="someone-else", x_m=5.0, y_m=5.0)
+    assert mission.on_goal_status(_end(other, "reached"), 1.0, HERE) == []
+    progress = GoalStatus(
+        stamp=1.0,
+        received=1.0,
+        goal_id=goal.goal_id,
+        state="active",
+        distance_remaining_m=0.7,
+        eta_s=2.0,
+    )
+    (status,) = mission.on_goal_status(progress, 1.0, HERE)
+    assert isinstance(status, MissionStatus) and status.event == "progress"
+    assert (status.distance_m, status.eta_s, status.step, status.steps) == (0.7, 2.0, 1, 2)
+
+
+@pytest.mark.parametrize(
+    ("policy", "retries", "events", "state", "goals_sent"),
+    [
+        ("skip", 0, ["step_skipped", "step_started"], "running", 2),
+        ("retry", 2, ["step_retried"], "running", 2),
+        ("abort", 0, ["step_failed", "failed"], "failed", 1),
+    ],
+)
+def test_a_failed_step_follows_its_policy(
+    policy: str, retries: int, events: list[str], state: str, goals_sent: int
+) -> None:
+    mission = _mission(goto(9, 9, on_failure=policy, retries=retries), goto(1, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    out = mission.on_goal_status(_end(goal, "failed", "no route"), 1.0, HERE)
+    assert _events(out) == events
+    assert mission.state == state and mission.reason == "no route"
+    assert 1 + len(_goals(out)) == goals_sent
+
+
+def test_retries_run_out_and_then_the_mission_fails() -> None:
+    mission = _mission(goto(9, 9, on_failure="retry", retries=2), goto(1, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    ids = [goal.goal_id]
+    for _ in range(2):
+        (goal,) = _goals(mission.on_goal_status(_end(goal, "failed"), 1.0, HERE))
+        ids.append(goal.goal_id)
+    out = mission.on_goal_status(_end(goal, "failed"), 1.0, HERE)
+    assert ids == ["m.1.1.0a", "m.1.1.1a", "m.1.1.2a"]
+    assert _events(out) == ["step_failed", "failed"] and mission.failed == 1
+
+
+def test_a_wait_waits_on_the_clock_and_a_pause_on_a_person() -> None:
+    mission = _mission(
+        MissionStep(kind="wait", seconds=5.0),
+        MissionStep(kind="pause", message="load the parcel"),
+        goto(1, 0),
+    )
+    mission.start(10.0, HERE)
+    assert mission.on_tick(14.9, HERE) == []
+    out = mission.on_tick(15.0, HERE)
+    assert _events(out) == ["step_done", "step_started", "waiting"]
+    waiting = [m for m in out if isinstance(m, MissionStatus)][-1]
+    assert waiting.state == "waiting" and waiting.message == "load the parcel"
+    assert mission.on_tick(100.0, HERE) == []  # a pause does not end by itself
+    out, refusal = mission.command("continue", 20.0, HERE)
+    assert refusal == "" and _goals(out)[0].x_m == 1
+    _, refusal = mission.command("continue", 21.0, HERE)
+    assert "no step waits" in refusal
+
+
+def test_an_approach_drives_to_a_staging_pose_then_slowly_to_its_stop() -> None:
+    step = MissionStep(
+        kind="approach", x_m=5.0, y_m=0.0, yaw_rad=0.0, stop_distance_m=0.4, speed_mps=0.1
+    )
+    mission = _mission(step)
+    (staging,) = _goals(mission.start(0.0, HERE))
+    assert (staging.x_m, staging.y_m, staging.yaw_rad) == pytest.approx(
+        (5.0 - 0.4 - STAGING_M, 0.0, 0.0)
+    )
+    assert staging.max_speed_mps is None
+    (final,) = _goals(mission.on_goal_status(_end(staging, "reached"), 1.0, HERE))
+    assert (final.x_m, final.y_m) == pytest.approx((4.6, 0.0)) and final.max_speed_mps == 0.1
+    out = mission.on_goal_status(_end(final, "reached"), 2.0, HERE)
+    assert _events(out) == ["step_done", "completed"]
+    # without a yaw: along the line from where the robot began the step
+    free = _mission(MissionStep(kind="approach", x_m=3.0, y_m=4.0, stop_distance_m=1.0))
+    (staging,) = _goals(free.start(0.0, Pose2(0.0, 0.0, 2.0)))
+    assert (staging.x_m, staging.y_m) == pytest.approx((3.0 - 2.0 * 0.6, 4.0 - 2.0 * 0.8))
+    assert staging.yaw_rad == pytest.approx(math.atan2(4.0, 3.0))
+
+
+def test_pause_resume_and_cancel_by_a_person() -> None:
+    mission = _mission(goto(1, 0), goto(2, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    out, _ = mission.command("pause", 1.0, HERE)
+    assert [m.goal_id for m in out if isinstance(m, CancelGoal)] == [goal.goal_id]
+    assert mission.state == "paused"
+    # the planner says the cancelled goal was cancelled: nothing more happens
+    assert mission.on_goal_status(_end(goal, "canceled"), 1.1, HERE) == []
+    out, _ = mission.command("resume", 2.0, HERE)
+    (again,) = _goals(out)
+    assert (again.x_m, again.y_m) == (1, 0) and mission.state == "running"
+    out, _ = mission.command("cancel", 3.0, HERE)
+    assert [m.goal_id for m in out if isinstance(m, CancelGoal)] == [again.goal_id]
+    assert mission.state == "canceled"
+    _, refusal = mission.command("resume", 4.0, HERE)
+    assert "has ended" in refusal
+
+
+def test_a_goal_replaced_by_a_persons_goal_pauses_the_mission() -> None:
+    mission = _mission(goto(1, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    out = mission.on_goal_status(_end(goal, "canceled", "replaced by goal g7"), 1.0, HERE)
+    assert _events(out) == ["paused"] and mission.reason == "replaced by goal g7"
+    out, _ = mission.command("resume", 2.0, HERE)
+    assert len(_goals(out)) == 1
+
+
+def test_a_gps_step_sends_a_geo_goal() -> None:
+    mission = _mission(MissionStep(kind="goto_gps", latitude_deg=48.1, longitude_deg=11.5))
+    (goal,) = [m for m in mission.start(0.0, HERE) if isinstance(m, GeoGoal)]
+    assert (goal.latitude_deg, goal.longitude_deg) == (48.1, 11.5)
+    assert _events(mission.on_goal_status(_end(goal, "reached"), 1.0, HERE)) == [
+        "step_done",
+        "completed",
+    ]
