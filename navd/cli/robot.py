@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 from pydantic import ValidationError
@@ -63,7 +64,11 @@ def add_commands(commands: Commands) -> None:
         "save", help="save the map now (ROS map_server .yaml and .pgm, and navd's state)"
     )
     save.add_argument(
-        "name", nargs="?", default="", help="file name in slam.map_dir (default: slam.map_name)"
+        "name",
+        nargs="?",
+        default="",
+        help="a name in slam.map_dir (default: slam.map_name), or a path: DIR/NAME.yaml "
+        "(written by the daemon: a daemon on this machine)",
     )
     connection_options(save)
     save.set_defaults(handler=_map_save)
@@ -72,7 +77,9 @@ def add_commands(commands: Commands) -> None:
         help="replace the map with a saved one from slam.map_dir (the robot is then "
         "searched for on it)",
     )
-    load.add_argument("name", help="the map's name in slam.map_dir (NAME.yaml)")
+    load.add_argument(
+        "name", help="the map's name in slam.map_dir (NAME), or a path to its DIR/NAME.yaml"
+    )
     connection_options(load)
     load.set_defaults(handler=_map_load)
 
@@ -125,9 +132,19 @@ def _ask(
                 return reply
 
 
+def _name_and_folder(text: str) -> tuple[str, str | None]:
+    """A map's name, and its folder when ``text`` is a path (it has a folder or ends in
+    .yaml) rather than a name in slam.map_dir; a relative path is from here."""
+    if "/" not in text and not text.endswith(".yaml"):
+        return text, None
+    path = Path(text).expanduser().absolute()
+    return path.name.removesuffix(".yaml"), str(path.parent)
+
+
 def _map_save(args: argparse.Namespace) -> int:
+    name, folder = _name_and_folder(args.name)
     try:
-        frame = SaveMapFrame(name=args.name)
+        frame = SaveMapFrame(name=name, folder=folder)
     except ValidationError as err:
         return _usage("map save", err)
     try:
@@ -135,7 +152,7 @@ def _map_save(args: argparse.Namespace) -> int:
             args,
             frame,
             MapSavedFrame,
-            lambda f: not args.name or f.name == args.name,
+            lambda f: not name or f.name == name,
             MAP_SAVE_TIMEOUT_S,
         )
     except (ClientError, ConfigError) as err:
@@ -150,8 +167,9 @@ def _map_save(args: argparse.Namespace) -> int:
 
 
 def _map_load(args: argparse.Namespace) -> int:
+    name, folder = _name_and_folder(args.name)
     try:
-        frame = LoadMapFrame(name=args.name)
+        frame = LoadMapFrame(name=name, folder=folder)
     except ValidationError as err:
         return _usage("map load", err)
     name = frame.name.removesuffix(".yaml")

@@ -302,7 +302,7 @@ class SlamNode(Module):
             reason = f"{MAX_WAITING_SAVES} saves are waiting already; ask again when one is done"
             self.ctx.publish(self._saved(name, reason=reason))
             return
-        self._saves.append((name, settings.map_dir))
+        self._saves.append((name, request.folder or settings.map_dir))
         # the slot keeps one waiting job, and each job saves every request waiting
         self.ctx.submit("map_save", self._save_waiting)
 
@@ -317,7 +317,7 @@ class SlamNode(Module):
             self._reseed = True
 
     def _on_load(self, request: LoadMapRequest) -> None:
-        folder = self.settings.value.map_dir
+        folder = request.folder or self.settings.value.map_dir
         self.ctx.submit("map_load", lambda: self._load(request.name, folder))
 
     def _load(self, name: str, folder: str) -> tuple[Message, ...]:

@@ -80,8 +80,39 @@ def test_pose_set_and_map_save_report_what_happened(daemon_on_port: Any, tmp_pat
     assert loaded.returncode == 0 and str(maps / "lab.yaml") in loaded.stdout, loaded.stderr
     missing = run_navd("map", "load", "nosuch", *at)
     assert missing.returncode == 1 and "nosuch.yaml" in missing.stderr
-    sneaky = run_navd("map", "load", "../etc/passwd", *at)
-    assert sneaky.returncode == 2  # only names in slam.map_dir
+    not_a_map = run_navd("map", "load", str(tmp_path / "navd.toml"), *at)  # DIR/NAME: NAME.yaml
+    assert not_a_map.returncode == 1 and "navd.toml.yaml" in not_a_map.stderr
+    nowhere = run_navd("map", "load", str(tmp_path / "nowhere" / "lab.yaml"), *at)
+    assert nowhere.returncode == 1 and str(tmp_path / "nowhere") in nowhere.stderr
+
+
+def test_map_save_and_load_by_path(daemon_on_port: Any, tmp_path: Path) -> None:
+    _, port = daemon_on_port(f'[slam]\nmap_dir = "{tmp_path / "maps"}"\n')
+    at = ("--port", str(port))
+    lidar = Lidar(port)
+    lidar.start()
+    try:
+        deadline = time.monotonic() + 20.0
+        target = tmp_path / "elsewhere" / "deep" / "hall.yaml"
+        saved = run_navd("map", "save", str(target), *at)
+        while saved.returncode != 0 and time.monotonic() < deadline:  # the first scans map
+            time.sleep(0.5)
+            saved = run_navd("map", "save", str(target), *at)
+        # a file where the folder should be: nothing can be written there, and it says so
+        blocker = tmp_path / "blocker"
+        blocker.write_text("not a folder")
+        refused = run_navd("map", "save", str(blocker / "hall.yaml"), *at)
+    finally:
+        lidar.halt.set()
+        lidar.join()
+    assert saved.returncode == 0, saved.stderr
+    written = [Path(line.removeprefix("wrote ")) for line in saved.stdout.splitlines()]
+    assert written[0] == target and all(p.is_file() for p in written)
+    assert not (tmp_path / "maps" / "hall.yaml").exists()
+    assert refused.returncode == 1 and "cannot write" in refused.stderr
+    assert str(blocker) in refused.stderr
+    loaded = run_navd("map", "load", str(target), *at)
+    assert loaded.returncode == 0 and str(target) in loaded.stdout, loaded.stderr
 
 
 def test_map_save_into_a_folder_it_cannot_write_says_why(

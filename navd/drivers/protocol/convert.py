@@ -221,11 +221,16 @@ def control_message(
             std_yaw_rad=frame.std_yaw,
         )
     if isinstance(frame, SaveMapFrame):
-        return SaveMapRequest(stamp=now, received=now, name=frame.name)
+        return SaveMapRequest(stamp=now, received=now, name=frame.name, folder=frame.folder or "")
     if isinstance(frame, FindPoseFrame):
         return FindPoseRequest(stamp=now, received=now, source=client_id)
     if isinstance(frame, LoadMapFrame):
-        return LoadMapRequest(stamp=now, received=now, name=frame.name.removesuffix(".yaml"))
+        return LoadMapRequest(
+            stamp=now,
+            received=now,
+            name=frame.name.removesuffix(".yaml"),
+            folder=frame.folder or "",
+        )
     if isinstance(frame, RecordFrame):
         return RecordRequest(
             stamp=now, received=now, start=frame.action == "start", source=client_id

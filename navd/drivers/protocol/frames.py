@@ -449,10 +449,19 @@ class InitialPoseFrame(Frame):
 
 
 class SaveMapFrame(Frame):
-    """Save the map (under ``name``, or ``slam.map_name``)."""
+    """Save the map (under ``name``, or ``slam.map_name``; in ``folder``, or
+    ``slam.map_dir``)."""
 
     type: Literal["save_map"] = "save_map"
     name: str = Field("", pattern=r"^([A-Za-z0-9_][A-Za-z0-9_.\-]{0,63})?$")
+    folder: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        pattern=r"^/",
+        description="an absolute folder instead of slam.map_dir (from this machine, or with "
+        "tcp.allow_privileged_changes)",
+    )
 
 
 class TeleopFrame(Frame):
@@ -479,11 +488,19 @@ class FindPoseFrame(Frame):
 
 
 class LoadMapFrame(Frame):
-    """Replace the map with ``name``.yaml from ``slam.map_dir`` (a saved map); the robot is
+    """Replace the map with ``name``.yaml from ``folder`` (or ``slam.map_dir``); the robot is
     then searched for on it."""
 
     type: Literal["load_map"] = "load_map"
     name: str = Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}$")
+    folder: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        pattern=r"^/",
+        description="an absolute folder instead of slam.map_dir (from this machine, or with "
+        "tcp.allow_privileged_changes)",
+    )
 
 
 class SubscribeFrame(Frame):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+from navd.config.fields import is_loopback
 from navd.config.loader import redacted
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_control, encode
@@ -43,6 +44,7 @@ from navd.lifecycle.messages import (
     Goal,
     GoalStatus,
     InitialPose,
+    LoadMapRequest,
     ManualCommand,
     MapLoaded,
     MapSaved,
@@ -51,6 +53,7 @@ from navd.lifecycle.messages import (
     MissionStatus,
     Path,
     PoseFound,
+    SaveMapRequest,
 )
 
 __all__ = ["ControlRole"]
@@ -141,6 +144,8 @@ class ControlRole:
             )
             if isinstance(message, InitialPose):
                 self._check_on_map(message)
+            if isinstance(message, SaveMapRequest | LoadMapRequest) and message.folder:
+                self._check_folder(session, privileged)
             if isinstance(message, ManualCommand):
                 # a stream, like a sensor's: not acknowledged, errors are answered
                 if not self._teleop_enabled():
@@ -198,6 +203,20 @@ class ControlRole:
         rows, cols = update.occupancy.shape
         x0, y0, res = update.origin_x_m, update.origin_y_m, update.resolution_m
         self._map_area = (x0, y0, x0 + cols * res, y0 + rows * res)
+
+    def _check_folder(self, session: Session, privileged: bool) -> None:
+        """Refuse a map folder of the robot's disk to a client that is neither on this
+        machine nor trusted with privileged changes.
+
+        Raises:
+            WireError: on the ``folder`` field.
+        """
+        if not (privileged or is_loopback(session.conn.peer.rpartition(":")[0])):
+            raise WireError(
+                "folder",
+                "a folder other than slam.map_dir is taken only from this machine, or with "
+                "tcp.allow_privileged_changes; leave it out to use slam.map_dir",
+            )
 
     def _check_on_map(self, pose: InitialPose) -> None:
         """Refuse an initial pose far from the map: SLAM would search for the robot there,

@@ -83,9 +83,11 @@ class InitialPose(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class SaveMapRequest(Message):
-    """Save the map now under ``name`` (the configured name when empty)."""
+    """Save the map now under ``name`` (the configured name when empty), in ``folder`` (the
+    configured ``slam.map_dir`` when empty)."""
 
     name: str = ""
+    folder: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -137,10 +139,11 @@ class PoseFound(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class LoadMapRequest(Message):
-    """Replace the map with ``name``.yaml from ``slam.map_dir``; the robot is then searched
-    for on it."""
+    """Replace the map with ``name``.yaml from ``folder`` (``slam.map_dir`` when empty); the
+    robot is then searched for on it."""
 
     name: str
+    folder: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
