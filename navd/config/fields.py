@@ -80,6 +80,8 @@ PRIVILEGED: dict[str, frozenset[str] | None] = {
     "planning": frozenset(
         {
             "keep_out_zones",
+            "keep_out_mask",
+            "speed_mask",
             "max_goal_distance_m",
             "max_plan_cells",
             # what each control step costs

@@ -76,6 +76,22 @@ class PlanningConfig(Section):
         (),
         description="[m] polygons in the map frame the robot must never enter",
     )
+    keep_out_mask: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        description="map_server YAML of an image whose occupied cells the robot never enters "
+        "(read again when the file changes; docs/planning.md)",
+        examples=["/etc/navd/zones/keep_out.yaml"],
+    )
+    speed_mask: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        description="map_server YAML of an image whose cells 1..100 cap the speed there in % of "
+        "robot.max_linear_speed_mps (0: no cap; read again when the file changes)",
+        examples=["/etc/navd/zones/speed.yaml"],
+    )
     min_linear_speed_mps: float = Field(
         0.05, ge=0, le=10, description="[m/s] slowest forward speed the velocity profile asks for"
     )

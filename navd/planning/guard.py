@@ -21,9 +21,10 @@ from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.geometry.mount import SensorMounts
 from navd.geometry.scan import laser_points
-from navd.lifecycle.messages import LaserScan
+from navd.lifecycle.messages import LaserScan, PoseEstimate
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning._dwa_kernels import footprint_distance
+from navd.planning.zones import RECHECK_S, ZoneMasks
 
 __all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
 
@@ -49,6 +50,8 @@ class GuardSettings:
     period_s: float
     enabled: bool
     mounts: SensorMounts
+    speed_mask: str | None = None
+    max_speed_mps: float = math.inf
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> GuardSettings:
@@ -64,6 +67,8 @@ class GuardSettings:
             period_s=1.0 / config.chassis.command_rate_hz,
             enabled=safety.use_collisions,
             mounts=SensorMounts.of(config),
+            speed_mask=config.planning.speed_mask,
+            max_speed_mps=robot.max_linear_speed_mps,
         )
 
 
@@ -164,17 +169,39 @@ class CollisionGuard(Module):
         super().__init__("collision_guard")
         self._points: FloatArray = np.empty((0, 2))
         self._by_lidar: dict[str, FloatArray] = {}
+        self._pose: tuple[float, float] | None = None
+        self.zones: ZoneMasks | None = None  # the speed mask, read in a worker
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self.settings = ctx.settings(GuardSettings)
         ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(PoseEstimate, self._on_pose)
 
     async def on_activate(self) -> None:
         # Compile (or load) the kernel now, not on the event loop nor on the first command
         # of a moving robot.
         settings = self.settings.value
         self.ctx.warm_up(lambda: _warm_up(settings), name="warm-up")
+        self.ctx.every(RECHECK_S, self._check_zones, name="speed-zones")
+
+    def _check_zones(self, now: float) -> None:
+        """Read the speed mask when the config names another, or its file changed (in a
+        worker: an image may take a while to read)."""
+        path = self.settings.value.speed_mask
+        zones = self.zones
+
+        def job() -> None:
+            if zones is None or zones.paths[1] != path:
+                self.zones = None if path is None else ZoneMasks(None, path)
+            else:
+                zones.refresh(now)
+
+        if path is not None or zones is not None:
+            self.ctx.submit("guard_zones", job)
+
+    def _on_pose(self, pose: PoseEstimate) -> None:
+        self._pose = (pose.x_m, pose.y_m)
 
     def settings_in_use(self) -> tuple[object, ...]:
         return (self.settings.value,)
@@ -188,6 +215,16 @@ class CollisionGuard(Module):
         self._points = hits if len(by_lidar) == 1 else np.concatenate(list(by_lidar.values()))
 
     def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
-        """The command scaled by the guard, and why ("" when untouched)."""
-        scale, reason = guard_scale(self._points, linear_mps, angular_radps, self.settings.value)
-        return linear_mps * scale, angular_radps * scale, reason
+        """The command scaled by the guard, and why ("" when untouched): slowed to a speed
+        zone's limit where the robot is (whoever drives, a person too), then scaled for
+        obstacles."""
+        settings = self.settings.value
+        zoned = ""
+        zones, pose = self.zones, self._pose
+        if zones is not None and zones.speed is not None and pose is not None:
+            cap = zones.speed_fraction_at(*pose) * settings.max_speed_mps
+            if abs(linear_mps) > cap:
+                linear_mps = math.copysign(cap, linear_mps)
+                zoned = f"speed zone: {cap:.2f} m/s"
+        scale, reason = guard_scale(self._points, linear_mps, angular_radps, settings)
+        return linear_mps * scale, angular_radps * scale, reason or zoned

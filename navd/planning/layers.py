@@ -20,6 +20,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
 from navd.planning.errors import GoalRefusedError
+from navd.planning.zones import ZoneMasks
 
 __all__ = ["FRAME_MARGIN_M", "LayerSettings", "Layers"]
 
@@ -45,12 +46,15 @@ class LayerSettings:
         obstacle_persistence_s: [s] a scan obstacle not seen again is forgotten after this.
         keep_out_zones: [m] polygons in the map frame the robot must never enter.
         max_cells: [cells] the largest snapshot A* may be given (its memory and time).
+        keep_out_mask, speed_mask: the zone masks' YAML files, or None.
     """
 
     occupied_threshold_pct: int
     obstacle_persistence_s: float
     keep_out_zones: Zones
     max_cells: int
+    keep_out_mask: str | None = None
+    speed_mask: str | None = None
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> LayerSettings:
@@ -61,6 +65,8 @@ class LayerSettings:
             planning.obstacle_persistence_s,
             planning.keep_out_zones,
             planning.max_plan_cells,
+            planning.keep_out_mask,
+            planning.speed_mask,
         )
 
 
@@ -80,11 +86,14 @@ class Layers:
         self._live: dict[str, tuple[float, FloatArray, FieldOfView]] = {}
         self.scan_points: FloatArray = np.empty((0, 2))  # the live scans' hits together
         self.views: tuple[FieldOfView, ...] = (ALL_AROUND,)  # what the live scans covered
-        self._keep_out: tuple[GridFrame, Zones, BoolArray] | None = None
+        self._keep_out: tuple[GridFrame, Zones, int, BoolArray] | None = None
+        self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
 
     def configure(self, settings: LayerSettings) -> None:
         """Take new settings; the map and the scan obstacles seen so far stay."""
         old, self.settings = self.settings, settings
+        if (settings.keep_out_mask, settings.speed_mask) != self.zones.paths:
+            self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
         if self.obstacles is not None:
             self.obstacles.persistence_s = settings.obstacle_persistence_s
         threshold_moved = settings.occupied_threshold_pct != old.occupied_threshold_pct
@@ -149,6 +158,8 @@ class Layers:
         Raises:
             GoalRefusedError: that frame would hold more than ``max_cells`` cells.
         """
+        self.zones.refresh(now)
+        self.zones.check()  # a keep-out zone that cannot be read cannot be kept out of
         frame = self._frame(points_m, now)
         limit = self.settings.max_cells
         if frame.rows * frame.cols > limit:
@@ -178,13 +189,20 @@ class Layers:
         return frame, obstacles, unknown
 
     def keep_out(self, frame: GridFrame) -> BoolArray:
-        """The keep-out cells of ``frame``, computed once per frame and set of zones."""
+        """The keep-out cells of ``frame`` (the polygons' and the mask's), computed once per
+        frame, set of polygons and reading of the mask."""
         zones = self.settings.keep_out_zones
+        revision = self.zones.revision
         cached = self._keep_out
-        if cached is None or cached[0] != frame or cached[1] != zones:
-            cached = (frame, zones, keep_out_mask(frame, zones))
+        if cached is None or cached[:3] != (frame, zones, revision):
+            cells = keep_out_mask(frame, zones) | self.zones.keep_out_cells(frame)
+            cached = (frame, zones, revision, cells)
             self._keep_out = cached
-        return cached[2]
+        return cached[3]
+
+    def has_keep_out(self) -> bool:
+        """True if any keep-out zone (a polygon or a mask) is set."""
+        return bool(self.settings.keep_out_zones) or self.zones.keep_out is not None
 
     def local_points(self, pose: Pose2, radius_m: float, now: float) -> FloatArray:
         """[m] obstacle points near the robot: live scan hits; the scan obstacles still
@@ -206,7 +224,7 @@ class Layers:
                 for view in self.views[1:]:
                     unseen &= view.unseen(local)
                 parts.append(marks[unseen])
-            if self.settings.keep_out_zones:
+            if self.has_keep_out():
                 frame = layer.frame
                 parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]

@@ -325,6 +325,13 @@ class Navigator:
             cap = self.profile.speed_cap(remaining, now - self._moving_since)
             if goal.max_speed_mps is not None:
                 cap = min(cap, goal.max_speed_mps)
+            zones = self.map_layers.zones
+            if zones.speed is not None:  # a speed zone here, or where the robot is heading
+                fraction = min(
+                    zones.speed_fraction_at(pose.x, pose.y),
+                    zones.speed_fraction_at(carrot[0], carrot[1]),
+                )
+                cap = min(cap, fraction * self.profile.max_speed_mps)
             window = Window(
                 cap,
                 min_speed_mps=min(stuck.min_speed_mps, cap),

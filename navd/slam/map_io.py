@@ -16,12 +16,19 @@ import os
 import re
 import tempfile
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.raster_file import (
+    FREE_THRESH,
+    OCCUPIED_THRESH,
+    MapYaml,
+    RasterFileError,
+    read_image,
+)
+from navd.geometry.raster_file import read_map_yaml as read_raster_yaml
 from navd.slam.errors import MapFileError
 from navd.slam.occupancy import OccupancyGrid
 
@@ -35,22 +42,7 @@ __all__ = [
     "saved_files",
 ]
 
-OCCUPIED_THRESH = 0.65
-FREE_THRESH = 0.196
 PIXEL_OCCUPIED, PIXEL_FREE, PIXEL_UNKNOWN = 0, 254, 205
-
-
-@dataclass(frozen=True, slots=True)
-class MapYaml:
-    """The keys of a map_server YAML file."""
-
-    image: str
-    resolution: float
-    origin: tuple[float, float, float]
-    negate: int = 0
-    occupied_thresh: float = OCCUPIED_THRESH
-    free_thresh: float = FREE_THRESH
-    mode: str = "trinary"
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
@@ -81,23 +73,15 @@ def _pgm_bytes(pixels: npt.NDArray[np.uint8]) -> bytes:
 
 
 def read_pgm(path: Path) -> npt.NDArray[np.uint8]:
-    """A binary (P5) 8-bit PGM image, top row first.
+    """A map image (PGM, or PNG), top row first.
 
     Raises:
-        MapFileError: not a P5 PGM with maxval 255, or truncated.
+        MapFileError: unreadable or malformed.
     """
     try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise MapFileError(f"{path}: cannot read the map image: {err}") from err
-    header = re.match(rb"P5\s+(?:#[^\n]*\s+)*(\d+)\s+(?:#[^\n]*\s+)*(\d+)\s+(\d+)\s", data)
-    if header is None or int(header.group(3)) != 255:
-        raise MapFileError(f"{path}: not a binary 8-bit PGM (P5, maxval 255)")
-    cols, rows = int(header.group(1)), int(header.group(2))
-    body = data[header.end() :]
-    if len(body) < rows * cols:
-        raise MapFileError(f"{path}: truncated: {len(body)} of {rows * cols} pixel bytes")
-    return np.frombuffer(body[: rows * cols], dtype=np.uint8).reshape(rows, cols).copy()
+        return read_image(path)
+    except RasterFileError as err:
+        raise MapFileError(str(err)) from err
 
 
 def _yaml_text(meta: MapYaml) -> str:
@@ -120,38 +104,9 @@ def read_map_yaml(path: Path) -> MapYaml:
         MapFileError: a missing file, a missing or malformed key (named).
     """
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise MapFileError(f"{path}: cannot read the map YAML: {err}") from err
-    values: dict[str, str] = {}
-    for raw in text.splitlines():
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        key, sep, value = line.partition(":")
-        if not sep:
-            raise MapFileError(f"{path}: expected 'key: value', got {line!r}")
-        values[key.strip()] = value.strip().strip("'\"")
-    try:
-        origin = tuple(float(v) for v in values["origin"].strip("[]").split(","))
-        if len(origin) != 3:
-            raise ValueError("origin must have 3 numbers")
-        meta = MapYaml(
-            image=values["image"],
-            resolution=float(values["resolution"]),
-            origin=(origin[0], origin[1], origin[2]),
-            negate=int(values.get("negate", "0")),
-            occupied_thresh=float(values.get("occupied_thresh", str(OCCUPIED_THRESH))),
-            free_thresh=float(values.get("free_thresh", str(FREE_THRESH))),
-            mode=values.get("mode", "trinary"),
-        )
-    except KeyError as err:
-        raise MapFileError(f"{path}: missing key {err.args[0]!r}") from err
-    except ValueError as err:
-        raise MapFileError(f"{path}: malformed value: {err}") from err
-    if not meta.resolution > 0.0:
-        raise MapFileError(f"{path}: resolution must be > 0, got {meta.resolution}")
-    return meta
+        return read_raster_yaml(path)
+    except RasterFileError as err:
+        raise MapFileError(str(err)) from err
 
 
 def save_map(

@@ -33,6 +33,7 @@ daemon goes on without the view: watching is never a reason not to drive.
 from __future__ import annotations
 
 import asyncio
+import functools
 import math
 import secrets
 import threading
@@ -79,6 +80,7 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
+from navd.planning.zones import RECHECK_S, ZoneMasks
 from navd.viz import page_data, scene
 from navd.viz.commands import viewer_request
 from navd.viz.errors import CommandRefusedError
@@ -237,6 +239,9 @@ class VizNode(Module):
         self.goal = SceneUpdateChannel("/goal", context=context)
         self.footprint = SceneUpdateChannel("/footprint", context=context)
         self.keep_out = SceneUpdateChannel("/keep_out", context=context)
+        # the zone masks (docs/planning.md) as grids: keep-out 100, speed 1..100 % of top speed
+        self.keep_out_mask = GridChannel("/zones/keep_out", context=context)
+        self.speed_mask = GridChannel("/zones/speed", context=context)
         self.goal_status = Channel("/goal_status", context=context)
         self.status = Channel("/status", context=context)
         self.log = LogChannel("/log", context=context)
@@ -288,6 +293,9 @@ class VizNode(Module):
         self._offset_s = time.time() - now
         self._remember("/footprint", lambda: self._send_footprint(now))
         self._remember("/keep_out", lambda: self._send_keep_out(now))
+        self._zones: ZoneMasks | None = None
+        self._zones_shown = -1
+        self.ctx.every(RECHECK_S, self._check_zones, name="zone-masks")
         self._remember("/page/info", self._send_page_info)
         listener = _Listener(
             asyncio.get_running_loop(), self._subscribed, self._on_command, self._unsubscribed
@@ -531,6 +539,38 @@ class VizNode(Module):
     def _send_footprint(self, now: float) -> None:
         footprint = self.settings.value.footprint
         self._send_scene(self.footprint, scene.footprint_scene(footprint, now + self._offset_s))
+
+    def _check_zones(self, now: float) -> None:
+        """Read the zone masks in a worker when the config names others or their files
+        change; show what changed (the last reading stays for later viewers)."""
+        paths = self.settings.value.zone_masks
+        zones = self._zones
+        if zones is None and paths == (None, None):
+            return
+
+        def job() -> None:
+            current = self._zones
+            if current is None or current.paths != paths:
+                current = self._zones = ZoneMasks(*paths)
+            else:
+                current.refresh(now)
+            if current.revision == self._zones_shown:
+                return
+            self._zones_shown = current.revision
+            for topic, channel, mask in (
+                ("/zones/keep_out", self.keep_out_mask, current.keep_out),
+                ("/zones/speed", self.speed_mask, current.speed),
+            ):
+                if mask is not None:
+                    grid = scene.zone_grid(mask.frame, mask.values, now + self._offset_s)
+                    self._latest[topic] = functools.partial(self._send_zone, channel, grid)
+                    self._send_zone(channel, grid)
+
+        self.ctx.submit("viz_zones", job)
+
+    def _send_zone(self, channel: GridChannel, grid: Any) -> None:
+        if self.server is not None and channel.has_sinks():
+            channel.log(grid, log_time=self._log_time())
 
     def _send_keep_out(self, now: float) -> None:
         zones = self.settings.value.keep_out_zones

@@ -51,6 +51,7 @@ from navd.lifecycle.messages import (
     PoseEstimate,
 )
 from navd.lifecycle.messages import LaserScan as NavdScan
+from navd.planning.costmap import GridFrame
 
 __all__ = [
     "BASE_LINK",
@@ -68,6 +69,7 @@ __all__ = [
     "odometry",
     "route_scene",
     "trajectory_scene",
+    "zone_grid",
 ]
 
 MAP, ODOM, BASE_LINK, LASER = "map", "odom", "base_link", "laser"
@@ -116,6 +118,23 @@ def occupancy_grid(update: MapUpdate | CostmapUpdate, *, offset_s: float = 0.0) 
             PackedElementField(name="occupancy", offset=0, type=PackedElementFieldNumericType.Int8)
         ],
         data=np.ascontiguousarray(update.occupancy, dtype=np.int8).tobytes(),
+    )
+
+
+def zone_grid(frame: GridFrame, values: npt.NDArray[np.int8], stamp_s: float) -> Grid:
+    """A zone mask as a grid of int8 ``occupancy`` cells in ``map`` (row 0 the lowest y)."""
+    return Grid(
+        timestamp=as_timestamp(stamp_s),
+        frame_id=MAP,
+        pose=_pose(frame.origin_x_m, frame.origin_y_m, 0.0),
+        column_count=frame.cols,
+        cell_size=Vector2(x=frame.resolution_m, y=frame.resolution_m),
+        row_stride=frame.cols,
+        cell_stride=1,
+        fields=[
+            PackedElementField(name="occupancy", offset=0, type=PackedElementFieldNumericType.Int8)
+        ],
+        data=np.ascontiguousarray(values, dtype=np.int8).tobytes(),
     )
 
 

@@ -25,6 +25,7 @@ class VizSettings:
         footprint: the robot's outline in base_link.
         lidar: the lidar's mount in base_link (the base_link -> laser frame).
         keep_out_zones: [m] polygons in the map frame the robot must not enter.
+        zone_masks: the keep-out and speed masks' YAML files (None when not set).
         robot_name: the name the server gives itself.
         page_enabled, page_port: the operator page's HTTP server (they need a restart).
         commands: viewers may steer (goals, initial poses, velocities, cancels).
@@ -45,6 +46,7 @@ class VizSettings:
     footprint: Footprint
     mounts: SensorMounts
     keep_out_zones: tuple[tuple[tuple[float, float], ...], ...]
+    zone_masks: tuple[str | None, str | None]
     robot_name: str
     page_enabled: bool
     page_port: int
@@ -70,6 +72,7 @@ class VizSettings:
             footprint=Footprint.of(config.robot),
             mounts=SensorMounts.of(config),
             keep_out_zones=config.planning.keep_out_zones,
+            zone_masks=(config.planning.keep_out_mask, config.planning.speed_mask),
             robot_name=config.robot.name,
             page_enabled=viz.page_enabled,
             page_port=viz.page_port,

@@ -6,6 +6,7 @@ import asyncio
 import socket
 from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,7 @@ from navd.logs import add_log_tap, get_logger, remove_log_tap
 from navd.viz import node as viz_node
 from navd.viz.node import VizNode
 from tests.drivers.conftest import record, until
+from tests.planning.test_zones import ORIGIN, SHAPE, write_mask
 from tests.viz.foxglove_client import FoxgloveClient
 
 TOPICS = {"/map", "/scan", "/tf", "/pose", "/route", "/goal", "/footprint", "/keep_out"}
@@ -33,7 +35,10 @@ TOPICS |= {"/goal_status", "/status", "/log", "/costmap", "/trajectory"}
 
 @asynccontextmanager
 async def viewed_daemon(
-    daemon_log_level: str = "warning", tcp: Mapping[str, Any] | None = None, **viz: Any
+    daemon_log_level: str = "warning",
+    tcp: Mapping[str, Any] | None = None,
+    planning: Mapping[str, Any] | None = None,
+    **viz: Any,
 ) -> AsyncIterator[tuple[Daemon, VizNode]]:
     """A daemon running only the live view, on a free port unless ``viz`` names one (and
     with the ``tcp`` section given, for its token)."""
@@ -42,7 +47,10 @@ async def viewed_daemon(
             "viz": {"port": 0, "page_port": 0, **viz},
             "tcp": {"port": 0, **(tcp or {})},
             "logging": {"level": daemon_log_level},
-            "planning": {"keep_out_zones": [[[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]]]},
+            "planning": {
+                "keep_out_zones": [[[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]]],
+                **(planning or {}),
+            },
         }
     )
     node = VizNode()
@@ -252,3 +260,21 @@ async def test_the_costmap_and_trajectory_are_asked_for_only_while_watched() -> 
             await client.close()
         # the viewer gone, nothing is watched: the planner may stop making either
         await until(lambda: not interest[-1].trajectory, timeout_s=5.0)
+
+
+async def test_zone_masks_are_shown_as_grids(tmp_path: Path) -> None:
+    grey = np.full(SHAPE, 254, dtype=np.uint8)
+    grey[10:20, 30:40] = 0  # a keep-out block
+    yaml = write_mask(tmp_path, "keep", grey)
+    async with viewed_daemon(planning={"keep_out_mask": str(yaml)}) as (_, node):
+        assert node.port is not None
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics({"/zones/keep_out", "/zones/speed"})
+            await client.subscribe("/zones/keep_out")
+            _, grid = await client.receive("/zones/keep_out", timeout_s=10.0)
+        finally:
+            await client.close()
+    shown = np.frombuffer(grid.data, dtype=np.int8).reshape(SHAPE)
+    assert (shown[10:20, 30:40] == 100).all() and (shown[:10] == 0).all()
+    assert (grid.pose.position.x, grid.pose.position.y) == pytest.approx(ORIGIN)
