@@ -68,7 +68,7 @@ def add_commands(commands: Commands) -> None:
         nargs="?",
         default="",
         help="a name in slam.map_dir (default: slam.map_name), or a path: DIR/NAME.yaml "
-        "(written by the daemon: a daemon on this machine)",
+        "(written by the daemon, on its machine; needs tcp.allow_privileged_changes)",
     )
     connection_options(save)
     save.set_defaults(handler=_map_save)
@@ -78,7 +78,9 @@ def add_commands(commands: Commands) -> None:
         "searched for on it)",
     )
     load.add_argument(
-        "name", help="the map's name in slam.map_dir (NAME), or a path to its DIR/NAME.yaml"
+        "name",
+        help="the map's name in slam.map_dir (NAME), or a path to its DIR/NAME.yaml (read by "
+        "the daemon; needs tcp.allow_privileged_changes)",
     )
     connection_options(load)
     load.set_defaults(handler=_map_load)

@@ -54,14 +54,17 @@ class _Leg:
 class MissionExecutor:
     """Runs ``request`` (see the module docstring)."""
 
-    def __init__(self, request: MissionRequest) -> None:
+    def __init__(self, request: MissionRequest, run: int = 1) -> None:
         self.request = request
+        self.run = run  # this daemon's count of missions: goal ids never repeat across runs
+        self.legs = 0  # goals sent so far: a retried or resumed step's goal is a new one
         self.state = "running"
         self.index = -1  # the step being run, from 0
         self.round = 1
         self.attempt = 0
         self.done = 0
         self.failed = 0
+        self._done_this_round = 0
         self.leg: _Leg | None = None
         self.wait_until = math.inf
         self.distance_m = math.nan
@@ -150,8 +153,15 @@ class MissionExecutor:
                 self.state = "completed"
                 self.index = len(self.request.steps) - 1
                 return [self._status(now, "completed")]
+            if self._done_this_round == 0:
+                # every step of a round failed: another round would only fail again, at once
+                self.state = "failed"
+                self.index = len(self.request.steps) - 1
+                self.reason = f"every step of round {self.round} failed; last: {self.reason}"
+                return [self._status(now, "failed")]
             self.round += 1
             self.index = 0
+            self._done_this_round = 0
         self.attempt = 0
         return self._begin(now, pose)
 
@@ -186,7 +196,11 @@ class MissionExecutor:
         step = self.step
         assert step is not None
         suffix = "b" if final else "a"
-        goal_id = f"{self.request.mission_id}.{self.round}.{self.index + 1}.{self.attempt}{suffix}"
+        self.legs += 1
+        goal_id = (
+            f"{self.request.mission_id}:{self.run}.{self.round}.{self.index + 1}."
+            f"{self.legs}{suffix}"
+        )
         self.leg = _Leg(goal_id, final or step.kind != "approach")
         if step.kind == "goto_gps":
             return [
@@ -233,6 +247,7 @@ class MissionExecutor:
 
     def _step_done(self, now: float, pose: Pose2 | None) -> list[Message]:
         self.done += 1
+        self._done_this_round += 1
         return [self._status(now, "step_done"), *self._next(now, pose)]
 
     def _step_failed(self, now: float, pose: Pose2 | None, reason: str) -> list[Message]:

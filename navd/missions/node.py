@@ -24,6 +24,7 @@ class MissionNode(Module):
     def __init__(self) -> None:
         super().__init__("missions")
         self.mission: MissionExecutor | None = None
+        self._runs = 0
         self._pose: Pose2 | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
@@ -64,7 +65,8 @@ class MissionNode(Module):
         old = self.mission
         if old is not None and not old.ended:
             self._publish(old.command("cancel", now, self._pose)[0])
-        self.mission = MissionExecutor(request)
+        self._runs += 1
+        self.mission = MissionExecutor(request, self._runs)
         self._publish(self.mission.start(now, self._pose))
 
     def _on_command(self, command: MissionCommand) -> None:

@@ -24,6 +24,7 @@ from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import LaserScan, PoseEstimate
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning._dwa_kernels import footprint_distance
+from navd.planning.layers import LIVE_SCAN_S
 from navd.planning.zones import RECHECK_S, ZoneMasks
 
 __all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
@@ -168,7 +169,7 @@ class CollisionGuard(Module):
     def __init__(self) -> None:
         super().__init__("collision_guard")
         self._points: FloatArray = np.empty((0, 2))
-        self._by_lidar: dict[str, FloatArray] = {}
+        self._by_lidar: dict[str, tuple[float, FloatArray]] = {}  # stamp [s], points
         self._pose: tuple[float, float] | None = None
         self.zones: ZoneMasks | None = None  # the speed mask, read in a worker
 
@@ -210,9 +211,16 @@ class CollisionGuard(Module):
         mount = self.settings.value.mounts.lidar(scan.device_id)
         hits = laser_points(scan, mount, max_range_m=GUARD_REACH_M).hits
         by_lidar = self._by_lidar
-        by_lidar[scan.device_id] = hits
-        # A lidar gone quiet keeps its last points: the safety gate holds the robot for it.
-        self._points = hits if len(by_lidar) == 1 else np.concatenate(list(by_lidar.values()))
+        by_lidar[scan.device_id] = (scan.stamp, hits)
+        if len(by_lidar) == 1:
+            self._points = hits
+            return
+        # Another lidar's points count while its scans are current (a lidar gone quiet holds
+        # the robot in the safety gate; one that left, or came back under a new id, must not
+        # leave obstacles behind that move with the robot).
+        for device in [d for d, (t, _) in by_lidar.items() if t < scan.stamp - LIVE_SCAN_S]:
+            del by_lidar[device]
+        self._points = np.concatenate([points for _, points in by_lidar.values()])
 
     def limit(self, linear_mps: float, angular_radps: float) -> tuple[float, float, str]:
         """The command scaled by the guard, and why ("" when untouched): slowed to a speed

@@ -275,7 +275,8 @@ class PlannerNode(Module):
                     pose, points.hits, points.misses, scan.stamp, points.view, lidar=scan.device_id
                 )
 
-        self.ctx.submit("planning_scan", job)
+        # one slot per lidar: a busy worker must not keep dropping one lidar's marks
+        self.ctx.submit(f"planning_scan:{scan.device_id}", job)
 
     # --- goals (worker) ----------------------------------------------------------------------
 

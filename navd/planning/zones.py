@@ -11,6 +11,7 @@ runs; the config names the files and may change too.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,9 @@ from navd.planning.errors import PlanningError
 __all__ = ["RECHECK_S", "ZoneError", "ZoneMask", "ZoneMasks", "load_zone_mask"]
 
 RECHECK_S = 1.0  # [s] how often the files' modification times are looked at
+# Readings are numbered across every ZoneMasks of the process: a cache keyed by the number
+# never mistakes another file's first reading for the one it holds.
+_READINGS = itertools.count(1)
 BoolArray = npt.NDArray[np.bool_]
 
 
@@ -104,7 +108,7 @@ class ZoneMasks:
         self.keep_out: ZoneMask | None = None
         self.speed: ZoneMask | None = None
         self.error = ""
-        self.revision = 0  # goes up whenever a mask is read anew
+        self.revision = 0  # a new number whenever a mask is read anew
         self._checked_s = -math.inf
         self.refresh(0.0, force=True)
 
@@ -133,7 +137,7 @@ class ZoneMasks:
             changed = True
         self.error = "; ".join(errors)
         if changed:
-            self.revision += 1
+            self.revision = next(_READINGS)
         return changed
 
     def check(self) -> None:

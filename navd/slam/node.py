@@ -235,10 +235,10 @@ class SlamNode(Module):
                 self.mapper.set_pose(found.pose)
                 self.mapper.forget_odometry()
                 self._relocate = None
-                stamp = self.ctx.clock.now()
+                found_at = self.ctx.clock.now()
                 pose_found = PoseFound(
-                    stamp=stamp,
-                    received=stamp,
+                    stamp=stamp,  # the scan's: where the robot was when it was taken
+                    received=found_at,
                     x_m=found.pose.x,
                     y_m=found.pose.y,
                     yaw_rad=found.pose.yaw,

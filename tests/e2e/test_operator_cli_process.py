@@ -80,14 +80,14 @@ def test_pose_set_and_map_save_report_what_happened(daemon_on_port: Any, tmp_pat
     assert loaded.returncode == 0 and str(maps / "lab.yaml") in loaded.stdout, loaded.stderr
     missing = run_navd("map", "load", "nosuch", *at)
     assert missing.returncode == 1 and "nosuch.yaml" in missing.stderr
-    not_a_map = run_navd("map", "load", str(tmp_path / "navd.toml"), *at)  # DIR/NAME: NAME.yaml
-    assert not_a_map.returncode == 1 and "navd.toml.yaml" in not_a_map.stderr
-    nowhere = run_navd("map", "load", str(tmp_path / "nowhere" / "lab.yaml"), *at)
-    assert nowhere.returncode == 1 and str(tmp_path / "nowhere") in nowhere.stderr
+    untrusted = run_navd("map", "load", str(tmp_path / "elsewhere" / "lab.yaml"), *at)
+    assert untrusted.returncode == 1 and "tcp.allow_privileged_changes" in untrusted.stderr
 
 
 def test_map_save_and_load_by_path(daemon_on_port: Any, tmp_path: Path) -> None:
-    _, port = daemon_on_port(f'[slam]\nmap_dir = "{tmp_path / "maps"}"\n')
+    # a folder of the robot's disk is as privileged as slam.map_dir
+    trusted = "allow_privileged_changes = true\n"  # in the fixture's [tcp]
+    _, port = daemon_on_port(f'{trusted}[slam]\nmap_dir = "{tmp_path / "maps"}"\n')
     at = ("--port", str(port))
     lidar = Lidar(port)
     lidar.start()
@@ -113,6 +113,8 @@ def test_map_save_and_load_by_path(daemon_on_port: Any, tmp_path: Path) -> None:
     assert str(blocker) in refused.stderr
     loaded = run_navd("map", "load", str(target), *at)
     assert loaded.returncode == 0 and str(target) in loaded.stdout, loaded.stderr
+    nowhere = run_navd("map", "load", str(tmp_path / "nowhere" / "lab.yaml"), *at)
+    assert nowhere.returncode == 1 and str(tmp_path / "nowhere") in nowhere.stderr
 
 
 def test_map_save_into_a_folder_it_cannot_write_says_why(

@@ -48,7 +48,7 @@ def test_a_patrol_sends_each_goal_in_turn_and_goes_round_again() -> None:
         seen.append((goal.x_m, goal.y_m, goal.goal_id))
         out = mission.on_goal_status(_end(goal, "reached"), 1.0, HERE)
     assert [s[:2] for s in seen] == [(1, 0), (1, 1), (1, 0), (1, 1)]
-    assert [s[2] for s in seen] == ["m.1.1.0a", "m.1.2.0a", "m.2.1.0a", "m.2.2.0a"]
+    assert [s[2] for s in seen] == ["m:1.1.1.1a", "m:1.1.2.2a", "m:1.2.1.3a", "m:1.2.2.4a"]
     assert _events(out) == ["step_done", "completed"]
     assert mission.state == "completed" and mission.done == 4
 
@@ -98,7 +98,7 @@ def test_retries_run_out_and_then_the_mission_fails() -> None:
         (goal,) = _goals(mission.on_goal_status(_end(goal, "failed"), 1.0, HERE))
         ids.append(goal.goal_id)
     out = mission.on_goal_status(_end(goal, "failed"), 1.0, HERE)
-    assert ids == ["m.1.1.0a", "m.1.1.1a", "m.1.1.2a"]
+    assert ids == ["m:1.1.1.1a", "m:1.1.1.2a", "m:1.1.1.3a"]
     assert _events(out) == ["step_failed", "failed"] and mission.failed == 1
 
 
@@ -177,3 +177,38 @@ def test_a_gps_step_sends_a_geo_goal() -> None:
         "step_done",
         "completed",
     ]
+
+
+def test_a_mission_run_again_under_its_id_is_not_paused_by_the_old_runs_cancel() -> None:
+    request = MissionRequest(
+        stamp=0.0, received=0.0, mission_id="patrol", name="p", steps=(goto(1, 0),)
+    )
+    first, second = MissionExecutor(request, run=1), MissionExecutor(request, run=2)
+    (old,) = _goals(first.start(0.0, HERE))
+    (new,) = _goals(second.start(0.0, HERE))
+    assert old.goal_id != new.goal_id
+    # the planner says the first run's goal was cancelled (the new run replaced it)
+    assert second.on_goal_status(_end(old, "canceled"), 1.0, HERE) == []
+    assert second.state == "running"
+    assert _events(second.on_goal_status(_end(new, "reached"), 2.0, HERE))[-1] == "completed"
+
+
+def test_a_resumed_step_sends_a_goal_of_a_new_id() -> None:
+    mission = _mission(goto(1, 0))
+    (goal,) = _goals(mission.start(0.0, HERE))
+    mission.command("pause", 1.0, HERE)
+    (again,) = _goals(mission.command("resume", 2.0, HERE)[0])
+    assert again.goal_id != goal.goal_id
+    # the cancelled first goal's late status leaves the resumed step alone
+    assert mission.on_goal_status(_end(goal, "canceled"), 2.5, HERE) == []
+    assert mission.state == "running"
+
+
+def test_a_patrol_whose_every_step_fails_stops_after_a_round() -> None:
+    mission = _mission(goto(9, 9, on_failure="skip"), goto(8, 8, on_failure="skip"), rounds=0)
+    out = mission.start(0.0, HERE)
+    for _ in range(2):
+        (goal,) = _goals(out)
+        out = mission.on_goal_status(_end(goal, "failed", "no route"), 1.0, HERE)
+    assert mission.state == "failed" and "every step of round 1 failed" in mission.reason
+    assert _goals(out) == []

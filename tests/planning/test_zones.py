@@ -4,6 +4,7 @@ mask redrawn while navd runs taking effect at the next plan."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -20,6 +21,7 @@ from navd.planning.costmap import GridFrame
 from navd.planning.errors import PlanningError
 from navd.planning.goal import NavGoal
 from navd.planning.guard import CollisionGuard, GuardSettings
+from navd.planning.layers import Layers, LayerSettings
 from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.planning.zones import RECHECK_S, ZoneError, ZoneMasks, load_zone_mask
@@ -187,3 +189,18 @@ def test_the_collision_guard_holds_anyone_to_a_speed_zone(tmp_path: Path) -> Non
     linear, angular, reason = guard.limit(top, 0.3)
     assert linear == pytest.approx(0.3 * top) and angular == 0.3 and "speed zone" in reason
     assert guard.limit(-0.2, 0.0)[0] == pytest.approx(-0.3 * top)  # backing up too
+
+
+def test_a_mask_swapped_for_another_file_is_the_one_kept_out_of(tmp_path: Path) -> None:
+    first = np.full(SHAPE, 254, dtype=np.uint8)
+    first[_cells(1.0, 1.5, 0.0, 0.5)] = 0
+    second = np.full(SHAPE, 254, dtype=np.uint8)
+    second[_cells(5.0, 5.5, 0.0, 0.5)] = 0
+    a, b = write_mask(tmp_path, "a", first), write_mask(tmp_path, "b", second)
+    settings = LayerSettings.from_config(_config(keep_out_mask=str(a)))
+    layers = Layers(settings)
+    frame = GridFrame(RES, ORIGIN[0], ORIGIN[1], *SHAPE)
+    assert layers.keep_out(frame)[frame.cell_of(1.2, 0.2)]
+    layers.configure(dataclasses.replace(settings, keep_out_mask=str(b)))
+    cells = layers.keep_out(frame)  # the same frame: no stale cache of the first file
+    assert cells[frame.cell_of(5.2, 0.2)] and not cells[frame.cell_of(1.2, 0.2)]

@@ -212,6 +212,7 @@ async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
     async with running_daemon(slam=slam) as (daemon, port):
         found = record(daemon, PoseFound)
         seeds = record(daemon, InitialPose)
+        poses = record(daemon, PoseMeasurement)
         lidar = await connected(port, "lidar", "lidar0")
         control = await connected(port, "control", "ui")
         lidar.send(_frame(Pose2(2.0, -2.5, 2.5), 50.0))
@@ -224,6 +225,9 @@ async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
         assert found[1].whole_map and found[1].score > 0.5
         assert math.hypot(found[1].x_m - carried.x, found[1].y_m - carried.y) < 0.05
         assert math.hypot(seeds[0].x_m - carried.x, seeds[0].y_m - carried.y) < 0.05
+        # stamped with the scan's time (the search takes a while), as is the seed
+        assert found[1].stamp == seeds[0].stamp == poses[-1].stamp
+        assert found[1].received >= found[1].stamp
         await lidar.close()
         await control.close()
 

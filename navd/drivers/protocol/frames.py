@@ -459,8 +459,8 @@ class SaveMapFrame(Frame):
         min_length=1,
         max_length=4096,
         pattern=r"^/",
-        description="an absolute folder instead of slam.map_dir (from this machine, or with "
-        "tcp.allow_privileged_changes)",
+        description="an absolute folder instead of slam.map_dir (privileged, as slam.map_dir "
+        "is: taken only with tcp.allow_privileged_changes)",
     )
 
 
@@ -498,8 +498,8 @@ class LoadMapFrame(Frame):
         min_length=1,
         max_length=4096,
         pattern=r"^/",
-        description="an absolute folder instead of slam.map_dir (from this machine, or with "
-        "tcp.allow_privileged_changes)",
+        description="an absolute folder instead of slam.map_dir (privileged, as slam.map_dir "
+        "is: taken only with tcp.allow_privileged_changes)",
     )
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
-from navd.config.fields import is_loopback
 from navd.config.loader import redacted
 from navd.drivers.errors import WireError
 from navd.drivers.protocol.codec import decode_control, encode
@@ -145,7 +144,7 @@ class ControlRole:
             if isinstance(message, InitialPose):
                 self._check_on_map(message)
             if isinstance(message, SaveMapRequest | LoadMapRequest) and message.folder:
-                self._check_folder(session, privileged)
+                self._check_folder(privileged)
             if isinstance(message, ManualCommand):
                 # a stream, like a sensor's: not acknowledged, errors are answered
                 if not self._teleop_enabled():
@@ -204,18 +203,19 @@ class ControlRole:
         x0, y0, res = update.origin_x_m, update.origin_y_m, update.resolution_m
         self._map_area = (x0, y0, x0 + cols * res, y0 + rows * res)
 
-    def _check_folder(self, session: Session, privileged: bool) -> None:
-        """Refuse a map folder of the robot's disk to a client that is neither on this
-        machine nor trusted with privileged changes.
+    def _check_folder(self, privileged: bool) -> None:
+        """Refuse a map folder of the robot's disk unless the config trusts control clients
+        with privileged changes (``slam.map_dir`` itself is a privileged key).
 
         Raises:
             WireError: on the ``folder`` field.
         """
-        if not (privileged or is_loopback(session.conn.peer.rpartition(":")[0])):
+        if not privileged:
             raise WireError(
                 "folder",
-                "a folder other than slam.map_dir is taken only from this machine, or with "
-                "tcp.allow_privileged_changes; leave it out to use slam.map_dir",
+                "a folder other than slam.map_dir is privileged: set "
+                "tcp.allow_privileged_changes = true in the config, or leave it out to use "
+                "slam.map_dir",
             )
 
     def _check_on_map(self, pose: InitialPose) -> None:
