@@ -153,6 +153,7 @@ def _calibrate(args: argparse.Namespace, link: Link, address: int | None) -> int
     """Record the raw field while the robot turns in place; write the fitted correction."""
     from navd.config import ConfigError  # noqa: PLC0415
     from navd.config.edit import set_table_keys  # noqa: PLC0415
+    from navd.config.loader import toml_key  # noqa: PLC0415
     from navd.sensors.calibration import record_turn  # noqa: PLC0415
     from navd.sensors.i2c import ChipError  # noqa: PLC0415
     from navd.sensors.i2c_runner import I2cOptions  # noqa: PLC0415
@@ -172,7 +173,7 @@ def _calibrate(args: argparse.Namespace, link: Link, address: int | None) -> int
         print(f"navd sensor calibrate-compass: {err}", file=sys.stderr)
         return EXIT_FAILED
     path = _config_path(args)
-    table = f"mounts.compasses.{link.device_id}"
+    table = f"mounts.compasses.{toml_key(link.device_id)}"
     values = {
         "hard_iron_ut": list(fit.hard_iron_ut),
         "soft_iron": [list(row) for row in fit.soft_iron],

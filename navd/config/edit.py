@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import tempfile
@@ -55,8 +56,11 @@ def set_table_keys(path: Path, table: str, values: dict[str, Any]) -> None:
             out.write(changed)
             out.flush()
             os.fsync(out.fileno())
-        if path.exists():
-            os.chmod(tmp, path.stat().st_mode & 0o777)
+        if path.exists():  # the file keeps its mode and, where allowed, its owner and group
+            was = path.stat()
+            os.chmod(tmp, was.st_mode & 0o777)
+            with contextlib.suppress(PermissionError):
+                os.chown(tmp, was.st_uid, was.st_gid)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

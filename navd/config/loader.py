@@ -8,6 +8,7 @@ whole or rejected whole.
 from __future__ import annotations
 
 import difflib
+import re
 import textwrap
 import tomllib
 from collections.abc import Mapping
@@ -229,13 +230,21 @@ def _named_tables(
         return [
             f"# {line}".rstrip()
             for key, item in example.items()
-            for line in [f"[{prefix}.{key}]", *tomli_w.dumps(item).strip().splitlines()]
+            for line in [f"[{prefix}.{toml_key(key)}]", *tomli_w.dumps(item).strip().splitlines()]
         ]
     lines: list[str] = []
     for key, item in tables.items():
-        lines.append(f"[{prefix}.{key}]")
+        lines.append(f"[{prefix}.{toml_key(key)}]")
         lines += tomli_w.dumps(item.model_dump(exclude_none=True)).strip().splitlines()
     return lines
+
+
+def toml_key(key: str) -> str:
+    """``key`` as TOML writes it in a dotted name: bare when it may be, quoted otherwise (a
+    device id with ``.`` or ``:``)."""
+    if re.fullmatch(r"[A-Za-z0-9_-]+", key):
+        return key
+    return '"' + key.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def _plain(value: Any) -> Any:

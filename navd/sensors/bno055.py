@@ -46,6 +46,7 @@ class Bno055:
         self.heading_period_s = 1.0 / heading_rate_hz
         self._heading_at = -math.inf
         self.uncalibrated = 0
+        self._polls = 0
 
     def setup(self) -> None:
         bus, address = self.bus, self.address
@@ -64,6 +65,11 @@ class Bno055:
         time.sleep(0.01)  # 7 ms from config mode to a fusion mode
 
     def poll(self, stamp: float) -> list[SensorFrame]:
+        self._polls += 1
+        if self._polls % max(round(self.rate_hz), 1) == 0:
+            mode = self.bus.read_byte_data(self.address, OPR_MODE) & 0x0F
+            if mode != NDOF_MODE:  # a reset chip wakes in config mode, measuring nothing
+                raise OSError(f"the chip left its fusion mode (0x{mode:02X}): setting it up again")
         raw = self.bus.read_i2c_block_data(self.address, ACC_DATA, 24)
         v = [int16_le(raw[i], raw[i + 1]) for i in range(0, 24, 2)]
         accel = (v[0] / 100.0, v[1] / 100.0, v[2] / 100.0)

@@ -10,6 +10,7 @@ IMU and a compass) has a connection for each: the compass's id is the device id 
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections.abc import Callable
@@ -94,6 +95,7 @@ def run_i2c_sensor(
         program.run()
     finally:
         program.close()
+        program._close_bus()
 
 
 class _I2cProgram:
@@ -117,6 +119,7 @@ class _I2cProgram:
         }
         self.navd = f"{link.host}:{link.navd_port}"
         self.chip: Chip | None = None
+        self.bus: I2cBus | None = None
         self.clients: dict[Role, Client] = {}
         self.logged: dict[str, int] = {}
 
@@ -152,15 +155,27 @@ class _I2cProgram:
             client.close()
         self.clients = {}
 
+    def _close_bus(self) -> None:
+        """Close the bus's file (one is opened for each set-up)."""
+        bus, self.bus = self.bus, None
+        close = getattr(bus, "close", None)
+        if close is not None:
+            with contextlib.suppress(OSError):
+                close()
+
     def _set_up(self) -> Chip | None:
         bus, trouble = self.link.port, self.trouble
+        self._close_bus()
         try:
-            chip = make_chip(self.kind, self.open_bus(bus), self.options)
+            self.bus = self.open_bus(bus)
+            chip = make_chip(self.kind, self.bus, self.options)
             chip.setup()
         except ChipError as err:
+            self._close_bus()
             trouble.begin("wrong_chip", bus=bus, error=str(err))
             return None
         except OSError as err:
+            self._close_bus()
             trouble.begin("device_unavailable", bus=bus, error=str(err))
             return None
         for kind in ("device_unavailable", "device_lost", "wrong_chip"):

@@ -60,6 +60,7 @@ class Mpu:
         self._mag_adjust: tuple[float, float, float] | None = None
         self._mag_ut: tuple[float, float, float] | None = None
         self.mag_overflows = 0
+        self._polls = 0
 
     def setup(self) -> None:
         bus, address = self.bus, self.address
@@ -93,6 +94,9 @@ class Mpu:
         bus.write_byte_data(AK8963_ADDRESS, AK_CNTL1, 0x16)  # 16 bit, continuous 100 Hz
 
     def poll(self, stamp: float) -> list[SensorFrame]:
+        self._polls += 1
+        if self._polls % max(round(self.rate_hz), 1) == 0:
+            self._check_awake()
         raw = self.bus.read_i2c_block_data(self.address, ACCEL_XOUT_H, 14)
         values = [int16_be(raw[i], raw[i + 1]) for i in range(0, 14, 2)]
         ax, ay, az, _temperature, gx, gy, gz = values
@@ -109,6 +113,16 @@ class Mpu:
                 magnetic_field=mag,  # type: ignore[arg-type]
             )
         ]
+
+    def _check_awake(self) -> None:
+        """Once a second: a chip that lost power for a moment answers but sleeps (its reset
+        state), reading zeros; that is a lost device, to be set up again.
+
+        Raises:
+            OSError: the chip is asleep.
+        """
+        if self.bus.read_byte_data(self.address, PWR_MGMT_1) & 0x40:
+            raise OSError("the chip is asleep (it lost power and reset): setting it up again")
 
     def _read_magnetometer(self) -> None:
         if not self.bus.read_byte_data(AK8963_ADDRESS, AK_ST1) & 0x01:

@@ -10,6 +10,7 @@ import pytest
 
 from navd.config import ConfigError, load_config
 from navd.config.edit import set_table_keys
+from navd.config.loader import toml_key
 
 WRITTEN = """\
 # the yard rover
@@ -64,3 +65,13 @@ def test_a_key_the_model_does_not_know_is_refused_by_name(tmp_path: Path) -> Non
     with pytest.raises(ConfigError, match="hard_iron"):
         set_table_keys(path, "mounts.compasses.c0", {"hard_iron": [1.0, 2.0]})
     assert path.read_text() == WRITTEN
+
+
+def test_a_device_id_with_dots_is_one_quoted_table(tmp_path: Path) -> None:
+    path = tmp_path / "navd.toml"
+    path.write_text(WRITTEN)
+    table = f"mounts.compasses.{toml_key('qmc.i2c-1:0d')}"
+    set_table_keys(path, table, {"yaw_rad": 0.5})
+    set_table_keys(path, table, {"yaw_rad": 0.25})  # found again, not added twice
+    assert path.read_text().count("qmc.i2c-1:0d") == 1
+    assert load_config(path).mounts.compasses["qmc.i2c-1:0d"].yaw_rad == 0.25

@@ -60,3 +60,25 @@ def test_the_imu_rotation_takes_sensor_axes_into_base_link() -> None:
     r = rotation_rpy(0.3, -0.7, 2.0)
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
     assert np.linalg.det(r) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("rpy", "sensor_axis", "base_axis"),
+    [
+        ((math.pi / 2, 0.0, 0.0), (0, 1, 0), (0, 0, 1)),  # rolled left: its +y points up
+        ((0.0, math.pi / 2, 0.0), (1, 0, 0), (0, 0, -1)),  # pitched down: its +x points down
+        ((0.0, 0.0, math.pi / 2), (1, 0, 0), (0, 1, 0)),  # yawed left: its +x points left
+    ],
+)
+def test_each_mount_angle_turns_the_sensors_axes_as_ros_does(
+    rpy: tuple[float, float, float], sensor_axis: tuple[int, ...], base_axis: tuple[int, ...]
+) -> None:
+    np.testing.assert_allclose(rotation_rpy(*rpy) @ sensor_axis, base_axis, atol=1e-12)
+
+
+def test_mixed_angles_compose_as_fixed_axes_roll_then_pitch_then_yaw() -> None:
+    from scipy.spatial.transform import Rotation
+
+    rpy = (0.3, -0.7, 2.0)
+    expected = Rotation.from_euler("xyz", rpy).as_matrix()  # extrinsic x, y, z: Rz Ry Rx
+    np.testing.assert_allclose(rotation_rpy(*rpy), expected, atol=1e-12)

@@ -65,6 +65,13 @@ async def test_an_mpu6050_streams_samples_and_survives_a_chip_that_stops_answeri
             bus.broken = False
             await until(lambda: len(samples) > before + 10, 10.0)
             assert samples[-1].gyro_radps[2] == pytest.approx(math.radians(45.0), abs=1e-3)
+            # a reset the bus never noticed: the chip answers, asleep, with zeros
+            chip._reset()
+            before = len(samples)
+            await until(lambda: len(samples) > before + 150, 10.0)
+            zeros = [m for m in samples[before:] if m.gyro_radps[2] == 0.0]
+            assert len(zeros) <= 110  # at most a second's worth at 100 Hz, then set up again
+            assert samples[-1].gyro_radps[2] == pytest.approx(math.radians(45.0), abs=1e-3)
         finally:
             stop.set()
             await asyncio.to_thread(thread.join, 5.0)
