@@ -379,8 +379,10 @@ class StateEstimator:
         ox, oy = self.settings.mounts.gps_offset_m(device_id)
         if ox == 0.0 and oy == 0.0:
             return 0.0, 0.0
-        if yaw_rad is None:
-            yaw_rad = float(self._predict(self.history.latest.x, stamp)[TH])
+        if yaw_rad is None:  # the heading at the fix's time, not the newest one
+            then = self.history.at_or_before(stamp)
+            dt = max(stamp - then.stamp, 0.0)
+            yaw_rad = float((transition_matrix(dt) @ then.x)[TH])
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         return c * ox - s * oy, s * ox + c * oy
 

@@ -158,6 +158,19 @@ class EventHistory:
             raise RuntimeError("EventHistory.latest before initialize()")
         return self._base
 
+    def at_or_before(self, stamp: float) -> Snapshot:
+        """The state after the last event at or before ``stamp`` [s] (the start when none).
+
+        Raises:
+            RuntimeError: before ``initialize``.
+        """
+        k = bisect.bisect_right(self._stamps, stamp)
+        if k > 0:
+            return self._after[k - 1]
+        if self._base is None:
+            raise RuntimeError("EventHistory.at_or_before before initialize()")
+        return self._base
+
     @property
     def event_count(self) -> int:
         """Events kept for rewinding, plus those waiting for their time."""

@@ -102,7 +102,12 @@ class SensorMounts:
         """
         if not self.lidars:
             return self.default_lidar
-        return self.lidars[device_id]
+        try:
+            return self.lidars[device_id]
+        except KeyError:
+            raise KeyError(
+                f"lidar {device_id!r} has no mount: add [mounts.lidars.{device_id}]"
+            ) from None
 
     def imu_rotation(self, device_id: str) -> FloatArray | None:
         """The IMU's rotation to base_link, or None when it is aligned with it."""

@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from navd.errors import NavdError
+
 __all__ = [
     "FREE_THRESH",
     "OCCUPIED_THRESH",
@@ -26,7 +28,7 @@ FREE_THRESH = 0.196
 MODES = ("trinary", "scale", "raw")
 
 
-class RasterFileError(ValueError):
+class RasterFileError(NavdError, ValueError):
     """A raster's YAML or image is missing or malformed (the message names the file)."""
 
 

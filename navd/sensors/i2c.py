@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Protocol
 
 from navd.drivers.protocol.frames import SensorFrame
+from navd.errors import NavdError
 
 __all__ = ["Chip", "ChipError", "I2cBus", "int16_be", "int16_le"]
 
@@ -25,7 +26,7 @@ class I2cBus(Protocol):
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]: ...
 
 
-class ChipError(Exception):
+class ChipError(NavdError):
     """The chip at the address is not the one asked for, or refused its set-up."""
 
 
