@@ -23,10 +23,11 @@ quarter millimetres; a sample whose check bits are wrong is skipped a byte at a 
 
 An express capsule: sync nibbles 0xA and 0x5 in the high halves of bytes 0-1, their low
 halves the XOR checksum of bytes 2-83; bytes 2-3 the start angle (q6, bit 15 the new-scan
-flag); then 16 cabins of two samples, each a 14-bit distance [mm] with the top of a 6-bit
-signed angle offset dθ [1/8 deg] below it, and a byte of the two offsets' low nibbles. A
+flag); then 16 cabins of two samples, each a 14-bit distance [mm] with the top two bits of
+a 6-bit angle offset dθ [1/8 deg] below it, and a byte of the two offsets' low nibbles. A
 capsule's 32 samples lie between its start angle and the next capsule's: sample k is at
-start + k (next - start) / 32 - dθ_k, so a capsule is decoded when the next one comes.
+start + k (next - start) / 32 - dθ_k, so a capsule is decoded when the next one comes. dθ is
+read as Slamtec's own SDK reads it, unsigned (0 to 63/8 deg).
 
 Angles grow clockwise from the lidar's front; a distance of 0 is no return. The A1's motor
 runs while the serial adapter's DTR line is low; the A2 and A3 take a PWM duty; the C1 and
@@ -163,7 +164,6 @@ class RplidarDecoder:
     _angles: list[float] = field(default_factory=list)
     _ranges: list[float] = field(default_factory=list)
     _turn_stamp: float = 0.0
-    _last_angle: float = -1.0
 
     # --- the device's side --------------------------------------------------------------
 
@@ -315,28 +315,24 @@ class RplidarDecoder:
             self._capsule = None
             self._end_turn(stamp, frames)
         if self._capsule is not None:
-            self._capsule_points(*self._capsule, start_deg, stamp, frames)
+            previous_deg, previous = self._capsule
+            self._capsule_points(previous_deg, previous, start_deg, stamp)
+            if start_deg < previous_deg:
+                # the capsules' start angles passed the front: the turn is complete (its
+                # samples near 0 deg may read a little below, as 359; they are this turn's)
+                self._end_turn(stamp, frames)
         self._capsule = (start_deg, capsule)
         return True
 
     def _capsule_points(
-        self,
-        start_deg: float,
-        capsule: bytes,
-        next_deg: float,
-        stamp: float,
-        frames: list[SensorFrame],
+        self, start_deg: float, capsule: bytes, next_deg: float, stamp: float
     ) -> None:
         step = ((next_deg - start_deg) % 360.0) / (2 * CABINS)
         for j in range(CABINS):
             first, second, nibbles = _CABIN.unpack_from(capsule, 4 + 5 * j)
             for k, (word, low) in enumerate(((first, nibbles & 0xF), (second, nibbles >> 4))):
-                offset = ((word & 0x3) << 4) | low
-                if offset & 0x20:
-                    offset -= 0x40  # six-bit two's complement
+                offset = ((word & 0x3) << 4) | low  # unsigned, as the maker's SDK reads it
                 angle = (start_deg + step * (2 * j + k) - offset / 8.0) % 360.0
-                if self._angles and angle < self._last_angle - 180.0:
-                    self._end_turn(stamp, frames)  # wrapped past the front: a new turn
                 distance = (word >> 2) / 1000.0
                 self._point(angle, distance if distance > 0.0 else math.nan, stamp)
 
@@ -345,7 +341,6 @@ class RplidarDecoder:
             self._turn_stamp = stamp
         self._angles.append(angle_deg)
         self._ranges.append(range_m)
-        self._last_angle = angle_deg
 
     def _end_turn(self, stamp: float, frames: list[SensorFrame]) -> None:
         if len(self._angles) >= 2:

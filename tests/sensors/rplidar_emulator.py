@@ -28,7 +28,7 @@ def sample(angle_deg: float, distance_m: float, start: bool, quality: int = 47) 
 
 
 def capsule(start_deg: float, new_scan: bool, samples: list[tuple[int, int]]) -> bytes:
-    """An express capsule: 32 (distance [mm], dθ [1/8 deg, signed 6 bit]) samples."""
+    """An express capsule: 32 (distance [mm], dθ [1/8 deg, 6 bits]) samples."""
     body = struct.pack("<H", (round(start_deg * 64) & 0x7FFF) | (0x8000 if new_scan else 0))
     for j in range(16):
         (d1, o1), (d2, o2) = samples[2 * j], samples[2 * j + 1]
@@ -133,7 +133,7 @@ class RplidarEmulator:
                 start = c * span
                 samples = []
                 for k in range(32):
-                    offset_q3 = ((k % 7) - 3) * 5  # per-sample angle corrections up to 1.9 deg
+                    offset_q3 = (k % 8) * 8  # per-sample corrections 0 to 7 deg (6 bits, 1/8 deg)
                     true_deg = (start + k * span / 32 - offset_q3 / 8.0) % 360.0
                     samples.append((round(self.room(true_deg) * 1000), offset_q3))
                 out += capsule(start, new_scan=first and c == 0, samples=samples)
