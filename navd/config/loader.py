@@ -11,6 +11,7 @@ import difflib
 import re
 import textwrap
 import tomllib
+import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -312,18 +313,19 @@ def _did_you_mean(name: str, options: list[str]) -> str:
 
 
 def _field_description(loc: tuple[int | str, ...]) -> str | None:
-    """The description of the field at ``loc``, walking nested models."""
-    model: type[BaseModel] = NavdConfig
-    description: str | None = None
-    for part in loc:
-        if not isinstance(part, str) or part not in model.model_fields:
-            return description
-        field = model.model_fields[part]
-        description = field.description
-        annotation = field.annotation
-        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-            model = annotation
-    return description
+    """The description of the field at ``loc``, walking nested models (and the entries of a
+    table of named tables)."""
+    parent = _model_at(loc[:-1]) if loc else None
+    name = loc[-1] if loc else None
+    if parent is not None and isinstance(name, str) and name in parent.model_fields:
+        return parent.model_fields[name].description
+    # a part of a field's value (an item of a list): the nearest field that has words
+    for end in range(len(loc) - 1, 0, -1):
+        parent = _model_at(loc[: end - 1])
+        name = loc[end - 1]
+        if parent is not None and isinstance(name, str) and name in parent.model_fields:
+            return parent.model_fields[name].description
+    return None
 
 
 def _describe(err: ValidationError) -> list[str]:
@@ -366,11 +368,20 @@ def _field_secret(loc: tuple[int | str, ...]) -> bool:
 
 
 def _model_at(loc: tuple[int | str, ...]) -> type[BaseModel] | None:
+    """The model at ``loc`` in the config (a table of named tables, like the sensor mounts,
+    is looked through: its key names an entry, not a field); None where there is none."""
     model: type[BaseModel] = NavdConfig
-    for part in loc:
+    parts = list(loc)
+    while parts:
+        part = parts.pop(0)
         if not isinstance(part, str) or part not in model.model_fields:
             return None
         annotation = model.model_fields[part].annotation
+        if typing.get_origin(annotation) is dict:
+            if not parts:
+                return None  # the table of tables itself
+            parts.pop(0)  # an entry's name (a device id)
+            annotation = typing.get_args(annotation)[1]
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             return None
         model = annotation
