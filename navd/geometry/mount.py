@@ -130,12 +130,7 @@ class SensorMounts:
         table = MOUNT_TABLES.get(role)
         if table is None:
             return None
-        listed = {
-            "lidars": self.lidars,
-            "imus": self.imus,
-            "gps": self.gps,
-            "compasses": self.compasses,
-        }[table]
+        listed: Mapping[str, object] = getattr(self, table)  # the fields are named as the tables
         if not listed or device_id in listed:
             return None
         return (

@@ -47,6 +47,7 @@ from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.map_io import clean_leftovers, load_map, save_map, saved_files
 from navd.slam.mapper import ScanMapper
+from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
@@ -95,6 +96,19 @@ class SlamSettings:
             map_name=slam.map_name,
             save_on_shutdown=slam.save_on_shutdown,
         )
+
+
+def _map_update(grid: OccupancyGrid, now: float) -> MapUpdate:
+    """The map as published at ``now`` [s]: occupancy in percent, -1 unknown."""
+    return MapUpdate(
+        stamp=now,
+        received=now,
+        revision=grid.revision,
+        resolution_m=grid.resolution,
+        origin_x_m=grid.origin_x,
+        origin_y_m=grid.origin_y,
+        occupancy=grid.occupancy_percent(),
+    )
 
 
 class SlamNode(Module):
@@ -263,17 +277,7 @@ class SlamNode(Module):
             if grid.revision != self._map_revision and now - self._map_published_at >= MAP_PERIOD_S:
                 self._map_revision = grid.revision
                 self._map_published_at = now
-                messages.append(
-                    MapUpdate(
-                        stamp=now,
-                        received=now,
-                        revision=grid.revision,
-                        resolution_m=grid.resolution,
-                        origin_x_m=grid.origin_x,
-                        origin_y_m=grid.origin_y,
-                        occupancy=grid.occupancy_percent(),
-                    )
-                )
+                messages.append(_map_update(grid, now))
         if pose_found is not None:
             messages.append(pose_found)
             if reseed:  # asked for by a person: the estimate starts again from it
@@ -339,16 +343,8 @@ class SlamNode(Module):
             self._map_revision = grid.revision
             self._map_published_at = now
         self.ctx.log.info("map_loaded", path=str(path), cells=grid.logodds.shape)
-        shown = MapUpdate(
-            stamp=now,
-            received=now,
-            revision=grid.revision,
-            resolution_m=grid.resolution,
-            origin_x_m=grid.origin_x,
-            origin_y_m=grid.origin_y,
-            occupancy=grid.occupancy_percent(),
-        )
-        return (MapLoaded(stamp=now, received=now, name=name, path=str(path)), shown)
+        loaded = MapLoaded(stamp=now, received=now, name=name, path=str(path))
+        return (loaded, _map_update(grid, now))
 
     def _save_waiting(self) -> tuple[MapSaved, ...]:
         """Worker: every save asked for since the last job, each answered."""

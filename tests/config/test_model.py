@@ -33,7 +33,7 @@ def test_defaults_are_valid() -> None:
             {"robot": {"radius_m": "0.3"}},
             r"robot\.radius_m = '0\.3': Input should be a valid number",
         ),
-        ({"tcp": {"port": 7420.0}}, r"tcp\.port = 7420\.0: Input should be a valid integer"),
+        ({"tcp": {"port": 8000.0}}, r"tcp\.port = 8000\.0: Input should be a valid integer"),
         (
             {"slam": {"updating_map": "yes"}},
             r"slam\.updating_map = 'yes': Input should be a valid bool",

@@ -188,24 +188,9 @@ def goal_info(status: GoalStatus) -> GoalInfo:
 
 
 def mission_info(status: MissionStatus) -> MissionInfo:
-    """A mission's status as sent to clients (unknown numbers become null on the wire)."""
-    return MissionInfo(
-        mission_id=status.mission_id,
-        name=status.name,
-        state=status.state,
-        step=status.step,
-        steps=status.steps,
-        round=status.round,
-        rounds=status.rounds,
-        kind=status.kind,
-        event=status.event,
-        distance_m=status.distance_m,
-        eta_s=status.eta_s,
-        message=status.message,
-        reason=status.reason,
-        done=status.done,
-        failed=status.failed,
-    )
+    """A mission's status as sent to clients, field for field (unknown numbers become null
+    on the wire)."""
+    return MissionInfo(**{name: getattr(status, name) for name in MissionInfo.model_fields})
 
 
 def _localization_info(state: LocalizationState | None) -> LocalizationInfo | None:
