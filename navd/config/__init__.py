@@ -1,5 +1,6 @@
 """The one TOML configuration, validated by pydantic: load, check, change, dump."""
 
+from navd.config.beacons import BeaconPlaceConfig, BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.errors import ConfigError
 from navd.config.loader import apply_changes, dump_toml, load_config, parse_config
@@ -19,6 +20,8 @@ from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
 
 __all__ = [
+    "BeaconPlaceConfig",
+    "BeaconsConfig",
     "ChassisConfig",
     "CompassMountConfig",
     "ConfigError",

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from navd.config.beacons import BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.mounts import MountsConfig
@@ -42,6 +43,7 @@ class NavdConfig(BaseModel):
     slam: SlamConfig = Field(default_factory=SlamConfig)
     estimation: EstimationConfig = Field(default_factory=EstimationConfig)
     world: WorldConfig = Field(default_factory=WorldConfig)
+    beacons: BeaconsConfig = Field(default_factory=BeaconsConfig)
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
     lifecycle: LifecycleConfig = Field(default_factory=LifecycleConfig)
     logging: LoggingConfig = Field(default_factory=LoggingConfig)

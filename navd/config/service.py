@@ -175,6 +175,13 @@ class TcpConfig(Section):
     compass_timeout_s: float = Field(
         1.0, gt=0, le=600, description="[s] a compass silent this long is stale"
     )
+    beacon_timeout_s: float = Field(
+        5.0,
+        gt=0,
+        le=600,
+        description="[s] a beacon sensor silent this long is stale (one that only speaks when "
+        "it sees a beacon, a tag detector, needs room here)",
+    )
     wheel_odometry_timeout_s: float = Field(
         0.2,
         gt=0,

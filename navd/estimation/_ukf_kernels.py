@@ -11,9 +11,11 @@ overhead of some sixty small array calls; here it is a few µs.
 
 Measurement rows are given by code (``ROW_CODES`` in ``ukf``): 0 x, 1 y, 2 yaw (an angle),
 3 yaw rate, 4 and 5 acceleration forward and left, 6 and 7 velocity forward and left (the
-body frame is the state's yaw). Matrices are factored by Cholesky here (both the covariance
-for the sigma points and the innovation covariance for the gain): a factor that fails, or
-anything not finite, reports the step as diverged.
+body frame is the state's yaw), 8 the range [m] and 9 the bearing [rad, an angle] from the
+robot's centre to the row's landmark point (a beacon; ``points``, one x, y row per row).
+Matrices are factored by Cholesky here (both the covariance for the sigma points and the
+innovation covariance for the gain): a factor that fails, or anything not finite, reports
+the step as diverged.
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ DIVERGED = 2
 _N = 9  # the state: x, y, vx, vy, ax, ay, yaw, yaw rate, yaw acceleration
 _X, _Y, _VX, _VY, _AX, _AY, _TH, _VTH, _ATH = range(9)
 _YAW_ROW = 2
+_RANGE_ROW = 8
+_BEARING_ROW = 9
 
 
 @njit(cache=True, nogil=True)
@@ -106,10 +110,21 @@ def _angle_mean(values: FloatArray, weights: FloatArray) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _row_value(code: int, s: FloatArray, cos: float, sin: float) -> float:
-    """Row ``code`` of state ``s`` (whose yaw has this cos and sin)."""
+def _is_angle(code: int) -> bool:
+    """True if row ``code`` is an angle (its residuals and means wrap on the circle)."""
+    return code in (_YAW_ROW, _BEARING_ROW)
+
+
+@njit(cache=True, nogil=True)
+def _row_value(code: int, s: FloatArray, cos: float, sin: float, px: float, py: float) -> float:
+    """Row ``code`` of state ``s`` (whose yaw has this cos and sin; (px, py) [m] is the
+    row's landmark, for a range or a bearing)."""
     value: float
-    if code == 0:
+    if code == _RANGE_ROW:
+        value = math.hypot(px - s[_X], py - s[_Y])
+    elif code == _BEARING_ROW:
+        value = wrap(math.atan2(py - s[_Y], px - s[_X]) - s[_TH])
+    elif code == 0:
         value = s[_X]
     elif code == 1:
         value = s[_Y]
@@ -167,7 +182,7 @@ def _predict(
 @njit(cache=True, nogil=True)
 def _update(
     x: FloatArray, p: FloatArray, sigmas: FloatArray, wm: FloatArray, wc: FloatArray,
-    codes: npt.NDArray[np.int64], z: FloatArray, r: FloatArray,
+    codes: npt.NDArray[np.int64], z: FloatArray, r: FloatArray, points: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, bool]:  # fmt: skip
     """The updated mean and covariance, the residual y and its covariance S; False if S
     could not be factored."""
@@ -178,20 +193,20 @@ def _update(
         cos = math.cos(sigmas[i, _TH])
         sin = math.sin(sigmas[i, _TH])
         for j in range(m):
-            h[i, j] = _row_value(codes[j], sigmas[i], cos, sin)
+            h[i, j] = _row_value(codes[j], sigmas[i], cos, sin, points[j, 0], points[j, 1])
     z_mean = np.zeros(m)
     for i in range(count):
         for j in range(m):
             z_mean[j] += wm[i] * h[i, j]
     for j in range(m):
-        if codes[j] == _YAW_ROW:
+        if _is_angle(codes[j]):
             z_mean[j] = _angle_mean(h[:, j], wm)
     dz = h - z_mean
     dx = sigmas - x
     for i in range(count):
         dx[i, _TH] = wrap(dx[i, _TH])
         for j in range(m):
-            if codes[j] == _YAW_ROW:
+            if _is_angle(codes[j]):
                 dz[i, j] = wrap(dz[i, j])
     s = r.copy()
     cross = np.zeros((_N, m))
@@ -204,7 +219,7 @@ def _update(
                 cross[b, a] += w * dx[i, b]
     y = z - z_mean
     for j in range(m):
-        if codes[j] == _YAW_ROW:
+        if _is_angle(codes[j]):
             y[j] = wrap(y[j])
     low, ok = _cholesky(s)
     if not ok:
@@ -220,7 +235,8 @@ def _update(
 def ukf_step(
     x: FloatArray, p: FloatArray, dt: float, q_poly: FloatArray, wm: FloatArray,
     wc: FloatArray, spread: float, codes: npt.NDArray[np.int64], z: FloatArray,
-    r: FloatArray, gated_rows: int, gate_chi2: float, max_yaw_var: float,
+    r: FloatArray, points: FloatArray, gated_rows: int, gate_chi2: float,
+    max_yaw_var: float,
 ) -> tuple[int, FloatArray, FloatArray, float]:  # fmt: skip
     """Predict ``dt`` [s] ahead, then update with the rows ``codes`` (none: predict only).
 
@@ -229,6 +245,7 @@ def ukf_step(
         q_poly: process noise polynomial: Q = [dt⁵, dt⁴, dt³, dt², dt] @ q_poly, 5 x 81.
         wm, wc: the sigma points' mean and covariance weights; spread: λ + n.
         codes, z, r: the measurement rows, their values and noise covariance.
+        points: [m] len(codes) x 2, the landmark of each range or bearing row (else unused).
         gated_rows: the first this many rows pass the Mahalanobis gate ``gate_chi2``; the
             rest ride along (applied alone when the gate refuses the others).
         max_yaw_var: [rad²] cap of the yaw variance (correlations scaled with it).
@@ -244,7 +261,7 @@ def ukf_step(
     distance = math.nan
     m = codes.shape[0]
     if m > 0:
-        new_x, new_p, y, s, ok = _update(mean, cov, sigmas, wm, wc, codes, z, r)
+        new_x, new_p, y, s, ok = _update(mean, cov, sigmas, wm, wc, codes, z, r, points)
         if not ok:
             return DIVERGED, x, p, math.nan
         if gated_rows > 0:
@@ -261,8 +278,9 @@ def ukf_step(
                     tail_codes = codes[k:].copy()
                     tail_z = z[k:].copy()
                     tail_r = r[k:, k:].copy()
+                    tail_points = points[k:].copy()
                     new_x, new_p, _, _, ok = _update(
-                        mean, cov, sigmas, wm, wc, tail_codes, tail_z, tail_r
+                        mean, cov, sigmas, wm, wc, tail_codes, tail_z, tail_r, tail_points
                     )
                     if not ok:
                         return DIVERGED, x, p, distance

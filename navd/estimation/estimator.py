@@ -1,11 +1,13 @@
 """The state estimator: sensors in, fused pose out. Plain computation, driven by its node.
 
 Madgwick's filter takes every IMU sample; position sources (scan-matched lidar poses, GPS
-fixes, compass headings, wheel odometry) become time-stamped events for the UKF, each
+fixes, compass headings, wheel odometry, ranges and bearings to beacons at known places)
+become time-stamped events for the UKF, each
 carrying the IMU's mean yaw rate and acceleration over the window before it and, for a
 differential drive, the constraint that the robot does not slide sideways. The filter starts
-at the first absolute position (a lidar pose, a GPS fix once the datum exists, or an initial
-pose from a client); until then nothing is estimated.
+at the first absolute position (a lidar pose, a GPS fix once the datum exists, ranges to
+three known beacons within a second, or an initial pose from a client); until then nothing
+is estimated. Beacons not at known places have their places learnt (``beacon_map``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import WorldConfig
+from navd.estimation.beacon_map import BeaconMap, RobotPose
 from navd.estimation.bearing import bearing_to_yaw
 from navd.estimation.errors import GeoError
 from navd.estimation.geo import GeoFrame
@@ -40,6 +43,8 @@ from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, UkfSettings
 from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
+    BeaconObservation,
+    BeaconPlace,
     CompassHeading,
     GpsFix,
     Imu,
@@ -58,6 +63,10 @@ FloatArray = npt.NDArray[np.float64]
 
 _log = get_logger("estimation")
 _IMU_ROWS = (Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT)
+# [s] ranges to known beacons this recent together place the robot when nothing else has.
+RANGE_START_S = 1.0
+# Known beacons whose ranges start the filter (three: the place is not mirrored).
+RANGE_START_BEACONS = 3
 
 _Rows = tuple[tuple[float, ...], ...]  # a 3 x 3 rotation, row by row
 _UNKNOWN: _Rows = ()  # an IMU whose mount is not looked up yet
@@ -117,6 +126,9 @@ class StateEstimator:
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
+        self.beacon_map = BeaconMap(settings.beacons.gate_chi2)
+        # the latest range to each known beacon: (stamp [s], range [m], std [m])
+        self._ranges: dict[str, tuple[float, float, float]] = {}
         world = settings.world
         if world.datum_latitude_deg is not None and world.datum_longitude_deg is not None:
             self.geo = self._geo_frame(world.datum_latitude_deg, world.datum_longitude_deg)
@@ -137,6 +149,7 @@ class StateEstimator:
         est = settings.estimation
         self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
         self.madgwick.configure(est)
+        self.beacon_map.gate_chi2 = settings.beacons.gate_chi2
         self.history.settings = HistorySettings.of(est)
         ukf = UkfSettings.of(est)
         if ukf != self.history.ukf.settings:
@@ -301,6 +314,103 @@ class StateEstimator:
         event = Event(odom.stamp, "wheel", measurement, est.wheel_gate_chi2)
         return self._insert(event, now)
 
+    def add_beacon(self, seen: BeaconObservation, now: float) -> Insert | None:
+        """A range and/or bearing to a beacon: fused if the beacon's place is known, else
+        taken to learn its place (once the filter runs and if learning is on)."""
+        beacons = self.settings.beacons
+        place = beacons.known.get(seen.beacon_id)
+        if place is None:
+            if not beacons.learn:
+                self._counts.ignore("beacon_unknown")
+            elif not self.history.initialized:
+                self._counts.ignore("beacon_before_start")
+            else:
+                self.beacon_map.observe(
+                    seen.beacon_id,
+                    self._pose_at(seen.stamp),
+                    range_m=seen.range_m,
+                    range_std_m=seen.range_std_m,
+                    bearing_rad=seen.bearing_rad,
+                    bearing_std_rad=seen.bearing_std_rad,
+                )
+            return None
+        point = (place.x_m, place.y_m)
+        if not self.history.initialized:
+            if seen.has_range:
+                self._ranges[seen.beacon_id] = (seen.stamp, seen.range_m, seen.range_std_m)
+                self._start_from_ranges(seen.stamp)
+            return None
+        rows: tuple[Row, ...] = ()
+        values: list[float] = []
+        variances: list[float] = []
+        if seen.has_range:
+            rows, values, variances = (Row.RANGE,), [seen.range_m], [seen.range_std_m**2]
+        if seen.has_bearing:
+            rows += (Row.BEARING,)
+            values.append(seen.bearing_rad)
+            variances.append(seen.bearing_std_rad**2)
+        measurement = self._measurement(
+            rows, values, np.diag(variances), seen.stamp, points=[point] * len(rows)
+        )
+        return self._insert(Event(seen.stamp, "beacon", measurement, beacons.gate_chi2), now)
+
+    def _start_from_ranges(self, stamp: float) -> None:
+        """Start the filter where the latest ranges to known beacons agree, once there are
+        enough of them within RANGE_START_S of ``stamp`` (Gauss-Newton from their centroid);
+        the heading from a recent compass reading, else unknown."""
+        recent = [
+            (self.settings.beacons.known[b], r, std)
+            for b, (t, r, std) in self._ranges.items()
+            if stamp - t <= RANGE_START_S
+        ]
+        if len(recent) < RANGE_START_BEACONS:
+            return
+        points = np.array([[p.x_m, p.y_m] for p, _, _ in recent])
+        ranges = np.array([r for _, r, _ in recent])
+        if np.linalg.matrix_rank(points[1:] - points[0], tol=1e-3) < 2:
+            return  # beacons in a line: the robot could be on either side
+        weights = np.array([1.0 / std**2 for _, _, std in recent])
+        xy = points.mean(axis=0)
+        cov = np.eye(2)
+        for _ in range(20):
+            offsets = xy - points
+            distances = np.maximum(np.hypot(*offsets.T), 1e-6)
+            jacobian = offsets / distances[:, None]
+            normal = jacobian.T @ (weights[:, None] * jacobian)
+            cov = np.linalg.inv(normal)
+            step = cov @ (jacobian.T @ (weights * (ranges - distances)))
+            xy = xy + step
+            if float(np.hypot(*step)) < 1e-4:
+                break
+        compass = self._last_compass_yaw
+        if compass is not None and stamp - compass.stamp < 1.0:
+            yaw, yaw_std = compass.yaw_rad, compass.std_rad
+        else:
+            yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
+        cov3 = np.zeros((3, 3))
+        cov3[:2, :2] = cov
+        cov3[2, 2] = yaw_std**2
+        self._start(stamp, float(xy[0]), float(xy[1]), yaw, cov3)
+        self._ranges.clear()
+
+    def beacon_places(self) -> tuple[BeaconPlace, ...]:
+        """Every beacon with a place: the config's, then those learnt so far."""
+        known = self.settings.beacons.known
+        places = [BeaconPlace(b, p.x_m, p.y_m, 0.0, False, 0) for b, p in known.items()]
+        for beacon_id, learnt in self.beacon_map.beacons.items():
+            if learnt.mean is not None and beacon_id not in known:
+                x, y = (float(v) for v in learnt.mean)
+                places.append(BeaconPlace(beacon_id, x, y, learnt.std_m, True, learnt.observations))
+        return tuple(places)
+
+    def _pose_at(self, stamp: float) -> RobotPose:
+        """The filter's pose at ``stamp`` (the state at or before it, predicted to it)."""
+        then = self.history.at_or_before(stamp)
+        f = transition_matrix(max(stamp - then.stamp, 0.0))
+        x = f @ then.x
+        cov = (f @ then.p @ f.T)[np.ix_((X, Y, TH), (X, Y, TH))]
+        return RobotPose(float(x[X]), float(x[Y]), wrap_angle(float(x[TH])), cov)
+
     def set_pose(self, pose: InitialPose) -> None:
         """Restart the filter at a pose given by a person (forgets the events)."""
         var_xy = pose.std_xy_m**2
@@ -428,9 +538,16 @@ class StateEstimator:
         return predicted
 
     def _measurement(
-        self, rows: tuple[Row, ...], z: list[float], r: FloatArray, stamp: float
+        self,
+        rows: tuple[Row, ...],
+        z: list[float],
+        r: FloatArray,
+        stamp: float,
+        *,
+        points: list[tuple[float, float]] | None = None,
     ) -> Measurement:
-        """The sensor's rows followed by the IMU window and the no-sliding constraint."""
+        """The sensor's rows followed by the IMU window and the no-sliding constraint
+        (``points`` [m]: the landmark of each of the sensor's rows, for ranges and bearings)."""
         est = self.settings.estimation
         window = self.madgwick.window_mean(stamp, est.imu_window_s)
         tail_rows: tuple[Row, ...] = ()
@@ -451,6 +568,14 @@ class StateEstimator:
         full = np.zeros((size, size))
         full[:k, :k] = r
         full[range(k, size), range(k, size)] = tail_variances
+        landmarks = None
+        if points is not None:
+            landmarks = np.zeros((size, 2))
+            landmarks[:k] = points
         return Measurement(
-            rows=rows + tail_rows, z=np.array([*z, *tail_values]), r=full, gated_rows=k
+            rows=rows + tail_rows,
+            z=np.array([*z, *tail_values]),
+            r=full,
+            gated_rows=k,
+            points=landmarks,
         )

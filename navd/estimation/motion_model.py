@@ -18,6 +18,8 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry.angles import wrap_angles
+
 __all__ = [
     "ATH",
     "AX",
@@ -104,18 +106,34 @@ class Row(Enum):
     ACCEL_LEFT = "accel_left"
     VELOCITY_FORWARD = "velocity_forward"
     VELOCITY_LEFT = "velocity_left"
+    # to a landmark at a known map point (a beacon): [m] the distance from the robot's
+    # centre, and [rad] its bearing from the robot's forward axis
+    RANGE = "range"
+    BEARING = "bearing"
 
     @property
     def is_angle(self) -> bool:
         """True if residuals of this row wrap on the circle."""
-        return self is Row.YAW
+        return self in (Row.YAW, Row.BEARING)
 
 
-def evaluate_rows(rows: tuple[Row, ...], sigmas: FloatArray) -> FloatArray:
-    """All ``rows`` for every state row of ``sigmas`` (N x 9): an N x len(rows) table."""
+def evaluate_rows(
+    rows: tuple[Row, ...], sigmas: FloatArray, points: FloatArray | None = None
+) -> FloatArray:
+    """All ``rows`` for every state row of ``sigmas`` (N x 9): an N x len(rows) table.
+    ``points`` [m] (len(rows) x 2) gives the landmark of each RANGE or BEARING row."""
     table = np.empty((sigmas.shape[0], len(rows)))
     cos = sin = None
     for i, row in enumerate(rows):
+        if row in (Row.RANGE, Row.BEARING):
+            assert points is not None, "a range or bearing row needs its landmark's point"
+            dx = points[i, 0] - sigmas[:, X]
+            dy = points[i, 1] - sigmas[:, Y]
+            if row is Row.RANGE:
+                table[:, i] = np.hypot(dx, dy)
+            else:
+                table[:, i] = wrap_angles(np.arctan2(dy, dx) - sigmas[:, TH])
+            continue
         source = _DIRECT_COLUMNS.get(row)
         if source is not None:
             table[:, i] = sigmas[:, source]

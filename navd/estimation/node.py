@@ -2,8 +2,9 @@
 
 Sensor messages go in as they arrive (each handler is one cheap filter step); at
 ``estimation.publish_rate_hz`` the module publishes the fused pose predicted to now, the IMU
-orientation, and the localization state when it changes (and once a second). Losing
-localization after having had it is a safety stop until it is regained.
+orientation, and the localization state when it changes (and once a second); the beacons'
+places once the filter exists and whenever a learnt one moves (at most once a second).
+Losing localization after having had it is a safety stop until it is regained.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.warmup import warm_up
 from navd.lifecycle.messages import (
+    BeaconObservation,
+    BeaconPlaces,
     CompassHeading,
     GeoGoal,
     Goal,
@@ -36,6 +39,7 @@ __all__ = ["EstimationNode"]
 
 SAFE_STOP_KEY = "localization"
 _STATE_REFRESH_S = 1.0
+_BEACONS_EVERY_S = 1.0
 
 
 class EstimationNode(Module):
@@ -48,6 +52,7 @@ class EstimationNode(Module):
         self._state_published_at = -math.inf
         self._imu_device = ""
         self._stopped = False
+        self._beacons_published: tuple[object, ...] | None = None
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -61,6 +66,7 @@ class EstimationNode(Module):
         ctx.subscribe(GpsFix, self._on_gps)
         ctx.subscribe(CompassHeading, self._on_compass)
         ctx.subscribe(WheelOdometry, self._on_wheels)
+        ctx.subscribe(BeaconObservation, self._on_beacon)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(GeoGoal, self._on_geo_goal)
 
@@ -72,6 +78,7 @@ class EstimationNode(Module):
         self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)
         period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz  # needs a restart
         self.ctx.every(period_s, self._publish, name="publish")
+        self.ctx.every(_BEACONS_EVERY_S, self._publish_beacons, name="beacons")
 
     def settings_in_use(self) -> tuple[object, ...]:
         estimator = self.estimator
@@ -118,6 +125,21 @@ class EstimationNode(Module):
     def _on_wheels(self, odom: WheelOdometry) -> None:
         if estimator := self._ready():
             estimator.add_wheel_odometry(odom, self.ctx.clock.now())
+
+    def _on_beacon(self, seen: BeaconObservation) -> None:
+        if estimator := self._ready():
+            estimator.add_beacon(seen, self.ctx.clock.now())
+
+    def _publish_beacons(self, now: float) -> None:
+        """The beacons' places, when they differ from the last published (or at first)."""
+        estimator = self.estimator
+        if estimator is None:
+            return
+        version = (estimator.settings.beacons.known, estimator.beacon_map.revision)
+        if version == self._beacons_published:
+            return
+        self._beacons_published = version
+        self.ctx.publish(BeaconPlaces(stamp=now, received=now, places=estimator.beacon_places()))
 
     def _on_initial_pose(self, pose: InitialPose) -> None:
         self.ctx.log.info("initial_pose", x=pose.x_m, y=pose.y_m, yaw=pose.yaw_rad)

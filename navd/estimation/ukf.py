@@ -40,12 +40,15 @@ class Measurement:
         r: measurement noise covariance (len(rows) square).
         gated_rows: the first this many rows are the sensor's own and pass the Mahalanobis
             gate; the rest (IMU, motion constraints) ride along.
+        points: [m] len(rows) x 2, the landmark (a beacon's map point) of each RANGE or
+            BEARING row; None when there are none.
     """
 
     rows: tuple[Row, ...]
     z: FloatArray
     r: FloatArray
     gated_rows: int
+    points: FloatArray | None = None
 
     def __post_init__(self) -> None:
         m = len(self.rows)
@@ -55,6 +58,17 @@ class Measurement:
             raise ValueError(
                 f"z must be ({m},) and r ({m}, {m}); got {self.z.shape} and {self.r.shape}"
             )
+        if self.points is not None and self.points.shape != (m, 2):
+            raise ValueError(f"points must be ({m}, 2), got {self.points.shape}")
+        if self.points is None and any(r in (Row.RANGE, Row.BEARING) for r in self.rows):
+            raise ValueError("range and bearing rows need their landmarks' points")
+
+    @property
+    def landmarks(self) -> FloatArray:
+        """[m] the rows' landmark points as the kernel takes them (zeros where unused)."""
+        if self.points is not None:
+            return np.ascontiguousarray(self.points, dtype=np.float64)
+        return np.zeros((len(self.rows), 2))
 
     @property
     def codes(self) -> npt.NDArray[np.int64]:
@@ -69,7 +83,10 @@ class Measurement:
         k = self.gated_rows
         if k == len(self.rows):
             return None
-        return Measurement(rows=self.rows[k:], z=self.z[k:], r=self.r[k:, k:], gated_rows=0)
+        points = None if self.points is None else self.points[k:]
+        return Measurement(
+            rows=self.rows[k:], z=self.z[k:], r=self.r[k:, k:], gated_rows=0, points=points
+        )
 
 
 # The measurement rows as ``_ukf_kernels`` knows them.
@@ -82,6 +99,8 @@ ROW_CODES = {
     Row.ACCEL_LEFT: 5,
     Row.VELOCITY_FORWARD: 6,
     Row.VELOCITY_LEFT: 7,
+    Row.RANGE: 8,
+    Row.BEARING: 9,
 }
 _CODES: dict[tuple[Row, ...], npt.NDArray[np.int64]] = {}
 
@@ -177,12 +196,13 @@ class PoseUkf:
         ``gate_chi2``; otherwise the update is undone and only the tail rows are applied.
         """
         if measurement is None:
-            codes, z, r, gated = _NO_ROWS, _NO_VALUES, _NO_NOISE, 0
+            codes, z, r, points, gated = _NO_ROWS, _NO_VALUES, _NO_NOISE, _NO_POINTS, 0
         else:
-            codes, z, r, gated = (
+            codes, z, r, points, gated = (
                 measurement.codes,
                 measurement.z,
                 measurement.r,
+                measurement.landmarks,
                 measurement.gated_rows,
             )
         outcome, x, p, distance = ukf_step(
@@ -196,6 +216,7 @@ class PoseUkf:
             codes,
             np.asarray(z, dtype=np.float64),
             np.asarray(r, dtype=np.float64),
+            points,
             gated,
             float(gate_chi2),
             MAX_YAW_STD_RAD**2,
@@ -211,3 +232,4 @@ class PoseUkf:
 _NO_ROWS = np.zeros(0, dtype=np.int64)
 _NO_VALUES = np.zeros(0)
 _NO_NOISE = np.zeros((0, 0))
+_NO_POINTS = np.zeros((0, 2))

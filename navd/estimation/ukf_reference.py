@@ -94,10 +94,13 @@ class MeasurementFunctions:
         return d
 
 
-def stock_filter(settings: UkfSettings, rows: tuple[Row, ...]) -> Any:
+def stock_filter(
+    settings: UkfSettings, rows: tuple[Row, ...], landmarks: FloatArray | None = None
+) -> Any:
     """filterpy's UnscentedKalmanFilter with Merwe points, running navd's model for a
-    measurement of ``rows`` (its per-sigma-point loops, as filterpy's documentation calls
-    it: ``predict(dt=...)`` after setting ``Q``, then ``update(z, R=...)``)."""
+    measurement of ``rows`` (``landmarks``: the points of its range and bearing rows), with
+    its per-sigma-point loops as filterpy's documentation calls it: ``predict(dt=...)`` after
+    setting ``Q``, then ``update(z, R=...)``."""
     from filterpy.kalman import (  # noqa: PLC0415 - a development dependency
         MerweScaledSigmaPoints,
         UnscentedKalmanFilter,
@@ -111,7 +114,7 @@ def stock_filter(settings: UkfSettings, rows: tuple[Row, ...]) -> Any:
         return moved
 
     def hx(x: FloatArray) -> FloatArray:
-        row: FloatArray = evaluate_rows(rows, x[None, :])[0]
+        row: FloatArray = evaluate_rows(rows, x[None, :], landmarks)[0]
         return row
 
     points = MerweScaledSigmaPoints(

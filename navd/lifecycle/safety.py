@@ -68,7 +68,7 @@ class SpeedLimiter(Protocol):
 # obstacles and localizes; the IMU's rates feed every pose.
 ESSENTIAL = frozenset({DeviceKind.LIDAR, DeviceKind.IMU})
 # Kinds that hold the robot only while no lidar is there (then they are what localizes it).
-WITHOUT_LIDAR = frozenset({DeviceKind.GPS, DeviceKind.WHEEL_ODOMETRY})
+WITHOUT_LIDAR = frozenset({DeviceKind.GPS, DeviceKind.WHEEL_ODOMETRY, DeviceKind.BEACON})
 # Device holds listed one by one in the reasons; more are summed up (a bounded status frame).
 MAX_LISTED_DEVICES = 8
 
@@ -96,7 +96,8 @@ class SafetyGate(Module):
     Device rules: a lidar or an IMU that falls silent or leaves holds the robot until it is
     back, or, once it has left, until as many of its kind speak as ever did at once (the
     same sensor restarted under a new id, on a robot with one; on a robot with two, a
-    second one connecting does not stand in for the first); a GPS or wheel odometry does so
+    second one connecting does not stand in for the first); a GPS, wheel odometry or beacon
+    sensor does so
     only while no lidar is there. A device still connected but silent holds the robot until
     it speaks or leaves.
     """

@@ -8,7 +8,7 @@ mission drives through the same planner and safety gate as a goal sent by hand.
 from __future__ import annotations
 
 from navd.geometry.pose import Pose2
-from navd.lifecycle.messages import GoalStatus, Message, PoseEstimate
+from navd.lifecycle.messages import BeaconPlaces, GoalStatus, Message, PoseEstimate
 from navd.lifecycle.messages.mission import MissionCommand, MissionRequest, MissionStatus
 from navd.lifecycle.module import Module, ModuleContext
 from navd.missions.executor import MissionExecutor, no_mission
@@ -26,6 +26,7 @@ class MissionNode(Module):
         self.mission: MissionExecutor | None = None
         self._runs = 0
         self._pose: Pose2 | None = None
+        self._places: dict[str, tuple[float, float]] = {}  # [m] beacons' places by id
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -33,6 +34,7 @@ class MissionNode(Module):
         ctx.subscribe(MissionCommand, self._on_command)
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(PoseEstimate, self._on_pose)
+        ctx.subscribe(BeaconPlaces, self._on_beacons)
 
     async def on_activate(self) -> None:
         self.ctx.every(TICK_S, self._tick, name="mission-clock")
@@ -60,6 +62,11 @@ class MissionNode(Module):
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
 
+    def _on_beacons(self, places: BeaconPlaces) -> None:
+        self._places = {p.beacon_id: (p.x_m, p.y_m) for p in places.places}
+        if self.mission is not None:
+            self.mission.places = self._places
+
     def _on_request(self, request: MissionRequest) -> None:
         now = self.ctx.clock.now()
         old = self.mission
@@ -67,6 +74,7 @@ class MissionNode(Module):
             self._publish(old.command("cancel", now, self._pose)[0])
         self._runs += 1
         self.mission = MissionExecutor(request, self._runs)
+        self.mission.places = self._places
         self._publish(self.mission.start(now, self._pose))
 
     def _on_command(self, command: MissionCommand) -> None:

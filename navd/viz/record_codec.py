@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from navd.lifecycle.messages import (
+    BeaconObservation,
     CancelGoal,
     CompassHeading,
     ConfigChange,
@@ -74,6 +75,7 @@ INPUTS: tuple[type[Message], ...] = (
     GpsFix,
     CompassHeading,
     WheelOdometry,
+    BeaconObservation,
     DeviceConnected,
     DeviceLost,
     DeviceStale,

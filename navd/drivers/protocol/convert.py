@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from navd.drivers.protocol.frames import (
+    BeaconFrame,
     CancelFrame,
     ConfigFrame,
     ControlRequest,
@@ -32,7 +33,9 @@ from navd.drivers.protocol.frames import (
     SensorFrame,
     TeleopFrame,
 )
+from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
+    BeaconObservation,
     CancelGoal,
     CompassHeading,
     ConfigChange,
@@ -111,6 +114,19 @@ def _heading(frame: HeadingFrame, device_id: str, stamp: float, received: float)
     )
 
 
+def _beacon(frame: BeaconFrame, device_id: str, stamp: float, received: float) -> Message:
+    return BeaconObservation(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        beacon_id=frame.beacon,
+        range_m=math.nan if frame.range_m is None else frame.range_m,
+        range_std_m=frame.range_std_m,
+        bearing_rad=math.nan if frame.bearing_rad is None else wrap_angle(frame.bearing_rad),
+        bearing_std_rad=frame.bearing_std_rad,
+    )
+
+
 def _odom(frame: OdomFrame, device_id: str, stamp: float, received: float) -> Message:
     return WheelOdometry(
         stamp=stamp,
@@ -127,6 +143,7 @@ _CONVERTERS: dict[type[Any], Callable[[Any, str, float, float], Message | None]]
     FixFrame: _fix,
     HeadingFrame: _heading,
     OdomFrame: _odom,
+    BeaconFrame: _beacon,
     RosScanFrame: _scan,
     RosImuFrame: _imu,
     RosFixFrame: _fix,
@@ -263,4 +280,5 @@ def _mission_step(step: MissionStepSpec, mission: MissionFrame) -> MissionStep:
         speed_mps=step.speed,
         on_failure=step.on_failure or mission.on_failure,
         retries=mission.retries if step.retries is None else step.retries,
+        beacons=(step.beacon,) if step.beacon is not None else tuple(step.beacons or ()),
     )

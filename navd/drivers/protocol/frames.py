@@ -31,6 +31,7 @@ __all__ = [
     "PROTOCOL_VERSION",
     "ROS_SENSOR_FRAMES",
     "SENSOR_FRAMES",
+    "BeaconFrame",
     "CancelFrame",
     "ClockFrame",
     "ClockRequest",
@@ -80,7 +81,7 @@ MAX_TELEOP_MPS = 10.0
 MAX_TELEOP_RADPS = 20.0
 Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M)]
 Yaw = Annotated[float, Field(ge=-MAX_YAW_RAD, le=MAX_YAW_RAD)]
-Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "control", "clock"]
+Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "beacon", "control", "clock"]
 
 
 class Frame(BaseModel):
@@ -262,6 +263,26 @@ class HeadingFrame(Frame):
     bearing_deg: float = Field(ge=0, lt=360)
     accuracy_deg: float = Field(gt=0, le=180)
     true_north: bool = False
+
+
+class BeaconFrame(Frame):
+    """A range and/or a bearing to one beacon (a UWB anchor, an AprilTag, a BLE tag), from
+    the robot's centre: ``range_m`` [m] and ``bearing_rad`` [rad, counter-clockwise from the
+    robot's forward axis], each with its 1-sigma noise."""
+
+    type: Literal["beacon"] = "beacon"
+    stamp: Stamp
+    beacon: str = Field(pattern=DEVICE_ID_PATTERN)
+    range_m: float | None = Field(None, ge=0, le=10_000)
+    range_std_m: float = Field(0.1, gt=0, le=1000)
+    bearing_rad: float | None = Field(None, ge=-2 * math.pi, le=2 * math.pi)
+    bearing_std_rad: float = Field(0.05, gt=0, le=math.pi)
+
+    @model_validator(mode="after")
+    def _something_measured(self) -> BeaconFrame:
+        if self.range_m is None and self.bearing_rad is None:
+            raise ValueError("a beacon frame needs range_m, bearing_rad or both")
+        return self
 
 
 # --- the same frames from ROS messages dumped as JSON, field for field ------------------
@@ -533,7 +554,7 @@ class PingFrame(Frame):
     id: int | str | None = None
 
 
-SensorFrame = ScanFrame | ImuFrame | FixFrame | HeadingFrame | OdomFrame
+SensorFrame = ScanFrame | ImuFrame | FixFrame | HeadingFrame | OdomFrame | BeaconFrame
 # --- missions -----------------------------------------------------------------------
 
 MAX_MISSION_STEPS = 1000
@@ -545,7 +566,9 @@ class MissionStepSpec(BaseModel):
 
     model_config = ConfigDict(strict=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
-    kind: Literal["goto", "goto_gps", "wait", "pause", "approach"]
+    kind: Literal[
+        "goto", "goto_gps", "wait", "pause", "approach", "beacon", "gate", "visit_beacons"
+    ]
     x: Coordinate | None = None
     y: Coordinate | None = None
     yaw: float | None = Field(None, ge=-10.0, le=10.0)
@@ -557,6 +580,10 @@ class MissionStepSpec(BaseModel):
     speed: float | None = Field(None, gt=0, le=10)
     on_failure: MissionPolicy | None = None
     retries: int | None = Field(None, ge=0, le=100)
+    beacon: str | None = Field(None, pattern=DEVICE_ID_PATTERN)
+    beacons: list[Annotated[str, Field(pattern=DEVICE_ID_PATTERN)]] | None = Field(
+        None, max_length=MAX_MISSION_STEPS
+    )
 
     @model_validator(mode="after")
     def _fields_of_the_kind(self) -> MissionStepSpec:
@@ -566,10 +593,15 @@ class MissionStepSpec(BaseModel):
             "goto_gps": ("latitude", "longitude"),
             "wait": ("seconds",),
             "pause": (),
+            "beacon": ("beacon",),
+            "gate": ("beacons",),
+            "visit_beacons": (),
         }[self.kind]
         missing = [name for name in needs if getattr(self, name) is None]
         if missing:
             raise ValueError(f"a {self.kind} step needs {' and '.join(missing)}")
+        if self.kind == "gate" and (self.beacons is None or len(set(self.beacons)) != 2):
+            raise ValueError(f"a gate step needs two different beacons, got {self.beacons}")
         return self
 
 
@@ -635,4 +667,5 @@ SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
     "gps": FixFrame,
     "compass": HeadingFrame,
     "wheel_odometry": OdomFrame,
+    "beacon": BeaconFrame,
 }

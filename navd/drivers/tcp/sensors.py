@@ -1,4 +1,4 @@
-"""The sensor role: lidar, IMU, GPS, compass and wheel odometry lines become bus messages.
+"""The sensor role: lidar, IMU, GPS, compass, wheel odometry and beacon lines become bus messages.
 
 The fast path of the server. The lines of one read are counted (a simulated clock waits for
 them, see ``Traffic``) and handled together: one arrival time, one staleness check, then each

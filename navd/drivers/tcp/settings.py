@@ -81,6 +81,7 @@ class TcpSettings:
                 (DeviceKind.IMU, tcp.imu_timeout_s),
                 (DeviceKind.GPS, tcp.gps_timeout_s),
                 (DeviceKind.COMPASS, tcp.compass_timeout_s),
+                (DeviceKind.BEACON, tcp.beacon_timeout_s),
                 (DeviceKind.WHEEL_ODOMETRY, tcp.wheel_odometry_timeout_s),
             ),
             lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,

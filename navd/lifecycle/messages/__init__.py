@@ -45,6 +45,8 @@ from navd.lifecycle.messages.mission import (
     MissionStep,
 )
 from navd.lifecycle.messages.results import (
+    BeaconPlace,
+    BeaconPlaces,
     CostmapUpdate,
     DaemonStatus,
     LocalizationState,
@@ -59,6 +61,7 @@ from navd.lifecycle.messages.results import (
     WorkerStats,
 )
 from navd.lifecycle.messages.sensors import (
+    BeaconObservation,
     CompassHeading,
     DeviceConnected,
     DeviceLost,
@@ -72,6 +75,9 @@ from navd.lifecycle.messages.sensors import (
 
 __all__ = [
     "MISSION_ACTIONS",
+    "BeaconObservation",
+    "BeaconPlace",
+    "BeaconPlaces",
     "CancelGoal",
     "CompassHeading",
     "ConfigApplied",

@@ -47,6 +47,7 @@ class DeviceKind(StrEnum):
     IMU = "imu"
     GPS = "gps"
     COMPASS = "compass"
+    BEACON = "beacon"
     WHEEL_ODOMETRY = "wheel_odometry"
     CONTROL = "control"
     CHASSIS = "chassis"

@@ -9,6 +9,7 @@ from typing import Literal
 from navd.lifecycle.messages.base import Message
 
 __all__ = [
+    "BEACON_STEPS",
     "MISSION_ACTIONS",
     "MissionCommand",
     "MissionRequest",
@@ -16,7 +17,10 @@ __all__ = [
     "MissionStep",
 ]
 
-StepKind = Literal["goto", "goto_gps", "wait", "pause", "approach"]
+StepKind = Literal[
+    "goto", "goto_gps", "wait", "pause", "approach", "beacon", "gate", "visit_beacons"
+]
+BEACON_STEPS = ("beacon", "gate", "visit_beacons")
 FailurePolicy = Literal["skip", "retry", "abort"]
 MISSION_ACTIONS = ("pause", "resume", "cancel", "continue")
 
@@ -29,7 +33,11 @@ class MissionStep:
         kind: "goto" (a map pose), "goto_gps" (a WGS84 position), "wait" (``seconds``),
             "pause" (until a person says continue; ``message`` tells them what for),
             "approach" (drive near (x, y), then the last ``stop_distance_m`` short of it
-            slowly, at ``speed_mps``, along ``yaw_rad`` when given).
+            slowly, at ``speed_mps``, along ``yaw_rad`` when given), "beacon" (drive to
+            the beacon ``beacons[0]``, stopping ``stop_distance_m`` short, facing it),
+            "gate" (pass between the two ``beacons``, square to the line joining them),
+            "visit_beacons" (each of ``beacons`` in the nearest-next order, or every beacon
+            with a place when empty).
         x_m, y_m, yaw_rad: [m, m, rad] the pose of goto and approach (yaw None: any).
         latitude_deg, longitude_deg: [deg] goto_gps's position.
         seconds: [s] wait's length.
@@ -39,6 +47,7 @@ class MissionStep:
         on_failure: what a failed step does: "skip" it, "retry" it up to ``retries`` times
             (then the mission fails), or "abort" the mission.
         retries: attempts after the first, for "retry".
+        beacons: the beacon ids of beacon, gate and visit_beacons.
     """
 
     kind: StepKind
@@ -53,6 +62,7 @@ class MissionStep:
     speed_mps: float | None = None
     on_failure: FailurePolicy = "abort"
     retries: int = 0
+    beacons: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

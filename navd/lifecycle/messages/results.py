@@ -122,6 +122,37 @@ class Orientation(Message):
     gyro_bias_radps: Vector3
 
 
+class BeaconPlace(NamedTuple):
+    """Where a beacon stands in the map frame.
+
+    Attributes:
+        beacon_id: its name.
+        x_m, y_m: [m] its place.
+        std_m: [m] 1-sigma of the place (0 for a place given in the config).
+        learnt: learnt from bearings (False: given in the config).
+        observations: how many observations of it have been taken.
+    """
+
+    beacon_id: str
+    x_m: float
+    y_m: float
+    std_m: float
+    learnt: bool
+    observations: int
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class BeaconPlaces(Message):
+    """Every beacon whose place is known or learnt (published when one changes, at most once
+    a second, and once at start-up)."""
+
+    places: tuple[BeaconPlace, ...]
+
+    def place(self, beacon_id: str) -> BeaconPlace | None:
+        """The beacon's place, or None if it has none."""
+        return next((p for p in self.places if p.beacon_id == beacon_id), None)
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class MapUpdate(Message):
     """A snapshot of the occupancy grid.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +112,46 @@ class GpsFix(Message):
             raise MessageError(
                 f"horizontal_accuracy_m must be > 0, got {self.horizontal_accuracy_m}"
             )
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class BeaconObservation(Message):
+    """A range and/or a bearing from the robot's centre to one beacon.
+
+    Attributes:
+        device_id: the sensor that measured it (a UWB tag, a tag detector).
+        beacon_id: which beacon.
+        range_m, range_std_m: [m] the distance and its 1-sigma noise; NaN range: none.
+        bearing_rad, bearing_std_rad: [rad] the direction, counter-clockwise from the robot's
+            forward axis, and its 1-sigma noise; NaN bearing: none.
+    """
+
+    device_id: str
+    beacon_id: str
+    range_m: float = math.nan
+    range_std_m: float = 0.1
+    bearing_rad: float = math.nan
+    bearing_std_rad: float = 0.05
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        if math.isnan(self.range_m) and math.isnan(self.bearing_rad):
+            raise MessageError("a beacon observation needs a range_m, a bearing_rad or both")
+        if not (math.isnan(self.range_m) or 0.0 <= self.range_m < math.inf):
+            raise MessageError(f"range_m must be finite and >= 0, got {self.range_m}")
+        if not (self.range_std_m > 0.0 and self.bearing_std_rad > 0.0):
+            raise MessageError(
+                f"range_std_m and bearing_std_rad must be > 0, got {self.range_std_m} and "
+                f"{self.bearing_std_rad}"
+            )
+
+    @property
+    def has_range(self) -> bool:
+        return not math.isnan(self.range_m)
+
+    @property
+    def has_bearing(self) -> bool:
+        return not math.isnan(self.bearing_rad)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

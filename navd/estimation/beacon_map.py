@@ -1,0 +1,225 @@
+"""Beacon places learnt from bearings (and ranges) taken as the robot moves: a Kalman filter
+per beacon, as seed 004 does it.
+
+Each beacon's place is a 2-state EKF. A bearing alone cannot place a beacon, so its first
+bearings are kept as rays (where the robot stood, which way it looked) until they cross at
+a useful angle; their least-squares crossing starts the filter, and the kept rays are then
+applied to it one by one, so the first covariance is what they say and not a guess. A range
+together with the bearing places the beacon at once. The robot's own uncertainty at the time
+of the observation is added to the measurement's (its Jacobian with respect to the robot's
+x, y and yaw), so a beacon learnt from a poor pose is uncertain too, and an observation
+farther than ``gate_chi2`` from the filter's prediction is refused (a reflection, another
+beacon answering under the same id).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.geometry.angles import wrap_angle
+
+__all__ = ["BeaconMap", "LearntBeacon", "RobotPose"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# Bearing rays kept per beacon while waiting for two to cross.
+MAX_RAYS = 50
+# [rad] the rays' directions must spread at least this much to cross usefully.
+MIN_CROSSING_RAD = math.radians(10.0)
+# [m] beacons are not placed farther than this from the rays' origins (near-parallel rays).
+MAX_PLACE_M = 200.0
+# [m^2] the prior a crossing starts from before the kept rays refine it.
+START_VARIANCE_M2 = 25.0
+
+
+@dataclass(frozen=True, slots=True)
+class RobotPose:
+    """The robot's pose when it observed, and its uncertainty.
+
+    Attributes:
+        x_m, y_m, yaw_rad: [m, m, rad] the pose in the map frame.
+        covariance: 3 x 3 over (x, y, yaw).
+    """
+
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    covariance: FloatArray
+
+
+@dataclass
+class LearntBeacon:
+    """One beacon's filter: its place (None until placed), covariance, and the rays kept
+    until then.
+
+    Attributes:
+        mean: [m] (x, y), None until placed.
+        covariance: 2 x 2 [m^2].
+        rays: (robot pose, bearing [rad], bearing variance [rad^2]) waiting for a crossing.
+        observations: observations taken into the place (or kept as rays).
+        refused: observations refused by the gate.
+    """
+
+    mean: FloatArray | None = None
+    covariance: FloatArray = field(default_factory=lambda: np.eye(2) * START_VARIANCE_M2)
+    rays: list[tuple[RobotPose, float, float]] = field(default_factory=list)
+    observations: int = 0
+    refused: int = 0
+
+    @property
+    def std_m(self) -> float:
+        """[m] 1-sigma of the place along its worst direction (inf before placed)."""
+        if self.mean is None:
+            return math.inf
+        return math.sqrt(max(float(np.linalg.eigvalsh(self.covariance)[-1]), 0.0))
+
+
+class BeaconMap:
+    """Places of beacons not given in the config, learnt from their observations.
+
+    Args:
+        gate_chi2: observations whose squared Mahalanobis distance exceeds this are refused.
+    """
+
+    def __init__(self, gate_chi2: float) -> None:
+        self.gate_chi2 = gate_chi2
+        self.beacons: dict[str, LearntBeacon] = {}
+        self.revision = 0  # grows whenever a place changes
+
+    def observe(
+        self,
+        beacon_id: str,
+        pose: RobotPose,
+        *,
+        range_m: float = math.nan,
+        range_std_m: float = 1.0,
+        bearing_rad: float = math.nan,
+        bearing_std_rad: float = 1.0,
+    ) -> bool:
+        """Take a range and/or bearing [m, rad] to ``beacon_id`` seen from ``pose``; True if
+        it changed the beacon's place (False: kept as a ray, refused, or a range alone to a
+        beacon not yet placed)."""
+        beacon = self.beacons.setdefault(beacon_id, LearntBeacon())
+        has_range, has_bearing = math.isfinite(range_m), math.isfinite(bearing_rad)
+        if beacon.mean is None:
+            if has_range and has_bearing:
+                self._place_at(
+                    beacon,
+                    pose,
+                    range_m=range_m,
+                    range_std_m=range_std_m,
+                    bearing_rad=bearing_rad,
+                    bearing_std_rad=bearing_std_rad,
+                )
+                return True
+            if not has_bearing:
+                return False  # a range alone says nothing of the direction
+            beacon.observations += 1
+            beacon.rays.append((pose, bearing_rad, bearing_std_rad**2))
+            del beacon.rays[:-MAX_RAYS]
+            return self._cross(beacon)
+        changed = False
+        if has_bearing:
+            changed |= self._update(beacon, pose, "bearing", bearing_rad, bearing_std_rad**2)
+        if has_range:
+            changed |= self._update(beacon, pose, "range", range_m, range_std_m**2)
+        return changed
+
+    # --- placing a beacon ------------------------------------------------------------------
+
+    def _place_at(
+        self,
+        beacon: LearntBeacon,
+        pose: RobotPose,
+        *,
+        range_m: float,
+        range_std_m: float,
+        bearing_rad: float,
+        bearing_std_rad: float,
+    ) -> None:
+        """Place a beacon from one range and bearing, its covariance through the Jacobian of
+        the place with respect to the robot's pose and the measurement."""
+        heading = pose.yaw_rad + bearing_rad
+        c, s = math.cos(heading), math.sin(heading)
+        beacon.mean = np.array([pose.x_m + range_m * c, pose.y_m + range_m * s])
+        # d place / d (x, y, yaw, range, bearing)
+        jacobian = np.array(
+            [[1.0, 0.0, -range_m * s, c, -range_m * s], [0.0, 1.0, range_m * c, s, range_m * c]]
+        )
+        noise = np.zeros((5, 5))
+        noise[:3, :3] = pose.covariance
+        noise[3, 3], noise[4, 4] = range_std_m**2, bearing_std_rad**2
+        beacon.covariance = jacobian @ noise @ jacobian.T
+        beacon.observations += 1
+        beacon.rays.clear()
+        self.revision += 1
+
+    def _cross(self, beacon: LearntBeacon) -> bool:
+        """Place the beacon where its rays cross, once they spread enough; then refine the
+        place with each ray through the filter."""
+        rays = beacon.rays
+        directions = np.array([wrap_angle(p.yaw_rad + b) for p, b, _ in rays])
+        spread = np.abs(np.angle(np.exp(1j * (directions[:, None] - directions[None, :]))))
+        if rays and float(spread.max()) < MIN_CROSSING_RAD:
+            return False
+        # each ray: its normal n, n . (place - origin) = 0
+        normals = np.column_stack([-np.sin(directions), np.cos(directions)])
+        origins = np.array([[p.x_m, p.y_m] for p, _, _ in rays])
+        a = normals.T @ normals
+        if np.linalg.cond(a) > 1e6:
+            return False
+        place = np.linalg.solve(a, normals.T @ np.einsum("ij,ij->i", normals, origins))
+        forward = np.column_stack([np.cos(directions), np.sin(directions)])
+        ahead = np.einsum("ij,ij->i", place - origins, forward)
+        if (ahead <= 0.0).any() or float(np.hypot(*(place - origins).T).max()) > MAX_PLACE_M:
+            return False  # behind a ray, or rays nearly parallel: not crossed yet
+        beacon.mean = place
+        beacon.covariance = np.eye(2) * START_VARIANCE_M2
+        kept, beacon.rays = list(rays), []
+        for pose, bearing, variance in kept:
+            self._update(beacon, pose, "bearing", bearing, variance, count=False)
+        self.revision += 1
+        return True
+
+    # --- refining a place ------------------------------------------------------------------
+
+    def _update(
+        self,
+        beacon: LearntBeacon,
+        pose: RobotPose,
+        kind: str,
+        value: float,
+        variance: float,
+        *,
+        count: bool = True,
+    ) -> bool:
+        """One EKF update of the beacon's place with a bearing or a range; False if gated."""
+        assert beacon.mean is not None
+        dx, dy = beacon.mean[0] - pose.x_m, beacon.mean[1] - pose.y_m
+        r2 = max(dx * dx + dy * dy, 1e-6)
+        if kind == "bearing":
+            residual = wrap_angle(value - (math.atan2(dy, dx) - pose.yaw_rad))
+            h_beacon = np.array([-dy / r2, dx / r2])
+            h_robot = np.array([dy / r2, -dx / r2, -1.0])
+        else:
+            r = math.sqrt(r2)
+            residual = value - r
+            h_beacon = np.array([dx / r, dy / r])
+            h_robot = np.array([-dx / r, -dy / r, 0.0])
+        noise = variance + float(h_robot @ pose.covariance @ h_robot)
+        s = float(h_beacon @ beacon.covariance @ h_beacon) + noise
+        if count:
+            beacon.observations += 1
+        if residual * residual / s > self.gate_chi2:
+            beacon.refused += 1
+            return False
+        gain = beacon.covariance @ h_beacon / s
+        beacon.mean = beacon.mean + gain * residual
+        joseph = np.eye(2) - np.outer(gain, h_beacon)  # Joseph's form: stays symmetric
+        beacon.covariance = joseph @ beacon.covariance @ joseph.T + np.outer(gain, gain) * noise
+        self.revision += 1
+        return True
