@@ -21,6 +21,7 @@ from navd.estimation.geo import GeoFrame
 from navd.estimation.madgwick import GRAVITY_MPS2
 from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
+    BeaconObservation,
     CompassHeading,
     GpsFix,
     Imu,
@@ -266,4 +267,6 @@ def replay(
             estimator.add_compass(message, now)
         elif isinstance(message, WheelOdometry):
             estimator.add_wheel_odometry(message, now)
+        elif isinstance(message, BeaconObservation):
+            estimator.add_beacon(message, now)
     return estimates

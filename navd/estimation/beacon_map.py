@@ -3,8 +3,11 @@ per beacon, as seed 004 does it.
 
 Each beacon's place is a 2-state EKF. A bearing alone cannot place a beacon, so its first
 bearings are kept as rays (where the robot stood, which way it looked) until they cross at
-a useful angle; their least-squares crossing starts the filter, and the kept rays are then
-applied to it one by one, so the first covariance is what they say and not a guess. A range
+a useful angle; the place where they cross best (least squares on the bearings, solved by
+Gauss-Newton from the rays' linear crossing) starts the filter, with the covariance the
+rays give it, once that is tight enough (``MAX_START_STD_M``). An EKF from a poor first
+guess can lock onto a wrong place (the bearings' nonlinearity); if it then refuses
+``MAX_REFUSED_RUN`` observations in a row, the beacon is learnt again from fresh rays. A range
 together with the bearing places the beacon at once. The robot's own uncertainty at the time
 of the observation is added to the measurement's (its Jacobian with respect to the robot's
 x, y and yaw), so a beacon learnt from a poor pose is uncertain too, and an observation
@@ -32,8 +35,12 @@ MAX_RAYS = 50
 MIN_CROSSING_RAD = math.radians(10.0)
 # [m] beacons are not placed farther than this from the rays' origins (near-parallel rays).
 MAX_PLACE_M = 200.0
-# [m^2] the prior a crossing starts from before the kept rays refine it.
+# [m^2] a beacon's covariance before anything is known of it.
 START_VARIANCE_M2 = 25.0
+# [m] the rays' crossing starts the filter once its worst 1-sigma is below this.
+MAX_START_STD_M = 1.0
+# Observations refused in a row that make a placed beacon be learnt again.
+MAX_REFUSED_RUN = 20
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,7 +68,7 @@ class LearntBeacon:
         covariance: 2 x 2 [m^2].
         rays: (robot pose, bearing [rad], bearing variance [rad^2]) waiting for a crossing.
         observations: observations taken into the place (or kept as rays).
-        refused: observations refused by the gate.
+        refused: observations refused by the gate; refused_run: of them, in a row.
     """
 
     mean: FloatArray | None = None
@@ -69,6 +76,7 @@ class LearntBeacon:
     rays: list[tuple[RobotPose, float, float]] = field(default_factory=list)
     observations: int = 0
     refused: int = 0
+    refused_run: int = 0
 
     @property
     def std_m(self) -> float:
@@ -96,9 +104,9 @@ class BeaconMap:
         pose: RobotPose,
         *,
         range_m: float = math.nan,
-        range_std_m: float = 1.0,
+        range_std_m: float = 0.1,
         bearing_rad: float = math.nan,
-        bearing_std_rad: float = 1.0,
+        bearing_std_rad: float = 0.05,
     ) -> bool:
         """Take a range and/or bearing [m, rad] to ``beacon_id`` seen from ``pose``; True if
         it changed the beacon's place (False: kept as a ray, refused, or a range alone to a
@@ -159,12 +167,12 @@ class BeaconMap:
         self.revision += 1
 
     def _cross(self, beacon: LearntBeacon) -> bool:
-        """Place the beacon where its rays cross, once they spread enough; then refine the
-        place with each ray through the filter."""
+        """Place the beacon where its rays cross best, once they spread enough and the
+        crossing is tight enough."""
         rays = beacon.rays
         directions = np.array([wrap_angle(p.yaw_rad + b) for p, b, _ in rays])
         spread = np.abs(np.angle(np.exp(1j * (directions[:, None] - directions[None, :]))))
-        if rays and float(spread.max()) < MIN_CROSSING_RAD:
+        if float(spread.max()) < MIN_CROSSING_RAD:
             return False
         # each ray: its normal n, n . (place - origin) = 0
         normals = np.column_stack([-np.sin(directions), np.cos(directions)])
@@ -173,15 +181,19 @@ class BeaconMap:
         if np.linalg.cond(a) > 1e6:
             return False
         place = np.linalg.solve(a, normals.T @ np.einsum("ij,ij->i", normals, origins))
+        solved = _best_crossing(rays, place)
+        if solved is None:
+            return False
+        place, covariance = solved
         forward = np.column_stack([np.cos(directions), np.sin(directions)])
         ahead = np.einsum("ij,ij->i", place - origins, forward)
         if (ahead <= 0.0).any() or float(np.hypot(*(place - origins).T).max()) > MAX_PLACE_M:
             return False  # behind a ray, or rays nearly parallel: not crossed yet
-        beacon.mean = place
-        beacon.covariance = np.eye(2) * START_VARIANCE_M2
-        kept, beacon.rays = list(rays), []
-        for pose, bearing, variance in kept:
-            self._update(beacon, pose, "bearing", bearing, variance, count=False)
+        if float(np.linalg.eigvalsh(covariance)[-1]) > MAX_START_STD_M**2:
+            return False  # crossed, too loosely yet: more rays
+        beacon.mean, beacon.covariance = place, covariance
+        beacon.rays = []
+        beacon.refused_run = 0
         self.revision += 1
         return True
 
@@ -216,10 +228,45 @@ class BeaconMap:
             beacon.observations += 1
         if residual * residual / s > self.gate_chi2:
             beacon.refused += 1
+            beacon.refused_run += 1
+            if beacon.refused_run >= MAX_REFUSED_RUN:
+                # locked onto a wrong place: learn it again from fresh rays
+                beacon.mean, beacon.covariance = None, np.eye(2) * START_VARIANCE_M2
+                beacon.refused_run = 0
+                self.revision += 1
             return False
+        beacon.refused_run = 0
         gain = beacon.covariance @ h_beacon / s
         beacon.mean = beacon.mean + gain * residual
         joseph = np.eye(2) - np.outer(gain, h_beacon)  # Joseph's form: stays symmetric
         beacon.covariance = joseph @ beacon.covariance @ joseph.T + np.outer(gain, gain) * noise
         self.revision += 1
         return True
+
+
+def _best_crossing(
+    rays: list[tuple[RobotPose, float, float]], start: FloatArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """The place whose bearings from the rays' origins best fit theirs (weighted least
+    squares, each ray's noise with its pose's added), by Gauss-Newton from ``start``; and
+    its covariance. None if it does not settle."""
+    place = start.astype(np.float64)
+    normal = np.eye(2)
+    for _ in range(10):
+        rows, residuals, weights = [], [], []
+        for pose, bearing, variance in rays:
+            dx, dy = place[0] - pose.x_m, place[1] - pose.y_m
+            r2 = max(dx * dx + dy * dy, 1e-6)
+            h_robot = np.array([dy / r2, -dx / r2, -1.0])
+            rows.append((-dy / r2, dx / r2))
+            residuals.append(wrap_angle(bearing - (math.atan2(dy, dx) - pose.yaw_rad)))
+            weights.append(1.0 / (variance + float(h_robot @ pose.covariance @ h_robot)))
+        jacobian, w = np.array(rows), np.array(weights)
+        normal = jacobian.T @ (w[:, None] * jacobian)
+        if np.linalg.cond(normal) > 1e12:
+            return None
+        step = np.linalg.solve(normal, jacobian.T @ (w * np.array(residuals)))
+        place = place + step
+        if float(np.hypot(*step)) < 1e-4:
+            return place, np.linalg.inv(normal)
+    return None

@@ -53,6 +53,7 @@ class EstimationNode(Module):
         self._imu_device = ""
         self._stopped = False
         self._beacons_published: tuple[object, ...] | None = None
+        self._beacons_logged: set[str] = set()  # learnt beacons whose placing was logged
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -139,7 +140,18 @@ class EstimationNode(Module):
         if version == self._beacons_published:
             return
         self._beacons_published = version
-        self.ctx.publish(BeaconPlaces(stamp=now, received=now, places=estimator.beacon_places()))
+        places = estimator.beacon_places()
+        for place in places:
+            if place.learnt and place.beacon_id not in self._beacons_logged:
+                self._beacons_logged.add(place.beacon_id)
+                self.ctx.log.info(
+                    "beacon_placed",
+                    beacon=place.beacon_id,
+                    x=round(place.x_m, 2),
+                    y=round(place.y_m, 2),
+                    std_m=round(place.std_m, 2),
+                )
+        self.ctx.publish(BeaconPlaces(stamp=now, received=now, places=places))
 
     def _on_initial_pose(self, pose: InitialPose) -> None:
         self.ctx.log.info("initial_pose", x=pose.x_m, y=pose.y_m, yaw=pose.yaw_rad)

@@ -30,6 +30,9 @@ class MissionNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        # the config's beacons, before the estimator publishes them with the learnt ones
+        known = ctx.startup_config.beacons.known
+        self._places = {b: (p.x_m, p.y_m) for b, p in known.items()}
         ctx.subscribe(MissionRequest, self._on_request)
         ctx.subscribe(MissionCommand, self._on_command)
         ctx.subscribe(GoalStatus, self._on_goal_status)

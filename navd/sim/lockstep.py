@@ -130,7 +130,9 @@ class Lockstep:
             )
         every = _steps_per_sample(self.settings.physics_rate_hz, sensor.rate_hz)
         if client is not None and self.steps % every == 0 and not sensor.is_silent():
-            client.send(sensor.frame(self.time_s))
+            frame = sensor.frame(self.time_s)
+            if frame is not None:  # a beacon sensor with none in range says nothing
+                client.send(frame)
             sensor.last_sent_s = self.time_s
             self._sent[sensor.device_id] += 1
             await client.drain()

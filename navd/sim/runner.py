@@ -158,7 +158,9 @@ class Simulator:
                     if sensor.is_silent():
                         continue
                     now = self.now()
-                    client.send(sensor.frame(now))
+                    frame = sensor.frame(now)
+                    if frame is not None:  # a beacon sensor with none in range says nothing
+                        client.send(frame)
                     sensor.last_sent_s = now
                     await client.drain()
             except (ConnectionError, OSError):

@@ -19,6 +19,7 @@ import numpy as np
 from navd.config import NavdConfig
 from navd.drivers.protocol.frames import (
     FixFrame,
+    BeaconFrame,
     HeadingFrame,
     ImuFrame,
     Role,
@@ -46,7 +47,7 @@ class SimSensor:
     Attributes:
         role, device_id: what it says in its hello.
         rate_hz: [Hz] frames per second.
-        frame: the frame at a time [s].
+        frame: the frame at a time [s] (None: nothing to say then).
         plugged: False while a scenario has it unplugged (None: always plugged).
         silent: True while a scenario has it connected but sending nothing (a hung driver).
         last_sent_s: [s] simulation time it last sent a frame.
@@ -55,7 +56,7 @@ class SimSensor:
     role: Role
     device_id: str
     rate_hz: float
-    frame: Callable[[float], SensorFrame]
+    frame: Callable[[float], SensorFrame | None]
     plugged: Callable[[], bool] | None = None
     silent: Callable[[], bool] | None = None
     last_sent_s: float = -math.inf
@@ -101,6 +102,7 @@ class SensorModels:
         self.lidar_silent = False
         self.imu_silent = False
         self._sensors: list[SimSensor] | None = None
+        self._next_beacon = 0  # the beacon sensor's turn
         # Where the first listed IMU, GNSS antenna and compass sit (their mounts' inverse).
         mounts = SensorMounts.of(config)
         self._imu_to_base = mounts.imu_rotation(next(iter(config.mounts.imus), ""))
@@ -127,7 +129,7 @@ class SensorModels:
     def _make_sensors(self) -> list[SimSensor]:
         s, mounts = self.settings, self.config.mounts
         # One lidar per mount the config lists (the lidar section's single one without).
-        lidars = list(mounts.lidars) or ["sim-lidar"]
+        lidars = (list(mounts.lidars) or ["sim-lidar"]) if s.lidar_rate_hz > 0 else []
         sensors = [
             SimSensor(
                 "lidar",
@@ -156,6 +158,8 @@ class SensorModels:
         if s.compass_rate_hz > 0:
             compass = next(iter(mounts.compasses), "sim-compass")
             sensors.append(SimSensor("compass", compass, s.compass_rate_hz, self.heading))
+        if s.beacon_rate_hz > 0 and self.robot.world.beacons:
+            sensors.append(SimSensor("beacon", "sim-beacons", s.beacon_rate_hz, self.beacon))
         return sensors
 
     def scan(self, now: float, lidar: str = "sim-lidar") -> ScanFrame:
@@ -237,6 +241,34 @@ class SensorModels:
             altitude=0.0,
             horizontal_accuracy=sigma,
         )
+
+    def beacon(self, now: float) -> BeaconFrame | None:
+        """The next beacon in turn within range: its range and/or bearing from the body's
+        centre, with Gaussian noise (None when none is in range)."""
+        s, b = self.settings, self.robot.body
+        beacons = self.robot.world.beacons
+        for _ in range(len(beacons)):
+            beacon_id, x, y = beacons[self._next_beacon % len(beacons)]
+            self._next_beacon += 1
+            distance = math.hypot(x - b.x_m, y - b.y_m)
+            if distance > s.beacon_max_range_m:
+                continue
+            range_m = bearing = None
+            if s.beacon_mode in ("range", "both"):
+                range_m = max(distance + float(self._rng.normal(0.0, s.beacon_range_noise_m)), 0.0)
+            if s.beacon_mode in ("bearing", "both"):
+                true_bearing = math.atan2(y - b.y_m, x - b.x_m) - b.yaw_rad
+                noisy = true_bearing + float(self._rng.normal(0.0, s.beacon_bearing_noise_rad))
+                bearing = math.remainder(noisy, math.tau)
+            return BeaconFrame(
+                stamp=now,
+                beacon=beacon_id,
+                range_m=range_m,
+                range_std_m=s.beacon_range_noise_m,
+                bearing_rad=bearing,
+                bearing_std_rad=s.beacon_bearing_noise_rad,
+            )
+        return None
 
     def heading(self, now: float) -> HeadingFrame:
         """A magnetic bearing of the true yaw: the inverse of the daemon's conversion."""

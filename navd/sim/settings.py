@@ -17,13 +17,18 @@ class SimSettings:
     Attributes:
         host, port: the daemon's TCP server; token: its ``tcp.token`` when it has one.
         tty_link: path of the symlink to the chassis end of the pseudo-terminal.
-        lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: each 2D lidar.
+        lidar_beams, lidar_rate_hz, lidar_noise_m, lidar_max_range_m: each 2D lidar (0 Hz:
+            none).
         lidar_fov_rad: [rad] each lidar's field of view, centred on its forward axis.
         imu_rate_hz, gyro_noise_radps, gyro_bias_radps, accel_noise_mps2: the IMU (0 Hz: none).
         gps_rate_hz, gps_noise_m: a GNSS receiver, streaming only when the daemon's config
             has a datum (``world.datum_latitude_deg``/``longitude_deg``, at map (0, 0)).
         compass_rate_hz, compass_noise_deg: a magnetic compass (0 Hz: none); it reports
             magnetic bearings, so the daemon's ``world.magnetic_declination_deg`` applies.
+        beacon_rate_hz: observations per second of the world's beacons, one beacon each in
+            turn (0 Hz, or a world without beacons: none); beacon_mode: what each measures;
+            beacon_range_noise_m, beacon_bearing_noise_rad: their 1-sigma noise;
+            beacon_max_range_m: farther beacons are not seen.
         physics_rate_hz: world steps per second (in lockstep: clock steps per second; sensor
             rates are rounded to whole steps).
         feedback_rate_hz: encoder lines per second (0: none).
@@ -48,6 +53,11 @@ class SimSettings:
     gps_noise_m: float = 1.0
     compass_rate_hz: float = 10.0
     compass_noise_deg: float = 2.0
+    beacon_rate_hz: float = 10.0
+    beacon_mode: Literal["range", "bearing", "both"] = "range"
+    beacon_range_noise_m: float = 0.1
+    beacon_bearing_noise_rad: float = 0.03
+    beacon_max_range_m: float = 50.0
     physics_rate_hz: float = 100.0
     feedback_rate_hz: float = 20.0
     seed: int = 0

@@ -9,6 +9,7 @@ walls = [[x0, y0, x1, y1], ...]          # segments, 5 cm thick
 boxes = [[x, y, width, height], ...]      # axis-aligned, (x, y) is the lower-left corner
 circles = [[x, y, radius], ...]
 movers = [{radius = 0.25, speed = 0.5, path = [[x, y], [x, y], ...]}]   # back and forth
+beacons = [{id = "B1", x = 0.0, y = 5.0}]  # points a beacon sensor ranges and bears to
 start = [x, y, yaw]                       # where the robot starts (default 0 0 0)
 goal = [x, y, yaw]                        # the demo's goal (optional)
 ```
@@ -16,6 +17,7 @@ goal = [x, y, yaw]                        # the demo's goal (optional)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from collections.abc import Sequence
@@ -74,6 +76,7 @@ class World:
         movers: the moving discs.
         start: the robot's start pose.
         goal: the scenario's goal pose, if it has one.
+        beacons: (id, x [m], y [m]) of each beacon (no body: only a beacon sensor sees it).
     """
 
     grid: npt.NDArray[np.bool_]
@@ -84,6 +87,7 @@ class World:
     start: Pose2 = IDENTITY
     goal: Pose2 | None = None
     name: str = field(default="world")
+    beacons: tuple[tuple[str, float, float], ...] = ()
 
     def discs(self, t_s: float) -> FloatArray:
         """K x 3 (x, y, radius) [m] of the movers at time ``t_s`` [s]."""
@@ -125,7 +129,10 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
     Raises:
         WorldError: an unknown key, a malformed shape or a world with nothing in it.
     """
-    known = {"resolution_m", "walls", "boxes", "circles", "movers", "start", "goal", "margin_m"}
+    known = {
+        "resolution_m", "walls", "boxes", "circles", "movers", "start", "goal", "margin_m",
+        "beacons",
+    }  # fmt: skip
     unknown = set(spec) - known
     if unknown:
         raise WorldError(f"unknown world keys {sorted(unknown)}; known: {sorted(known)}")
@@ -163,13 +170,18 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
     for x, y, w, h in boxes:
         if w <= 0 or h <= 0:
             raise WorldError(f"box at ({x}, {y}) needs a positive width and height")
-        inside_c = (cx >= x) & (cx <= x + w)
-        inside_r = (cy >= y) & (cy <= y + h)
-        grid |= inside_r[:, None] & inside_c[None, :]
+        lo_c, hi_c = _span(x, x + w, ox, res, cols)
+        lo_r, hi_r = _span(y, y + h, oy, res, rows)
+        inside_c = (cx[lo_c:hi_c] >= x) & (cx[lo_c:hi_c] <= x + w)
+        inside_r = (cy[lo_r:hi_r] >= y) & (cy[lo_r:hi_r] <= y + h)
+        grid[lo_r:hi_r, lo_c:hi_c] |= inside_r[:, None] & inside_c[None, :]
     for x, y, radius in circles:
         if radius <= 0:
             raise WorldError(f"circle at ({x}, {y}) needs a positive radius")
-        grid |= (cx[None, :] - x) ** 2 + (cy[:, None] - y) ** 2 <= radius**2
+        lo_c, hi_c = _span(x - radius, x + radius, ox, res, cols)
+        lo_r, hi_r = _span(y - radius, y + radius, oy, res, rows)
+        dx2 = (cx[None, lo_c:hi_c] - x) ** 2
+        grid[lo_r:hi_r, lo_c:hi_c] |= dx2 + (cy[lo_r:hi_r, None] - y) ** 2 <= radius**2
     movers = []
     raw_movers = spec.get("movers", [])
     if not isinstance(raw_movers, list):
@@ -183,7 +195,24 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
         movers.append(Mover(float(m["radius"]), float(m["speed"]), path))
     start = _pose(spec.get("start", [0.0, 0.0, 0.0]), "start")
     goal = _pose(spec["goal"], "goal") if "goal" in spec else None
-    return World(grid, ox, oy, float(res), tuple(movers), start, goal, name)
+    beacons = _beacons(spec.get("beacons", []))
+    return World(grid, ox, oy, float(res), tuple(movers), start, goal, name, beacons)
+
+
+def _beacons(value: object) -> tuple[tuple[str, float, float], ...]:
+    """The beacons table list as (id, x, y), or a WorldError naming the bad one."""
+    if not isinstance(value, list):
+        raise WorldError("beacons must be a list of tables {id, x, y}")
+    beacons = []
+    for i, b in enumerate(value):
+        if not isinstance(b, dict) or set(b) != {"id", "x", "y"} or not isinstance(b["id"], str):
+            raise WorldError(f"beacons[{i}] must be a table with id (a string), x and y")
+        x, y = _pairs([[b["x"], b["y"]]], 2, f"beacons[{i}]")[0]
+        beacons.append((b["id"], x, y))
+    ids = [b[0] for b in beacons]
+    if len(set(ids)) != len(ids):
+        raise WorldError(f"beacon ids must differ, got {ids}")
+    return tuple(beacons)
 
 
 def _span(lo: float, hi: float, origin: float, res: float, n: int) -> tuple[int, int]:
@@ -250,14 +279,5 @@ def office(movers: Sequence[Mover] = ()) -> World:
     }
     world = from_shapes(spec, "office")
     if movers:
-        world = World(
-            world.grid,
-            world.origin_x_m,
-            world.origin_y_m,
-            world.resolution_m,
-            tuple(movers),
-            world.start,
-            world.goal,
-            world.name,
-        )
+        world = dataclasses.replace(world, movers=tuple(movers))
     return world

@@ -16,6 +16,7 @@ from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.settings import EstimatorSettings
 from navd.geometry.mount import rotation_rpy
 from navd.lifecycle.messages import (
+    BeaconObservation,
     CompassHeading,
     GpsFix,
     Imu,
@@ -264,3 +265,77 @@ def test_an_imu_mounted_sideways_and_upside_down_is_turned_into_base_link() -> N
     # without the mount the filter thinks the robot is upside down
     tilt = np.array(unmounted.madgwick.quaternion) - np.array(plain.madgwick.quaternion)
     assert np.abs(tilt).max() > 0.5
+
+
+# --- beacons ----------------------------------------------------------------------------
+
+ANCHORS = {"a1": (-7.0, -4.0), "a2": (7.0, -4.0), "a3": (7.0, 4.0), "a4": (-7.0, 4.0)}
+
+
+def _anchored(**changes: object) -> EstimatorSettings:
+    raw = NavdConfig().model_dump()
+    raw["beacons"]["known"] = {b: {"x_m": x, "y_m": y} for b, (x, y) in ANCHORS.items()}
+    config = NavdConfig.model_validate(raw)
+    if changes:
+        config, _ = apply_changes(config, changes)
+    return EstimatorSettings.from_config(config)
+
+
+def _ranges(duration_s: float, rate_hz: float, std_m: float, seed: int) -> list[BeaconObservation]:
+    """UWB-like ranges to the anchors in turn along PATH, with Gaussian noise."""
+    rng = np.random.default_rng(seed)
+    names = list(ANCHORS)
+    out = []
+    for k in range(int(duration_s * rate_hz)):
+        t = k / rate_hz
+        truth = PATH.at(t)
+        beacon = names[k % len(names)]
+        bx, by = ANCHORS[beacon]
+        distance = math.hypot(bx - truth.x, by - truth.y) + rng.normal(0.0, std_m)
+        out.append(
+            BeaconObservation(
+                stamp=t,
+                received=t + 0.01,
+                device_id="uwb",
+                beacon_id=beacon,
+                range_m=distance,
+                range_std_m=std_m,
+            )
+        )
+    return out
+
+
+def test_ranges_to_four_known_beacons_start_and_hold_the_estimate_without_lidar() -> None:
+    suite = SensorSuite(lidar_hz=0, compass_hz=10)
+    messages = sorted(
+        [*drive(PATH, suite, 60.0), *_ranges(60.0, 20.0, 0.1, seed=3)], key=lambda m: m.received
+    )
+    estimator = StateEstimator(_anchored())
+    estimates = replay(estimator, messages)
+    # it started by itself, from the first three ranges, near the truth
+    first = estimates[0]
+    assert math.dist((first.x_m, first.y_m), (PATH.at(first.stamp).x, PATH.at(first.stamp).y)) < 0.5
+    errors = [
+        math.dist((e.x_m, e.y_m), (PATH.at(e.stamp).x, PATH.at(e.stamp).y))
+        for e in estimates
+        if e.stamp >= 5.0
+    ]
+    assert max(errors) <= 0.3
+    assert estimator.counters["rejected"].get("beacon", 0) < 0.05 * 1200
+
+
+def test_beacons_not_listed_are_learnt_only_when_learning_is_on() -> None:
+    messages = [
+        BeaconObservation(
+            stamp=1.0, received=1.0, device_id="cam", beacon_id="tag7", bearing_rad=0.3
+        )
+    ]
+    quiet = StateEstimator(_anchored(**{"beacons.learn": False}))
+    quiet.set_pose(InitialPose(stamp=0.5, received=0.5, x_m=0.0, y_m=0.0, yaw_rad=0.0))
+    replay(quiet, messages)
+    assert quiet.counters["ignored"] == {"beacon_unknown": 1}
+    learning = StateEstimator(_anchored())
+    replay(learning, messages)
+    assert learning.counters["ignored"] == {"beacon_before_start": 1}  # no pose to learn from
+    places = {p.beacon_id: p for p in learning.beacon_places()}
+    assert set(places) == set(ANCHORS) and not any(p.learnt for p in places.values())

@@ -212,3 +212,79 @@ def test_a_patrol_whose_every_step_fails_stops_after_a_round() -> None:
         out = mission.on_goal_status(_end(goal, "failed", "no route"), 1.0, HERE)
     assert mission.state == "failed" and "every step of round 1 failed" in mission.reason
     assert _goals(out) == []
+
+
+# --- beacon steps -----------------------------------------------------------------------
+
+PLACES = {"B1": (4.0, 0.0), "B2": (1.0, 0.0), "B3": (1.0, 2.5), "G1": (5.0, -1.0), "G2": (5.0, 1.0)}
+
+
+def _beacon_mission(*steps: MissionStep) -> MissionExecutor:
+    mission = _mission(*steps)
+    mission.places = PLACES
+    return mission
+
+
+def test_visiting_beacons_drives_to_the_nearest_next_stopping_short_and_facing_each() -> None:
+    step = MissionStep(kind="visit_beacons", beacons=("B1", "B2", "B3"), stop_distance_m=0.5)
+    mission = _beacon_mission(step)
+    out = mission.start(0.0, HERE)
+    reached: list[tuple[float, float]] = []
+    pose = HERE
+    while _goals(out):
+        (goal,) = _goals(out)
+        assert goal.yaw_rad is not None
+        # it stops short of a beacon along the way the robot comes, facing it
+        target = min(PLACES.values(), key=lambda p: math.dist(p, (goal.x_m, goal.y_m)))
+        assert math.dist(target, (goal.x_m, goal.y_m)) == pytest.approx(0.5)
+        facing = math.atan2(target[1] - goal.y_m, target[0] - goal.x_m)
+        assert goal.yaw_rad == pytest.approx(facing)
+        reached.append(target)
+        pose = Pose2(goal.x_m, goal.y_m, goal.yaw_rad)
+        out = mission.on_goal_status(_end(goal, "reached"), 1.0, pose)
+    # from the origin: B2 (1 m; B1 is 4 m) first, then B3 (2.5 m from it; B1 3 m), then B1
+    assert reached == [PLACES["B2"], PLACES["B3"], PLACES["B1"]]
+    assert _events(out) == ["step_done", "completed"]
+
+
+def test_visiting_all_beacons_takes_every_beacon_with_a_place() -> None:
+    mission = _beacon_mission(MissionStep(kind="visit_beacons"))
+    out = mission.start(0.0, HERE)
+    goals = 0
+    while _goals(out):
+        goals += 1
+        (goal,) = _goals(out)
+        out = mission.on_goal_status(_end(goal, "reached"), 1.0, Pose2(goal.x_m, goal.y_m, 0.0))
+    assert goals == len(PLACES)
+
+
+@pytest.mark.parametrize(("start_x", "first_x", "second_x"), [(0.0, 4.0, 6.0), (9.0, 6.0, 4.0)])
+def test_a_gate_is_passed_square_to_its_line_from_the_robots_side(
+    start_x: float, first_x: float, second_x: float
+) -> None:
+    mission = _beacon_mission(MissionStep(kind="gate", beacons=("G1", "G2")))
+    pose = Pose2(start_x, 0.3, 0.0)
+    (before,) = _goals(mission.start(0.0, pose))
+    (after,) = _goals(mission.on_goal_status(_end(before, "reached"), 1.0, pose))
+    assert (before.x_m, before.y_m) == pytest.approx((first_x, 0.0))
+    assert (after.x_m, after.y_m) == pytest.approx((second_x, 0.0))
+    heading = 0.0 if start_x < 5.0 else math.pi
+    for goal in (before, after):
+        assert goal.yaw_rad is not None
+        assert math.cos(goal.yaw_rad - heading) == pytest.approx(1.0)
+    out = mission.on_goal_status(_end(after, "reached"), 2.0, pose)
+    assert _events(out) == ["step_done", "completed"]
+
+
+def test_a_beacon_without_a_place_fails_the_step_by_its_policy_naming_the_known_ones() -> None:
+    mission = _beacon_mission(
+        MissionStep(kind="beacon", beacons=("B9",), on_failure="skip"),
+        MissionStep(kind="beacon", beacons=("B1",)),
+    )
+    out = mission.start(0.0, HERE)
+    skipped = [m for m in out if isinstance(m, MissionStatus) and m.event == "step_skipped"]
+    assert skipped and "B9 has no place" in skipped[0].reason and "B1, B2" in skipped[0].reason
+    (goal,) = _goals(out)  # on to the next step
+    assert math.dist((goal.x_m, goal.y_m), PLACES["B1"]) == pytest.approx(0.0)
+    empty = _mission(MissionStep(kind="visit_beacons"))
+    assert "no beacon has a place" in empty.start(0.0, HERE)[-1].reason  # type: ignore[attr-defined]

@@ -99,3 +99,23 @@ def test_without_a_datum_there_is_no_gps() -> None:
     robot = _robot()
     roles = [s.role for s in SensorModels(robot, robot.config, SimSettings()).sensors()]
     assert roles == ["lidar", "imu", "compass"]
+
+
+def test_the_beacon_sensor_ranges_to_each_beacon_in_range_in_turn() -> None:
+    spec = {
+        **ROOM,
+        "beacons": [{"id": "near", "x": 1.0, "y": 1.0}, {"id": "far", "x": 90.0, "y": 0.0}],
+    }
+    config = NavdConfig()
+    robot = SimRobot(from_shapes(spec, "room"), config)
+    settings = SimSettings(beacon_range_noise_m=1e-9, beacon_max_range_m=50.0, beacon_mode="both")
+    models = SensorModels(robot, config, settings)
+    frames = [models.beacon(0.1 * k) for k in range(4)]
+    # the far one is out of range: only the near one answers, every time
+    assert all(f is not None and f.beacon == "near" for f in frames)
+    assert frames[0] is not None and frames[0].range_m == pytest.approx(math.sqrt(2.0))
+    assert frames[0].bearing_rad == pytest.approx(math.pi / 4, abs=0.1)  # 0.03 rad noise
+    out_of_reach = SensorModels(robot, config, SimSettings(beacon_max_range_m=0.5))
+    assert out_of_reach.beacon(0.0) is None
+    no_lidar = SensorModels(robot, config, SimSettings(lidar_rate_hz=0.0))
+    assert [s.role for s in no_lidar.sensors()] == ["imu", "compass", "beacon"]

@@ -47,6 +47,12 @@ def test_shapes_are_rasterized_where_they_are() -> None:
         ({"walls": [[0, 0, 1, 0]], "resolution_m": 5}, "resolution_m"),
         ({"circles": [[0, 0, 1]], "movers": [{"radius": 0.2}]}, r"movers\[0\]"),
         ({"circles": [[0, 0, 1]], "start": [0, 0]}, r"start\[0\] must be 3"),
+        ({"circles": [[0, 0, 1]], "beacons": [{"id": "a", "x": 1}]}, r"beacons\[0\]"),
+        ({"circles": [[0, 0, 1]], "beacons": [{"id": "a", "x": 1, "y": "n"}]}, r"beacons\[0\]"),
+        (
+            {"circles": [[0, 0, 1]], "beacons": [{"id": "a", "x": 1, "y": 0}] * 2},
+            "beacon ids must differ",
+        ),
     ],
 )
 def test_bad_worlds_are_refused_by_name(spec, match) -> None:

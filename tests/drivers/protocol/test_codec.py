@@ -28,6 +28,7 @@ from navd.drivers.protocol.replies import (
     Welcome,
 )
 from navd.lifecycle.messages import (
+    BeaconObservation,
     CompassHeading,
     ConfigChange,
     DeviceKind,
@@ -150,6 +151,20 @@ def test_hello_with_token() -> None:
             "linear_x",
             "valid number",
         ),
+        (DeviceKind.BEACON, line(type="beacon", beacon="B1"), "", "range_m, bearing_rad or both"),
+        (DeviceKind.BEACON, line(type="beacon", beacon="B 1", range_m=2.0), "beacon", "pattern"),
+        (
+            DeviceKind.BEACON,
+            line(type="beacon", beacon="B1", range_m=-1.0),
+            "range_m",
+            "greater than or equal to 0",
+        ),
+        (
+            DeviceKind.BEACON,
+            line(type="beacon", beacon="B1", bearing_rad=0.1, bearing_std_rad=0),
+            "bearing_std_rad",
+            "greater than 0",
+        ),
     ],
 )
 def test_bad_sensor_frames_name_the_field(
@@ -159,6 +174,14 @@ def test_bad_sensor_frames_name_the_field(
         decode_sensor(role, raw)
     assert info.value.field == field
     assert reason in info.value.reason
+
+
+def test_a_beacon_frame_becomes_an_observation_with_what_it_measured() -> None:
+    frame = decode_sensor(DeviceKind.BEACON, line(type="beacon", beacon="B1", bearing_rad=4.0))
+    seen = sensor_message(frame, "cam", 1.0, 1.0)
+    assert isinstance(seen, BeaconObservation)
+    assert seen.beacon_id == "B1" and not seen.has_range and seen.has_bearing
+    assert seen.bearing_rad == pytest.approx(4.0 - 2 * math.pi)  # wrapped to (-pi, pi]
 
 
 def test_scan_becomes_laser_scan_with_null_as_nan() -> None:
