@@ -12,6 +12,14 @@ __all__ = ["EstimationConfig", "SlamConfig", "WorldConfig"]
 class SlamConfig(Section):
     """Scan matching and the occupancy grid (the seed's IcpSlamConfig and MatchingParams)."""
 
+    enabled: bool = Field(
+        True,
+        **restart(
+            "map and localize with the lidar; off (outdoors, on GPS, or with beacons): the lidar "
+            "only shows obstacles, and the robot is placed by GPS, IMU, compass, wheels and "
+            "beacons"
+        ),
+    )
     updating_map: bool = Field(True, description="add scans to the map (off: localize only)")
     resolution_m: float = Field(0.05, ge=0.01, le=1, **restart("[m] occupancy grid cell size"))
     voxel_size_m: float = Field(

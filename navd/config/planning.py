@@ -136,19 +136,27 @@ class PlanningConfig(Section):
         3, ge=0, le=100, description="[count] replans after StuckDetected before the goal fails"
     )
     max_goal_distance_m: float = Field(
-        100.0,
+        1000.0,
         gt=0,
-        le=10_000,
+        le=100_000,
         description="[m] a goal farther than this from the robot fails at once with the reason "
-        "(give waypoints in between); bounds the area A* searches",
+        "(a typo's guard: give waypoints in between)",
     )
     max_plan_cells: int = Field(
-        9_000_000,
+        2_000_000,
         ge=10_000,
         le=400_000_000,
-        description="[cells] the grid A* plans on (the map, the robot and the goal with "
-        "margins) may hold at most this many cells, about 45 bytes each at its peak; a goal "
-        "needing more fails with the reason",
+        description="[cells] A* plans on the whole map (with the robot and the goal) while it "
+        "holds at most this many cells, about 45 bytes each at its peak; beyond, and for a goal "
+        "beyond local_window_m with no map, it plans a coarse route over the area and the "
+        "fine route in a window around the robot",
+    )
+    local_window_m: float = Field(
+        30.0,
+        ge=5,
+        le=200,
+        description="[m] side of the square around the robot planned at full resolution when "
+        "the goal is far (see max_plan_cells); re-planned as the robot nears its edge",
     )
 
     @model_validator(mode="after")

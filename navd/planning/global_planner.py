@@ -39,12 +39,15 @@ class PlannedPath:
         cost: [m] A* route cost: length weighted by the cells' costs.
         cells_expanded: how many cells the search expanded (0 when reused).
         reused: the rest of the last route toward the same goal, still the best (``reuse``).
+        fine_length_m: [m] for a far goal (``horizon``), how much of the route, from the
+            robot on, was planned at full resolution (the rest is coarse); None: all of it.
     """
 
     points_m: FloatArray
     cost: float
     cells_expanded: int
     reused: bool = False
+    fine_length_m: float | None = None
 
     @property
     def length_m(self) -> float:

@@ -2,9 +2,12 @@
 
 The layers live on the map's cell lattice. A snapshot for A* covers the map grown (in whole
 cells) to hold the robot and the goal with ``FRAME_MARGIN_M`` to spare; unmapped cells are
-unknown. The obstacle layer follows the snapshot's frame, keeping its marks; if the lattice
-itself changes (a new map with another origin or resolution) it starts afresh, its marks last
-only ``obstacle_persistence_s`` anyway.
+unknown. For a far goal (``horizon``) there are two snapshots instead: a window of the
+lattice around the robot, and the whole area on a coarse lattice of whole blocks of cells (a
+block is an obstacle if any of its cells is, unknown if all are). The obstacle layer follows
+the fine snapshot's frame, keeping its marks; if the lattice itself changes (a new map with
+another origin or resolution) it starts afresh, its marks last only
+``obstacle_persistence_s`` anyway.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ class LayerSettings:
         keep_out_zones: [m] polygons in the map frame the robot must never enter.
         max_cells: [cells] the largest snapshot A* may be given (its memory and time).
         keep_out_mask, speed_mask: the zone masks' YAML files, or None.
+        window_m: [m] side of the fine window around the robot for a far goal.
     """
 
     occupied_threshold_pct: int
@@ -55,6 +59,7 @@ class LayerSettings:
     max_cells: int
     keep_out_mask: str | None = None
     speed_mask: str | None = None
+    window_m: float = 30.0
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> LayerSettings:
@@ -67,6 +72,7 @@ class LayerSettings:
             planning.max_plan_cells,
             planning.keep_out_mask,
             planning.speed_mask,
+            planning.local_window_m,
         )
 
 
@@ -158,8 +164,6 @@ class Layers:
         Raises:
             GoalRefusedError: that frame would hold more than ``max_cells`` cells.
         """
-        self.zones.refresh(now)
-        self.zones.check()  # a keep-out zone that cannot be read cannot be kept out of
         frame = self._frame(points_m, now)
         limit = self.settings.max_cells
         if frame.rows * frame.cols > limit:
@@ -167,15 +171,79 @@ class Layers:
             raise GoalRefusedError(
                 f"the area to plan over, {frame.cols * res:.0f} x {frame.rows * res:.0f} m "
                 f"(the map, the robot and the goal), is {frame.rows * frame.cols} cells of "
-                f"{res:g} m: more than planning.max_plan_cells ({limit}); give a nearer goal"
+                f"{res:g} m: more than planning.max_plan_cells ({limit})"
             )
+        return self._layers_on(frame, now)
+
+    def needs_window(
+        self, now: float, robot_xy_m: tuple[float, float], goal_xy_m: tuple[float, float]
+    ) -> bool:
+        """True if a goal is planned in a window with a coarse route (``horizon``): the
+        whole area would exceed ``max_cells``, or there is no map to plan the whole way on
+        and the goal lies beyond the window."""
+        frame = self._frame([robot_xy_m, goal_xy_m], now)
+        if frame.rows * frame.cols > self.settings.max_cells:
+            return True
+        reach = self.settings.window_m / 2.0 - FRAME_MARGIN_M
+        far = max(abs(goal_xy_m[0] - robot_xy_m[0]), abs(goal_xy_m[1] - robot_xy_m[1])) > reach
+        return self.map is None and far
+
+    def window_snapshot(
+        self, now: float, center_xy_m: tuple[float, float]
+    ) -> tuple[GridFrame, BoolArray, BoolArray]:
+        """(frame, obstacle cells, unknown cells) of all layers at ``now`` in the square of
+        side ``window_m`` around ``center_xy_m``, on the map's lattice."""
+        half = self.settings.window_m / 2.0
+        x, y = center_xy_m
+        res, anchor = self._lattice()
+        return self._layers_on(_snap((x - half, y - half, x + half, y + half), res, anchor), now)
+
+    def coarse_snapshot(
+        self, now: float, points_m: list[tuple[float, float]], max_cells: int, min_cell_m: float
+    ) -> tuple[GridFrame, BoolArray, BoolArray]:
+        """(frame, obstacle cells, unknown cells) of the whole area (the map, ``points_m``,
+        the scan obstacles remembered) on a coarse lattice: blocks of k x k cells, k the
+        least that keeps the frame within ``max_cells`` with blocks at least ``min_cell_m``
+        wide. A block is an obstacle if any of its cells is, known if any of its cells is."""
+        fine = self._frame(points_m, now)
+        res = fine.resolution_m
+        k = max(
+            math.ceil(round(min_cell_m / res, 6)),
+            math.ceil(math.sqrt(fine.rows * fine.cols / max_cells)),
+        )
+        coarse = GridFrame(
+            res * k,
+            fine.origin_x_m,
+            fine.origin_y_m,
+            math.ceil(fine.rows / k),
+            math.ceil(fine.cols / k),
+        )
+        obstacles = np.zeros(coarse.shape, dtype=np.bool_)
+        unknown = np.ones(coarse.shape, dtype=np.bool_)
+        if self.map is not None:
+            map_frame, occupied, map_unknown = self.map
+            obstacles |= _pooled(coarse, k, map_frame, occupied)
+            unknown &= ~_pooled(coarse, k, map_frame, ~map_unknown)
+        layer = self.obstacles
+        if layer is not None and _aligned(layer.frame, (fine.origin_x_m, fine.origin_y_m)):
+            obstacles |= _pooled(coarse, k, layer.frame, layer.active(now))
+        obstacles |= self.keep_out(coarse)
+        return coarse, obstacles, unknown
+
+    def _layers_on(self, frame: GridFrame, now: float) -> tuple[GridFrame, BoolArray, BoolArray]:
+        """(frame, obstacle cells, unknown cells) of all layers at ``now`` on ``frame`` (on
+        the map's lattice); the obstacle layer follows it."""
+        self.zones.refresh(now)
+        self.zones.check()  # a keep-out zone that cannot be read cannot be kept out of
         obstacles = np.zeros(frame.shape, dtype=np.bool_)
         unknown = np.ones(frame.shape, dtype=np.bool_)
         if self.map is not None:
             map_frame, occupied, map_unknown = self.map
-            window = _placement(frame, map_frame)
-            obstacles[window] = occupied
-            unknown[window] = map_unknown
+            inside = _overlap(frame, map_frame)
+            if inside is not None:
+                outer, inner = inside
+                obstacles[outer] = occupied[inner]
+                unknown[outer] = map_unknown[inner]
         persistence_s = self.settings.obstacle_persistence_s
         if self.obstacles is None:
             self.obstacles = ObstacleLayer(frame, persistence_s)
@@ -229,38 +297,53 @@ class Layers:
                 parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
+    def _lattice(self) -> tuple[float, tuple[float, float]]:
+        """([m] cell size, [m] a cell corner) of the lattice every snapshot lies on: the
+        map's, else the obstacle layer's, else the default's through the origin."""
+        if self.map is not None:
+            m = self.map[0]
+            return m.resolution_m, (m.origin_x_m, m.origin_y_m)
+        if self.obstacles is not None:
+            o = self.obstacles.frame
+            return o.resolution_m, (o.origin_x_m, o.origin_y_m)
+        return DEFAULT_RESOLUTION_M, (0.0, 0.0)
+
     def _frame(self, points_m: list[tuple[float, float]], now: float) -> GridFrame:
         """The map's frame grown in whole cells to hold ``points_m`` with a margin, and the
         scan obstacles still remembered at ``now`` (a frame grown once for a far goal
         shrinks again when its marks expire)."""
-        res = self.map[0].resolution_m if self.map is not None else DEFAULT_RESOLUTION_M
+        res, anchor = self._lattice()
         xs = [p[0] for p in points_m]
         ys = [p[1] for p in points_m]
         lo_x, hi_x = min(xs) - FRAME_MARGIN_M, max(xs) + FRAME_MARGIN_M
         lo_y, hi_y = min(ys) - FRAME_MARGIN_M, max(ys) + FRAME_MARGIN_M
-        anchor = (0.0, 0.0)
         if self.map is not None:
             m = self.map[0]
-            anchor = (m.origin_x_m, m.origin_y_m)
             lo_x, lo_y = min(lo_x, m.origin_x_m), min(lo_y, m.origin_y_m)
             hi_x, hi_y = (
                 max(hi_x, m.origin_x_m + m.cols * res),
                 max(hi_y, m.origin_y_m + m.rows * res),
             )
-        elif self.obstacles is not None:
-            anchor = (self.obstacles.frame.origin_x_m, self.obstacles.frame.origin_y_m)
         layer = self.obstacles
         if layer is not None and layer.frame.resolution_m == res and _aligned(layer.frame, anchor):
             marks = layer.active_bounds(now)
             if marks is not None:
                 lo_x, lo_y = min(lo_x, marks[0]), min(lo_y, marks[1])
                 hi_x, hi_y = max(hi_x, marks[2]), max(hi_y, marks[3])
-        # Snap to the anchor's cell lattice so the layers line up cell for cell.
-        ox = anchor[0] + math.floor(round((lo_x - anchor[0]) / res, 6)) * res
-        oy = anchor[1] + math.floor(round((lo_y - anchor[1]) / res, 6)) * res
-        cols = math.ceil(round((hi_x - ox) / res, 6))
-        rows = math.ceil(round((hi_y - oy) / res, 6))
-        return GridFrame(res, ox, oy, rows, cols)
+        return _snap((lo_x, lo_y, hi_x, hi_y), res, anchor)
+
+
+def _snap(
+    box: tuple[float, float, float, float], res: float, anchor: tuple[float, float]
+) -> GridFrame:
+    """The frame of whole cells of the lattice through ``anchor`` covering ``box`` [m]
+    (x0, y0, x1, y1)."""
+    lo_x, lo_y, hi_x, hi_y = box
+    ox = anchor[0] + math.floor(round((lo_x - anchor[0]) / res, 6)) * res
+    oy = anchor[1] + math.floor(round((lo_y - anchor[1]) / res, 6)) * res
+    cols = math.ceil(round((hi_x - ox) / res, 6))
+    rows = math.ceil(round((hi_y - oy) / res, 6))
+    return GridFrame(res, ox, oy, rows, cols)
 
 
 def _aligned(frame: GridFrame, anchor: tuple[float, float]) -> bool:
@@ -272,11 +355,45 @@ def _aligned(frame: GridFrame, anchor: tuple[float, float]) -> bool:
     return True
 
 
-def _placement(outer: GridFrame, inner: GridFrame) -> tuple[slice, slice]:
-    """The slices of ``outer`` covering ``inner`` (same lattice, inner inside outer)."""
+def _overlap(
+    outer: GridFrame, inner: GridFrame
+) -> tuple[tuple[slice, slice], tuple[slice, slice]] | None:
+    """The slices of ``outer`` and of ``inner`` covering the cells both hold (same lattice),
+    or None if they share none."""
     r = round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m)
     c = round((inner.origin_x_m - outer.origin_x_m) / outer.resolution_m)
-    return slice(r, r + inner.rows), slice(c, c + inner.cols)
+    r0, c0 = max(r, 0), max(c, 0)
+    r1, c1 = min(r + inner.rows, outer.rows), min(c + inner.cols, outer.cols)
+    if r1 <= r0 or c1 <= c0:
+        return None
+    return (slice(r0, r1), slice(c0, c1)), (slice(r0 - r, r1 - r), slice(c0 - c, c1 - c))
+
+
+def _pooled(coarse: GridFrame, k: int, fine: GridFrame, mask: BoolArray) -> BoolArray:
+    """``mask`` (on ``fine``, whose lattice has blocks of k x k cells that are ``coarse``'s
+    cells) pooled onto ``coarse``: a coarse cell is set if any of its fine cells is."""
+    res = fine.resolution_m
+    r = round((fine.origin_y_m - coarse.origin_y_m) / res)  # fine cells from coarse's corner
+    c = round((fine.origin_x_m - coarse.origin_x_m) / res)
+    out = np.zeros(coarse.shape, dtype=np.bool_)
+    if not mask.any():
+        return out
+    # cut to the coarse frame, then pad to whole blocks
+    top, left = max(-r, 0), max(-c, 0)
+    part = mask[top:, left:]
+    r, c = r + top, c + left
+    pad_r, pad_c = r % k, c % k
+    rows = math.ceil((part.shape[0] + pad_r) / k) * k
+    cols = math.ceil((part.shape[1] + pad_c) / k) * k
+    padded = np.zeros((rows, cols), dtype=np.bool_)
+    padded[pad_r : pad_r + part.shape[0], pad_c : pad_c + part.shape[1]] = part
+    blocks: BoolArray = np.asarray(padded.reshape(rows // k, k, cols // k, k).any(axis=(1, 3)))
+    br, bc = r // k, c // k
+    rr = min(blocks.shape[0], coarse.rows - br)
+    cc = min(blocks.shape[1], coarse.cols - bc)
+    if rr > 0 and cc > 0:
+        out[br : br + rr, bc : bc + cc] = blocks[:rr, :cc]
+    return out
 
 
 def _window(frame: GridFrame, pose: Pose2, radius_m: float) -> tuple[slice, slice] | None:

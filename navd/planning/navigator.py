@@ -27,6 +27,7 @@ from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
 from navd.planning.goal import GoalState, NavGoal, Step
+from navd.planning.horizon import COARSE_CELL_M, COARSE_MAX_CELLS, CoarseLayers, plan_far
 from navd.planning.layers import Layers
 from navd.planning.route import Route
 from navd.planning.settings import NavigatorSettings, goal_too_far
@@ -53,6 +54,7 @@ class PlanRequest:
     search: SearchSettings
     start_xy_m: tuple[float, float]
     goal_xy_m: tuple[float, float]
+    coarse: CoarseLayers | None = None  # a far goal's whole area (the layers: the window)
 
     def costmap(self) -> Costmap:
         """The layers inflated, with the settings of when it was asked (heavy)."""
@@ -66,6 +68,16 @@ class PlanRequest:
         """
         if costmap is None:
             costmap = self.costmap()
+        if self.coarse is not None:
+            settings = (self.settings, self.search)
+            return plan_far(
+                costmap,
+                self.coarse,
+                settings=settings,
+                start_xy_m=self.start_xy_m,
+                goal_xy_m=self.goal_xy_m,
+                fine_planner=planner,
+            )
         return planner.plan(costmap, self.start_xy_m, self.goal_xy_m, self.search)
 
 
@@ -179,6 +191,9 @@ class Navigator:
         period = s.replan_period_s
         if period > 0.0 and now - self._planned_at >= period:
             return "replan timer"
+        fine = self.path.fine_length_m if self.path is not None else None
+        if fine is not None and self.route.station(pose) > fine - s.layers.window_m / 3.0:
+            return "near the end of the planning window"
         deviation = self.route.distance_to(pose)
         if deviation > s.max_path_deviation_m:
             return f"strayed {deviation:.2f} m from the route"
@@ -210,8 +225,15 @@ class Navigator:
         too_far = goal_too_far(self.settings, start, goal)
         if too_far is not None:
             raise GoalRefusedError(too_far)
-        frame, obstacles, unknown = self.map_layers.snapshot(now, [start, goal])
         s = self.settings
+        layers = self.map_layers
+        if layers.needs_window(now, start, goal):
+            coarse = CoarseLayers(
+                *layers.coarse_snapshot(now, [start, goal], COARSE_MAX_CELLS, COARSE_CELL_M)
+            )
+            frame, obstacles, unknown = layers.window_snapshot(now, start)
+            return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal, coarse)
+        frame, obstacles, unknown = layers.snapshot(now, [start, goal])
         return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal)
 
     def accept_plan(self, now: float, path: PlannedPath) -> None:

@@ -70,6 +70,10 @@ class Route:
         start = self.cumulative[segment]
         return float(start + fraction * (self.cumulative[segment + 1] - start))
 
+    def station(self, pose: Pose2) -> float:
+        """[m] how far along the route the robot's nearest route point is."""
+        return self._station(*self.locate(pose)[:2])
+
     def distance_to(self, pose: Pose2) -> float:
         """[m] from the robot to the route."""
         return self.locate(pose)[2]

@@ -134,6 +134,7 @@ class SlamNode(Module):
         # What the mapper and kiss-icp were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.
         self._in_force = self.settings.value
+        self._enabled = ctx.startup_config.slam.enabled
         self.mapper = ScanMapper(self._in_force.mapper)
         lidars = self._in_force.mounts.lidars  # mounts need a restart
         self._assembler = ScanAssembler(lidars) if len(lidars) > 1 else None
@@ -200,6 +201,8 @@ class SlamNode(Module):
         self._has_odometry = True
 
     def _on_scan(self, scan: LaserScan) -> None:
+        if not self._enabled:
+            return  # the lidar only shows obstacles (slam.enabled = false)
         odom = self._odom if self._has_odometry else None
         # With several lidars each has a slot of its own: a busy mapper must not keep
         # dropping one lidar's sweeps in favour of another's.

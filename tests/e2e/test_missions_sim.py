@@ -77,8 +77,8 @@ async def test_a_patrol_runs_twice_round_and_reports_every_step(tmp_path: Path) 
     ("policy", "goal", "said", "state", "done", "failed"),
     [
         # beyond the goal distance navd plans for: refused at once
-        ("skip", (400.0, 0.0), "max_goal_distance_m", "completed", 2, 1),
-        ("abort", (400.0, 0.0), "max_goal_distance_m", "failed", 1, 1),
+        ("skip", (4000.0, 0.0), "max_goal_distance_m", "completed", 2, 1),
+        ("abort", (4000.0, 0.0), "max_goal_distance_m", "failed", 1, 1),
         # inside a desk (never seen into): no route, given up after a while
         ("skip", (2.1, 1.1), "no route", "completed", 2, 1),
     ],

@@ -170,7 +170,7 @@ async def test_goal_wait_exits_by_how_the_goal_ended(tmp_path: Path) -> None:
         assert reached.returncode == 0, err.decode()
         assert json.loads(out.decode().splitlines()[-1])["state"] == "reached"
         assert "near: active" in err.decode()  # the progress line
-        far = await _navd("goal", "500", "0", "--wait", *at)
+        far = await _navd("goal", "5000", "0", "--wait", *at)
         _, err = await asyncio.wait_for(far.communicate(), 60.0)
         assert far.returncode == 1 and "max_goal_distance_m" in err.decode()
         canceled = await _navd("goal", "5.5", "0.0", "--wait", "--id", "away", *at)

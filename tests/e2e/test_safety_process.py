@@ -58,7 +58,7 @@ def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
         with Client("127.0.0.1", port, device_id="ui", timeout_s=10.0) as ui:
             ui.request(SubscribeFrame(rate_hz=10))
             first(ui, lambda f: isinstance(f, StatusFrame) and f.pose is not None, 20.0)
-            for goal_id, x, y in (("huge", 1e4, 1e4), ("far", 300.0, 300.0)):
+            for goal_id, x, y in (("huge", 1e4, 1e4), ("far", 3000.0, 3000.0)):
                 sent = time.monotonic()
                 ui.send(GoalFrame(x=x, y=y, goal_id=goal_id))
                 verdict = first(
@@ -72,7 +72,7 @@ def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
                 )
                 assert time.monotonic() - sent < 1.0
                 assert isinstance(verdict, GoalStatusFrame) and verdict.state == "failed"
-                assert "planning.max_goal_distance_m (100 m)" in verdict.reason
+                assert "planning.max_goal_distance_m (1000 m)" in verdict.reason
             status = first(
                 ui,
                 lambda f: isinstance(f, StatusFrame) and f.diagnostics.loop_lag_p99_ms is not None,
@@ -85,7 +85,7 @@ def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
             route = first(ui, lambda f: isinstance(f, PathFrame) and f.goal_id == "near", 10.0)
             assert isinstance(route, PathFrame) and len(route.points) >= 2
         # the command a user types says so too
-        typed = run_navd("goal", "300", "300", "--port", str(port))
+        typed = run_navd("goal", "3000", "3000", "--port", str(port))
         assert typed.returncode == 1
         assert "planning.max_goal_distance_m" in typed.stderr
         nonsense = run_navd("goal", "nan", "0", "--port", str(port))
