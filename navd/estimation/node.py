@@ -61,6 +61,7 @@ class EstimationNode(Module):
         self.estimator: StateEstimator | None = None
         self.before_ready = 0
         self._pending_pose: InitialPose | None = None
+        self._pending_geo_goal: GeoGoal | None = None
         self._build_error: Exception | None = None
         ctx.subscribe(Imu, self._on_imu)
         ctx.subscribe(PoseMeasurement, self._on_pose)
@@ -161,7 +162,11 @@ class EstimationNode(Module):
             self.estimator.set_pose(pose)
 
     def _on_geo_goal(self, goal: GeoGoal) -> None:
-        """A latitude/longitude goal becomes a map-frame Goal through the GPS datum."""
+        """A latitude/longitude goal becomes a map-frame Goal through the GPS datum (one
+        that comes while the filter is being built waits for it: the datum may be there)."""
+        if self.estimator is None:
+            self._pending_geo_goal = goal
+            return
         now = self.ctx.clock.now()
         geo = self.estimator.geo if self.estimator is not None else None
         reason = ""
@@ -211,6 +216,9 @@ class EstimationNode(Module):
             # Given while the filter was being built: it means "the robot is here now".
             estimator.set_pose(dataclasses.replace(self._pending_pose, stamp=now))
             self._pending_pose = None
+        if self._pending_geo_goal is not None:
+            goal, self._pending_geo_goal = self._pending_geo_goal, None
+            self._on_geo_goal(goal)
         estimator.advance(now)
         estimate = estimator.estimate(now)
         if estimate is not None:

@@ -32,7 +32,7 @@ BoolArray = npt.NDArray[np.bool_]
 # The coarse grid: blocks at least this wide [m], and at most this many of them (wider
 # blocks over a larger area).
 COARSE_CELL_M = 0.5
-COARSE_MAX_CELLS = 500_000
+COARSE_MAX_CELLS = 250_000
 # [m] the fine route ends this far inside the window's edge, where the window still sees
 # around it.
 EDGE_MARGIN_M = 2.0

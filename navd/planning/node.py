@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -380,6 +381,7 @@ class PlannerNode(Module):
         navigator (under its lock): a step in between would see the reason it answered still
         standing and ask for the same search again."""
         goal = None
+        began = time.perf_counter()
         try:
             with self._lock:
                 goal = self.nav.goal
@@ -416,6 +418,8 @@ class PlannerNode(Module):
             points=len(path.points_m),
             expanded=path.cells_expanded,
             reused=path.reused,
+            window=path.fine_length_m is not None,  # a far goal's (``horizon``)
+            ms=round(1e3 * (time.perf_counter() - began), 1),  # snapshot, costmap and search
         )
         stamp = self.ctx.clock.now()
         route = Path(stamp=stamp, received=stamp, goal_id=goal.goal_id, points_m=path.points_m)

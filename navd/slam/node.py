@@ -156,7 +156,9 @@ class SlamNode(Module):
     async def on_activate(self) -> None:
         # Compile (or load from the cache) the kernels before the first scan; a scan job
         # arriving meanwhile waits in its worker on numba's compile lock, not on the loop.
-        self.ctx.warm_up(warm_up, name="warm-up")
+        # With SLAM off no scan is matched: its kernels stay unloaded (12 MB here).
+        if self._enabled:
+            self.ctx.warm_up(warm_up, name="warm-up")
         self.ctx.submit("map_save", self._clean_map_dir)  # before any save, in their slot
 
     async def on_deactivate(self) -> None:
