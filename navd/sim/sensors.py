@@ -18,8 +18,8 @@ import numpy as np
 
 from navd.config import NavdConfig
 from navd.drivers.protocol.frames import (
-    FixFrame,
     BeaconFrame,
+    FixFrame,
     HeadingFrame,
     ImuFrame,
     Role,

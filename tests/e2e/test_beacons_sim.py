@@ -5,6 +5,7 @@ its policy."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -99,7 +100,7 @@ async def test_range_beacons_without_a_lidar_localize_a_visit_of_every_beacon(
     for b, (x, y) in BEACONS.items():
         nearest = min(math.hypot(px - x, py - y) for px, py in truth)
         assert nearest < 0.6 + 0.35, f"{b}: nearest {nearest:.2f} m"
-    driven = sum(math.dist(a, b) for a, b in zip(truth, truth[1:], strict=False))
+    driven = sum(math.dist(a, b) for a, b in itertools.pairwise(truth))
     assert driven > 25.0  # a tour of the yard, not a drive on the spot
     assert len(errors) > 100
     assert float(errors.max()) <= 0.3, f"worst {errors.max():.3f} m, mean {errors.mean():.3f} m"
