@@ -191,7 +191,7 @@ class BeaconMap:
             return False  # behind a ray, or rays nearly parallel: not crossed yet
         if float(np.linalg.eigvalsh(covariance)[-1]) > MAX_START_STD_M**2:
             return False  # crossed, too loosely yet: more rays
-        beacon.mean, beacon.covariance = place, covariance
+        beacon.mean, beacon.covariance = place, _no_surer_than(covariance, _pose_of_last(rays))
         beacon.rays = []
         beacon.refused_run = 0
         self.revision += 1
@@ -239,7 +239,8 @@ class BeaconMap:
         gain = beacon.covariance @ h_beacon / s
         beacon.mean = beacon.mean + gain * residual
         joseph = np.eye(2) - np.outer(gain, h_beacon)  # Joseph's form: stays symmetric
-        beacon.covariance = joseph @ beacon.covariance @ joseph.T + np.outer(gain, gain) * noise
+        covariance = joseph @ beacon.covariance @ joseph.T + np.outer(gain, gain) * noise
+        beacon.covariance = _no_surer_than(covariance, pose)
         self.revision += 1
         return True
 
@@ -270,3 +271,21 @@ def _best_crossing(
         if float(np.hypot(*step)) < 1e-4:
             return place, np.linalg.inv(normal)
     return None
+
+
+def _pose_of_last(rays: list[tuple[RobotPose, float, float]]) -> RobotPose:
+    """The robot's pose at the newest of ``rays``."""
+    return rays[-1][0]
+
+
+def _no_surer_than(covariance: FloatArray, pose: RobotPose) -> FloatArray:
+    """``covariance`` with no direction surer than the robot's position at ``pose``: the
+    bearings are taken from poses whose errors are correlated (they drift together), which
+    a filter treating each bearing alone cannot see, so the robot's own uncertainty is the
+    floor of the beacon's."""
+    floor = float(np.linalg.eigvalsh(pose.covariance[:2, :2])[-1])
+    values, vectors = np.linalg.eigh(covariance)
+    if values[0] >= floor:
+        return covariance
+    floored: FloatArray = (vectors * np.maximum(values, floor)) @ vectors.T
+    return floored

@@ -1,10 +1,12 @@
 """Beacons on the real daemon driving the simulated robot (lockstep): four UWB-like range
 beacons at known places and no lidar keep the estimate on the truth while a "visit all
-beacons" mission drives to each of them; a beacon step naming one with no place fails by
-its policy."""
+beacons" mission drives to each of them; beacons the config does not list are learnt from
+bearings, shown in status and visited; a beacon step naming one with no place fails by its
+policy."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from pathlib import Path
@@ -14,10 +16,10 @@ import numpy as np
 import pytest
 
 from navd.drivers.client import ConnectionClosedError
-from navd.drivers.protocol.frames import MissionFrame, SubscribeFrame
+from navd.drivers.protocol.frames import InitialPoseFrame, MissionFrame, SubscribeFrame
 from navd.drivers.protocol.replies import MissionStatusFrame, StatusFrame
 from navd.sim.session import Session, session
-from navd.sim.world import from_shapes
+from navd.sim.world import from_shapes, office
 
 pytestmark = pytest.mark.e2e
 
@@ -128,3 +130,44 @@ async def test_a_beacon_step_whose_beacon_has_no_place_follows_its_policy(
     assert failed and failed[0].step == 1
     assert "B9 has no place" in failed[0].reason and "B1" in failed[0].reason
     assert seen[-1].state == "completed" and seen[-1].done == 1 and seen[-1].failed == 1
+
+
+async def test_beacons_learnt_from_bearings_show_in_status_and_are_visited(
+    tmp_path: Path,
+) -> None:
+    # the office, localized by its lidar (SLAM); two beacons the config does not list, seen
+    # by bearing only (a camera reading tags, 0.03 rad noise)
+    learnt = {"T1": (2.0, 1.8), "T2": (10.0, 5.0)}
+    world = dataclasses.replace(office(), beacons=tuple((b, x, y) for b, (x, y) in learnt.items()))
+    bearings = {"beacon_mode": "bearing", "beacon_bearing_noise_rad": 0.03}
+    mission = MissionFrame.model_validate(
+        {
+            "mission_id": "scout",
+            "steps": [
+                {"kind": "goto", "x": 3.5, "y": 3.2},
+                {"kind": "goto", "x": 8.5, "y": 3.2},
+                {"kind": "visit_beacons", "stop_distance": 0.6},
+            ],
+        }
+    )
+    async with session(world, tmp_path, sim_settings=bearings, lockstep=True, hold_clock=True) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        seen, _ = await _run(s, mission, limit_s=300.0)
+        status = await _latest_status(s)
+        truth = [(x, y) for _, x, y, _ in s.sim.truth]
+    assert seen[-1].state == "completed", seen[-1]
+    places = {b.id: b for b in status.beacons}
+    assert set(places) == set(learnt)
+    for b, (x, y) in learnt.items():
+        place = places[b]
+        assert place.learnt and math.dist((place.x, place.y), (x, y)) <= 0.2, place
+        nearest = min(math.hypot(px - x, py - y) for px, py in truth)
+        assert nearest < 0.6 + 0.35, f"{b}: nearest {nearest:.2f} m"
+
+
+async def _latest_status(s: Session) -> StatusFrame:
+    """The next status frame (the session subscribed in ``_run``)."""
+    while True:
+        frame = await s.control.receive(5.0)
+        if isinstance(frame, StatusFrame):
+            return frame

@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict
 __all__ = [
     "Ack",
     "AppliedInfo",
+    "BeaconInfo",
     "ClockAck",
     "ConfigAppliedFrame",
     "ConfigNews",
@@ -307,6 +308,17 @@ class Diagnostics(ReplyPart):
     config: ConfigNews
 
 
+class BeaconInfo(ReplyPart):
+    """[m] a beacon's place in the map frame, its 1-sigma (0 for a place the config gives),
+    and whether it was learnt from bearings."""
+
+    id: str
+    x: float
+    y: float
+    std: float
+    learnt: bool
+
+
 class StatusFrame(ReplyPart):
     """The daemon as a subscribed control client sees it."""
 
@@ -320,6 +332,7 @@ class StatusFrame(ReplyPart):
     velocity: VelocityInfo | None
     goal: GoalInfo | None
     mission: MissionInfo | None = None
+    beacons: list[BeaconInfo] = []
     devices: list[DeviceInfo]
     diagnostics: Diagnostics
 

@@ -11,6 +11,7 @@ import math
 
 from navd.drivers.protocol.replies import (
     AppliedInfo,
+    BeaconInfo,
     ConfigNews,
     DeviceInfo,
     Diagnostics,
@@ -25,6 +26,7 @@ from navd.drivers.protocol.replies import (
     WorkerInfo,
 )
 from navd.lifecycle.messages import (
+    BeaconPlaces,
     ConfigApplied,
     ConfigRejected,
     DaemonStatus,
@@ -40,7 +42,9 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import ModuleContext
 
-__all__ = ["StatusBoard", "goal_info", "mission_info"]
+__all__ = ["MAX_LISTED_BEACONS", "StatusBoard", "goal_info", "mission_info"]
+
+MAX_LISTED_BEACONS = 64  # beacons shown in a status frame (a bounded frame)
 
 
 class StatusBoard:
@@ -57,6 +61,7 @@ class StatusBoard:
         self.operator = ""  # who drives by hand ("" while the navigator does)
         self.recording = ""  # the file being recorded ("" when not recording)
         self.config = ConfigNews(revision=0)
+        self.beacons: list[BeaconInfo] = []
 
     def subscribe(self, ctx: ModuleContext) -> None:
         """Keep up to date from the bus (handlers attributed to ``ctx``'s module)."""
@@ -72,6 +77,7 @@ class StatusBoard:
         ctx.subscribe(MissionStatus, self._mission_status)
         ctx.subscribe(ConfigApplied, self._config_applied)
         ctx.subscribe(ConfigRejected, self._config_rejected)
+        ctx.subscribe(BeaconPlaces, self._beacons)
 
     def frame(self, now: float, robot: str, devices: list[DeviceInfo]) -> StatusFrame:
         """The status frame at ``now`` [s] of the robot named ``robot``, with the server's
@@ -108,6 +114,7 @@ class StatusBoard:
             else VelocityInfo(linear=drive.linear_mps, angular=drive.angular_radps),
             goal=None if self.goal is None else goal_info(self.goal),
             mission=None if self.mission is None else mission_info(self.mission),
+            beacons=self.beacons,
             devices=devices,
             diagnostics=Diagnostics(
                 safety=list(self.safety),
@@ -126,6 +133,12 @@ class StatusBoard:
                 config=self.config,
             ),
         )
+
+    def _beacons(self, places: BeaconPlaces) -> None:
+        self.beacons = [
+            BeaconInfo(id=p.beacon_id, x=p.x_m, y=p.y_m, std=p.std_m, learnt=p.learnt)
+            for p in places.places[:MAX_LISTED_BEACONS]
+        ]
 
     def _pose(self, pose: PoseEstimate) -> None:
         self.pose = pose
