@@ -20,6 +20,10 @@ $(STAMP): pyproject.toml
 		|| { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
 		&& apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; } \
 		|| echo "note: chromium is unavailable; the operator page's browser test will be skipped"
+	@{ command -v mosquitto >/dev/null || test -x /usr/sbin/mosquitto; } \
+		|| { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+		&& apt-get update -qq && apt-get install -y -qq mosquitto >/dev/null; } \
+		|| echo "note: mosquitto is unavailable; the fleet's broker tests will be skipped"
 	@touch $(STAMP)
 
 demo: $(STAMP)

@@ -41,6 +41,10 @@ def build_modules(config: NavdConfig) -> list[Module]:
     ]
     if config.viz.enabled:
         modules.append(VizNode())
+    if config.fleet.enabled:
+        from navd.fleet.node import FleetNode  # noqa: PLC0415 - MQTT loads only for a fleet
+
+        modules.append(FleetNode())
     if config.chassis.enabled:
         modules.append(ChassisDriver())
     return modules

@@ -3,6 +3,7 @@
 from navd.config.beacons import BeaconPlaceConfig, BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.errors import ConfigError
+from navd.config.fleet import FleetConfig
 from navd.config.loader import apply_changes, dump_toml, load_config, parse_config
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
@@ -26,6 +27,7 @@ __all__ = [
     "CompassMountConfig",
     "ConfigError",
     "EstimationConfig",
+    "FleetConfig",
     "GpsMountConfig",
     "ImuMountConfig",
     "LidarConfig",

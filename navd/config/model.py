@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from navd.config.beacons import BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
+from navd.config.fleet import FleetConfig
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.mounts import MountsConfig
 from navd.config.planning import PlanningConfig
@@ -49,6 +50,7 @@ class NavdConfig(BaseModel):
     logging: LoggingConfig = Field(default_factory=LoggingConfig)
     viz: VizConfig = Field(default_factory=VizConfig)
     record: RecordConfig = Field(default_factory=RecordConfig)
+    fleet: FleetConfig = Field(default_factory=FleetConfig)
 
     @model_validator(mode="after")
     def _across_sections(self) -> NavdConfig:

@@ -23,6 +23,7 @@ from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFram
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import PoseMeasurement
+from navd.sim.session import free_port
 from navd.slam.node import SlamNode
 from tests.conftest import room_scan
 from tests.drivers.conftest import connected, record, running_daemon, until
@@ -116,6 +117,8 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
         "chassis": {"enabled": True, "port": str(link)},
         "slam": {"map_dir": str(tmp_path / "maps")},
         "tcp": {"allow_privileged_changes": True},  # every key, privileged ones too
+        # the fleet module, its broker nowhere (it keeps trying, as on a robot off the network)
+        "fleet": {"enabled": True, "broker_url": f"mqtt://127.0.0.1:{free_port()}"},
     }
     try:
         async with running_daemon(**sections) as (daemon, port):

@@ -1,0 +1,289 @@
+"""The fleet module: navd as a VDA 5050 2.1 vehicle on an MQTT broker.
+
+It keeps one connection to the broker (aiomqtt), reconnecting with a growing pause when it
+is lost; its ``connection`` topic says ONLINE once connected, OFFLINE when navd stops, and
+CONNECTIONBROKEN through the broker (the last will) when the connection breaks. Orders and
+instant actions come in on the vehicle's topics and go to ``vehicle.Vehicle``, whose goals
+go on the bus like anyone's, through the same planner and safety gate. The state goes out on
+every change (at most every ``MIN_STATE_S``) and at least every ``fleet.state_interval_s``;
+the position at ``fleet.visualization_rate_hz``; the factsheet on connecting and on request.
+While the broker is gone the order goes on or the robot holds (``fleet.on_broker_lost``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import ssl
+import time
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import urlsplit
+
+import aiomqtt
+
+from navd.config import FleetConfig, NavdConfig, RobotConfig
+from navd.fleet import reports
+from navd.fleet.vda5050 import Topics
+from navd.fleet.vehicle import Vehicle
+from navd.geometry.pose import Pose2
+from navd.lifecycle.messages import (
+    DriveMode,
+    GoalStatus,
+    LocalizationState,
+    Message,
+    PoseEstimate,
+    SafetyState,
+)
+from navd.lifecycle.module import Module, ModuleContext
+
+__all__ = ["FleetNode", "FleetSettings"]
+
+MIN_STATE_S = 0.1  # [s] state messages at most this often (a burst of changes is one)
+TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
+FIRST_RETRY_S = 0.5  # [s] the first pause before reconnecting; it doubles up to MAX_RETRY_S
+MAX_RETRY_S = 10.0
+QOS = 1  # at least once for everything the vehicle says and hears (retained connection)
+
+
+@dataclass(frozen=True, slots=True)
+class FleetSettings:
+    """The fleet section, and what the factsheet says of the robot.
+
+    Attributes:
+        fleet: broker, names and publishing rates.
+        robot: the robot's size and speeds (the factsheet).
+        map_id: the map the positions are on (``slam.map_name``).
+    """
+
+    fleet: FleetConfig
+    robot: RobotConfig
+    map_id: str
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> FleetSettings:
+        return cls(config.fleet, config.robot, config.slam.map_name)
+
+
+class FleetNode(Module):
+    """The VDA 5050 vehicle (see the module docstring)."""
+
+    def __init__(self) -> None:
+        super().__init__("fleet")
+        self._pose: PoseEstimate | None = None
+        self._std_m = math.inf
+        self._held: tuple[str, ...] = ()
+        self._manual = False
+        self._headers: dict[str, int] = {}
+        self._client: aiomqtt.Client | None = None
+        self._state_due = True
+        self._last_state_s = -math.inf
+        self._last_view_s = -math.inf
+        self.connected = asyncio.Event()
+
+    async def on_configure(self, ctx: ModuleContext) -> None:
+        self.ctx = ctx
+        self.settings = ctx.settings(FleetSettings)
+        fleet = ctx.startup_config.fleet  # broker and names need a restart
+        self.topics = Topics(fleet.interface_name, fleet.manufacturer, fleet.serial_number)
+        self.vehicle = Vehicle(fleet.manufacturer, fleet.serial_number, self._requested)
+        ctx.subscribe(PoseEstimate, self._on_pose)
+        ctx.subscribe(LocalizationState, self._on_localization)
+        ctx.subscribe(SafetyState, self._on_safety)
+        ctx.subscribe(DriveMode, self._on_mode)
+        ctx.subscribe(GoalStatus, self._on_goal_status)
+
+    async def on_activate(self) -> None:
+        self.ctx.spawn(self._connection(), name="broker")
+        self.ctx.every(TICK_S, self._tick, name="vehicle")
+
+    async def on_deactivate(self) -> None:
+        client = self._client
+        if client is not None:  # a clean goodbye: OFFLINE, not the last will
+            try:
+                await asyncio.wait_for(
+                    client.publish(
+                        self.topics.connection,
+                        self._json("connection", reports.connection, "OFFLINE"),
+                        qos=QOS,
+                        retain=True,
+                    ),
+                    1.0,
+                )
+            except (aiomqtt.MqttError, TimeoutError) as err:
+                self.ctx.log.warning("fleet_offline_unsent", error=str(err))
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
+
+    # --- the bus --------------------------------------------------------------------------
+
+    def _publish(self, messages: list[Message]) -> None:
+        for message in messages:
+            self.ctx.publish(message)
+
+    def _on_pose(self, pose: PoseEstimate) -> None:
+        self._pose = pose
+
+    def _on_localization(self, state: LocalizationState) -> None:
+        self._std_m = state.position_std_m
+
+    def _on_safety(self, state: SafetyState) -> None:
+        if state.reasons != self._held:
+            self._held = state.reasons
+            self._state_due = True
+
+    def _on_mode(self, mode: DriveMode) -> None:
+        manual = mode.mode == "manual"
+        if manual != self._manual:
+            self._manual = manual
+            self._state_due = True
+
+    def _on_goal_status(self, status: GoalStatus) -> None:
+        self._publish(self.vehicle.on_goal_status(status, self.ctx.clock.now()))
+
+    def _here(self) -> Pose2 | None:
+        pose = self._pose
+        return None if pose is None else Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
+
+    def _robot(self) -> reports.Robot:
+        pose = self._pose
+        return reports.Robot(
+            pose=None if pose is None else (pose.x_m, pose.y_m, pose.yaw_rad),
+            position_std_m=self._std_m,
+            velocity=(0.0, 0.0) if pose is None else (pose.linear_mps, pose.angular_radps),
+            held=self._held,
+            manual=self._manual,
+            map_id=self.settings.value.map_id,
+        )
+
+    # --- the broker -----------------------------------------------------------------------
+
+    async def _connection(self) -> None:
+        """Keep connected: subscribe, announce, hear; reconnect after a growing pause."""
+        fleet = self.ctx.startup_config.fleet
+        url = urlsplit(fleet.broker_url)
+        tls = None
+        if url.scheme == "mqtts":
+            tls = aiomqtt.TLSParameters(
+                ca_certs=fleet.ca_file,
+                certfile=fleet.cert_file,
+                keyfile=fleet.key_file,
+                cert_reqs=ssl.CERT_REQUIRED,
+            )
+        will = aiomqtt.Will(
+            self.topics.connection,
+            self._json("connection", reports.connection, "CONNECTIONBROKEN"),
+            qos=QOS,
+            retain=True,
+        )
+        pause = FIRST_RETRY_S
+        while True:
+            try:
+                async with aiomqtt.Client(
+                    url.hostname or "127.0.0.1",
+                    url.port or (8883 if tls else 1883),
+                    identifier=f"{fleet.manufacturer}-{fleet.serial_number}",
+                    username=fleet.username,
+                    password=fleet.password,
+                    tls_params=tls,
+                    will=will,
+                    keepalive=fleet.keepalive_s,
+                ) as client:
+                    await self._online(client)
+                    pause = FIRST_RETRY_S
+                    async for message in client.messages:
+                        self._heard(str(message.topic), message.payload)
+            except aiomqtt.MqttError as err:
+                self._offline(str(err))
+            await asyncio.sleep(pause)
+            pause = min(2.0 * pause, MAX_RETRY_S)
+
+    async def _online(self, client: aiomqtt.Client) -> None:
+        await client.subscribe(self.topics.order, qos=QOS)
+        await client.subscribe(self.topics.instant_actions, qos=QOS)
+        await client.publish(
+            self.topics.connection,
+            self._json("connection", reports.connection, "ONLINE"),
+            qos=QOS,
+            retain=True,
+        )
+        await client.publish(self.topics.factsheet, self._factsheet(), qos=QOS, retain=True)
+        self._client = client
+        self.connected.set()
+        self._state_due = True
+        self.ctx.log.info("fleet_connected", broker=self.settings.value.fleet.broker_url)
+        if self.vehicle.held:
+            self._publish(self.vehicle.release(self.ctx.clock.now()))
+
+    def _offline(self, why: str) -> None:
+        was = self._client is not None
+        self._client = None
+        self.connected.clear()
+        if was:
+            hold = self.settings.value.fleet.on_broker_lost == "hold"
+            self.ctx.log.warning("fleet_broker_lost", error=why, holding=hold)
+            if hold:
+                self._publish(self.vehicle.hold(self.ctx.clock.now()))
+
+    def _heard(self, topic: str, payload: Any) -> None:
+        raw = payload if isinstance(payload, bytes) else str(payload).encode()
+        now, here = self.ctx.clock.now(), self._here()
+        if topic == self.topics.order:
+            self._publish(self.vehicle.on_order(raw, now, here))
+        elif topic == self.topics.instant_actions:
+            self._publish(self.vehicle.on_instant_actions(raw, now, here))
+        errors = [e["errorType"] for e in self.vehicle.errors]
+        if errors:
+            self.ctx.log.info("fleet_errors", topic=topic.rsplit("/", 1)[-1], errors=errors)
+
+    def _requested(self, what: str) -> None:
+        if what == "state":
+            self._state_due = True
+        else:
+            self.ctx.spawn(self._send(self.topics.factsheet, self._factsheet()), name="factsheet")
+
+    # --- publishing -----------------------------------------------------------------------
+
+    def _tick(self, now: float) -> None:
+        self._publish(self.vehicle.on_tick(now))
+        client = self._client
+        if client is None:
+            return
+        fleet = self.settings.value.fleet
+        wall = time.monotonic()
+        due = self._state_due or self.vehicle.changed
+        if (due and wall - self._last_state_s >= MIN_STATE_S) or (
+            wall - self._last_state_s >= fleet.state_interval_s
+        ):
+            self._state_due = self.vehicle.changed = False
+            self._last_state_s = wall
+            payload = self._json("state", reports.state, self.vehicle, self._robot())
+            self.ctx.spawn(self._send(self.topics.state, payload), name="state")
+        rate = fleet.visualization_rate_hz
+        if rate > 0 and wall - self._last_view_s >= 1.0 / rate:
+            self._last_view_s = wall
+            payload = self._json("visualization", reports.visualization, self._robot())
+            self.ctx.spawn(self._send(self.topics.visualization, payload), name="visualization")
+
+    async def _send(self, topic: str, payload: bytes) -> None:
+        client = self._client
+        if client is None:
+            return
+        try:
+            await client.publish(topic, payload, qos=QOS)
+        except aiomqtt.MqttError as err:  # the connection task hears of it and reconnects
+            self.ctx.log.debug("fleet_send_failed", topic=topic, error=str(err))
+
+    def _json(self, topic: str, build: Any, *args: Any) -> bytes:
+        """``build(header, *args)`` as JSON, with the topic's next header id."""
+        fleet = self.ctx.startup_config.fleet
+        number = self._headers.get(topic, 0)
+        self._headers[topic] = number + 1
+        head = reports.header(number, time.time(), fleet.manufacturer, fleet.serial_number)
+        return json.dumps(build(head, *args), separators=(",", ":")).encode()
+
+    def _factsheet(self) -> bytes:
+        settings = self.settings.value
+        return self._json("factsheet", reports.factsheet, settings.fleet, settings.robot)

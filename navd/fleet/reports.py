@@ -1,0 +1,178 @@
+"""What the vehicle tells the fleet control: its state, visualization, connection and
+factsheet messages as VDA 5050 2.1 JSON objects, from the vehicle's order state and what the
+robot is doing."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from navd.config import FleetConfig, RobotConfig
+from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
+from navd.fleet.vehicle import INSTANT_ACTIONS, Vehicle
+from navd.geometry.footprint import Footprint
+
+__all__ = ["Robot", "connection", "factsheet", "state", "visualization"]
+
+# [m/s, rad/s] slower than this the vehicle counts as standing (``driving`` false).
+STANDING_MPS = 0.01
+STANDING_RADPS = 0.02
+# [m] position std at which the localization score reaches 0 (1 at 0 m).
+SCORE_ZERO_STD_M = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class Robot:
+    """What the robot is doing, for the state and visualization messages.
+
+    Attributes:
+        pose: [m, m, rad] the fused pose in the map frame, or None before localization.
+        position_std_m: [m] its position uncertainty.
+        velocity: [m/s, rad/s] forward and turning speed.
+        held: why the safety gate holds the robot (empty: it does not).
+        manual: an operator drives by hand.
+        map_id: the map the pose is on.
+    """
+
+    pose: tuple[float, float, float] | None
+    position_std_m: float
+    velocity: tuple[float, float]
+    held: tuple[str, ...]
+    manual: bool
+    map_id: str
+
+
+def header(header_id: int, now_unix_s: float, manufacturer: str, serial: str) -> dict[str, Any]:
+    """The protocol header every message starts with."""
+    return {
+        "headerId": header_id,
+        "timestamp": timestamp(now_unix_s),
+        "version": PROTOCOL_VERSION,
+        "manufacturer": manufacturer,
+        "serialNumber": serial,
+    }
+
+
+def _position(robot: Robot) -> dict[str, Any] | None:
+    if robot.pose is None:
+        return None
+    x, y, yaw = robot.pose
+    std = robot.position_std_m
+    score = max(0.0, 1.0 - std / SCORE_ZERO_STD_M) if math.isfinite(std) else 0.0
+    return {
+        "x": x,
+        "y": y,
+        "theta": math.remainder(yaw, math.tau),
+        "mapId": robot.map_id,
+        "positionInitialized": True,
+        "localizationScore": round(score, 3),
+        "deviationRange": round(std, 3) if math.isfinite(std) else 0.0,
+    }
+
+
+def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any]:
+    """The state message."""
+    v, w = robot.velocity
+    message: dict[str, Any] = {
+        **head,
+        **vehicle.order_state(),
+        "driving": abs(v) > STANDING_MPS or abs(w) > STANDING_RADPS,
+        "operatingMode": "MANUAL" if robot.manual else "AUTOMATIC",
+        # navd reads no battery: the state says so (the field is required)
+        "batteryState": {"batteryCharge": 100.0, "charging": False},
+        "information": [
+            {
+                "infoType": "batteryUnknown",
+                "infoLevel": "INFO",
+                "infoDescription": "navd reads no battery: batteryCharge is not measured",
+            },
+            *(
+                {"infoType": "safetyHold", "infoLevel": "INFO", "infoDescription": why}
+                for why in robot.held
+            ),
+        ],
+        "safetyState": {"eStop": "NONE", "fieldViolation": bool(robot.held)},
+        "velocity": {"vx": v, "vy": 0.0, "omega": w},
+    }
+    position = _position(robot)
+    if position is not None:
+        message["agvPosition"] = position
+    return message
+
+
+def visualization(head: dict[str, Any], robot: Robot) -> dict[str, Any]:
+    """The visualization message: the position and velocity only."""
+    v, w = robot.velocity
+    message: dict[str, Any] = {**head, "velocity": {"vx": v, "vy": 0.0, "omega": w}}
+    position = _position(robot)
+    if position is not None:
+        message["agvPosition"] = position
+    return message
+
+
+def connection(head: dict[str, Any], connection_state: str) -> dict[str, Any]:
+    """The connection message: ONLINE, OFFLINE or CONNECTIONBROKEN (the last will)."""
+    return {**head, "connectionState": connection_state}
+
+
+def factsheet(head: dict[str, Any], fleet: FleetConfig, robot: RobotConfig) -> dict[str, Any]:
+    """The factsheet: what the vehicle is and which of the protocol it speaks."""
+    footprint = Footprint.of(robot)  # a circle's half extents are its radius
+    length, width = 2.0 * footprint.half_length_m, 2.0 * footprint.half_width_m
+    return {
+        **head,
+        "typeSpecification": {
+            "seriesName": "navd",
+            "seriesDescription": "a navd robot: differential drive, free navigation",
+            "agvKinematic": "DIFF",
+            "agvClass": "CARRIER",
+            "maxLoadMass": 0.0,
+            "localizationTypes": ["NATURAL"],
+            "navigationTypes": ["AUTONOMOUS"],
+        },
+        "physicalParameters": {
+            "speedMin": 0.0,
+            "speedMax": robot.max_linear_speed_mps,
+            "accelerationMax": robot.max_linear_accel_mps2,
+            "decelerationMax": robot.max_linear_accel_mps2,
+            "heightMax": 0.5,
+            "width": width,
+            "length": length,
+        },
+        "protocolLimits": {
+            "maxStringLens": {"idLen": 256},
+            "maxArrayLens": {"order.nodes": 1000, "order.edges": 1000},
+            "timing": {
+                "minOrderInterval": 0.1,
+                "minStateInterval": 0.1,
+                "defaultStateInterval": fleet.state_interval_s,
+                "visualizationInterval": (
+                    1.0 / fleet.visualization_rate_hz if fleet.visualization_rate_hz > 0 else 0.0
+                ),
+            },
+        },
+        "protocolFeatures": {
+            "optionalParameters": [
+                {"parameter": "order.nodes.nodePosition.theta", "support": "SUPPORTED"},
+                {"parameter": "order.edges.maxSpeed", "support": "SUPPORTED"},
+            ],
+            "agvActions": [
+                {
+                    "actionType": "wait",
+                    "actionDescription": "stand still for duration seconds",
+                    "actionScopes": ["NODE", "EDGE"],
+                    "actionParameters": [
+                        {
+                            "key": "duration",
+                            "valueDataType": "FLOAT",
+                            "description": "[s] how long to wait",
+                        }
+                    ],
+                },
+                *({"actionType": kind, "actionScopes": ["INSTANT"]} for kind in INSTANT_ACTIONS),
+            ],
+        },
+        "agvGeometry": {},
+        "loadSpecification": {},
+    }

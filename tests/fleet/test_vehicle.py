@@ -1,0 +1,372 @@
+"""The VDA 5050 vehicle's order logic, input by input: orders driven node by node, the
+horizon waiting for updates stitched at the decision point, node actions, instant actions,
+and every refusal the specification names; each state it reports validates against the
+2.1.0 schema."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from typing import Any
+
+import pytest
+
+from navd.config import NavdConfig
+from navd.fleet import reports
+from navd.fleet.vehicle import RETRY_S, Vehicle
+from navd.geometry.pose import Pose2
+from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
+from tests.fleet.vda5050_schemas import check
+
+HERE = Pose2(0.0, 0.0, 0.0)
+MAKER, SERIAL = "navd", "robot-1"
+
+
+def _head(n: int = 0) -> dict[str, Any]:
+    return {
+        "headerId": n,
+        "timestamp": "2026-12-02T08:00:00.000Z",
+        "version": "2.1.0",
+        "manufacturer": MAKER,
+        "serialNumber": SERIAL,
+    }
+
+
+def node(
+    node_id: str, seq: int, x: float, y: float, *, released: bool = True, **extra: Any
+) -> dict[str, Any]:
+    position = {"x": x, "y": y, "mapId": "map", **extra.pop("position", {})}
+    return {
+        "nodeId": node_id,
+        "sequenceId": seq,
+        "released": released,
+        "nodePosition": position,
+        "actions": [],
+        **extra,
+    }
+
+
+def edge(a: dict[str, Any], b: dict[str, Any], **extra: Any) -> dict[str, Any]:
+    return {
+        "edgeId": f"{a['nodeId']}-{b['nodeId']}",
+        "sequenceId": a["sequenceId"] + 1,
+        "released": a["released"] and b["released"],
+        "startNodeId": a["nodeId"],
+        "endNodeId": b["nodeId"],
+        "actions": [],
+        **extra,
+    }
+
+
+def order(
+    nodes: list[dict[str, Any]],
+    *,
+    order_id: str = "o1",
+    update: int = 0,
+    edges: list[dict[str, Any]] | None = None,
+) -> dict[str, Any]:
+    if edges is None:
+        edges = [edge(a, b) for a, b in itertools.pairwise(nodes)]
+    message = {
+        **_head(),
+        "orderId": order_id,
+        "orderUpdateId": update,
+        "nodes": nodes,
+        "edges": edges,
+    }
+    check("order", message)  # every example order the tests send is a valid one
+    return message
+
+
+def instant(*actions: dict[str, Any]) -> bytes:
+    message = {**_head(), "actions": list(actions)}
+    check("instantActions", message)
+    return json.dumps(message).encode()
+
+
+def action(kind: str, action_id: str, blocking: str = "NONE", **params: Any) -> dict[str, Any]:
+    return {
+        "actionType": kind,
+        "actionId": action_id,
+        "blockingType": blocking,
+        "actionParameters": [{"key": k, "value": v} for k, v in params.items()],
+    }
+
+
+def _vehicle() -> tuple[Vehicle, list[str]]:
+    asked: list[str] = []
+    return Vehicle(MAKER, SERIAL, asked.append), asked
+
+
+def send(vehicle: Vehicle, message: dict[str, Any], pose: Pose2 = HERE) -> list[Message]:
+    return vehicle.on_order(json.dumps(message).encode(), 0.0, pose)
+
+
+def goals(out: list[Message]) -> list[Goal]:
+    return [m for m in out if isinstance(m, Goal)]
+
+
+def reach(vehicle: Vehicle, goal: Goal, now: float = 1.0) -> list[Message]:
+    status = GoalStatus(stamp=now, received=now, goal_id=goal.goal_id, state="reached")
+    return vehicle.on_goal_status(status, now)
+
+
+def state_of(vehicle: Vehicle) -> dict[str, Any]:
+    robot = reports.Robot((1.0, 2.0, 0.5), 0.05, (0.3, 0.1), (), False, "map")
+    message = reports.state(reports.header(7, 1.8e9, MAKER, SERIAL), vehicle, robot)
+    check("state", message)
+    return message
+
+
+def errors_of(vehicle: Vehicle) -> dict[str, dict[str, Any]]:
+    return {e["errorType"]: e for e in state_of(vehicle)["errors"]}
+
+
+def test_an_order_is_driven_node_by_node_and_reported_as_it_goes() -> None:
+    vehicle, _ = _vehicle()
+    n0, n1, n2 = (
+        node("a", 0, 0.2, 0.0),
+        node("b", 2, 3.0, 0.0, position={"theta": 1.5}),
+        node("c", 4, 3.0, 2.0),
+    )
+    edges = [edge(n0, n1, maxSpeed=0.3), edge(n1, n2)]
+    (first,) = goals(send(vehicle, order([n0, n1, n2], edges=edges)))
+    # the first node is where the robot stands: traversed at once; the goal is the next
+    state = state_of(vehicle)
+    assert (state["lastNodeId"], state["lastNodeSequenceId"]) == ("a", 0)
+    assert [n["nodeId"] for n in state["nodeStates"]] == ["b", "c"]
+    assert [e["edgeId"] for e in state["edgeStates"]] == ["a-b", "b-c"]
+    assert (first.x_m, first.y_m, first.yaw_rad, first.max_speed_mps) == (3.0, 0.0, 1.5, 0.3)
+    (second,) = goals(reach(vehicle, first))
+    assert (second.x_m, second.y_m, second.yaw_rad, second.max_speed_mps) == (3.0, 2.0, None, None)
+    assert state_of(vehicle)["lastNodeId"] == "b"
+    assert goals(reach(vehicle, second)) == []
+    state = state_of(vehicle)
+    assert (state["lastNodeId"], state["nodeStates"], state["edgeStates"]) == ("c", [], [])
+    assert state["errors"] == [] and state["driving"] is True  # the robot's speed says so
+
+
+def test_the_horizon_waits_for_an_update_stitched_at_the_decision_point() -> None:
+    vehicle, _ = _vehicle()
+    a, b, c = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0), node("c", 4, 4.0, 0.0, released=False)
+    (to_b,) = goals(send(vehicle, order([a, b, c])))
+    assert goals(reach(vehicle, to_b)) == []  # b is the decision point: stop there
+    assert [n["released"] for n in state_of(vehicle)["nodeStates"]] == [False]
+    # an update that does not start at the decision point is refused; the order stays
+    elsewhere = order([node("c", 4, 4.0, 0.0), node("d", 6, 6.0, 0.0)], update=1)
+    assert send(vehicle, elsewhere) == []
+    refused = errors_of(vehicle)["orderUpdateError"]
+    assert "not at the decision point b" in refused["errorDescription"]
+    assert {"referenceKey": "orderId", "referenceValue": "o1"} in refused["errorReferences"]
+    # the right update releases c and adds a horizon d
+    b2, c2, d2 = (
+        node("b", 2, 2.0, 0.0),
+        node("c", 4, 4.0, 0.0),
+        node("d", 6, 6.0, 0.0, released=False),
+    )
+    (to_c,) = goals(send(vehicle, order([b2, c2, d2], update=2)))
+    assert (to_c.x_m, to_c.y_m) == (4.0, 0.0)
+    state = state_of(vehicle)
+    assert state["orderUpdateId"] == 2 and "orderUpdateError" not in errors_of(vehicle)
+    assert [(n["nodeId"], n["released"]) for n in state["nodeStates"]] == [
+        ("c", True),
+        ("d", False),
+    ]
+    # sent again (the fleet control missed the state): ignored, no second goal
+    assert send(vehicle, order([b2, c2, d2], update=2)) == []
+    # an older update is refused and the order in hand goes on
+    assert send(vehicle, order([b2, c2], update=1)) == []
+    assert (
+        "older than the update in hand (2)"
+        in errors_of(vehicle)["orderUpdateError"]["errorDescription"]
+    )
+    assert vehicle.goal_id == to_c.goal_id
+
+
+def test_an_update_after_the_base_is_done_continues_from_the_last_node() -> None:
+    vehicle, _ = _vehicle()
+    a, b = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)
+    (to_b,) = goals(send(vehicle, order([a, b])))
+    reach(vehicle, to_b)
+    (to_c,) = goals(send(vehicle, order([b, node("c", 4, 2.0, 3.0)], update=1)))
+    assert (to_c.x_m, to_c.y_m) == (2.0, 3.0)
+
+
+@pytest.mark.parametrize(
+    ("message", "kind", "said"),
+    [
+        (b"{not json", "validationError", "Invalid JSON"),
+        (
+            {**_head(), "orderId": "o", "orderUpdateId": 0, "nodes": [], "edges": []},
+            "validationError",
+            "nodes",
+        ),
+        ("serial", "validationError", "this vehicle is navd/robot-1"),
+        ("edges", "validationError", "3 nodes need 2 edges"),
+        ("released-edge", "validationError", "released but one of its nodes is not"),
+        ("after-horizon", "validationError", "follows an unreleased one"),
+        ("pick", "orderError", "action pick is not one navd performs"),
+        ("trajectory", "orderError", "gives a trajectory"),
+        ("far", "orderError", "the first node a is 5.00 m away"),
+    ],
+)
+def test_orders_navd_cannot_take_are_refused_by_name_and_nothing_drives(
+    message: Any, kind: str, said: str
+) -> None:
+    a, b, c = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0), node("c", 4, 4.0, 0.0)
+    if message == "serial":
+        message = {**order([a, b]), "serialNumber": "robot-2"}
+    elif message == "edges":
+        message = order([a, b, c], edges=[edge(a, b)])
+    elif message == "released-edge":
+        c_held = node("c", 4, 4.0, 0.0, released=False)
+        message = order([a, b, c_held], edges=[edge(a, b), {**edge(b, c_held), "released": True}])
+    elif message == "after-horizon":
+        b_held = node("b", 2, 2.0, 0.0, released=False)
+        message = order([a, b_held, c], edges=[edge(a, b_held), edge(b_held, c)])
+    elif message == "pick":
+        message = order([a, {**b, "actions": [action("pick", "p1", "HARD")]}])
+    elif message == "trajectory":
+        curve = {
+            "degree": 1,
+            "knotVector": [0, 0, 1, 1],
+            "controlPoints": [{"x": 0, "y": 0}, {"x": 2, "y": 0}],
+        }
+        message = order([a, b], edges=[edge(a, b, trajectory=curve)])
+    elif message == "far":
+        message = order([node("a", 0, 5.0, 0.0), b])
+    vehicle, _ = _vehicle()
+    raw = message if isinstance(message, bytes) else json.dumps(message).encode()
+    assert vehicle.on_order(raw, 0.0, HERE) == []
+    error = errors_of(vehicle)[kind]
+    assert said in error["errorDescription"], error
+    state = state_of(vehicle)
+    assert (state["orderId"], state["nodeStates"]) == ("", [])
+
+
+def test_a_new_order_while_one_runs_is_refused_until_it_is_cancelled() -> None:
+    vehicle, _ = _vehicle()
+    (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)])))
+    other = order([node("x", 0, 0.0, 0.0), node("y", 2, 0.0, 2.0)], order_id="o2")
+    assert send(vehicle, other) == []
+    assert "order o1 is still running" in errors_of(vehicle)["orderError"]["errorDescription"]
+    out = vehicle.on_instant_actions(instant(action("cancelOrder", "c1")), 1.0, HERE)
+    assert out == [CancelGoal(stamp=1.0, received=1.0, goal_id=goal.goal_id)]
+    state = state_of(vehicle)
+    assert state["nodeStates"] == [] and state["orderId"] == "o1"  # ids are kept
+    assert {"actionId": "c1", "actionType": "cancelOrder", "actionStatus": "FINISHED"} in state[
+        "actionStates"
+    ]
+    (to_y,) = goals(send(vehicle, other))
+    assert (to_y.x_m, to_y.y_m) == (0.0, 2.0) and "orderError" not in errors_of(vehicle)
+
+
+def test_cancel_without_an_order_fails_with_no_order_to_cancel() -> None:
+    vehicle, _ = _vehicle()
+    assert vehicle.on_instant_actions(instant(action("cancelOrder", "c9")), 0.0, HERE) == []
+    state = state_of(vehicle)
+    assert {"actionId": "c9", "actionType": "cancelOrder", "actionStatus": "FAILED"} in state[
+        "actionStates"
+    ]
+    error = errors_of(vehicle)["noOrderToCancel"]
+    assert error["errorReferences"] == [{"referenceKey": "actionId", "referenceValue": "c9"}]
+
+
+def test_a_hard_wait_on_a_node_holds_the_vehicle_for_its_duration() -> None:
+    vehicle, _ = _vehicle()
+    b = {**node("b", 2, 2.0, 0.0), "actions": [action("wait", "w1", "HARD", duration=5.0)]}
+    (to_b,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), b, node("c", 4, 4.0, 0.0)])))
+    assert goals(reach(vehicle, to_b, now=10.0)) == []  # waiting at b
+    assert {"actionId": "w1", "actionType": "wait", "actionStatus": "RUNNING"} in state_of(vehicle)[
+        "actionStates"
+    ]
+    assert goals(vehicle.on_tick(14.9)) == []
+    (to_c,) = goals(vehicle.on_tick(15.0))
+    assert (to_c.x_m, to_c.y_m) == (4.0, 0.0)
+    assert {"actionId": "w1", "actionType": "wait", "actionStatus": "FINISHED"} in state_of(
+        vehicle
+    )["actionStates"]
+
+
+def test_pause_stops_the_goal_and_resume_sends_it_again() -> None:
+    vehicle, _ = _vehicle()
+    (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)])))
+    out = vehicle.on_instant_actions(instant(action("startPause", "p1")), 1.0, HERE)
+    assert out == [CancelGoal(stamp=1.0, received=1.0, goal_id=goal.goal_id)]
+    assert state_of(vehicle)["paused"] is True and goals(vehicle.on_tick(2.0)) == []
+    (again,) = goals(vehicle.on_instant_actions(instant(action("stopPause", "p2")), 3.0, HERE))
+    assert (again.x_m, again.y_m) == (2.0, 0.0) and again.goal_id != goal.goal_id
+    assert state_of(vehicle)["paused"] is False
+
+
+def test_init_position_state_and_factsheet_requests_and_unknown_actions() -> None:
+    vehicle, asked = _vehicle()
+    out = vehicle.on_instant_actions(
+        instant(
+            action("initPosition", "i1", x=1.0, y=2.0, theta=0.5, mapId="map", lastNodeId="n7"),
+            action("stateRequest", "s1"),
+            action("factsheetRequest", "f1"),
+            action("startCharging", "x1"),
+            action("initPosition", "i2", x="one", y=2.0, theta=0.0, mapId="map"),
+        ),
+        5.0,
+        HERE,
+    )
+    assert out == [InitialPose(stamp=5.0, received=5.0, x_m=1.0, y_m=2.0, yaw_rad=0.5)]
+    assert asked == ["state", "factsheet"]
+    statuses = {s["actionId"]: s["actionStatus"] for s in state_of(vehicle)["actionStates"]}
+    assert statuses == {
+        "i1": "FINISHED",
+        "s1": "FINISHED",
+        "f1": "FINISHED",
+        "x1": "FAILED",
+        "i2": "FAILED",
+    }
+    assert state_of(vehicle)["lastNodeId"] == "n7"
+    errors = errors_of(vehicle)
+    assert (
+        "startCharging is not one navd performs" in errors["unsupportedAction"]["errorDescription"]
+    )
+    assert "parameter x must be a number" in errors["validationError"]["errorDescription"]
+
+
+def test_a_goal_that_fails_is_reported_and_tried_again() -> None:
+    vehicle, _ = _vehicle()
+    (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)])))
+    failed = GoalStatus(
+        stamp=1.0, received=1.0, goal_id=goal.goal_id, state="failed", reason="no route"
+    )
+    assert vehicle.on_goal_status(failed, 1.0) == []
+    assert "no way to node b: no route" in errors_of(vehicle)["navigationError"]["errorDescription"]
+    assert goals(vehicle.on_tick(1.0 + RETRY_S - 0.1)) == []
+    (again,) = goals(vehicle.on_tick(1.0 + RETRY_S))
+    assert (again.x_m, again.y_m) == (2.0, 0.0) and "navigationError" not in errors_of(vehicle)
+
+
+def test_the_state_says_where_the_robot_is_and_why_it_is_held() -> None:
+    vehicle, _ = _vehicle()
+    robot = reports.Robot((1.0, 2.0, 7.0), 0.25, (0.0, 0.0), ("lidar silent",), True, "office")
+    message = reports.state(reports.header(1, 1.8e9, MAKER, SERIAL), vehicle, robot)
+    check("state", message)
+    position = message["agvPosition"]
+    assert position["theta"] == pytest.approx(math.remainder(7.0, math.tau))
+    assert (position["mapId"], position["localizationScore"]) == ("office", 0.75)
+    assert message["safetyState"] == {"eStop": "NONE", "fieldViolation": True}
+    assert message["operatingMode"] == "MANUAL" and message["driving"] is False
+    unknown = reports.Robot(None, math.inf, (0.0, 0.0), (), False, "office")
+    blind = reports.state(reports.header(2, 1.8e9, MAKER, SERIAL), vehicle, unknown)
+    check("state", blind)
+    assert "agvPosition" not in blind
+    check("visualization", reports.visualization(reports.header(3, 1.8e9, MAKER, SERIAL), robot))
+    for what in ("ONLINE", "OFFLINE", "CONNECTIONBROKEN"):
+        check("connection", reports.connection(reports.header(4, 1.8e9, MAKER, SERIAL), what))
+
+
+def test_the_factsheet_says_what_navd_is_and_does() -> None:
+    config = NavdConfig()
+    sheet = reports.factsheet(reports.header(0, 1.8e9, MAKER, SERIAL), config.fleet, config.robot)
+    check("factsheet", sheet)
+    actions = {a["actionType"]: a["actionScopes"] for a in sheet["protocolFeatures"]["agvActions"]}
+    assert actions["wait"] == ["NODE", "EDGE"] and actions["cancelOrder"] == ["INSTANT"]
+    assert sheet["physicalParameters"]["speedMax"] == config.robot.max_linear_speed_mps
