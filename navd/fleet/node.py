@@ -8,6 +8,10 @@ go on the bus like anyone's, through the same planner and safety gate. The state
 every change (at most every ``MIN_STATE_S``) and at least every ``fleet.state_interval_s``;
 the position at ``fleet.visualization_rate_hz``; the factsheet on connecting and on request.
 While the broker is gone the order goes on or the robot holds (``fleet.on_broker_lost``).
+
+It also hears the other vehicles of its interface (their visualization, and their factsheet
+for their size) and tells the planner where those on its map are (``NearbyRobots``), so two
+robots in one corridor give way to each other; one silent for ``STALE_S`` is forgotten.
 """
 
 from __future__ import annotations
@@ -27,12 +31,14 @@ from navd.config import FleetConfig, NavdConfig, RobotConfig
 from navd.fleet import reports
 from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
+from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     DriveMode,
     GoalStatus,
     LocalizationState,
     Message,
+    NearbyRobots,
     PoseEstimate,
     SafetyState,
 )
@@ -45,6 +51,18 @@ TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
 FIRST_RETRY_S = 0.5  # [s] the first pause before reconnecting; it doubles up to MAX_RETRY_S
 MAX_RETRY_S = 10.0
 QOS = 1  # at least once for everything the vehicle says and hears (retained connection)
+STALE_S = 2.0  # [s] another vehicle not heard of for this long is forgotten
+
+
+@dataclass
+class _Other:
+    """Another vehicle as last heard: [m, m, rad, m/s] and when (monotonic [s])."""
+
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    speed_mps: float
+    heard_s: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,15 +73,20 @@ class FleetSettings:
         fleet: broker, names and publishing rates.
         robot: the robot's size and speeds (the factsheet).
         map_id: the map the positions are on (``slam.map_name``).
+        radius_m: [m] the robot's circumscribed radius (another vehicle's when its
+            factsheet has not come).
     """
 
     fleet: FleetConfig
     robot: RobotConfig
     map_id: str
+    radius_m: float
 
     @classmethod
     def from_config(cls, config: NavdConfig) -> FleetSettings:
-        return cls(config.fleet, config.robot, config.slam.map_name)
+        footprint = Footprint.of(config.robot)
+        radius = math.hypot(footprint.half_length_m, footprint.half_width_m)
+        return cls(config.fleet, config.robot, config.slam.map_name, radius)
 
 
 class FleetNode(Module):
@@ -81,6 +104,9 @@ class FleetNode(Module):
         self._last_state_s = -math.inf
         self._last_view_s = -math.inf
         self.connected = asyncio.Event()
+        self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
+        self._sizes: dict[str, float] = {}  # [m] their radius, from their factsheet
+        self._others_told = False  # the planner knows the others as they are now
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -203,6 +229,8 @@ class FleetNode(Module):
     async def _online(self, client: aiomqtt.Client) -> None:
         await client.subscribe(self.topics.order, qos=QOS)
         await client.subscribe(self.topics.instant_actions, qos=QOS)
+        await client.subscribe(self.topics.everyone("visualization"), qos=0)
+        await client.subscribe(self.topics.everyone("factsheet"), qos=QOS)
         await client.publish(
             self.topics.connection,
             self._json("connection", reports.connection, "ONLINE"),
@@ -230,6 +258,12 @@ class FleetNode(Module):
     def _heard(self, topic: str, payload: Any) -> None:
         raw = payload if isinstance(payload, bytes) else str(payload).encode()
         now, here = self.ctx.clock.now(), self._here()
+        levels = topic.split("/")
+        if len(levels) == 5 and levels[-1] in ("visualization", "factsheet"):
+            name = f"{levels[2]}/{levels[3]}"
+            if name != f"{self.vehicle.manufacturer}/{self.vehicle.serial_number}":
+                self._other(name, levels[-1], raw)
+            return
         if topic == self.topics.order:
             self._publish(self.vehicle.on_order(raw, now, here))
         elif topic == self.topics.instant_actions:
@@ -244,10 +278,49 @@ class FleetNode(Module):
         else:
             self.ctx.spawn(self._send(self.topics.factsheet, self._factsheet()), name="factsheet")
 
+    def _other(self, name: str, topic: str, raw: bytes) -> None:
+        """Another vehicle's position (on our map) or size; anything malformed is ignored."""
+        try:
+            body = json.loads(raw)
+            if topic == "factsheet":
+                size = body["physicalParameters"]
+                self._sizes[name] = 0.5 * math.hypot(float(size["length"]), float(size["width"]))
+                return
+            where = body["agvPosition"]
+            if where.get("mapId") != self.settings.value.map_id:
+                self._others.pop(name, None)
+                return
+            speed = float(body.get("velocity", {}).get("vx", 0.0))
+            other = _Other(
+                float(where["x"]), float(where["y"]), float(where["theta"]), speed, time.monotonic()
+            )
+        except (ValueError, KeyError, TypeError, AttributeError):
+            return
+        if all(math.isfinite(v) for v in (other.x_m, other.y_m, other.yaw_rad, other.speed_mps)):
+            self._others[name] = other
+            self._others_told = False
+
+    def _tell_others(self, now: float) -> None:
+        """The planner hears where the other vehicles are (the stale ones dropped)."""
+        wall = time.monotonic()
+        stale = [n for n, o in self._others.items() if wall - o.heard_s > STALE_S]
+        for name in stale:
+            del self._others[name]
+        if self._others_told and not stale:
+            return
+        self._others_told = True
+        own = self.settings.value.radius_m
+        robots = tuple(
+            (name, o.x_m, o.y_m, o.yaw_rad, o.speed_mps, self._sizes.get(name, own))
+            for name, o in self._others.items()
+        )
+        self.ctx.publish(NearbyRobots(stamp=now, received=now, robots=robots))
+
     # --- publishing -----------------------------------------------------------------------
 
     def _tick(self, now: float) -> None:
         self._publish(self.vehicle.on_tick(now))
+        self._tell_others(now)
         client = self._client
         if client is None:
             return

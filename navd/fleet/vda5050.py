@@ -117,13 +117,18 @@ class Topics:
     """The vehicle's topics: ``interface/v2/manufacturer/serialNumber/<topic>``."""
 
     def __init__(self, interface_name: str, manufacturer: str, serial_number: str) -> None:
-        self.prefix = f"{interface_name}/{MAJOR_VERSION}/{manufacturer}/{serial_number}"
+        self.interface = f"{interface_name}/{MAJOR_VERSION}"
+        self.prefix = f"{self.interface}/{manufacturer}/{serial_number}"
         self.order = f"{self.prefix}/order"
         self.instant_actions = f"{self.prefix}/instantActions"
         self.state = f"{self.prefix}/state"
         self.visualization = f"{self.prefix}/visualization"
         self.connection = f"{self.prefix}/connection"
         self.factsheet = f"{self.prefix}/factsheet"
+
+    def everyone(self, topic: str) -> str:
+        """The subscription to ``topic`` of every vehicle of the interface."""
+        return f"{self.interface}/+/+/{topic}"
 
 
 def timestamp(unix_s: float) -> str:

@@ -38,6 +38,10 @@ DEFAULT_RESOLUTION_M = 0.05
 # [s] another lidar's latest scan joins the live obstacle points while it is this much older
 # than the newest at most (two lidars at 5-10 Hz; a silent one leaves no ghosts behind).
 LIVE_SCAN_S = 0.5
+# [s] another robot of the fleet is kept out of where it will be this far ahead too.
+ROBOT_AHEAD_S = 1.0
+# [m] spacing of the points that outline another robot's disc.
+ROBOT_OUTLINE_M = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,6 +95,7 @@ class Layers:
         # Each lidar's latest scan: (stamp [s], hits in the map frame [m], what it covered).
         self._live: dict[str, tuple[float, FloatArray, FieldOfView]] = {}
         self.scan_points: FloatArray = np.empty((0, 2))  # the live scans' hits together
+        self.robot_points: FloatArray = np.empty((0, 2))  # the fleet's other robots' outlines
         self.views: tuple[FieldOfView, ...] = (ALL_AROUND,)  # what the live scans covered
         self._keep_out: tuple[GridFrame, Zones, int, BoolArray] | None = None
         self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
@@ -139,15 +144,40 @@ class Layers:
         hits = pose.transform(hits_robot_m)
         live = self._live
         live[lidar] = (stamp, hits, view)
-        if len(live) == 1:
-            self.scan_points, self.views = hits, (view,)
-        else:
-            for device in [d for d, (t, _, _) in live.items() if t < stamp - LIVE_SCAN_S]:
-                del live[device]
-            self.scan_points = np.concatenate([h for _, h, _ in live.values()])
-            self.views = tuple(v for _, _, v in live.values())
+        for device in [d for d, (t, _, _) in live.items() if t < stamp - LIVE_SCAN_S]:
+            del live[device]
+        self.views = tuple(v for _, _, v in live.values())
+        self._join()
         if self.obstacles is not None:
             self.obstacles.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
+
+    def set_robots(self, robots: tuple[tuple[str, float, float, float, float, float], ...]) -> None:
+        """The fleet's other robots (name, x, y, yaw, forward speed, radius [m, rad, m/s]):
+        each one's disc where it is and where it will be ``ROBOT_AHEAD_S`` on joins the live
+        obstacle points and the snapshots' obstacles, until the next call."""
+        outlines = [np.empty((0, 2))]
+        for _, x, y, yaw, speed, radius in robots:
+            ahead = (
+                x + speed * ROBOT_AHEAD_S * math.cos(yaw),
+                y + speed * ROBOT_AHEAD_S * math.sin(yaw),
+            )
+            for cx, cy in ((x, y), ahead):
+                n = max(math.ceil(2.0 * math.pi * radius / ROBOT_OUTLINE_M), 8)
+                a = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+                ring = np.column_stack([cx + radius * np.cos(a), cy + radius * np.sin(a)])
+                outlines += [ring, np.array([[cx, cy]])]
+        self.robot_points = np.concatenate(outlines)
+        self._join()
+
+    def _join(self) -> None:
+        """The live obstacle points: every lidar's latest hits and the other robots'."""
+        parts = [h for _, h, _ in self._live.values()]
+        if self.robot_points.shape[0]:
+            parts.append(self.robot_points)
+        if not parts:
+            self.scan_points = np.empty((0, 2))
+        else:
+            self.scan_points = parts[0] if len(parts) == 1 else np.concatenate(parts)
 
     def forget_around(self, x_m: float, y_m: float, radius_m: float) -> None:
         """Forget scan obstacles within ``radius_m`` of (x_m, y_m) (stuck recovery)."""
@@ -254,6 +284,11 @@ class Layers:
             self.obstacles = ObstacleLayer(frame, persistence_s)
         obstacles |= self.obstacles.active(now)
         obstacles |= self.keep_out(frame)
+        if self.robot_points.shape[0]:
+            cells = frame.cells_of(self.robot_points)
+            within = (cells[:, 0] >= 0) & (cells[:, 0] < frame.rows)
+            within &= (cells[:, 1] >= 0) & (cells[:, 1] < frame.cols)
+            obstacles[cells[within, 0], cells[within, 1]] = True
         return frame, obstacles, unknown
 
     def keep_out(self, frame: GridFrame) -> BoolArray:

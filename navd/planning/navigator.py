@@ -162,6 +162,10 @@ class Navigator:
         """Take the SLAM map (-1 unknown, 0..100 % occupied; row = y)."""
         self.map_layers.set_map(occupancy, resolution_m, origin_x_m, origin_y_m)
 
+    def set_robots(self, robots: tuple[tuple[str, float, float, float, float, float], ...]) -> None:
+        """The fleet's other robots (see ``Layers.set_robots``): kept clear of like obstacles."""
+        self.map_layers.set_robots(robots)
+
     def add_scan(
         self,
         pose: Pose2,

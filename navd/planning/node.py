@@ -53,6 +53,7 @@ from navd.lifecycle.messages import (
     ManualCommand,
     MapUpdate,
     Message,
+    NearbyRobots,
     Path,
     PoseEstimate,
     StuckDetected,
@@ -121,6 +122,7 @@ class PlannerNode(Module):
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(NearbyRobots, self._on_robots)
         ctx.subscribe(DriveCommand, self._on_drive)
         ctx.subscribe(DeviceLost, self._on_chassis)
         ctx.subscribe(DeviceConnected, self._on_chassis)
@@ -261,6 +263,13 @@ class PlannerNode(Module):
                 )
 
         self.ctx.submit("planning_map", job)
+
+    def _on_robots(self, nearby: NearbyRobots) -> None:
+        def job() -> None:
+            with self._lock:
+                self.nav.set_robots(nearby.robots)
+
+        self.ctx.submit("planning_robots", job)  # the latest wins
 
     def _on_scan(self, scan: LaserScan) -> None:
         pose = self._pose

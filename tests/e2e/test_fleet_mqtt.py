@@ -10,6 +10,7 @@ import asyncio
 import contextlib
 import itertools
 import json
+import math
 import signal
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
@@ -17,9 +18,10 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.frames import InitialPoseFrame
+from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame
+from navd.drivers.protocol.replies import GoalStatusFrame
 from navd.sim.session import Session, session
-from navd.sim.world import office
+from navd.sim.world import from_shapes, office
 from tests.fleet.broker import Broker
 from tests.fleet.vda5050_schemas import check
 
@@ -286,3 +288,65 @@ async def _connection_states(client: Any, until: str, limit_s: float = 20.0) -> 
             if states[-1] == until:
                 return states
     return states
+
+
+# An empty hall, 10 x 6 m: nothing for the lidar to see between the robot and its goal.
+HALL = {
+    "walls": [[-1.0, -1.0, 11.0, -1.0], [11.0, -1.0, 11.0, 6.0], [11.0, 6.0, -1.0, 6.0],
+              [-1.0, 6.0, -1.0, -1.0]],
+    "start": [1.0, 2.5, 0.0],
+}  # fmt: skip
+GHOST = (5.0, 2.5)  # another vehicle of the fleet, standing on the straight way
+
+
+async def test_another_vehicle_of_the_fleet_is_driven_around(tmp_path: Path) -> None:
+    broker = Broker(tmp_path)
+    broker.start()
+    try:
+        async with aiomqtt.Client("127.0.0.1", broker.port, identifier="ghost") as ghost:
+            sheet = {
+                "headerId": 0, "timestamp": "2026-12-02T08:00:00.00Z", "version": "2.1.0",
+                "manufacturer": "other", "serialNumber": "ghost",
+                "physicalParameters": {"length": 0.8, "width": 0.6},
+            }  # fmt: skip
+            await ghost.publish("uagv/v2/other/ghost/factsheet", json.dumps(sheet), retain=True)
+            async with session(
+                from_shapes(HALL, "hall"), tmp_path, overrides=_vehicle(broker), lockstep=True,
+                hold_clock=True,
+            ) as s:  # fmt: skip
+                s.control.send(InitialPoseFrame(x=1.0, y=2.5, yaw=0.0, std_xy=0.02))
+                s.sim.release_clock()
+
+                async def stand(n: int) -> None:
+                    view = {
+                        "headerId": n, "timestamp": "2026-12-02T08:00:00.00Z", "version": "2.1.0",
+                        "manufacturer": "other", "serialNumber": "ghost",
+                        "agvPosition": {"x": GHOST[0], "y": GHOST[1], "theta": 0.0,
+                                        "mapId": "map", "positionInitialized": True},
+                    }  # fmt: skip
+                    check("visualization", view)
+                    await ghost.publish("uagv/v2/other/ghost/visualization", json.dumps(view))
+
+                for n in range(10):  # heard before the goal is given
+                    await stand(n)
+                    await asyncio.sleep(0.05)
+                s.control.send(GoalFrame(x=9.0, y=2.5, goal_id="across"))
+                result: GoalStatusFrame | None = None
+                n = 10
+                while result is None and s.sim.now() < 120.0:
+                    s.check()
+                    await stand(n)  # it keeps saying where it stands
+                    n += 1
+                    try:
+                        frame = await s.control.receive(0.2)
+                    except TimeoutError:
+                        continue
+                    if isinstance(frame, GoalStatusFrame) and frame.state != "active":
+                        result = frame
+                truth = [(x, y) for _, x, y, _ in s.sim.truth]
+        assert result is not None and result.state == "reached", result
+        # never within the ghost's half diagonal (0.5 m) and the robot's own half width
+        nearest = min(math.dist(p, GHOST) for p in truth)
+        assert nearest > 0.5 + 0.15, f"passed {nearest:.2f} m from the other vehicle"
+    finally:
+        broker.stop()

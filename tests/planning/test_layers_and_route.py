@@ -106,3 +106,22 @@ def test_route_progress_remaining_carrot_and_blocking() -> None:
     assert route.blocked(np.array([[4.1, 2.0]]), 0.3, 3.0)
     assert not route.blocked(np.array([[4.1, 2.0]]), 0.05, 3.0)
     assert not route.blocked(np.array([[0.0, 0.0]]), 0.3, 3.0)  # behind the robot
+
+
+def test_other_robots_are_obstacles_where_they_are_and_where_they_are_going() -> None:
+    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    # one standing at (2, 0), one at (0, 3) driving +x at 0.5 m/s
+    layers.set_robots((("a/one", 2.0, 0.0, 0.0, 0.0, 0.3), ("a/two", 0.0, 3.0, 0.0, 0.5, 0.3)))
+    frame, obstacles, _ = layers.snapshot(0.0, [(0.0, 0.0), (4.0, 4.0)])
+
+    def blocked(x: float, y: float) -> bool:
+        r, c = frame.cell_of(x, y)
+        return bool(obstacles[r, c])
+
+    assert blocked(2.0, 0.0) and blocked(2.3, 0.0) and not blocked(2.5, 0.0)
+    assert blocked(0.0, 3.0) and blocked(0.5, 3.0)  # where it will be in 1 s
+    assert not blocked(1.5, 3.0)
+    assert any(np.hypot(*(layers.scan_points - [2.0, 0.0]).T) < 0.31)  # the DWA sees it too
+    layers.set_robots(())
+    _, obstacles, _ = layers.snapshot(1.0, [(0.0, 0.0), (4.0, 0.0)])
+    assert not obstacles.any() and layers.scan_points.shape[0] == 0

@@ -70,6 +70,7 @@ from navd.lifecycle.messages.sensors import (
     GpsFix,
     Imu,
     LaserScan,
+    NearbyRobots,
     WheelOdometry,
 )
 
@@ -113,6 +114,7 @@ __all__ = [
     "MissionStatus",
     "MissionStep",
     "ModuleHealth",
+    "NearbyRobots",
     "Orientation",
     "Path",
     "PoseEstimate",

@@ -155,6 +155,18 @@ class BeaconObservation(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class NearbyRobots(Message):
+    """Other robots of the fleet on this robot's map, as they last said where they are.
+
+    Attributes:
+        robots: each robot's (name, x [m], y [m], yaw [rad], forward speed [m/s], radius [m]),
+            fresh ones only (an empty tuple: none, or all gone quiet).
+    """
+
+    robots: tuple[tuple[str, float, float, float, float, float], ...]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class CompassHeading(Message):
     """A compass reading as the device reports it: a bearing, never a map yaw.
 
