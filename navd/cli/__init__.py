@@ -18,6 +18,7 @@ from navd.cli import (
     completion,
     config,
     control,
+    fleet,
     mission,
     robot,
     run,
@@ -33,7 +34,21 @@ from navd.logs import configure_logging
 __all__ = ["main"]
 
 # The command groups, in the order `navd --help` lists them.
-GROUPS = (run, config, control, mission, robot, teleop, sensor, bench, slam, sim, viz, completion)
+GROUPS = (
+    run,
+    config,
+    control,
+    mission,
+    fleet,
+    robot,
+    teleop,
+    sensor,
+    bench,
+    slam,
+    sim,
+    viz,
+    completion,
+)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -9,6 +9,7 @@ velocity through the robot's calibration, and the motors stop when no line came 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy.typing as npt
 from navd.config import NavdConfig
 from navd.drivers.kinematics import WheelCalibration
 from navd.geometry.footprint import Footprint
+from navd.geometry.pose import Pose2
 from navd.sim.body import Body, command_velocity, encode_wheels
 from navd.sim.world import World
 
@@ -47,6 +49,10 @@ class WheelInput:
     pending: bytearray = field(default_factory=bytearray)
 
 
+def _nobody() -> npt.NDArray[np.float64]:
+    return np.empty((0, 3))
+
+
 class SimRobot:
     """One simulated robot in ``world``, set up by ``config`` (robot, chassis, lidar mount).
 
@@ -55,13 +61,16 @@ class SimRobot:
         config: the daemon's config (footprint, calibration, limits).
     """
 
-    def __init__(self, world: World, config: NavdConfig) -> None:
+    def __init__(self, world: World, config: NavdConfig, start: Pose2 | None = None) -> None:
         self.world = world
         self.config = config
         self.footprint = Footprint.of(config.robot)
         self.calibration = WheelCalibration.of(config.chassis)
-        x, y, yaw = world.start
+        x, y, yaw = start if start is not None else world.start
         self.body = Body(x, y, yaw)
+        # Other robots in the same world, as K x 3 (x, y, radius) discs [m]: the lidar sees
+        # them and the body collides with them (a fleet simulated together).
+        self.neighbours: Callable[[], npt.NDArray[np.float64]] = _nobody
         self.wheels = WheelInput()
         self.truth: list[tuple[float, float, float, float]] = []
         self.last_accel = (0.0, 0.0)  # [m/s^2] forward, and centripetal (v * w)
@@ -110,15 +119,18 @@ class SimRobot:
             self.truth.append((now, self.body.x_m, self.body.y_m, self.body.yaw_rad))
 
     def discs(self) -> npt.NDArray[np.float64]:
-        """K x 3 (x, y, radius) [m] of the moving discs now."""
+        """K x 3 (x, y, radius) [m] of the moving discs now: the movers, then the other
+        robots of a fleet."""
+        others = self.neighbours()
         if not self.world.movers:
-            return np.empty((0, 3))
-        return np.array(
+            return others
+        movers = np.array(
             [
                 (*m.position(t), m.radius_m)
                 for m, t in zip(self.world.movers, self._mover_t, strict=True)
             ]
         )
+        return movers if others.shape[0] == 0 else np.vstack([movers, others])
 
     def advance_movers(self, dt: float) -> None:
         """Advance each mover; one whose next step would come within MOVER_GAP_M of the robot

@@ -20,6 +20,7 @@ import time
 
 from navd.config import NavdConfig
 from navd.drivers.client import AsyncClient
+from navd.geometry.pose import Pose2
 from navd.sim.body import Body
 from navd.sim.links import RECONNECT_S, PtyChassis, SensorLinks
 from navd.sim.lockstep import Lockstep
@@ -40,13 +41,20 @@ class Simulator:
         world: what the robot lives in.
         config: the daemon's config (footprint, calibration, lidar mount, limits, datum).
         settings: connections and sensors.
+        start: where the robot starts (default: the world's start).
     """
 
-    def __init__(self, world: World, config: NavdConfig, settings: SimSettings) -> None:
+    def __init__(
+        self,
+        world: World,
+        config: NavdConfig,
+        settings: SimSettings,
+        start: Pose2 | None = None,
+    ) -> None:
         self.world = world
         self.config = config
         self.settings = settings
-        self.robot = SimRobot(world, config)
+        self.robot = SimRobot(world, config, start)
         self.sensors = SensorModels(self.robot, config, settings)
         self.chassis = PtyChassis(settings.tty_link)
         self.links = SensorLinks(settings)

@@ -24,6 +24,7 @@ import tomli_w
 
 from navd.config import NavdConfig
 from navd.drivers.client import AsyncClient, ClientError
+from navd.geometry.pose import Pose2
 from navd.sim.errors import SimError
 from navd.sim.runner import Simulator
 from navd.sim.settings import SimSettings
@@ -85,6 +86,7 @@ async def session(
     log_path: Path | None = None,
     lockstep: bool = False,
     hold_clock: bool = False,
+    start: Pose2 | None = None,
 ) -> AsyncIterator[Session]:
     """Run the daemon and the simulator in ``world`` (see the module docstring).
 
@@ -99,6 +101,7 @@ async def session(
         hold_clock: in lockstep, time stays at 0 until ``s.sim.release_clock()`` (so a
             scenario can send its goal first); otherwise it starts once the control client
             is connected.
+        start: where the robot starts (default: the world's start).
     """
     work_dir.mkdir(parents=True, exist_ok=True)
     port = free_port()
@@ -127,7 +130,7 @@ async def session(
         clock="lockstep" if lockstep else "real",
         **dict(sim_settings or {}),
     )
-    sim = Simulator(world, config, settings)
+    sim = Simulator(world, config, settings, start)
     stop = asyncio.Event()
     sim_task = asyncio.create_task(sim.run(stop))
     await asyncio.sleep(0.2)  # the pseudo-terminal link exists before the daemon opens it

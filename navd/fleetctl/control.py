@@ -1,0 +1,314 @@
+"""The fleet control's side of the broker: which vehicles are there, and driving a group
+goal through their orders (``group.GroupDrive``).
+
+It listens to every vehicle of the interface (``connection`` and ``state``), asks the ones
+in the group for a fresh state (``stateRequest``), sends each its order, then an update each
+time the group is ready for the next step, until all are at their last place, one fails, or
+the time is up.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import urlsplit
+
+import aiomqtt
+
+from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
+from navd.fleetctl.group import GroupDrive, GroupGoal
+
+__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view"]
+
+# [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
+LISTEN_S = 1.5
+# errors that end a group goal: the vehicle cannot do its part
+FATAL_ERRORS = ("validationError", "orderError", "orderUpdateError")
+
+
+@dataclass
+class Vehicle:
+    """A vehicle as the fleet control last heard it."""
+
+    manufacturer: str
+    serial: str
+    connection: str = "unknown"
+    state: dict[str, Any] | None = None
+
+    @property
+    def name(self) -> str:
+        return f"{self.manufacturer}/{self.serial}"
+
+    @property
+    def position(self) -> tuple[float, float] | None:
+        where = (self.state or {}).get("agvPosition")
+        return None if not isinstance(where, dict) else (float(where["x"]), float(where["y"]))
+
+
+@dataclass
+class FleetView:
+    """Every vehicle heard of, by "manufacturer/serial"."""
+
+    interface: str
+    vehicles: dict[str, Vehicle] = field(default_factory=dict)
+
+    def hear(self, topic: str, payload: bytes) -> tuple[Vehicle, str] | None:
+        """Take a message; the vehicle and the topic's last level, or None if not a
+        vehicle's (or malformed)."""
+        levels = topic.split("/")
+        if len(levels) != 5:
+            return None
+        try:
+            body = json.loads(payload)
+        except ValueError:
+            return None
+        if not isinstance(body, dict):
+            return None
+        key = f"{levels[2]}/{levels[3]}"
+        vehicle = self.vehicles.setdefault(key, Vehicle(levels[2], levels[3]))
+        if levels[4] == "connection":
+            vehicle.connection = str(body.get("connectionState", "unknown"))
+        elif levels[4] == "state":
+            vehicle.state = body
+        return vehicle, levels[4]
+
+
+def _client(broker_url: str, identifier: str) -> aiomqtt.Client:
+    url = urlsplit(broker_url)
+    if url.scheme not in ("mqtt", "mqtts") or not url.hostname:
+        raise ValueError(
+            f"broker URL {broker_url!r} must be mqtt://HOST[:PORT] or mqtts://HOST[:PORT]"
+        )
+    tls = aiomqtt.TLSParameters() if url.scheme == "mqtts" else None
+    return aiomqtt.Client(
+        url.hostname,
+        url.port or (8883 if tls else 1883),
+        identifier=identifier,
+        username=url.username,
+        password=url.password,
+        tls_params=tls,
+    )
+
+
+async def fleet_view(
+    broker_url: str, interface: str = "uagv", listen_s: float = LISTEN_S
+) -> FleetView:
+    """Every vehicle on the broker: their retained connection, and their state within
+    ``listen_s`` (each ONLINE one is asked for it)."""
+    view = FleetView(interface)
+    prefix = f"{interface}/{MAJOR_VERSION}"
+    async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:
+        await client.subscribe(f"{prefix}/+/+/connection", qos=1)
+        await client.subscribe(f"{prefix}/+/+/state", qos=1)
+        asked: set[str] = set()
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + listen_s
+        while (left := deadline - loop.time()) > 0:
+            try:
+                message = await asyncio.wait_for(anext(client.messages), left)
+            except TimeoutError:
+                break
+            heard = view.hear(str(message.topic), bytes(message.payload))
+            if heard is not None and heard[0].connection == "ONLINE" and heard[0].name not in asked:
+                asked.add(heard[0].name)
+                await _state_request(client, prefix, heard[0])
+    return view
+
+
+async def _state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -> None:
+    message = {
+        "headerId": 0,
+        "timestamp": timestamp(time.time()),
+        "version": PROTOCOL_VERSION,
+        "manufacturer": vehicle.manufacturer,
+        "serialNumber": vehicle.serial,
+        "actions": [
+            {
+                "actionType": "stateRequest",
+                "actionId": f"state-{uuid.uuid4().hex[:8]}",
+                "blockingType": "NONE",
+            }
+        ],
+    }
+    topic = f"{prefix}/{vehicle.manufacturer}/{vehicle.serial}/instantActions"
+    await client.publish(topic, json.dumps(message), qos=1)
+
+
+async def drive_group(
+    broker_url: str,
+    goal: GroupGoal,
+    *,
+    serials: list[str] | None = None,
+    interface: str = "uagv",
+    timeout_s: float = 600.0,
+    report: Callable[[dict[str, Any]], None] = lambda _: None,
+) -> dict[str, Any]:
+    """Drive ``goal`` with the vehicles ``serials`` (None: every ONLINE one with a position);
+    ``report`` hears each step. The summary: "reached" true or the reason, the largest shape
+    error [m] once the group had formed up, and the time it took.
+
+    Raises:
+        ValueError: no vehicle to drive, or one asked for is not there.
+    """
+    view = await fleet_view(broker_url, interface)
+    robots = _members(view, serials)
+    group = GroupDrive(f"group-{uuid.uuid4().hex[:6]}", robots, goal, time.time())
+    began = time.monotonic()
+    outcome: dict[str, Any] = {"reached": False}
+    async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:
+        run = _GroupRun(client, f"{interface}/{MAJOR_VERSION}", group, view, report)
+        await run.start()
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout_s
+        while not group.done:
+            left = deadline - loop.time()
+            if left <= 0:
+                outcome["reason"] = f"not there within {timeout_s:g} s"
+                break
+            try:
+                message = await asyncio.wait_for(anext(client.messages), left)
+            except TimeoutError:
+                continue
+            fatal = await run.hear(str(message.topic), bytes(message.payload))
+            if fatal:
+                outcome["reason"] = fatal
+                break
+        else:
+            outcome["reached"] = True
+    outcome.update(
+        group=group.group_id,
+        robots=[m.serial for m in group.members],
+        formation=goal.formation,
+        max_shape_error_m=round(run.worst_formed_m, 3),
+        seconds=round(time.monotonic() - began, 1),
+    )
+    return outcome
+
+
+def _members(view: FleetView, serials: list[str] | None) -> list[tuple[str, str, float, float]]:
+    """(manufacturer, serial, x, y) of the vehicles to drive: ``serials``, or every one
+    online with a position.
+
+    Raises:
+        ValueError: none, or one of ``serials`` is not online with a position.
+    """
+    ready = [v for v in view.vehicles.values() if v.connection == "ONLINE" and v.position]
+    if serials is not None:
+        missing = [s for s in serials if s not in {v.serial for v in ready}]
+        if missing:
+            seen = ", ".join(sorted(v.serial for v in ready)) or "none"
+            raise ValueError(
+                f"vehicle {', '.join(missing)} is not online with a position (online: {seen})"
+            )
+        ready = [v for v in ready if v.serial in serials]
+    if not ready:
+        raise ValueError("no vehicle is online with a position on the broker")
+    return [(v.manufacturer, v.serial, *v.position) for v in ready if v.position is not None]
+
+
+class _GroupRun:
+    """One group goal on the broker: its orders out, the vehicles' news in."""
+
+    def __init__(
+        self,
+        client: aiomqtt.Client,
+        prefix: str,
+        group: GroupDrive,
+        view: FleetView,
+        report: Callable[[dict[str, Any]], None],
+    ) -> None:
+        self.client, self.prefix, self.group, self.view = client, prefix, group, view
+        self.report = report
+        self.worst_formed_m = 0.0  # the largest shape error once the group had formed up
+        self._pending: list[tuple[Any, str]] = []  # pauses and resumes to send
+        self._actions = 0
+
+    async def start(self) -> None:
+        await self.client.subscribe(f"{self.prefix}/+/+/state", qos=1)
+        await self.client.subscribe(f"{self.prefix}/+/+/visualization", qos=0)
+        group = self.group
+        await self._send(group.first_orders(time.time()))
+        self.report(
+            {
+                "event": "sent",
+                "group": group.group_id,
+                "robots": [m.serial for m in group.members],
+                "steps": group.steps,
+            }
+        )
+
+    async def hear(self, topic: str, payload: bytes) -> str | None:
+        """Take a vehicle's message; why the group goal must end, or None."""
+        group = self.group
+        if topic.endswith("/visualization"):
+            try:
+                body = json.loads(payload)
+            except ValueError:
+                return None
+            if isinstance(body, dict):
+                group.on_position(topic.split("/")[3], body, time.monotonic())
+                self._measure()
+                await self._correct()
+            return None
+        heard = self.view.hear(topic, payload)
+        if heard is None or heard[1] != "state" or heard[0].state is None:
+            return None
+        vehicle, state = heard[0], heard[0].state
+        group.on_position(vehicle.serial, state, time.monotonic())
+        before = group.released
+        await self._send(group.on_state(vehicle.serial, state))
+        error = self._measure()
+        await self._correct()
+        if group.released != before:
+            self.report(
+                {
+                    "event": "step",
+                    "released": group.released,
+                    "of": group.steps - 1,
+                    "shape_error_m": round(error, 3),
+                }
+            )
+        fatal = sorted({e for m in group.members for e in m.errors if e in FATAL_ERRORS})
+        return f"a vehicle refused its order: {', '.join(fatal)}" if fatal else None
+
+    def _measure(self) -> float:
+        now = time.monotonic()
+        for member, action in self.group.corrections(now):
+            self._pending.append((member, action))
+        error = self.group.shape_error_m(now)
+        if self.group.released >= 1 and math.isfinite(error):  # formed up (place 0 reached)
+            self.worst_formed_m = max(self.worst_formed_m, error)
+        return error
+
+    async def _correct(self) -> None:
+        """Send the pauses and resumes the group asked for."""
+        pending, self._pending = self._pending, []
+        for member, action in pending:
+            self._actions += 1
+            message = {
+                "headerId": self._actions,
+                "timestamp": timestamp(time.time()),
+                "version": PROTOCOL_VERSION,
+                "manufacturer": member.manufacturer,
+                "serialNumber": member.serial,
+                "actions": [
+                    {
+                        "actionType": action,
+                        "actionId": f"{self.group.group_id}-{action}-{self._actions}",
+                        "blockingType": "HARD",
+                    }
+                ],
+            }
+            topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
+            await self.client.publish(topic, json.dumps(message), qos=1)
+
+    async def _send(self, orders: list[tuple[Any, dict[str, Any]]]) -> None:
+        for member, order in orders:
+            topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/order"
+            await self.client.publish(topic, json.dumps(order), qos=1)

@@ -1,0 +1,315 @@
+"""A group goal (seed 000): the group's centre goes to a point, its robots keep a formation
+around it, all start together, and nobody runs ahead.
+
+The centre's way is a straight line from where the robots are (their mean) to the goal,
+cut into steps. Every place is to be reached facing the way on (the last one, the goal's
+heading), so a robot turns while it waits for the others, not when the next step starts.
+Each robot's VDA 5050 order is the list of its places along that way: its first node is
+where it stands, with a HARD ``wait`` until the common start time (the group
+command replicated with a start timestamp, so all start together); then its place at the
+start centre (the group forms up), then at each step. Only the next place is released: once
+every robot has reached its place of step k, each gets an order update releasing step k+1.
+That is the formation's correction at each step: the group moves at the pace of its slowest
+robot and re-forms at every step. Within a step, from the positions the robots report, one
+that has come ``AHEAD_M`` farther along its step than the slowest is paused (``startPause``)
+until the slowest is within ``CAUGHT_UP_M`` of it (``stopPause``): the correction by
+measured positions of seed 000.
+
+Plain logic: orders out as dicts, states in as dicts; ``navd.fleetctl.control`` does the MQTT.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
+from navd.fleetctl.formation import Formation, assign, places, shape_error, slots
+
+__all__ = ["GroupDrive", "GroupGoal"]
+
+FloatArray = npt.NDArray[np.float64]
+# [m] how near a node counts as traversed (the vehicles' own goal tolerance decides, this
+# tells them how near they may be)
+NODE_DEVIATION_M = 0.3
+# [m] the first node (where a robot stands) is this forgiving: the robot is surely on it
+START_DEVIATION_M = 1.0
+# [m] a robot this much farther along its step than the slowest waits; it goes on once the
+# slowest is within CAUGHT_UP_M
+AHEAD_M = 0.1
+CAUGHT_UP_M = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class GroupGoal:
+    """What the group is asked.
+
+    Attributes:
+        x_m, y_m: [m] where the group's centre goes (map frame).
+        heading_rad: [rad] which way the formation faces there (None: the way it drives).
+        formation: line, column or triangle.
+        spacing_m: [m] between neighbouring robots.
+        step_m: [m] the centre's way is released this much at a time.
+        start_delay_s: [s] all robots start this long after the orders go out.
+        speed_mps: [m/s] the group's top speed (each edge's maxSpeed): slow enough that a
+            robot told to wait stops short of running ahead.
+    """
+
+    x_m: float
+    y_m: float
+    heading_rad: float | None = None
+    formation: Formation = "triangle"
+    spacing_m: float = 1.0
+    step_m: float = 1.5
+    start_delay_s: float = 2.0
+    speed_mps: float = 0.3
+
+
+@dataclass
+class _Member:
+    """One robot of the group: its vehicle names, its places, how far it has come."""
+
+    manufacturer: str
+    serial: str
+    places: FloatArray  # [m] its place at each step (0: the form-up place)
+    start_xy: tuple[float, float]
+    reached: int = -1  # the last place reached (-1: none yet)
+    update: int = 0
+    # [s, m, m, rad, m/s] the last position heard: when (fleet control's clock), where, how fast
+    position: tuple[float, float, float, float, float] | None = None
+    errors: list[str] = field(default_factory=list)
+    paused: bool = False  # held by the fleet control for the others to catch up
+
+
+class GroupDrive:
+    """One group goal being driven (see the module docstring).
+
+    Args:
+        group_id: names the orders (``<group_id>-<serial>``).
+        robots: (manufacturer, serial, x [m], y [m]) of each robot, where it stands.
+        goal: the group goal.
+        now_unix_s: [s] wall time now (the start time is set from it).
+    """
+
+    def __init__(
+        self,
+        group_id: str,
+        robots: list[tuple[str, str, float, float]],
+        goal: GroupGoal,
+        now_unix_s: float,
+    ) -> None:
+        if not robots:
+            raise ValueError("a group needs at least one robot")
+        self.group_id = group_id
+        self.goal = goal
+        here = np.array([(x, y) for _, _, x, y in robots], dtype=np.float64)
+        start = here.mean(axis=0)
+        dx, dy = goal.x_m - start[0], goal.y_m - start[1]
+        length = math.hypot(dx, dy)
+        drive_heading = math.atan2(dy, dx) if length > 1e-6 else 0.0
+        self.heading = goal.heading_rad if goal.heading_rad is not None else drive_heading
+        self.drive_heading = drive_heading
+        self.offsets = slots(goal.formation, len(robots), goal.spacing_m)
+        steps = max(math.ceil(length / goal.step_m), 1)
+        centres = [start + (k / steps) * np.array([dx, dy]) for k in range(steps + 1)]
+        # who takes which place: the least driving to the form-up places
+        form_up = places((float(start[0]), float(start[1])), drive_heading, self.offsets)
+        taken = assign(here, form_up)
+        self.members: list[_Member] = []
+        for i, (maker, serial, x, y) in enumerate(robots):
+            offset = self.offsets[taken[i] : taken[i] + 1]
+            heading = [drive_heading] * len(centres)
+            heading[-1] = self.heading
+            at = np.vstack(
+                [
+                    places((float(c[0]), float(c[1])), h, offset)
+                    for c, h in zip(centres, heading, strict=True)
+                ]
+            )
+            self.members.append(_Member(maker, serial, at, (x, y)))
+        self.start_unix_s = now_unix_s + goal.start_delay_s
+        self.released = 0  # the last place released to everyone
+        self._headers = 0
+
+    @property
+    def steps(self) -> int:
+        """How many places each robot goes through (form-up place included)."""
+        return int(self.members[0].places.shape[0])
+
+    @property
+    def done(self) -> bool:
+        """Every robot is at its last place."""
+        return all(m.reached == self.steps - 1 for m in self.members)
+
+    # --- orders ---------------------------------------------------------------------------
+
+    def first_orders(self, now_unix_s: float) -> list[tuple[_Member, dict[str, Any]]]:
+        """Each robot's first order: where it stands (waiting for the start), its form-up
+        place released, the next place as the horizon."""
+        wait_s = max(self.start_unix_s - now_unix_s, 0.0)
+        out = []
+        for m in self.members:
+            start_node = self._node(m, -1, released=True, at=m.start_xy)
+            start_node["nodePosition"]["allowedDeviationXY"] = START_DEVIATION_M
+            start_node["actions"] = [
+                {
+                    "actionType": "wait",
+                    "actionId": f"{self.group_id}-{m.serial}-start",
+                    "blockingType": "HARD",
+                    "actionDescription": "start together",
+                    "actionParameters": [{"key": "duration", "value": round(wait_s, 3)}],
+                }
+            ]
+            nodes = [start_node, self._node(m, 0, released=True)]
+            if self.steps > 1:
+                nodes.append(self._node(m, 1, released=False))
+            out.append((m, self._order(m, nodes)))
+        return out
+
+    def on_state(self, serial: str, state: dict[str, Any]) -> list[tuple[_Member, dict[str, Any]]]:
+        """A robot's state: its progress; when all have reached the released place, the
+        next one is released to each (the updates to send)."""
+        member = next((m for m in self.members if m.serial == serial), None)
+        if member is None or state.get("orderId") != self._order_id(member):
+            return []
+        member.errors = [str(e.get("errorType")) for e in state.get("errors", [])]
+        member.reached = max(member.reached, _place_of(int(state.get("lastNodeSequenceId", 0))))
+        if self.released >= self.steps - 1 or any(m.reached < self.released for m in self.members):
+            return []
+        self.released += 1
+        out = []
+        for m in self.members:
+            k = self.released
+            nodes = [self._node(m, k - 1, released=True), self._node(m, k, released=True)]
+            if k + 1 < self.steps:
+                nodes.append(self._node(m, k + 1, released=False))
+            m.update += 1
+            out.append((m, self._order(m, nodes)))
+        return out
+
+    def on_position(self, serial: str, message: dict[str, Any], heard_s: float) -> None:
+        """A robot's visualization (or state) heard at ``heard_s`` [s]: where it is."""
+        member = next((m for m in self.members if m.serial == serial), None)
+        where = message.get("agvPosition")
+        if member is None or not isinstance(where, dict):
+            return
+        speed = message.get("velocity", {}).get("vx", 0.0)
+        member.position = (
+            heard_s,
+            float(where["x"]),
+            float(where["y"]),
+            float(where["theta"]),
+            float(speed) if isinstance(speed, int | float) else 0.0,
+        )
+
+    def shape_error_m(self, now_s: float) -> float:
+        """[m] the group's shape error at ``now_s`` (see ``formation.shape_error``), each
+        robot's last heard position carried on to then at its speed (they are heard at
+        different times); NaN until every robot has said where it is."""
+        if any(m.position is None for m in self.members):
+            return math.nan
+        xy = np.array(
+            [
+                (x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t))
+                for t, x, y, yaw, v in (m.position for m in self.members if m.position)
+            ],
+            dtype=np.float64,
+        )
+        offsets = np.array([m.places[0] - self.members[0].places[0] for m in self.members])
+        return shape_error(xy, offsets)
+
+    def corrections(self, now_s: float) -> list[tuple[_Member, str]]:
+        """The pauses and resumes (``startPause`` / ``stopPause``) that keep the robots abreast
+        within the released step, from their positions carried on to ``now_s``."""
+        k = self.released
+        if k < 1 or any(m.position is None for m in self.members):
+            return []
+        going = [m for m in self.members if m.reached < k]
+        progress = {m.serial: self._progress(m, k, now_s) for m in going}
+        slowest = min(progress.values(), default=math.inf)
+        out = []
+        for m in self.members:
+            ahead = progress.get(m.serial, math.inf) - slowest if going else 0.0
+            if not m.paused and m in going and ahead > AHEAD_M:
+                m.paused = True
+                out.append((m, "startPause"))
+            elif m.paused and ahead < CAUGHT_UP_M:
+                m.paused = False
+                out.append((m, "stopPause"))
+        return out
+
+    def _progress(self, m: _Member, k: int, now_s: float) -> float:
+        """[m] how far robot ``m`` has come along its step from place k - 1 to place k."""
+        assert m.position is not None
+        t, x, y, yaw, v = m.position
+        x, y = x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t)
+        a, b = m.places[k - 1], m.places[k]
+        step = b - a
+        length = float(np.hypot(*step))
+        if length < 1e-9:
+            return 0.0
+        along = ((x - a[0]) * step[0] + (y - a[1]) * step[1]) / length
+        return float(np.clip(along, 0.0, length))
+
+    def _order_id(self, m: _Member) -> str:
+        return f"{self.group_id}-{m.serial}"
+
+    def _node(
+        self, m: _Member, k: int, *, released: bool, at: tuple[float, float] | None = None
+    ) -> dict[str, Any]:
+        """Node of place ``k`` (-1: where the robot stood), sequence id 2 (k + 1)."""
+        x, y = at if at is not None else (float(m.places[k, 0]), float(m.places[k, 1]))
+        position: dict[str, Any] = {
+            "x": x,
+            "y": y,
+            "mapId": "map",
+            "allowedDeviationXY": NODE_DEVIATION_M,
+        }
+        if k >= 0:  # facing the way on: the next step starts without turning on the spot
+            last = k == self.steps - 1
+            position["theta"] = math.remainder(
+                self.heading if last else self.drive_heading, math.tau
+            )
+        return {
+            "nodeId": f"{self.group_id}-{m.serial}-{k + 1}",
+            "sequenceId": 2 * (k + 1),
+            "released": released,
+            "nodePosition": position,
+            "actions": [],
+        }
+
+    def _order(self, m: _Member, nodes: list[dict[str, Any]]) -> dict[str, Any]:
+        self._headers += 1
+        edges = [
+            {
+                "edgeId": f"{a['nodeId']}>{b['nodeId']}",
+                "sequenceId": a["sequenceId"] + 1,
+                "released": a["released"] and b["released"],
+                "startNodeId": a["nodeId"],
+                "endNodeId": b["nodeId"],
+                "maxSpeed": self.goal.speed_mps,
+                "actions": [],
+            }
+            for a, b in itertools.pairwise(nodes)
+        ]
+        return {
+            "headerId": self._headers,
+            "timestamp": timestamp(self.start_unix_s - self.goal.start_delay_s),
+            "version": PROTOCOL_VERSION,
+            "manufacturer": m.manufacturer,
+            "serialNumber": m.serial,
+            "orderId": self._order_id(m),
+            "orderUpdateId": m.update,
+            "nodes": nodes,
+            "edges": edges,
+        }
+
+
+def _place_of(sequence_id: int) -> int:
+    """The place index of a node's sequence id (node 2 (k + 1) is place k)."""
+    return sequence_id // 2 - 1

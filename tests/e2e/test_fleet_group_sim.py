@@ -1,0 +1,110 @@
+"""A fleet on a real mosquitto: three simulated robots, each its own navd process, in one
+hall (each lidar sees the others), localized by four UWB-like beacons; ``navd fleet``'s
+group goal drives them in a triangle to the far side, all starting together, and two
+robots sent through one corridor in opposite directions pass each other. Real time: the
+daemons keep their own clocks."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from navd.fleetctl.control import drive_group, fleet_view
+from navd.fleetctl.group import GroupGoal
+from navd.geometry.pose import Pose2
+from navd.sim.fleet import fleet_sessions
+from navd.sim.session import Session
+from navd.sim.world import from_shapes
+from tests.fleet.broker import Broker
+
+pytest.importorskip("aiomqtt", reason="aiomqtt missing")
+pytestmark = pytest.mark.e2e
+
+ANCHORS = {"u1": (-0.5, -0.5), "u2": (14.5, -0.5), "u3": (14.5, 10.5), "u4": (-0.5, 10.5)}
+HALL: dict[str, Any] = {
+    "resolution_m": 0.05,
+    "walls": [[-1.0, -1.0, 15.0, -1.0], [15.0, -1.0, 15.0, 11.0], [15.0, 11.0, -1.0, 11.0],
+              [-1.0, 11.0, -1.0, -1.0]],
+    "beacons": [{"id": b, "x": x, "y": y} for b, (x, y) in ANCHORS.items()],
+}  # fmt: skip
+ON_BEACONS = {
+    "slam": {"enabled": False},  # the lidar only sees obstacles (and the other robots)
+    "beacons": {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in ANCHORS.items()}},
+}
+SENSORS = {"beacon_rate_hz": 20.0, "beacon_range_noise_m": 0.05}
+
+
+async def _all_online(broker: Broker, fleet: list[Session], count: int) -> None:
+    for _ in range(60):
+        for s in fleet:
+            s.check()
+        view = await fleet_view(broker.url, listen_s=0.5)
+        ready = [v for v in view.vehicles.values() if v.connection == "ONLINE" and v.position]
+        if len(ready) == count:
+            return
+        await asyncio.sleep(0.5)
+    raise AssertionError(f"not all {count} vehicles online with a position: {view.vehicles}")
+
+
+async def test_three_robots_drive_a_triangle_to_a_group_goal(tmp_path: Path) -> None:
+    broker = Broker(tmp_path)
+    broker.start()
+    robots = [
+        ("r1", Pose2(1.0, 2.0, 0.0)),
+        ("r2", Pose2(1.5, 5.0, 0.0)),
+        ("r3", Pose2(1.0, 8.0, 0.0)),
+    ]
+    try:
+        async with fleet_sessions(
+            from_shapes(HALL, "hall"), tmp_path, robots, broker.url, overrides=ON_BEACONS,
+            sim_settings=SENSORS,
+        ) as fleet:  # fmt: skip
+            await _all_online(broker, fleet, 3)
+            goal = GroupGoal(8.5, 5.0, formation="triangle", spacing_m=1.2, step_m=1.5)
+            summary = await drive_group(broker.url, goal, timeout_s=240.0)
+            truth = np.array([(s.sim.body.x_m, s.sim.body.y_m) for s in fleet])
+            collisions = [s.sim.body.collisions for s in fleet]
+    finally:
+        broker.stop()
+    assert summary["reached"] is True, summary
+    assert summary["max_shape_error_m"] <= 0.3, summary
+    assert collisions == [0, 0, 0]
+    assert math.dist(truth.mean(axis=0), (8.5, 5.0)) < 0.5
+    gaps = sorted(math.dist(a, b) for i, a in enumerate(truth) for b in truth[i + 1 :])
+    assert gaps == pytest.approx([1.2, 1.2, 1.2], abs=0.3)  # a triangle of 1.2 m sides
+
+
+async def test_two_robots_pass_each_other_in_a_corridor(tmp_path: Path) -> None:
+    # a corridor 2 m wide and 12 m long between two walls
+    corridor = {
+        **HALL,
+        "walls": HALL["walls"] + [[1.0, 4.0, 13.0, 4.0], [1.0, 6.0, 13.0, 6.0]],
+    }
+    broker = Broker(tmp_path)
+    broker.start()
+    robots = [("west", Pose2(0.0, 5.0, 0.0)), ("east", Pose2(14.0, 5.0, math.pi))]
+    try:
+        async with fleet_sessions(
+            from_shapes(corridor, "corridor"), tmp_path, robots, broker.url,
+            overrides=ON_BEACONS, sim_settings=SENSORS,
+        ) as fleet:  # fmt: skip
+            await _all_online(broker, fleet, 2)
+            west, east = (
+                drive_group(broker.url, GroupGoal(14.0, 5.0, formation="line", step_m=20.0),
+                            serials=["west"], timeout_s=180.0),
+                drive_group(broker.url, GroupGoal(0.0, 5.0, formation="line", step_m=20.0),
+                            serials=["east"], timeout_s=180.0),
+            )  # fmt: skip
+            results = await asyncio.gather(west, east)
+            collisions = [s.sim.body.collisions for s in fleet]
+            ends = [(s.sim.body.x_m, s.sim.body.y_m) for s in fleet]
+    finally:
+        broker.stop()
+    assert [r["reached"] for r in results] == [True, True], results
+    assert collisions == [0, 0]
+    assert math.dist(ends[0], (14.0, 5.0)) < 0.5 and math.dist(ends[1], (0.0, 5.0)) < 0.5

@@ -1,0 +1,114 @@
+"""Formations and a group goal's orders: places, who takes which, the shape error, the
+orders (valid VDA 5050, starting together), and steps released only when all are there."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from navd.fleetctl.formation import assign, places, shape_error, slots
+from navd.fleetctl.group import GroupDrive, GroupGoal
+from tests.fleet.vda5050_schemas import check
+
+
+@pytest.mark.parametrize("kind", ["line", "column", "triangle"])
+@pytest.mark.parametrize("count", [2, 3, 5])
+def test_places_are_centred_and_neighbours_spacing_apart(kind: Any, count: int) -> None:
+    offsets = slots(kind, count, 1.2)
+    assert offsets.mean(axis=0) == pytest.approx([0.0, 0.0], abs=1e-12)
+    gaps = np.hypot(*(offsets[:, None] - offsets[None]).transpose(2, 0, 1))
+    nearest = np.where(np.eye(count, dtype=bool), np.inf, gaps).min(axis=1)
+    assert nearest == pytest.approx(np.full(count, 1.2))  # everyone has a neighbour 1.2 m off
+
+
+def test_a_triangle_of_three_is_equilateral_and_points_along_the_heading() -> None:
+    offsets = slots("triangle", 3, 1.0)
+    for a, b in itertools.combinations(offsets, 2):
+        assert math.dist(a, b) == pytest.approx(1.0)
+    leader = offsets[np.argmax(offsets[:, 0])]
+    assert leader[1] == pytest.approx(0.0)  # the apex leads, on the centre line
+    turned = places((10.0, 5.0), math.pi / 2, offsets)
+    apex = turned[np.argmax(turned[:, 1])]
+    assert apex[0] == pytest.approx(10.0) and turned.mean(axis=0) == pytest.approx([10.0, 5.0])
+
+
+def test_each_robot_takes_the_place_that_keeps_the_driving_least() -> None:
+    spots = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]])
+    robots = np.array([[0.2, 4.8], [4.9, 0.3], [0.1, -0.2]])
+    assert list(assign(robots, spots)) == [2, 1, 0]
+
+
+def test_the_shape_error_ignores_where_the_group_is_and_which_way_it_faces() -> None:
+    offsets = slots("triangle", 3, 1.0)
+    moved = places((7.0, -3.0), 2.0, offsets)
+    assert shape_error(moved, offsets) == pytest.approx(0.0, abs=1e-9)
+    moved[0] += [0.2, 0.0]  # one robot 20 cm off its place: the best fit shares it out
+    assert 0.05 < shape_error(moved, offsets) <= 0.2 + 1e-9
+    swapped = moved[[1, 0, 2]]  # two robots in each other's places: far from the shape
+    assert shape_error(swapped, offsets) > 0.4
+
+
+def _group() -> GroupDrive:
+    robots = [("navd", "r1", 0.0, 0.0), ("navd", "r2", 0.0, 1.0), ("navd", "r3", 1.0, 0.5)]
+    return GroupDrive("g", robots, GroupGoal(6.0, 0.5, step_m=2.0), now_unix_s=1000.0)
+
+
+def _state(group: GroupDrive, serial: str, place: int, xy: tuple[float, float]) -> dict[str, Any]:
+    return {
+        "orderId": f"g-{serial}",
+        "lastNodeSequenceId": 2 * (place + 1),
+        "agvPosition": {"x": xy[0], "y": xy[1]},
+        "errors": [],
+    }
+
+
+def test_the_first_orders_start_together_and_release_only_the_form_up_place() -> None:
+    group = _group()
+    orders = group.first_orders(now_unix_s=1000.5)
+    assert len(orders) == 3 and group.steps == 4  # form up, then 3 steps of 2 m at most
+    for member, order in orders:
+        check("order", order)
+        start, form_up, horizon = order["nodes"]
+        assert (start["nodePosition"]["x"], start["nodePosition"]["y"]) == member.start_xy
+        (wait,) = start["actions"]
+        assert (wait["actionType"], wait["blockingType"]) == ("wait", "HARD")
+        assert wait["actionParameters"] == [{"key": "duration", "value": 1.5}]  # until t = 1002
+        assert (form_up["released"], horizon["released"]) == (True, False)
+    # the places: a triangle around the robots' mean, then along the way to the goal
+    last = np.array([m.places[-1] for m in group.members])
+    assert last.mean(axis=0) == pytest.approx([6.0, 0.5])
+    sides = [math.dist(a, b) for a, b in itertools.combinations(last, 2)]
+    assert sides == pytest.approx([1.0, 1.0, 1.0])  # the triangle, 1 m sides
+
+
+def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
+    group = _group()
+    group.first_orders(now_unix_s=1000.0)
+    r1, r2, r3 = group.members
+    assert group.on_state("r1", _state(group, "r1", 0, tuple(r1.places[0]))) == []
+    assert group.on_state("r2", _state(group, "r2", 0, tuple(r2.places[0]))) == []
+    assert group.on_state("r9", _state(group, "r9", 0, (0.0, 0.0))) == []  # not in the group
+    updates = group.on_state("r3", _state(group, "r3", 0, tuple(r3.places[0])))
+    assert [m.serial for m, _ in updates] == ["r1", "r2", "r3"]
+    for _, order in updates:
+        check("order", order)
+        stitch, released, horizon = order["nodes"]
+        assert order["orderUpdateId"] == 1 and (stitch["sequenceId"], released["sequenceId"]) == (
+            2,
+            4,
+        )
+        assert released["released"] and not horizon["released"]
+    for m in group.members:  # each heard at another time, driving at 0.5 m/s along +x
+        t = {"r1": 10.0, "r2": 10.4, "r3": 10.2}[m.serial]
+        x, y = m.places[0] + [0.5 * (t - 11.0), 0.0]
+        view = {"agvPosition": {"x": x, "y": y, "theta": 0.0}, "velocity": {"vx": 0.5}}
+        group.on_position(m.serial, view, heard_s=t)
+    assert group.shape_error_m(11.0) == pytest.approx(0.0, abs=1e-9)  # all carried on to t = 11
+    for place in range(1, group.steps):
+        for m in group.members:
+            group.on_state(m.serial, _state(group, m.serial, place, tuple(m.places[place])))
+    assert group.done and group.released == group.steps - 1
