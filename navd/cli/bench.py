@@ -12,7 +12,7 @@ __all__ = ["add_commands"]
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``bench ingest|estimation|scan|planning|safety|compare``."""
+    """Add ``bench ingest|estimation|scan|planning|safety|compare|fleet``."""
     bench = commands.add_parser("bench", help="run a benchmark and print its figures")
     names = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
     ingest = names.add_parser(
@@ -51,6 +51,12 @@ def add_commands(commands: Commands) -> None:
     scan.add_argument("--beams", type=int, default=720, help="rays per scan")
     scan.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     scan.set_defaults(handler=_scan)
+    fleet = names.add_parser(
+        "fleet", help="navd fleet driving N lightweight VDA 5050 vehicles through mosquitto"
+    )
+    fleet.add_argument("--vehicles", type=int, default=50, help="how many (default 50)")
+    fleet.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    fleet.set_defaults(handler=_fleet)
     planning = names.add_parser("planning", help="A* on 1000² and 2000² grids, ms per DWA cycle")
     planning.add_argument("--repeats", type=int, default=5, help="A* searches per grid")
     planning.add_argument("--cycles", type=int, default=200, help="DWA cycles timed")
@@ -106,6 +112,21 @@ def _planning(args: argparse.Namespace) -> int:
     from navd.bench.planning import run  # noqa: PLC0415
 
     print_figures(run(repeats=args.repeats, cycles=args.cycles), args.json)
+    return EXIT_OK
+
+
+def _fleet(args: argparse.Namespace) -> int:
+    from navd.bench.fleet import run  # noqa: PLC0415
+
+    if args.vehicles < 1:
+        print("navd bench fleet: --vehicles must be at least 1", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        figures = run(vehicles=args.vehicles)
+    except RuntimeError as err:
+        print(f"navd bench fleet: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print_figures(figures, args.json)
     return EXIT_OK
 
 

@@ -44,6 +44,9 @@ def add_commands(commands: Commands) -> None:
         "--step", type=float, default=1.5, help="[m] released at a time (default 1.5)"
     )
     goal.add_argument(
+        "--speed", type=float, default=0.3, help="[m/s] the group's top speed (default 0.3)"
+    )
+    goal.add_argument(
         "--robots", default=None, help="serial numbers, comma separated (default: all online)"
     )
     goal.add_argument(

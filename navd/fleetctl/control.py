@@ -28,6 +28,8 @@ __all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view"]
 
 # [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
 LISTEN_S = 1.5
+# [s] the group's shape is measured (and corrected) at most this often, not on every message
+MEASURE_EVERY_S = 0.1
 # errors that end a group goal: the vehicle cannot do its part
 FATAL_ERRORS = ("validationError", "orderError", "orderUpdateError")
 
@@ -228,6 +230,8 @@ class _GroupRun:
         self.worst_formed_m = 0.0  # the largest shape error once the group had formed up
         self._pending: list[tuple[Any, str]] = []  # pauses and resumes to send
         self._actions = 0
+        self._measured_s = -math.inf
+        self._error_m = math.nan
 
     async def start(self) -> None:
         await self.client.subscribe(f"{self.prefix}/+/+/state", qos=1)
@@ -263,7 +267,7 @@ class _GroupRun:
         group.on_position(vehicle.serial, state, time.monotonic())
         before = group.released
         await self._send(group.on_state(vehicle.serial, state))
-        error = self._measure()
+        error = self._measure(now_or_never=group.released != before)
         await self._correct()
         if group.released != before:
             self.report(
@@ -277,13 +281,19 @@ class _GroupRun:
         fatal = sorted({e for m in group.members for e in m.errors if e in FATAL_ERRORS})
         return f"a vehicle refused its order: {', '.join(fatal)}" if fatal else None
 
-    def _measure(self) -> float:
+    def _measure(self, *, now_or_never: bool = False) -> float:
+        """The shape error now (and the corrections it calls for), at most every
+        MEASURE_EVERY_S unless ``now_or_never``."""
         now = time.monotonic()
+        if not now_or_never and now - self._measured_s < MEASURE_EVERY_S:
+            return self._error_m
+        self._measured_s = now
         for member, action in self.group.corrections(now):
             self._pending.append((member, action))
         error = self.group.shape_error_m(now)
         if self.group.released >= 1 and math.isfinite(error):  # formed up (place 0 reached)
             self.worst_formed_m = max(self.worst_formed_m, error)
+        self._error_m = error
         return error
 
     async def _correct(self) -> None:
