@@ -21,8 +21,6 @@ import contextlib
 import json
 import math
 import os
-import shutil
-import socket
 import subprocess
 import sys
 import tempfile
@@ -37,19 +35,13 @@ from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus
 from navd.lifecycle.stats import percentile
+from navd.sim.broker import LocalBroker
 
 __all__ = ["run"]
 
 SPEED_MPS = 1.0  # the point robots' speed
 TICK_S = 0.1
 VIEW_EVERY_S = 0.5  # their visualization rate (2 Hz, navd's default)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 class _PointVehicle:
@@ -237,23 +229,12 @@ def run(vehicles: int = 50) -> dict[str, Any]:
     """The figures (see the module docstring).
 
     Raises:
-        RuntimeError: mosquitto is not installed.
+        SimError: mosquitto is not installed.
     """
-    binary = shutil.which("mosquitto") or (
-        "/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").is_file() else None
-    )
-    if binary is None:
-        raise RuntimeError("mosquitto is not installed (apt-get install mosquitto)")
-    port = _free_port()
     with tempfile.TemporaryDirectory() as folder:
-        config = Path(folder) / "mosquitto.conf"
-        config.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\n")
-        broker = subprocess.Popen(
-            [binary, "-c", str(config)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
-        )
+        broker = LocalBroker(Path(folder))
+        broker.start()
         try:
-            time.sleep(0.5)
-            return asyncio.run(_bench(vehicles, f"mqtt://127.0.0.1:{port}", port))
+            return asyncio.run(_bench(vehicles, broker.url, broker.port))
         finally:
-            broker.terminate()
-            broker.wait(5)
+            broker.stop()

@@ -117,13 +117,14 @@ def _planning(args: argparse.Namespace) -> int:
 
 def _fleet(args: argparse.Namespace) -> int:
     from navd.bench.fleet import run  # noqa: PLC0415
+    from navd.sim.errors import SimError  # noqa: PLC0415
 
     if args.vehicles < 1:
         print("navd bench fleet: --vehicles must be at least 1", file=sys.stderr)
         return EXIT_USAGE
     try:
         figures = run(vehicles=args.vehicles)
-    except RuntimeError as err:
+    except SimError as err:
         print(f"navd bench fleet: {err}", file=sys.stderr)
         return EXIT_USAGE
     print_figures(figures, args.json)

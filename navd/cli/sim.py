@@ -35,6 +35,13 @@ def add_commands(commands: Commands) -> None:
     demo.add_argument(
         "--record", type=Path, metavar="DIR", help="record the drive to MCAP files in DIR"
     )
+    demo.add_argument(
+        "--fleet",
+        type=int,
+        metavar="N",
+        help="N robots (each its own navd) on a local mosquitto drive a triangle to a group "
+        "goal; writes fleet.png and fleet_summary.json (real time)",
+    )
     demo.set_defaults(handler=_demo)
     sim = commands.add_parser(
         "sim", help="play a simulated robot for a running navd (its config names the ports)"
@@ -64,6 +71,9 @@ def _demo(args: argparse.Namespace) -> int:
     from navd.sim.errors import SimError  # noqa: PLC0415
     from navd.sim.world import load_world, office  # noqa: PLC0415
 
+    if args.fleet is not None:
+        return _fleet_demo(args)
+
     try:
         world = office() if args.world is None else load_world(args.world)
         summary = run_demo(
@@ -82,6 +92,29 @@ def _demo(args: argparse.Namespace) -> int:
         f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
     )
     return EXIT_OK if summary["reached"] else EXIT_FAILED
+
+
+def _fleet_demo(args: argparse.Namespace) -> int:
+    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim.fleet_demo import run_fleet_demo  # noqa: PLC0415
+
+    if args.world is not None or args.view or args.record is not None:
+        print(
+            "navd demo --fleet: runs in its own hall; drop --world, --view and --record",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    try:
+        summary = run_fleet_demo(args.fleet, args.out, limit_s=max(args.limit, 300.0))
+    except SimError as err:
+        print(f"navd demo: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    print(json.dumps(summary, indent=2))
+    print(
+        f"navd demo: wrote {args.out / 'fleet.png'} and {args.out / 'fleet_summary.json'}",
+        file=sys.stderr,
+    )
+    return EXIT_OK if summary["reached"] and summary["collisions"] == 0 else EXIT_FAILED
 
 
 def _sim(args: argparse.Namespace) -> int:

@@ -12,7 +12,7 @@ import numpy.typing as npt
 from navd.sim.world import World
 from navd.slam.picture import encode_png
 
-__all__ = ["demo_picture"]
+__all__ = ["demo_picture", "fleet_picture"]
 
 PIXEL_M = 0.025
 WORLD_RGB = (215, 215, 215)  # the true obstacles, light grey
@@ -115,4 +115,29 @@ def demo_picture(  # noqa: PLR0917 - every layer of the picture, named
     canvas.disc(x0, y0, 0.15, ESTIMATE_RGB)
     if world.goal is not None:
         canvas.disc(world.goal[0], world.goal[1], 0.2, GOAL_RGB)
+    path.write_bytes(encode_png(canvas.rgb[::-1].copy()))
+
+
+# each robot of a fleet in a colour of its own (cycled beyond six)
+FLEET_RGB = (
+    (220, 30, 30), (40, 90, 230), (20, 160, 60), (240, 150, 20), (150, 40, 200), (0, 170, 180),
+)  # fmt: skip
+
+
+def fleet_picture(
+    world: World,
+    trajectories: list[npt.NDArray[np.float64]],
+    goal_xy_m: tuple[float, float],
+    path: Path,
+) -> None:
+    """A PNG of the world and each robot's way (N x 2 [m]) in its colour, a ring where each
+    ended, and the group's goal."""
+    canvas = _Canvas(world)
+    canvas.cells(world.grid, world.origin_x_m, world.origin_y_m, world.resolution_m, WORLD_RGB)
+    for k, way in enumerate(trajectories):
+        rgb = FLEET_RGB[k % len(FLEET_RGB)]
+        canvas.line(way, rgb, 3)
+        if len(way):
+            canvas.disc(float(way[-1, 0]), float(way[-1, 1]), 0.25, rgb)
+    canvas.disc(goal_xy_m[0], goal_xy_m[1], 0.1, GOAL_RGB)
     path.write_bytes(encode_png(canvas.rgb[::-1].copy()))

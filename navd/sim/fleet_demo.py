@@ -1,0 +1,110 @@
+"""``navd demo --fleet N``: N simulated robots, each its own navd, on a local mosquitto in a
+hall with four UWB-like beacons; ``navd fleet``'s group goal drives them in a triangle to
+the far side. Writes ``fleet.png`` (each robot's way) and ``fleet_summary.json``."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navd.fleetctl.control import drive_group, fleet_view
+from navd.fleetctl.group import GroupGoal
+from navd.geometry.pose import Pose2
+from navd.sim.broker import LocalBroker
+from navd.sim.errors import SimError
+from navd.sim.fleet import fleet_sessions
+from navd.sim.picture import fleet_picture
+from navd.sim.session import Session
+from navd.sim.world import World, from_shapes
+
+__all__ = ["MAX_ROBOTS", "hall", "run_fleet_demo"]
+
+MAX_ROBOTS = 6  # each is a navd process and a simulator: more than a laptop wants
+ANCHORS = {"u1": (-0.5, -0.5), "u2": (14.5, -0.5), "u3": (14.5, 10.5), "u4": (-0.5, 10.5)}
+GOAL = (11.0, 5.0)
+ON_BEACONS: dict[str, Any] = {
+    "slam": {"enabled": False},
+    "beacons": {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in ANCHORS.items()}},
+}
+SENSORS = {"beacon_rate_hz": 20.0, "beacon_range_noise_m": 0.05}
+
+
+def hall() -> World:
+    """A 16 m x 12 m hall with a UWB-like beacon in each corner and a pillar."""
+    walls = [[-1.0, -1.0, 15.0, -1.0], [15.0, -1.0, 15.0, 11.0], [15.0, 11.0, -1.0, 11.0],
+             [-1.0, 11.0, -1.0, -1.0]]  # fmt: skip
+    spec: dict[str, Any] = {
+        "walls": walls,
+        "circles": [[6.5, 9.0, 0.3]],
+        "beacons": [{"id": b, "x": x, "y": y} for b, (x, y) in ANCHORS.items()],
+    }
+    return from_shapes(spec, "hall")
+
+
+async def _online(url: str, fleet: list[Session], count: int, limit_s: float) -> None:
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + limit_s
+    while loop.time() < deadline:
+        for s in fleet:
+            s.check()
+        view = await fleet_view(url, listen_s=0.5)
+        if (
+            sum(v.connection == "ONLINE" and v.position is not None for v in view.vehicles.values())
+            >= count
+        ):
+            return
+        await asyncio.sleep(0.5)
+    raise SimError(f"not all {count} robots came online with a position within {limit_s:g} s")
+
+
+async def _drive(
+    world: World, folder: Path, count: int, url: str, limit_s: float
+) -> dict[str, Any]:
+    robots = [
+        (f"robot-{k + 1}", Pose2(1.5, 1.5 + k * 7.0 / max(count - 1, 1), 0.0)) for k in range(count)
+    ]
+    async with fleet_sessions(
+        world, folder, robots, url, overrides=ON_BEACONS, sim_settings=SENSORS
+    ) as fleet:
+        await _online(url, fleet, count, 60.0)
+        goal = GroupGoal(*GOAL, formation="triangle", spacing_m=1.2, step_m=1.5)
+        summary = await drive_group(url, goal, timeout_s=limit_s)
+        truths = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]
+        collisions = [s.sim.body.collisions for s in fleet]
+    ends = np.array([t[-1] for t in truths])
+    summary.update(
+        collisions=sum(collisions),
+        centre_error_m=round(math.dist(ends.mean(axis=0), GOAL), 3),
+        driven_m=[round(float(np.hypot(*np.diff(t, axis=0).T).sum()), 1) for t in truths],
+        trajectories=[t.tolist() for t in truths],
+    )
+    return summary
+
+
+def run_fleet_demo(count: int, out: Path, *, limit_s: float = 300.0) -> dict[str, Any]:
+    """Run the demo (see the module docstring); the summary, as written.
+
+    Raises:
+        SimError: mosquitto is missing, a robot would not start, or ``count`` is out of range.
+    """
+    if not 1 <= count <= MAX_ROBOTS:
+        raise SimError(f"--fleet takes 1 to {MAX_ROBOTS} robots, got {count}")
+    out.mkdir(parents=True, exist_ok=True)
+    world = hall()
+    with tempfile.TemporaryDirectory(prefix="navd-fleet-") as folder:
+        broker = LocalBroker(Path(folder))
+        broker.start()
+        try:
+            summary = asyncio.run(_drive(world, Path(folder), count, broker.url, limit_s))
+        finally:
+            broker.stop()
+    trajectories = [np.array(t) for t in summary.pop("trajectories")]
+    fleet_picture(world, trajectories, GOAL, out / "fleet.png")
+    (out / "fleet_summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    return summary
