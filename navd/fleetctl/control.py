@@ -24,7 +24,7 @@ import aiomqtt
 from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.group import GroupDrive, GroupGoal
 
-__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view"]
+__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action"]
 
 # [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
 LISTEN_S = 1.5
@@ -123,21 +123,24 @@ async def fleet_view(
     return view
 
 
-async def _state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -> None:
-    message = {
-        "headerId": 0,
+def instant_action(
+    manufacturer: str, serial: str, header_id: int, kind: str, action_id: str
+) -> dict[str, Any]:
+    """An instantActions message of one action ``kind`` for a vehicle."""
+    return {
+        "headerId": header_id,
         "timestamp": timestamp(time.time()),
         "version": PROTOCOL_VERSION,
-        "manufacturer": vehicle.manufacturer,
-        "serialNumber": vehicle.serial,
-        "actions": [
-            {
-                "actionType": "stateRequest",
-                "actionId": f"state-{uuid.uuid4().hex[:8]}",
-                "blockingType": "NONE",
-            }
-        ],
+        "manufacturer": manufacturer,
+        "serialNumber": serial,
+        "actions": [{"actionType": kind, "actionId": action_id, "blockingType": "NONE"}],
     }
+
+
+async def _state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -> None:
+    message = instant_action(
+        vehicle.manufacturer, vehicle.serial, 0, "stateRequest", f"state-{uuid.uuid4().hex[:8]}"
+    )
     topic = f"{prefix}/{vehicle.manufacturer}/{vehicle.serial}/instantActions"
     await client.publish(topic, json.dumps(message), qos=1)
 
@@ -301,20 +304,13 @@ class _GroupRun:
         pending, self._pending = self._pending, []
         for member, action in pending:
             self._actions += 1
-            message = {
-                "headerId": self._actions,
-                "timestamp": timestamp(time.time()),
-                "version": PROTOCOL_VERSION,
-                "manufacturer": member.manufacturer,
-                "serialNumber": member.serial,
-                "actions": [
-                    {
-                        "actionType": action,
-                        "actionId": f"{self.group.group_id}-{action}-{self._actions}",
-                        "blockingType": "HARD",
-                    }
-                ],
-            }
+            message = instant_action(
+                member.manufacturer,
+                member.serial,
+                self._actions,
+                action,
+                f"{self.group.group_id}-{action}-{self._actions}",
+            )
             topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
             await self.client.publish(topic, json.dumps(message), qos=1)
 

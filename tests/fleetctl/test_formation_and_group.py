@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from navd.fleetctl.control import instant_action
 from navd.fleetctl.formation import assign, places, shape_error, slots
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from tests.fleet.vda5050_schemas import check
@@ -112,3 +113,39 @@ def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
         for m in group.members:
             group.on_state(m.serial, _state(group, m.serial, place, tuple(m.places[place])))
     assert group.done and group.released == group.steps - 1
+
+
+@pytest.mark.parametrize("kind", ["stateRequest", "startPause", "stopPause"])
+def test_the_fleet_controls_instant_actions_are_valid_vda5050(kind: str) -> None:
+    message = instant_action("navd", "r1", 3, kind, f"a-{kind}")
+    check("instantActions", message)
+    assert message["actions"][0]["actionType"] == kind
+
+
+def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
+    group = _group()
+    group.first_orders(now_unix_s=1000.0)
+    for m in group.members:  # all formed up: step 1 released
+        group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
+    assert group.released == 1
+    r1, r2, r3 = group.members
+
+    def at(m: Any, along: float, t: float) -> None:
+        a, b = m.places[0], m.places[1]
+        x, y = a + (b - a) * along / float(np.hypot(*(b - a)))
+        group.on_position(m.serial, {"agvPosition": {"x": x, "y": y, "theta": 0.0}}, t)
+
+    at(r1, 0.5, 5.0)
+    at(r2, 0.3, 5.0)
+    at(r3, 0.1, 5.0)
+    # r1 is 0.4 m and r2 0.2 m ahead of r3: both wait
+    assert [(m.serial, a) for m, a in group.corrections(5.0)] == [
+        ("r1", "startPause"),
+        ("r2", "startPause"),
+    ]
+    assert group.corrections(5.1) == []  # told once
+    at(r3, 0.28, 6.0)
+    assert [(m.serial, a) for m, a in group.corrections(6.0)] == [("r2", "stopPause")]
+    at(r2, 0.5, 7.0)
+    at(r3, 0.5, 7.0)
+    assert [(m.serial, a) for m, a in group.corrections(7.0)] == [("r1", "stopPause")]
