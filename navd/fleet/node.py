@@ -107,6 +107,7 @@ class FleetNode(Module):
         self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
         self._sizes: dict[str, float] = {}  # [m] their radius, from their factsheet
         self._others_told = False  # the planner knows the others as they are now
+        self._failure = ""  # why the broker was last out of reach (logged once per reason)
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -240,6 +241,7 @@ class FleetNode(Module):
         await client.publish(self.topics.factsheet, self._factsheet(), qos=QOS, retain=True)
         self._client = client
         self.connected.set()
+        self._failure = ""
         self._state_due = True
         self.ctx.log.info("fleet_connected", broker=self.settings.value.fleet.broker_url)
         if self.vehicle.held:
@@ -252,8 +254,13 @@ class FleetNode(Module):
         if was:
             hold = self.settings.value.fleet.on_broker_lost == "hold"
             self.ctx.log.warning("fleet_broker_lost", error=why, holding=hold)
+            self._failure = why
             if hold:
                 self._publish(self.vehicle.hold(self.ctx.clock.now()))
+        elif why != self._failure:  # each new reason once, not every retry
+            self._failure = why
+            broker = self.settings.value.fleet.broker_url
+            self.ctx.log.warning("fleet_connect_failed", broker=broker, error=why)
 
     def _heard(self, topic: str, payload: Any) -> None:
         raw = payload if isinstance(payload, bytes) else str(payload).encode()

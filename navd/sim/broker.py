@@ -4,6 +4,7 @@ by its owner."""
 
 from __future__ import annotations
 
+import getpass
 import shutil
 import socket
 import subprocess
@@ -45,6 +46,9 @@ class LocalBroker:
         self.port = _free_port()
         self.config = folder / "mosquitto.conf"
         self.config.write_text(
+            # run as whoever started it (as root mosquitto would become "mosquitto" and lose
+            # its own folder: the log, certificates, password file)
+            f"user {getpass.getuser()}\n"
             f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
             f"log_dest file {folder / 'mosquitto.log'}\n",
             encoding="utf-8",

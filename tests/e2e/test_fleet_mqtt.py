@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import itertools
 import json
 import math
+import shutil
 import signal
+import subprocess
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
 from typing import Any
@@ -348,5 +351,110 @@ async def test_another_vehicle_of_the_fleet_is_driven_around(tmp_path: Path) -> 
         # never within the ghost's half diagonal (0.5 m) and the robot's own half width
         nearest = min(math.dist(p, GHOST) for p in truth)
         assert nearest > 0.5 + 0.15, f"passed {nearest:.2f} m from the other vehicle"
+    finally:
+        broker.stop()
+
+
+def _tls_files(folder: Path) -> dict[str, Path]:
+    """A CA and a server certificate for 127.0.0.1 (openssl), in ``folder``."""
+    openssl = shutil.which("openssl")
+    if openssl is None:
+        pytest.skip("openssl is not installed: no certificates for the TLS broker")
+    ca_key, ca, key, csr, cert = (
+        folder / n for n in ("ca.key", "ca.pem", "server.key", "server.csr", "server.pem")
+    )
+    ext = folder / "san.cnf"
+    ext.write_text("subjectAltName = IP:127.0.0.1\n")
+    run = functools.partial(subprocess.run, check=True, capture_output=True)
+    run(
+        [
+            openssl,
+            "req",
+            "-x509",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            str(ca_key),
+            "-out",
+            str(ca),
+            "-days",
+            "2",
+            "-subj",
+            "/CN=navd test CA",
+        ]
+    )
+    run(
+        [
+            openssl,
+            "req",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            str(key),
+            "-out",
+            str(csr),
+            "-subj",
+            "/CN=127.0.0.1",
+        ]
+    )
+    run(
+        [
+            openssl,
+            "x509",
+            "-req",
+            "-in",
+            str(csr),
+            "-CA",
+            str(ca),
+            "-CAkey",
+            str(ca_key),
+            "-CAcreateserial",
+            "-out",
+            str(cert),
+            "-days",
+            "2",
+            "-extfile",
+            str(ext),
+        ]
+    )
+    return {"ca": ca, "key": key, "cert": cert}
+
+
+async def test_an_mqtts_broker_with_a_password_is_joined_and_a_wrong_password_named(
+    tmp_path: Path, daemon_on_port: Any
+) -> None:
+    files = _tls_files(tmp_path)
+    passwd = shutil.which("mosquitto_passwd") or "/usr/bin/mosquitto_passwd"
+    if not Path(passwd).is_file():
+        pytest.skip("mosquitto_passwd is not installed")
+    users = tmp_path / "users"
+    subprocess.run(
+        [passwd, "-b", "-c", str(users), "robot-1", "s3cret"], check=True, capture_output=True
+    )
+    broker = Broker(tmp_path)
+    with broker.config.open("a") as conf:
+        conf.write(
+            f"cafile {files['ca']}\ncertfile {files['cert']}\nkeyfile {files['key']}\n"
+            f"password_file {users}\nallow_anonymous false\n"
+        )
+    broker.start()
+    try:
+        url = f"mqtts://127.0.0.1:{broker.port}"
+        for password, event in (("s3cret", "fleet_connected"), ("wrong", "fleet_connect_failed")):
+            toml = (
+                f'[fleet]\nenabled = true\nbroker_url = "{url}"\nserial_number = "{SERIAL}"\n'
+                f'username = "robot-1"\npassword = "{password}"\nca_file = "{files["ca"]}"\n'
+            )
+            daemon, _ = daemon_on_port(toml)
+            line = daemon.wait_for(event, timeout_s=20.0)
+            if event == "fleet_connect_failed":
+                assert "authoriz" in line["error"].lower() or "password" in line["error"].lower(), (
+                    line
+                )
+                assert password not in json.dumps(daemon.seen)  # the secret is never logged
+            daemon.proc.terminate()
+            daemon.proc.wait(10)
     finally:
         broker.stop()
