@@ -153,7 +153,7 @@ class PlanningConfig(Section):
     )
     local_window_m: float = Field(
         30.0,
-        ge=5,
+        ge=15,
         le=200,
         description="[m] side of the square around the robot planned at full resolution when "
         "the goal is far (see max_plan_cells); re-planned as the robot nears its edge",

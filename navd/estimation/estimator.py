@@ -65,8 +65,11 @@ _log = get_logger("estimation")
 _IMU_ROWS = (Row.YAW_RATE, Row.ACCEL_FORWARD, Row.ACCEL_LEFT)
 # [s] ranges to known beacons this recent together place the robot when nothing else has.
 RANGE_START_S = 1.0
-# Known beacons whose ranges start the filter (three: the place is not mirrored).
+# Known beacons whose ranges start the filter (three: the place is not mirrored; four when
+# there are: one bad range is then seen and left out).
 RANGE_START_BEACONS = 3
+# A range farther than this many of its sigmas from the place they agree on is left out.
+RANGE_START_SIGMAS = 4.0
 
 _Rows = tuple[tuple[float, ...], ...]  # a 3 x 3 rotation, row by row
 _UNKNOWN: _Rows = ()  # an IMU whose mount is not looked up yet
@@ -356,32 +359,25 @@ class StateEstimator:
 
     def _start_from_ranges(self, stamp: float) -> None:
         """Start the filter where the latest ranges to known beacons agree, once there are
-        enough of them within RANGE_START_S of ``stamp`` (Gauss-Newton from their centroid);
-        the heading from a recent compass reading, else unknown."""
+        enough of them within RANGE_START_S of ``stamp`` (``_agreeing_place``); the heading
+        from a recent compass reading, else unknown."""
         recent = [
             (self.settings.beacons.known[b], r, std)
             for b, (t, r, std) in self._ranges.items()
             if stamp - t <= RANGE_START_S
         ]
-        if len(recent) < RANGE_START_BEACONS:
+        # with a fourth beacon known, wait for it: three ranges fit a wrong place as well
+        # as the right one when one of them is a reflection
+        needed = min(max(len(self.settings.beacons.known), RANGE_START_BEACONS), 4)
+        if len(recent) < needed:
             return
         points = np.array([[p.x_m, p.y_m] for p, _, _ in recent])
         ranges = np.array([r for _, r, _ in recent])
-        if np.linalg.matrix_rank(points[1:] - points[0], tol=1e-3) < 2:
-            return  # beacons in a line: the robot could be on either side
-        weights = np.array([1.0 / std**2 for _, _, std in recent])
-        xy = points.mean(axis=0)
-        cov = np.eye(2)
-        for _ in range(20):
-            offsets = xy - points
-            distances = np.maximum(np.hypot(*offsets.T), 1e-6)
-            jacobian = offsets / distances[:, None]
-            normal = jacobian.T @ (weights[:, None] * jacobian)
-            cov = np.linalg.inv(normal)
-            step = cov @ (jacobian.T @ (weights * (ranges - distances)))
-            xy = xy + step
-            if float(np.hypot(*step)) < 1e-4:
-                break
+        stds = np.array([std for _, _, std in recent])
+        found = _agreeing_place(points, ranges, stds)
+        if found is None:
+            return  # beacons in a line, or no place most ranges agree on: wait for more
+        xy, cov = found
         compass = self._last_compass_yaw
         if compass is not None and stamp - compass.stamp < 1.0:
             yaw, yaw_std = compass.yaw_rad, compass.std_rad
@@ -579,3 +575,54 @@ class StateEstimator:
             gated_rows=k,
             points=landmarks,
         )
+
+
+def _agreeing_place(
+    points_m: FloatArray, ranges_m: FloatArray, stds_m: FloatArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """[m] the place (and its covariance) that all ranges, or all but one, agree on within
+    RANGE_START_SIGMAS of their noise: each range is left out in turn (a reflection pulls a
+    fit of all of them off the place, and three ranges fit a wrong place as well as the
+    right one), and the fit that the most ranges agree with, then the closest, wins."""
+    n = points_m.shape[0]
+    best: tuple[int, float, FloatArray, FloatArray] | None = None
+    subsets = [np.arange(n)] + ([np.delete(np.arange(n), k) for k in range(n)] if n > 3 else [])
+    for subset in subsets:
+        solved = _trilaterate(points_m[subset], ranges_m[subset], stds_m[subset])
+        if solved is None:
+            continue
+        xy, cov, _ = solved
+        misfit = (ranges_m - np.hypot(*(xy - points_m).T)) / stds_m
+        agree = np.abs(misfit) <= RANGE_START_SIGMAS
+        if not agree[subset].all() or agree.sum() < max(n - 1, RANGE_START_BEACONS):
+            continue
+        score = (int(agree.sum()), -float((misfit[agree] ** 2).sum()))
+        if best is None or score > best[:2]:
+            best = (*score, xy, cov)
+    return None if best is None else (best[2], best[3])
+
+
+def _trilaterate(
+    points_m: FloatArray, ranges_m: FloatArray, stds_m: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """[m] the place whose distances to ``points_m`` best fit ``ranges_m`` (weighted least
+    squares by Gauss-Newton from the points' centroid), its covariance, and each range's
+    misfit in its own sigmas; None if the points are in a line or it does not settle."""
+    if np.linalg.matrix_rank(points_m[1:] - points_m[0], tol=1e-3) < 2:
+        return None
+    weights = 1.0 / stds_m**2
+    xy = points_m.mean(axis=0)
+    for _ in range(30):
+        offsets = xy - points_m
+        distances = np.maximum(np.hypot(*offsets.T), 1e-6)
+        jacobian = offsets / distances[:, None]
+        normal = jacobian.T @ (weights[:, None] * jacobian)
+        if np.linalg.cond(normal) > 1e9:
+            return None
+        cov = np.linalg.inv(normal)
+        step = cov @ (jacobian.T @ (weights * (ranges_m - distances)))
+        xy = xy + step
+        if float(np.hypot(*step)) < 1e-4:
+            distances = np.hypot(*(xy - points_m).T)
+            return xy, cov, (ranges_m - distances) / stds_m
+    return None

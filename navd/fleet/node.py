@@ -50,7 +50,10 @@ MIN_STATE_S = 0.1  # [s] state messages at most this often (a burst of changes i
 TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
 FIRST_RETRY_S = 0.5  # [s] the first pause before reconnecting; it doubles up to MAX_RETRY_S
 MAX_RETRY_S = 10.0
-QOS = 1  # at least once for everything the vehicle says and hears (retained connection)
+# §6.2: QoS 0 for every topic but ``connection`` (QoS 1, retained, and the last will)
+QOS = 0
+CONNECTION_QOS = 1
+MAX_RADIUS_M = 10.0  # [m] another vehicle's size is believed up to this
 STALE_S = 2.0  # [s] another vehicle not heard of for this long is forgotten
 
 
@@ -108,6 +111,7 @@ class FleetNode(Module):
         self._sizes: dict[str, float] = {}  # [m] their radius, from their factsheet
         self._others_told = False  # the planner knows the others as they are now
         self._failure = ""  # why the broker was last out of reach (logged once per reason)
+        self._malformed = 0  # other vehicles' messages that could not be read
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -133,7 +137,7 @@ class FleetNode(Module):
                     client.publish(
                         self.topics.connection,
                         self._json("connection", reports.connection, "OFFLINE"),
-                        qos=QOS,
+                        qos=CONNECTION_QOS,
                         retain=True,
                     ),
                     1.0,
@@ -202,7 +206,7 @@ class FleetNode(Module):
         will = aiomqtt.Will(
             self.topics.connection,
             self._json("connection", reports.connection, "CONNECTIONBROKEN"),
-            qos=QOS,
+            qos=CONNECTION_QOS,
             retain=True,
         )
         pause = FIRST_RETRY_S
@@ -235,7 +239,7 @@ class FleetNode(Module):
         await client.publish(
             self.topics.connection,
             self._json("connection", reports.connection, "ONLINE"),
-            qos=QOS,
+            qos=CONNECTION_QOS,
             retain=True,
         )
         await client.publish(self.topics.factsheet, self._factsheet(), qos=QOS, retain=True)
@@ -283,7 +287,8 @@ class FleetNode(Module):
         if what == "state":
             self._state_due = True
         else:
-            self.ctx.spawn(self._send(self.topics.factsheet, self._factsheet()), name="factsheet")
+            factsheet = self._send(self.topics.factsheet, self._factsheet(), retain=True)
+            self.ctx.spawn(factsheet, name="factsheet")
 
     def _other(self, name: str, topic: str, raw: bytes) -> None:
         """Another vehicle's position (on our map) or size; anything malformed is ignored."""
@@ -291,7 +296,10 @@ class FleetNode(Module):
             body = json.loads(raw)
             if topic == "factsheet":
                 size = body["physicalParameters"]
-                self._sizes[name] = 0.5 * math.hypot(float(size["length"]), float(size["width"]))
+                radius = 0.5 * math.hypot(float(size["length"]), float(size["width"]))
+                if not 0.0 < radius <= MAX_RADIUS_M:  # also NaN and infinity
+                    raise ValueError(f"a size of {radius} m")
+                self._sizes[name] = radius
                 return
             where = body["agvPosition"]
             if where.get("mapId") != self.settings.value.map_id:
@@ -301,7 +309,13 @@ class FleetNode(Module):
             other = _Other(
                 float(where["x"]), float(where["y"]), float(where["theta"]), speed, time.monotonic()
             )
-        except (ValueError, KeyError, TypeError, AttributeError):
+        except (ValueError, KeyError, TypeError, AttributeError) as err:
+            self._malformed += 1
+            if self._malformed == 1 or self._malformed % 1000 == 0:  # seen, not flooded
+                self.ctx.log.warning(
+                    "fleet_other_ignored", vehicle=name, topic=topic, error=str(err),
+                    count=self._malformed,
+                )  # fmt: skip
             return
         if all(math.isfinite(v) for v in (other.x_m, other.y_m, other.yaw_rad, other.speed_mps)):
             self._others[name] = other
@@ -347,12 +361,12 @@ class FleetNode(Module):
             payload = self._json("visualization", reports.visualization, self._robot())
             self.ctx.spawn(self._send(self.topics.visualization, payload), name="visualization")
 
-    async def _send(self, topic: str, payload: bytes) -> None:
+    async def _send(self, topic: str, payload: bytes, *, retain: bool = False) -> None:
         client = self._client
         if client is None:
             return
         try:
-            await client.publish(topic, payload, qos=QOS)
+            await client.publish(topic, payload, qos=QOS, retain=retain)
         except aiomqtt.MqttError as err:  # the connection task hears of it and reconnects
             self.ctx.log.debug("fleet_send_failed", topic=topic, error=str(err))
 

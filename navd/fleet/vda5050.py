@@ -3,9 +3,10 @@
 checked by pydantic, field names as the specification spells them), and the header, topics
 and timestamps of what the vehicle sends back.
 
-Only what navd uses is modelled; other fields of the schemas are accepted and ignored, except
-those navd cannot honour (an edge's ``trajectory``: navd plans its own way), which refuse the
-order by name (the specification's "orderError").
+Only what navd uses is modelled; other fields of the schemas are accepted and ignored. An
+edge's ``trajectory`` (navd plans its own way) and a node without ``nodePosition`` refuse the
+order by name (the specification's "orderError", ``vehicle``); corridors, edge orientation
+and a node's ``mapId`` are read as given and not checked.
 """
 
 from __future__ import annotations

@@ -13,9 +13,11 @@ runs its actions. A malformed order is refused with a "validationError", one nav
 with an "orderError", a stale or disconnected update with an "orderUpdateError": the order
 in hand goes on, and the error stays in the state until an order is taken.
 
-Actions navd performs: ``wait`` on nodes and edges (``duration`` [s]; HARD blocks driving
-while it runs), and the instant actions ``cancelOrder``, ``startPause``, ``stopPause``,
-``initPosition``, ``stateRequest`` and ``factsheetRequest``.
+Actions navd performs: ``wait`` on nodes and edges (``duration`` [s]; SOFT and HARD block
+driving while it runs; a node's actions all start when it is traversed), and the instant
+actions ``cancelOrder``, ``startPause``, ``stopPause``, ``initPosition``, ``stateRequest``
+and ``factsheetRequest``. A pause (``startPause``) is a mode of the vehicle: it lasts over
+new orders and cancels until ``stopPause``.
 """
 
 from __future__ import annotations
@@ -255,7 +257,6 @@ class Vehicle:
         self.nodes, self.edges = list(order.nodes), list(order.edges)
         self._register(order)
         self._clear_errors()
-        self.paused = False
         self.changed = True
         return [*out, *self._traverse(now)]  # the first node: where the vehicle stands
 
@@ -281,6 +282,9 @@ class Vehicle:
             )
         base_nodes = [n for n in self.nodes if n.released]
         base_edges = [e for e in self.edges if e.released]
+        old_horizon = [n for n in self.nodes if not n.released]
+        for action in _actions_of(old_horizon, [e for e in self.edges if not e.released]):
+            self.actions.pop(action.actionId, None)  # the horizon is replaced, its actions too
         # the stitching node keeps its first content; the horizon is replaced
         self.nodes = base_nodes + list(order.nodes[1:]) if base_nodes else list(order.nodes[1:])
         self.edges = base_edges + list(order.edges)
@@ -339,8 +343,7 @@ class Vehicle:
             if self._blocked():
                 return []
         position = node.nodePosition
-        if position is None:  # a node without a place is passed where the vehicle is
-            return self._traverse(now)
+        assert position is not None  # orders without one are refused (``_unusable``)
         self._goals += 1
         self.goal_id = f"vda:{self.order_id}:{node.sequenceId}:{self._goals}"
         self.changed = True
@@ -412,7 +415,6 @@ class Vehicle:
                 if other is not state and other.status not in _ENDED:
                     other.status, other.result = "FAILED", "cancelled"
             self.nodes, self.edges = [], []
-            self.paused = False
         elif kind == "startPause":
             self.paused = True
             out = self._cancel_goal(now)
@@ -525,6 +527,13 @@ def _node_state(node: Node) -> dict[str, Any]:
 
 def _unusable(order: Order) -> tuple[str, list[tuple[str, str]]] | None:
     """What in an order navd cannot do, with references, or None."""
+    for node in order.nodes:
+        if node.nodePosition is None:
+            return (
+                f"node {node.nodeId} has no nodePosition: navd drives to places, not along "
+                "lines or tags",
+                [("nodeId", node.nodeId)],
+            )
     for edge in order.edges:
         if edge.trajectory is not None:
             return (

@@ -50,7 +50,10 @@ class Vehicle:
     @property
     def position(self) -> tuple[float, float] | None:
         where = (self.state or {}).get("agvPosition")
-        return None if not isinstance(where, dict) else (float(where["x"]), float(where["y"]))
+        try:
+            return None if not isinstance(where, dict) else (float(where["x"]), float(where["y"]))
+        except (KeyError, TypeError, ValueError):
+            return None  # a malformed position: none known
 
 
 @dataclass
@@ -186,6 +189,8 @@ async def drive_group(
                 break
         else:
             outcome["reached"] = True
+        if not outcome["reached"]:
+            await run.give_up()  # no robot is left paused, or holding a half-driven order
     outcome.update(
         group=group.group_id,
         robots=[m.serial for m in group.members],
@@ -298,6 +303,22 @@ class _GroupRun:
             self.worst_formed_m = max(self.worst_formed_m, error)
         self._error_m = error
         return error
+
+    async def give_up(self) -> None:
+        """Cancel every member's order, and let the ones the group paused go."""
+        for member in self.group.members:
+            kinds = ["cancelOrder", *(["stopPause"] if member.paused else [])]
+            for kind in kinds:
+                self._actions += 1
+                message = instant_action(
+                    member.manufacturer,
+                    member.serial,
+                    self._actions,
+                    kind,
+                    f"{self.group.group_id}-{kind}-{self._actions}",
+                )
+                topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
+                await self.client.publish(topic, json.dumps(message), qos=1)
 
     async def _correct(self) -> None:
         """Send the pauses and resumes the group asked for."""

@@ -175,9 +175,21 @@ class GroupDrive:
         """A robot's state: its progress; when all have reached the released place, the
         next one is released to each (the updates to send)."""
         member = next((m for m in self.members if m.serial == serial), None)
-        if member is None or state.get("orderId") != self._order_id(member):
+        if member is None:
             return []
-        member.errors = [str(e.get("errorType")) for e in state.get("errors", [])]
+        ours = self._order_id(member)
+        # a refusal of our order names it; the state may still carry the order before it
+        member.errors = [
+            str(e.get("errorType"))
+            for e in state.get("errors", [])
+            if isinstance(e, dict)
+            and (
+                state.get("orderId") == ours
+                or any(r.get("referenceValue") == ours for r in e.get("errorReferences", []))
+            )
+        ]
+        if state.get("orderId") != ours:
+            return []
         member.reached = max(member.reached, _place_of(int(state.get("lastNodeSequenceId", 0))))
         if self.released >= self.steps - 1 or any(m.reached < self.released for m in self.members):
             return []
@@ -198,12 +210,17 @@ class GroupDrive:
         where = message.get("agvPosition")
         if member is None or not isinstance(where, dict):
             return
-        speed = message.get("velocity", {}).get("vx", 0.0)
+        velocity = message.get("velocity")
+        speed = velocity.get("vx", 0.0) if isinstance(velocity, dict) else 0.0
+        try:
+            x, y, yaw = float(where["x"]), float(where["y"]), float(where.get("theta", 0.0))
+        except (KeyError, TypeError, ValueError):
+            return  # a malformed position: the last good one stands
         member.position = (
             heard_s,
-            float(where["x"]),
-            float(where["y"]),
-            float(where["theta"]),
+            x,
+            y,
+            yaw,
             float(speed) if isinstance(speed, int | float) else 0.0,
         )
 

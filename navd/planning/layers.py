@@ -5,7 +5,8 @@ cells) to hold the robot and the goal with ``FRAME_MARGIN_M`` to spare; unmapped
 unknown. For a far goal (``horizon``) there are two snapshots instead: a window of the
 lattice around the robot, and the whole area on a coarse lattice of whole blocks of cells (a
 block is an obstacle if any of its cells is, unknown if all are). The obstacle layer follows
-the fine snapshot's frame, keeping its marks; if the lattice itself changes (a new map with
+the fine snapshot's frame, keeping its marks where the frames overlap (a far goal's window
+keeps only those around the robot); if the lattice itself changes (a new map with
 another origin or resolution) it starts afresh, its marks last only
 ``obstacle_persistence_s`` anyway.
 """

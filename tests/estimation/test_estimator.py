@@ -339,3 +339,18 @@ def test_beacons_not_listed_are_learnt_only_when_learning_is_on() -> None:
     assert learning.counters["ignored"] == {"beacon_before_start": 1}  # no pose to learn from
     places = {p.beacon_id: p for p in learning.beacon_places()}
     assert set(places) == set(ANCHORS) and not any(p.learnt for p in places.values())
+
+
+def test_a_reflected_range_is_left_out_of_the_start() -> None:
+    estimator = StateEstimator(_anchored())
+    truth = (1.0, -1.0)
+    for k, (beacon, (bx, by)) in enumerate(ANCHORS.items()):
+        distance = math.hypot(bx - truth[0], by - truth[1]) + (3.0 if beacon == "a2" else 0.0)
+        seen = BeaconObservation(
+            stamp=0.1 * k, received=0.1 * k, device_id="uwb", beacon_id=beacon,
+            range_m=distance, range_std_m=0.1,
+        )  # fmt: skip
+        estimator.add_beacon(seen, 0.1 * k)
+    started = estimator.estimate(0.4)
+    assert started is not None  # from the three that agree, a2's 3 m too long left out
+    assert math.dist((started.x_m, started.y_m), truth) < 0.05

@@ -209,6 +209,7 @@ def test_an_update_after_the_base_is_done_continues_from_the_last_node() -> None
         ("pick", "orderError", "action pick is not one navd performs"),
         ("trajectory", "orderError", "gives a trajectory"),
         ("far", "orderError", "the first node a is 5.00 m away"),
+        ("no-position", "orderError", "node b has no nodePosition"),
     ],
 )
 def test_orders_navd_cannot_take_are_refused_by_name_and_nothing_drives(
@@ -236,6 +237,8 @@ def test_orders_navd_cannot_take_are_refused_by_name_and_nothing_drives(
         message = order([a, b], edges=[edge(a, b, trajectory=curve)])
     elif message == "far":
         message = order([node("a", 0, 5.0, 0.0), b])
+    elif message == "no-position":
+        message = order([a, {k: v for k, v in b.items() if k != "nodePosition"}])
     vehicle, _ = _vehicle()
     raw = message if isinstance(message, bytes) else json.dumps(message).encode()
     assert vehicle.on_order(raw, 0.0, HERE) == []
@@ -370,3 +373,28 @@ def test_the_factsheet_says_what_navd_is_and_does() -> None:
     actions = {a["actionType"]: a["actionScopes"] for a in sheet["protocolFeatures"]["agvActions"]}
     assert actions["wait"] == ["NODE", "EDGE"] and actions["cancelOrder"] == ["INSTANT"]
     assert sheet["physicalParameters"]["speedMax"] == config.robot.max_linear_speed_mps
+
+
+def test_a_replaced_horizon_takes_its_actions_along_and_the_next_order_is_taken() -> None:
+    vehicle, _ = _vehicle()
+    waiting = {
+        **node("c", 4, 4.0, 0.0, released=False),
+        "actions": [action("wait", "w9", "HARD", duration=1.0)],
+    }
+    (to_b,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0), waiting])))
+    reach(vehicle, to_b)
+    # an update ends the order at b: the old horizon (and its wait) is gone
+    assert send(vehicle, order([node("b", 2, 2.0, 0.0)], update=1)) == []
+    assert all(a["actionId"] != "w9" for a in state_of(vehicle)["actionStates"])
+    second = order([node("b2", 0, 2.0, 0.0), node("y", 2, 2.0, 2.0)], order_id="o2")
+    (to_y,) = goals(send(vehicle, second, Pose2(2.0, 0.0, 0.0)))  # standing at b
+    assert (to_y.x_m, to_y.y_m) == (2.0, 2.0)
+
+
+def test_a_pause_lasts_over_a_new_order_until_stop_pause() -> None:
+    vehicle, _ = _vehicle()
+    vehicle.on_instant_actions(instant(action("startPause", "p1")), 0.0, HERE)
+    assert goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))) == []
+    assert state_of(vehicle)["paused"] is True
+    (goal,) = goals(vehicle.on_instant_actions(instant(action("stopPause", "p2")), 1.0, HERE))
+    assert (goal.x_m, goal.y_m) == (2.0, 0.0)
