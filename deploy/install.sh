@@ -126,6 +126,15 @@ install_navd() {
   if [[ $system == 1 ]]; then
     chown root:navd "$root$conf_dir" "$root$conf_dir/navd.toml"
     chmod 0750 "$root$conf_dir"
+    # The kernels compiled now, as the service's user into the service's cache, so that the
+    # first start after an install or upgrade loads them (a start that finds them missing
+    # compiles them itself, in a child process, taking a minute or more on the board).
+    install -d -o navd -g navd -m 0750 "$state_dir/numba-cache"
+    if runuser -u navd -- env NUMBA_CACHE_DIR="$state_dir/numba-cache" "$venv/bin/navd" kernels; then
+      say "compiled navd's kernels into $state_dir/numba-cache"
+    else
+      say "could not compile the kernels now; navd's first start will"
+    fi
     systemctl daemon-reload
     systemctl enable navd.service
     if systemctl is-active --quiet navd.service; then

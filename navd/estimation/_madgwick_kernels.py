@@ -36,7 +36,6 @@ __all__ = [
     "RING_COLUMNS",
     "STATE_SIZE",
     "imu_window_mean",
-    "madgwick_batch",
     "madgwick_ingest",
     "madgwick_step",
 ]
@@ -212,25 +211,6 @@ def madgwick_step(
     out[1] = cy * e_ax + sy * e_ay
     out[2] = -sy * e_ax + cy * e_ay
     out[3] = yaw
-
-
-@nb.njit(cache=True, nogil=True)
-def madgwick_batch(
-    state: FloatArray, params: FloatArray, dt: FloatArray, samples: FloatArray
-) -> FloatArray:
-    """Run ``madgwick_step`` over rows of ``samples`` (gx gy gz ax ay az mx my mz).
-
-    Returns:
-        float64[N, 4]: the step outputs for every row.
-    """
-    n = samples.shape[0]
-    outputs = np.empty((n, OUT_SIZE))
-    for i in range(n):
-        s = samples[i]
-        madgwick_step(
-            state, params, outputs[i], dt[i], s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8]
-        )
-    return outputs
 
 
 @nb.njit(cache=True, nogil=True)

@@ -77,7 +77,7 @@ class EstimationNode(Module):
         # happens beside start-up, in a daemon thread that never holds up an exit;
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
-        self.ctx.workers.run_detached(self._build, name="estimation-setup", module=self.name)
+        self.ctx.warm_up(self._build, name="setup")
         period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz  # needs a restart
         self.ctx.every(period_s, self._publish, name="publish")
         self.ctx.every(_BEACONS_EVERY_S, self._publish_beacons, name="beacons")

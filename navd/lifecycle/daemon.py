@@ -12,7 +12,7 @@ import asyncio
 import contextlib
 import gc
 import signal
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from navd import __version__
@@ -55,6 +55,9 @@ class Daemon:
         handle_signals: install SIGTERM/SIGINT/SIGHUP handlers (off in tests that share a loop).
         notifier: systemd notifications; by default from the environment (inactive without
             NOTIFY_SOCKET).
+        prepare_kernels: called (in a warm-up thread, possibly several at once) before any
+            module's warm-up loads its kernels: ``navd run`` fills a cold numba cache there in
+            a child process. None: nothing to prepare.
     """
 
     MODULE = "lifecycle"
@@ -68,7 +71,9 @@ class Daemon:
         config_path: Path | None = None,
         handle_signals: bool = True,
         notifier: SystemdNotifier | None = None,
+        prepare_kernels: Callable[[], None] | None = None,
     ) -> None:
+        self._prepare_kernels = prepare_kernels
         lc = config.lifecycle
         if clock is None:
             clock = SimClock() if lc.clock == "simulated" else MonotonicClock()
@@ -205,6 +210,7 @@ class Daemon:
             workers=self.workers,
             config=lambda: self.config_service.current,
             traffic=self.traffic,
+            prepare_kernels=self._prepare_kernels,
         )
 
     def _stop_robot(self, reason: str) -> None:

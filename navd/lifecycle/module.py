@@ -62,8 +62,10 @@ class ModuleContext:
         workers: WorkerPool,
         config: Callable[[], NavdConfig],
         traffic: Traffic | None = None,
+        prepare_kernels: Callable[[], None] | None = None,
     ) -> None:
         self.name = name
+        self._prepare_kernels = prepare_kernels
         self.bus = bus
         self.clock = clock
         self.workers = workers
@@ -134,8 +136,18 @@ class ModuleContext:
         A real thread on either clock: compiling has no effect on what the kernels compute,
         so it cannot change a simulated run, and it never holds up the event loop (on
         simulated time the first lockstep step waits for it instead, see ``Lockstep``).
+        The daemon's kernel preparation (a cold cache filled by a child process) runs first.
         """
-        self.workers.run_detached(job, name=f"{self.name}-{name}", module=self.name)
+        prepare = self._prepare_kernels
+        if prepare is None:
+            run = job
+        else:
+
+            def run() -> None:
+                prepare()
+                job()
+
+        self.workers.run_detached(run, name=f"{self.name}-{name}", module=self.name)
 
     def spawn(self, coro: Coroutine[Any, Any, None], *, name: str) -> asyncio.Task[None]:
         """Run a background task until the module is deactivated.

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.memory import release_freed_memory
+from navd.lifecycle.memory import release_compiler_code, release_freed_memory
 from navd.lifecycle.messages import Message, WorkerStats
 from navd.logs import get_logger
 
@@ -61,6 +61,8 @@ class WorkerPool:
         self._executor = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="navd-worker")
         self._slots: dict[str, _Slot] = {}
         self._detached = 0
+        self._running_set_ups = 0  # detached threads not yet past their job (lock below)
+        self._set_up_lock = threading.Lock()
         self._threads: list[threading.Thread] = []
         self._idle_waiters: list[asyncio.Future[None]] = []
         self._closed = False
@@ -104,6 +106,8 @@ class WorkerPool:
         An exception is reported to supervision as a failure of ``module``."""
         loop = asyncio.get_running_loop()
         self._detached += 1
+        with self._set_up_lock:
+            self._running_set_ups += 1
         started = time.perf_counter()
 
         def run() -> None:
@@ -116,8 +120,15 @@ class WorkerPool:
             # What compiling and loading freed, back to the system: here, not on the loop
             # (glibc walks its heap; ctypes lets go of the interpreter meanwhile).
             release_freed_memory()
+            with self._set_up_lock:
+                self._running_set_ups -= 1
+                last = self._running_set_ups == 0
+            # The last set-up out: every kernel is loaded, LLVM's code runs no more.
+            released = release_compiler_code() if last else 0
             with contextlib.suppress(RuntimeError):  # the loop may be gone
-                loop.call_soon_threadsafe(self._detached_done, name, module, error, seconds)
+                loop.call_soon_threadsafe(
+                    self._detached_done, name, module, error, seconds, released
+                )
 
         thread = threading.Thread(target=run, name=name, daemon=True)
         self._threads = [t for t in self._threads if t.is_alive()] + [thread]
@@ -200,14 +211,15 @@ class WorkerPool:
         self._wake_idle_waiters()
 
     def _detached_done(
-        self, name: str, module: str, error: Exception | None, seconds: float
+        self, name: str, module: str, error: Exception | None, seconds: float, released: int
     ) -> None:
         self._detached -= 1
         if error is not None:
             self._bus.report_failure(module, {"thread": name}, error)
         else:
             # Set-ups are kernels compiling or loading: a cold cache shows here in seconds.
-            _log.info("set_up_done", thread=name, seconds=round(seconds, 3))
+            extra = {"compiler_code_released_mb": round(released / 2**20, 1)} if released else {}
+            _log.info("set_up_done", thread=name, seconds=round(seconds, 3), **extra)
         self._wake_idle_waiters()
 
     def _wake_idle_waiters(self) -> None:

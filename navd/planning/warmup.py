@@ -1,4 +1,5 @@
-"""Compile (or load from the cache) every planning kernel before the first goal."""
+"""Compile (or load from the cache) every planning kernel before the first goal (the
+collision guard's too: ``navd kernels`` fills the cache through this)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from navd.geometry.pose import IDENTITY
 from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
 from navd.planning.goal import NavGoal
+from navd.planning.guard import GuardSettings, guard_scale
 from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 
@@ -29,6 +31,7 @@ def warm_up() -> None:
     nav.set_goal(NavGoal("warm-up", 0.8, 0.5, 1.0))
     nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))
     nav.accept_plan(0.1, nav.plan(0.1, IDENTITY))  # a replan: the last route checked, reused
+    nav.add_scan(IDENTITY, hits, np.empty((0, 2)), 0.1)  # with a plan, its rays mark and clear
     for k in range(3):
         nav.step(0.05 * k, IDENTITY)
     # The room above is inflated, so A* went cell by cell, its open list in buckets; an open
@@ -39,3 +42,4 @@ def warm_up() -> None:
         GridFrame(0.05, 0.0, 0.0, 20, 20), nothing, nothing, CostmapSettings.from_config(config)
     )
     GlobalPlanner().plan(floor, (0.1, 0.1), (0.9, 0.7), SearchSettings.from_config(config))
+    guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, GuardSettings.from_config(config))

@@ -1,10 +1,8 @@
 """A GPS mission of 500 m outdoors on the real daemon (lockstep): a 600 m x 600 m field with
 a few obstacles the lidar sees, no SLAM (the lidar only shows obstacles), the robot placed by
 a GPS of 1.5 m noise, the IMU, the compass and the wheels. Each waypoint is reached within
-3 m, nothing is hit, no plan takes over 200 ms, and the daemon's memory does not grow with
-the distance driven (its absolute size depends on numba's cache: with the kernels loaded
-from it the daemon peaked at 242-247 MB here, compiling them on a fresh clone adds some
-160 MB that LLVM keeps; see docs/outdoors.md)."""
+3 m, nothing is hit, no plan takes over 200 ms, and the daemon's resident memory stays within
+250 MB and does not grow with the distance driven (see docs/outdoors.md)."""
 
 from __future__ import annotations
 
@@ -44,6 +42,7 @@ OUTDOORS = {
     "robot": {"max_linear_speed_mps": 1.0},
 }
 SENSORS = {"gps_noise_m": 1.5, "gps_rate_hz": 5.0, "compass_noise_deg": 2.0, "beacon_rate_hz": 0}
+MAX_RSS_MB = 250  # [MB] the daemon's resident memory at any time of the run
 # [MB] the daemon's resident memory may grow by at most this over the drive, once settled
 # (its kernels ready and the first plans made: after SETTLED_S of simulated time)
 MAX_GROWTH_MB = 30
@@ -106,6 +105,8 @@ async def test_a_500_m_gps_mission_reaches_every_waypoint_within_3_m(tmp_path: P
     assert plans and any(p["window"] for p in plans)
     slowest = max(p["ms"] for p in plans)
     assert slowest <= 200.0, f"slowest plan {slowest} ms"
+    peak_mb = max(kb for _, kb in rss) / 1024
+    assert peak_mb <= MAX_RSS_MB, f"the daemon's resident memory reached {peak_mb:.0f} MB"
     settled = [kb for t, kb in rss if t >= SETTLED_S]
     growth_mb = (max(settled) - settled[0]) / 1024
     assert growth_mb <= MAX_GROWTH_MB, f"the daemon grew {growth_mb:.0f} MB while driving"

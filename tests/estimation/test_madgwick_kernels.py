@@ -37,20 +37,6 @@ def test_kernel_steps_match_the_reference(seed: int, with_mag: bool) -> None:
         np.testing.assert_allclose(out, expected, atol=1e-9)
 
 
-def test_batch_equals_repeated_steps() -> None:
-    rng = np.random.default_rng(5)
-    samples = _random_samples(rng, 50, True)
-    dts = np.full(50, 0.001)
-    one = np.zeros(k.STATE_SIZE)
-    many = np.zeros(k.STATE_SIZE)
-    outputs = k.madgwick_batch(one, PARAMS, dts, samples)
-    out = np.zeros(4)
-    for i in range(50):
-        k.madgwick_step(many, PARAMS, out, 0.001, *samples[i])
-        np.testing.assert_array_equal(outputs[i], out)
-    np.testing.assert_array_equal(one, many)
-
-
 def test_first_sample_sets_roll_pitch_and_heading_from_gravity_and_field() -> None:
     roll, pitch, yaw = 0.2, -0.1, 1.0
     q = np.array(

@@ -1,0 +1,164 @@
+"""numba's cache of the daemon's kernels, filled in a process of its own.
+
+Compiling the kernels (on the first start, and the first after an upgrade of navd or numba)
+leaves LLVM holding memory the process never hands back: here a daemon that compiled them
+idled at 405 MB, one that loaded them from the cache at 224 MB. So a daemon that finds the
+cache cold has a child process compile them and exit, which frees all of it, and then loads
+them from the cache like any later start. ``navd kernels`` fills the cache ahead of time (the
+set-up and ``deploy/install.sh`` run it), so a robot's first start is no slower than the next.
+
+Which cache: numba's, where ``cache=True`` kernels keep their machine code (``__pycache__``
+beside the sources, or ``NUMBA_CACHE_DIR``); the child inherits the environment, so it fills
+the very cache the daemon reads.
+"""
+
+from __future__ import annotations
+
+import importlib
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+from numba.core.dispatcher import Dispatcher
+
+from navd.config import NavdConfig
+from navd.logs import get_logger
+
+__all__ = ["KERNEL_MODULES", "KernelCache", "cold_kernels", "warm_up_all"]
+
+_log = get_logger("kernels")
+
+# Every module of the daemon that defines numba kernels (a test checks that no other does).
+KERNEL_MODULES = (
+    "navd.geometry._angle_kernels",
+    "navd.estimation._madgwick_kernels",
+    "navd.estimation._ukf_kernels",
+    "navd.slam._grid_kernels",
+    "navd.planning._astar_kernels",
+    "navd.planning._bitgrid_kernels",
+    "navd.planning._bucket_kernels",
+    "navd.planning._costmap_kernels",
+    "navd.planning._distance_kernels",
+    "navd.planning._dwa_kernels",
+    "navd.planning.guard",
+)
+
+COMPILE_TIMEOUT_S = 900.0  # a cold compile takes about a minute here, a few on the board
+
+
+def warm_up_all() -> None:
+    """Compile (or load from the cache) every kernel the daemon can run: estimation, SLAM,
+    planning and the collision guard, through each room's own warm-up."""
+    # Imported here: a process that only checks the cache does not load the rooms' kernels.
+    from navd.estimation.warmup import warm_up as warm_estimation  # noqa: PLC0415
+    from navd.planning.warmup import warm_up as warm_planning  # noqa: PLC0415
+    from navd.slam.warmup import warm_up as warm_slam  # noqa: PLC0415
+
+    warm_estimation(NavdConfig().estimation)
+    warm_planning()
+    warm_slam()
+
+
+def _dispatchers() -> Iterator[tuple[str, Dispatcher]]:
+    """Each kernel of ``KERNEL_MODULES`` that numba compiles on its own, with its dotted
+    name (one inlined into its callers has no machine code of its own)."""
+    for module_name in KERNEL_MODULES:
+        module = importlib.import_module(module_name)
+        for name, value in vars(module).items():
+            if (
+                isinstance(value, Dispatcher)
+                and value.py_func.__module__ == module_name
+                and value.targetoptions.get("inline") != "always"
+            ):
+                yield f"{module_name}.{name}", value
+
+
+def _is_cached(dispatcher: Dispatcher) -> bool:
+    """Whether numba's cache holds machine code of this kernel's present source for this
+    machine (any signature): what its first call would load instead of compiling.
+
+    Reads numba's index through its cache object; a numba whose internals differ counts as
+    cold (the child then compiles, which is slower but always right).
+    """
+    cache: Any = getattr(dispatcher, "_cache", None)
+    try:
+        index = cache._cache_file._load_index()
+        target: Any = dispatcher.targetctx
+        wanted = cache._index_key(None, target.codegen())[1:]
+    except (AttributeError, TypeError, OSError, EOFError, ValueError):
+        return False
+    return any(tuple(key[1:]) == tuple(wanted) for key in index)
+
+
+def cold_kernels() -> list[str]:
+    """The daemon's kernels that numba's cache holds nothing for (their dotted names)."""
+    return [name for name, dispatcher in _dispatchers() if not _is_cached(dispatcher)]
+
+
+class KernelCache:
+    """Makes sure, once per process, that the kernels are in the cache before any warm-up
+    loads them: a cold cache is filled by a child process (``navd kernels``).
+
+    ``prepare`` may be called from several warm-up threads at once; the first does the work
+    and the others wait for it. It never raises: if the child fails, the warm-ups compile
+    in this process as before (more memory, same kernels) and the failure is logged.
+    """
+
+    def __init__(self, command: tuple[str, ...] | None = None) -> None:
+        self._command = command or (sys.executable, "-m", "navd", "kernels")
+        self._lock = threading.Lock()
+        self._done = False
+        self._child: subprocess.Popen[str] | None = None
+        self._stopped = False
+
+    def prepare(self) -> None:
+        """Fill the cache if it is cold (blocks: call it from a warm-up thread)."""
+        with self._lock:
+            if not self._done:
+                self._fill()
+                self._done = True
+
+    def stop(self) -> None:
+        """End a compile still running (the daemon is stopping); later calls of ``prepare``
+        compile nothing."""
+        self._stopped = True
+        child = self._child
+        if child is not None and child.poll() is None:
+            child.kill()
+
+    def _fill(self) -> None:
+        cold = cold_kernels()
+        if not cold:
+            return
+        _log.info("kernels_compiling", cold=len(cold), first=cold[0])
+        started = time.monotonic()
+        try:
+            if self._stopped:
+                return
+            self._child = child = subprocess.Popen(
+                self._command,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
+            output, _ = child.communicate(timeout=COMPILE_TIMEOUT_S)
+        except (OSError, subprocess.TimeoutExpired) as err:
+            if self._child is not None:
+                self._child.kill()
+            _log.warning("kernels_compile_failed", reason=str(err), fallback="in process")
+            return
+        if self._stopped:  # the daemon is stopping: the cache stays as the child left it
+            return
+        if child.returncode != 0:
+            _log.warning(
+                "kernels_compile_failed",
+                reason=f"exit code {child.returncode}",
+                output=" | ".join(output.strip().splitlines()[-3:]),
+                fallback="in process",
+            )
+            return
+        _log.info("kernels_compiled", s=round(time.monotonic() - started, 1))

@@ -1,0 +1,140 @@
+"""numba's kernel cache filled by a child process: which kernels count, when the child runs,
+and what happens when it fails or the daemon stops meanwhile."""
+
+from __future__ import annotations
+
+import importlib
+import io
+import os
+import pkgutil
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import pytest
+from numba.core.dispatcher import Dispatcher
+
+import navd
+from navd import kernels
+from navd.kernels import KERNEL_MODULES, KernelCache
+from navd.logs import add_log_tap, configure_logging, remove_log_tap
+
+# Not the daemon's: the simulator's own kernels and the benchmarks'.
+OUTSIDE_THE_DAEMON = ("navd.sim", "navd.bench")
+
+
+@pytest.fixture
+def events() -> Iterator[list[Mapping[str, Any]]]:
+    configure_logging("info", "json", stream=io.StringIO())
+    seen: list[Mapping[str, Any]] = []
+    add_log_tap(seen.append)
+    yield seen
+    remove_log_tap(seen.append)
+
+
+def _python(code: str) -> tuple[str, ...]:
+    return (sys.executable, "-c", code)
+
+
+def test_every_module_of_the_daemon_that_defines_a_kernel_is_listed() -> None:
+    defining = set()
+    for info in pkgutil.walk_packages(navd.__path__, "navd."):
+        if info.name.startswith(OUTSIDE_THE_DAEMON) or info.name == "navd.__main__":
+            continue
+        module = importlib.import_module(info.name)
+        for value in vars(module).values():
+            if isinstance(value, Dispatcher) and value.py_func.__module__ == info.name:
+                defining.add(info.name)
+    assert defining == set(KERNEL_MODULES)
+
+
+def test_a_warm_cache_starts_no_child(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    marker = tmp_path / "ran"
+    monkeypatch.setattr(kernels, "cold_kernels", list)
+    cache = KernelCache(_python(f"open({str(marker)!r}, 'w')"))
+    cache.prepare()
+    assert not marker.exists()
+
+
+def test_a_cold_cache_is_filled_once_for_all_warm_ups(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, events: list[Mapping[str, Any]]
+) -> None:
+    runs = tmp_path / "runs"
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    # Each run appends a line; a slow child, so the four warm-ups all wait for the same one.
+    cache = KernelCache(
+        _python(f"import time; time.sleep(0.3); open({str(runs)!r}, 'a').write('x\\n')")
+    )
+    threads = [threading.Thread(target=cache.prepare) for _ in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=30.0)
+    assert runs.read_text() == "x\n"
+    assert [e["event"] for e in events] == ["kernels_compiling", "kernels_compiled"]
+    cache.prepare()
+    assert runs.read_text() == "x\n"
+
+
+def test_a_failing_child_is_logged_and_the_warm_ups_go_on(
+    monkeypatch: pytest.MonkeyPatch, events: list[Mapping[str, Any]]
+) -> None:
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    cache = KernelCache(_python("import sys; print('no space left'); sys.exit(3)"))
+    cache.prepare()  # never raises: the warm-ups then compile in the daemon
+    failed = [e for e in events if e["event"] == "kernels_compile_failed"]
+    assert len(failed) == 1
+    assert failed[0]["reason"] == "exit code 3"
+    assert "no space left" in failed[0]["output"]
+    missing = KernelCache(("/nonexistent/python",))
+    missing.prepare()
+    assert sum(e["event"] == "kernels_compile_failed" for e in events) == 2
+
+
+def test_stopping_ends_a_compile_still_running(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    cache = KernelCache(_python("import time; time.sleep(60)"))
+    thread = threading.Thread(target=cache.prepare)
+    thread.start()
+    deadline = time.monotonic() + 10.0
+    while cache._child is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    started = time.monotonic()
+    cache.stop()
+    thread.join(timeout=10.0)
+    assert not thread.is_alive()
+    assert time.monotonic() - started < 5.0
+    assert cache._child is not None and cache._child.returncode is not None
+
+
+@pytest.mark.e2e
+def test_navd_kernels_fills_an_empty_cache_with_every_kernel(tmp_path: Path) -> None:
+    """The real command on an empty cache: before, every kernel is missing; after, none is
+    (so the warm-ups reach every kernel the daemon has: a daemon that found one missing
+    would start a child on every start)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
+
+    def navd_kernels(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-m", "navd", "kernels", *args],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=False,
+        )
+
+    before = navd_kernels("--check")
+    assert before.returncode == 1
+    missing = [line for line in before.stdout.splitlines() if line.startswith("not in the cache")]
+    assert any("madgwick_ingest" in line for line in missing)
+    assert any("bucket_astar" in line for line in missing)
+    filled = navd_kernels()
+    assert filled.returncode == 0, filled.stderr
+    after = navd_kernels("--check")
+    assert after.returncode == 0, after.stdout
+    assert "every kernel is in the cache" in after.stdout
