@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from navd.geometry._scan_kernels import split_ranges
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import IDENTITY, Pose2
 
@@ -118,20 +119,26 @@ def scan_points(
         mount: the sensor's pose in the robot frame.
         max_range: [m] longest range used (default: range_max).
     """
-    r = np.asarray(ranges, dtype=np.float64)
-    angles = angle_min + angle_increment * np.arange(r.size)
+    r = np.ascontiguousarray(ranges, dtype=np.float64).reshape(-1)
     use_max = range_max if max_range is None else min(max_range, range_max)
-    finite = np.isfinite(r)
-    hit = finite & (r >= range_min) & (r < range_max) & (r <= use_max)
-    miss = (~finite & (r > 0)) | (finite & ((r >= range_max) | (r > use_max)))
-    hits = np.column_stack([r[hit] * np.cos(angles[hit]), r[hit] * np.sin(angles[hit])])
-    misses = np.column_stack([use_max * np.cos(angles[miss]), use_max * np.sin(angles[miss])])
+    # floats always: an int or float32 argument would compile another specialization
+    hits, misses = split_ranges(
+        r,
+        float(angle_min),
+        float(angle_increment),
+        float(range_min),
+        float(range_max),
+        float(use_max),
+        float(mount.x),
+        float(mount.y),
+        float(mount.yaw),
+    )
     step = abs(angle_increment)
     lowest = angle_min + min(angle_increment * (r.size - 1), 0.0)
     view = FieldOfView(
         mount.x, mount.y, lowest + mount.yaw - step / 2, min(step * r.size, 2.0 * math.pi)
     )
-    return ScanPoints(mount.transform(hits), mount.transform(misses), view)
+    return ScanPoints(hits, misses, view)
 
 
 def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) -> ScanPoints:

@@ -9,6 +9,7 @@ import numpy as np
 
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY
+from navd.geometry.scan import scan_points
 from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
 from navd.planning.goal import NavGoal
@@ -20,13 +21,15 @@ __all__ = ["warm_up"]
 
 
 def warm_up() -> None:
-    """Plan and take a few steps in a small room with a throwaway navigator."""
+    """Plan and take a few steps in a small room with a throwaway navigator (its scan read
+    from ranges, as the planner reads every lidar's)."""
     nav = Navigator(NavigatorSettings.from_config(NavdConfig()))
     occupancy = np.zeros((60, 60), dtype=np.int8)
     occupancy[[0, -1], :] = occupancy[:, [0, -1]] = 100
     nav.set_map(occupancy, 0.05, -1.5, -1.5)
-    angles = np.linspace(-math.pi, math.pi, 90, endpoint=False)
-    hits = np.column_stack([1.4 * np.cos(angles), 1.4 * np.sin(angles)])
+    hits = scan_points(
+        np.full(90, 1.4), -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=8.0
+    ).hits
     nav.add_scan(IDENTITY, hits, np.empty((0, 2)), 0.0)
     nav.set_goal(NavGoal("warm-up", 0.8, 0.5, 1.0))
     nav.accept_plan(0.0, nav.plan(0.0, IDENTITY))

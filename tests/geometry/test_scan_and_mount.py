@@ -96,3 +96,31 @@ def test_an_upside_down_lidar_sees_its_left_on_the_robots_right() -> None:
     np.testing.assert_allclose(
         laser_points(scan, back, max_range_m=5.0).hits, [[-1.1, 0.0], [-0.1, 2.0]], atol=1e-6
     )
+
+
+def test_each_beam_lands_where_its_range_and_bearing_put_it_through_the_mount() -> None:
+    """Beam by beam against the definition, on ranges with every kind of special value."""
+    rng = np.random.default_rng(11)
+    ranges = rng.uniform(0.0, 15.0, 720)
+    ranges[rng.choice(720, 40, replace=False)] = np.inf
+    ranges[rng.choice(720, 40, replace=False)] = np.nan
+    ranges[rng.choice(720, 20, replace=False)] = -np.inf
+    mount = Pose2(0.12, -0.05, 0.4)
+    angle_min, step = -math.pi, 2.0 * math.pi / 720
+    points = scan_points(
+        ranges, angle_min, step, range_min=0.2, range_max=12.0, mount=mount, max_range=8.0
+    )
+    hits, misses = [], []
+    for k, r in enumerate(ranges):
+        a = angle_min + step * k
+        if r == np.inf or (math.isfinite(r) and r >= 8.0):
+            reach, out = 8.0, misses  # no return, or beyond the range used: clears to 8 m
+        elif math.isfinite(r) and r >= 0.2:
+            reach, out = float(r), hits
+        else:
+            continue
+        x, y = reach * math.cos(a), reach * math.sin(a)
+        c, s = math.cos(mount.yaw), math.sin(mount.yaw)
+        out.append((mount.x + c * x - s * y, mount.y + s * x + c * y))
+    np.testing.assert_allclose(points.hits, np.array(hits), atol=1e-12)
+    np.testing.assert_allclose(points.misses, np.array(misses), atol=1e-12)
