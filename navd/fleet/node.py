@@ -276,7 +276,7 @@ class FleetNode(Module):
                 self._other(name, levels[-1], raw)
             return
         if topic == self.topics.order:
-            self._publish(self.vehicle.on_order(raw, now, here))
+            self._publish(self.vehicle.on_order(raw, now, here, self.settings.value.map_id))
         elif topic == self.topics.instant_actions:
             self._publish(self.vehicle.on_instant_actions(raw, now, here))
         errors = [e["errorType"] for e in self.vehicle.errors]
@@ -340,7 +340,7 @@ class FleetNode(Module):
     # --- publishing -----------------------------------------------------------------------
 
     def _tick(self, now: float) -> None:
-        self._publish(self.vehicle.on_tick(now))
+        self._publish(self.vehicle.on_tick(now, standing=not reports.driving(self._robot())))
         self._tell_others(now)
         client = self._client
         if client is None:

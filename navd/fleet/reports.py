@@ -13,7 +13,7 @@ from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
 from navd.fleet.vehicle import INSTANT_ACTIONS, Vehicle
 from navd.geometry.footprint import Footprint
 
-__all__ = ["Robot", "connection", "factsheet", "state", "visualization"]
+__all__ = ["Robot", "connection", "driving", "factsheet", "state", "visualization"]
 
 # [m/s, rad/s] slower than this the vehicle counts as standing (``driving`` false).
 STANDING_MPS = 0.01
@@ -71,13 +71,19 @@ def _position(robot: Robot) -> dict[str, Any] | None:
     }
 
 
+def driving(robot: Robot) -> bool:
+    """Whether the robot moves (faster than the standing thresholds, forward or turning)."""
+    v, w = robot.velocity
+    return abs(v) > STANDING_MPS or abs(w) > STANDING_RADPS
+
+
 def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any]:
     """The state message."""
     v, w = robot.velocity
     message: dict[str, Any] = {
         **head,
         **vehicle.order_state(),
-        "driving": abs(v) > STANDING_MPS or abs(w) > STANDING_RADPS,
+        "driving": driving(robot),
         "operatingMode": "MANUAL" if robot.manual else "AUTOMATIC",
         # navd reads no battery: the state says so (the field is required)
         "batteryState": {"batteryCharge": 100.0, "charging": False},

@@ -14,10 +14,14 @@ with an "orderError", a stale or disconnected update with an "orderUpdateError":
 in hand goes on, and the error stays in the state until an order is taken.
 
 Actions navd performs: ``wait`` on nodes and edges (``duration`` [s]; SOFT and HARD block
-driving while it runs; a node's actions all start when it is traversed), and the instant
-actions ``cancelOrder``, ``startPause``, ``stopPause``, ``initPosition``, ``stateRequest``
-and ``factsheetRequest``. A pause (``startPause``) is a mode of the vehicle: it lasts over
-new orders and cancels until ``stopPause``.
+driving while it runs), and the instant actions ``cancelOrder``, ``startPause``,
+``stopPause``, ``initPosition``, ``stateRequest`` and ``factsheetRequest``. A node's actions
+start when it is traversed, in their order as blocking types allow (§6.12): NONE and SOFT
+actions start together, a HARD one waits until those before it have ended and runs alone,
+and those after it wait for its end; the vehicle leaves the node once no SOFT or HARD action
+is left to run. ``cancelOrder`` fails every action not yet ended, stops the robot, and stays
+RUNNING until the robot stands (§6.6.3). A pause (``startPause``) is a mode of the vehicle:
+it lasts over new orders and cancels until ``stopPause``.
 """
 
 from __future__ import annotations
@@ -87,14 +91,20 @@ class Vehicle:
         self.paused = False
         self.held = False  # by the vehicle itself (its broker is gone, fleet.on_broker_lost)
         self.goal_id: str | None = None
+        self.standing = True  # the robot's speed is below ``reports``' standing thresholds
+        self._queued: list[Action] = []  # the last node's actions not started yet, in order
+        self._cancelling: _ActionState | None = None  # a cancelOrder waiting for a standstill
         self._goals = 0
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
 
     # --- inputs ---------------------------------------------------------------------------
 
-    def on_order(self, raw: bytes, now: float, pose: Pose2 | None) -> list[Message]:
-        """An order message as it came from the broker."""
+    def on_order(
+        self, raw: bytes, now: float, pose: Pose2 | None, map_id: str | None = None
+    ) -> list[Message]:
+        """An order message as it came from the broker; with ``map_id`` (the map the robot
+        is on), an order with a node on another map is refused."""
         try:
             order = Order.model_validate_json(raw)
         except ValidationError as err:
@@ -102,7 +112,7 @@ class Vehicle:
         problem = self._malformed(order)
         if problem is not None:
             return self._refuse("validationError", problem[0], problem[1], order)
-        unusable = _unusable(order)
+        unusable = _unusable(order) or _elsewhere(order, map_id)
         if unusable is not None:
             return self._refuse("orderError", unusable[0], unusable[1], order)
         if order.orderId != self.order_id:
@@ -166,13 +176,20 @@ class Vehicle:
         self.held = False
         return self._drive(now)
 
-    def on_tick(self, now: float) -> list[Message]:
-        """The clock moved: waits may end, a failed goal may be tried again."""
+    def on_tick(self, now: float, *, standing: bool = True) -> list[Message]:
+        """The clock moved (and the robot is ``standing`` or not): waits may end, the next
+        actions start, a cancel may be done, a failed goal may be tried again."""
         out: list[Message] = []
+        self.standing = standing
         for state in self.actions.values():
             if state.status == "RUNNING" and now >= state.ends_s:
                 state.status, state.ends_s = "FINISHED", math.inf
                 self.changed = True
+        self._start_queued(now)
+        cancelling = self._cancelling
+        if cancelling is not None and standing:
+            cancelling.status, self._cancelling = "FINISHED", None
+            self.changed = True
         if now >= self._retry_at:
             self._retry_at = math.inf
             self._clear_errors("navigationError")
@@ -323,8 +340,8 @@ class Vehicle:
             for action in left.actions:
                 self._finish(action.actionId)
         self.last_node_id, self.last_node_sequence_id = node.nodeId, node.sequenceId
-        for action in node.actions:
-            self._start(action, now)
+        self._queued = list(node.actions)
+        self._start_queued(now)
         self.changed = True
         return self._drive(now)
 
@@ -360,14 +377,18 @@ class Vehicle:
         ]
 
     def _blocked(self) -> bool:
-        """True while a HARD-blocking action runs (the vehicle must stand still)."""
+        """True while a SOFT or HARD action runs or waits its turn on the last node (the
+        vehicle must stand still)."""
         return any(
-            s.status == "RUNNING" and s.action.blockingType == "HARD" for s in self.actions.values()
-        )
+            s.status == "RUNNING" and s.action.blockingType != "NONE" for s in self.actions.values()
+        ) or any(a.blockingType != "NONE" for a in self._queued)
 
     def _busy(self) -> bool:
-        """True while the vehicle has nodes to go or actions not ended (§6.6.2, step 3)."""
-        return bool(self.nodes) or any(s.status not in _ENDED for s in self.actions.values())
+        """True while the vehicle has nodes to go or actions not ended (§6.6.2, step 3); a
+        cancelOrder waiting for the robot to stand is not the order's (§6.6.3.1)."""
+        return bool(self.nodes) or any(
+            s.status not in _ENDED and s is not self._cancelling for s in self.actions.values()
+        )
 
     def _cancel_goal(self, now: float) -> list[Message]:
         if self.goal_id is None:
@@ -376,6 +397,21 @@ class Vehicle:
         return [CancelGoal(stamp=now, received=now, goal_id=goal_id)]
 
     # --- actions --------------------------------------------------------------------------
+
+    def _start_queued(self, now: float) -> None:
+        """Start the last node's waiting actions in order, as far as blocking types allow:
+        a HARD action only once nothing else runs, and nothing beside it."""
+        while self._queued:
+            action = self._queued[0]
+            running = [s for s in self.actions.values() if s.status == "RUNNING"]
+            if any(s.action.blockingType == "HARD" for s in running):
+                return
+            if action.blockingType == "HARD" and running:
+                return
+            self._queued.pop(0)
+            self._start(action, now)
+            if action.blockingType == "HARD":
+                return
 
     def _start(self, action: Action, now: float) -> None:
         state = self.actions.setdefault(action.actionId, _ActionState(action))
@@ -414,7 +450,10 @@ class Vehicle:
             for other in self.actions.values():
                 if other is not state and other.status not in _ENDED:
                     other.status, other.result = "FAILED", "cancelled"
-            self.nodes, self.edges = [], []
+            self.nodes, self.edges, self._queued = [], [], []
+            if not self.standing:  # FINISHED once the robot stands (``on_tick``)
+                self._cancelling = state
+                return out
         elif kind == "startPause":
             self.paused = True
             out = self._cancel_goal(now)
@@ -553,6 +592,21 @@ def _unusable(order: Order) -> tuple[str, list[tuple[str, str]]] | None:
                 f"wait action {action.actionId} needs a duration in seconds (0..86400), "
                 f"got {duration!r}",
                 [("actionId", action.actionId)],
+            )
+    return None
+
+
+def _elsewhere(order: Order, map_id: str | None) -> tuple[str, list[tuple[str, str]]] | None:
+    """Why ``order`` is not for a robot on map ``map_id`` (a node on another), or None."""
+    if map_id is None:
+        return None
+    for node in order.nodes:
+        position = node.nodePosition
+        if position is not None and position.mapId != map_id:
+            return (
+                f"node {node.nodeId} is on map {position.mapId!r}; this vehicle is on map "
+                f"{map_id!r} (slam.map_name) and does not switch maps",
+                [("nodeId", node.nodeId)],
             )
     return None
 

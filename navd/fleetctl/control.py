@@ -48,6 +48,13 @@ class Vehicle:
         return f"{self.manufacturer}/{self.serial}"
 
     @property
+    def map_id(self) -> str | None:
+        """The map its position is on (``agvPosition.mapId``), None if not said."""
+        where = (self.state or {}).get("agvPosition")
+        map_id = where.get("mapId") if isinstance(where, dict) else None
+        return map_id if isinstance(map_id, str) else None
+
+    @property
     def position(self) -> tuple[float, float] | None:
         where = (self.state or {}).get("agvPosition")
         try:
@@ -166,7 +173,8 @@ async def drive_group(
     """
     view = await fleet_view(broker_url, interface)
     robots = _members(view, serials)
-    group = GroupDrive(f"group-{uuid.uuid4().hex[:6]}", robots, goal, time.time())
+    maps = {v.serial: v.map_id for v in view.vehicles.values() if v.map_id is not None}
+    group = GroupDrive(f"group-{uuid.uuid4().hex[:6]}", robots, goal, time.time(), maps)
     began = time.monotonic()
     outcome: dict[str, Any] = {"reached": False}
     async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:

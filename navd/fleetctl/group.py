@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -80,6 +81,7 @@ class _Member:
     start_xy: tuple[float, float]
     reached: int = -1  # the last place reached (-1: none yet)
     update: int = 0
+    map_id: str = "map"  # the map its positions are on: its nodes are on it too
     # [s, m, m, rad, m/s] the last position heard: when (fleet control's clock), where, how fast
     position: tuple[float, float, float, float, float] | None = None
     errors: list[str] = field(default_factory=list)
@@ -94,6 +96,8 @@ class GroupDrive:
         robots: (manufacturer, serial, x [m], y [m]) of each robot, where it stands.
         goal: the group goal.
         now_unix_s: [s] wall time now (the start time is set from it).
+        map_ids: the map each robot (by serial) says it is on; its nodes are put on it
+            ("map" for one that has not said).
     """
 
     def __init__(
@@ -102,6 +106,7 @@ class GroupDrive:
         robots: list[tuple[str, str, float, float]],
         goal: GroupGoal,
         now_unix_s: float,
+        map_ids: Mapping[str, str] | None = None,
     ) -> None:
         if not robots:
             raise ValueError("a group needs at least one robot")
@@ -131,7 +136,9 @@ class GroupDrive:
                     for c, h in zip(centres, heading, strict=True)
                 ]
             )
-            self.members.append(_Member(maker, serial, at, (x, y)))
+            member = _Member(maker, serial, at, (x, y))
+            member.map_id = (map_ids or {}).get(serial, member.map_id)
+            self.members.append(member)
         self.start_unix_s = now_unix_s + goal.start_delay_s
         self.released = 0  # the last place released to everyone
         self._headers = 0
@@ -284,7 +291,7 @@ class GroupDrive:
         position: dict[str, Any] = {
             "x": x,
             "y": y,
-            "mapId": "map",
+            "mapId": m.map_id,
             "allowedDeviationXY": NODE_DEVIATION_M,
         }
         if k >= 0:  # facing the way on: the next step starts without turning on the spot

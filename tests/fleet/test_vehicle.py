@@ -248,6 +248,21 @@ def test_orders_navd_cannot_take_are_refused_by_name_and_nothing_drives(
     assert (state["orderId"], state["nodeStates"]) == ("", [])
 
 
+def test_an_order_on_another_map_is_refused_by_its_node() -> None:
+    vehicle, _ = _vehicle()
+    a, b = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0, position={"mapId": "level-2"})
+    raw = json.dumps(order([a, b])).encode()
+    assert vehicle.on_order(raw, 0.0, HERE, map_id="map") == []
+    error = errors_of(vehicle)["orderError"]
+    assert "node b is on map 'level-2'" in error["errorDescription"]
+    assert "on map 'map'" in error["errorDescription"]
+    assert {"referenceKey": "nodeId", "referenceValue": "b"} in error["errorReferences"]
+    upstairs = node("a", 0, 0.0, 0.0, position={"mapId": "level-2"})
+    raw = json.dumps(order([upstairs, b])).encode()
+    (goal,) = goals(vehicle.on_order(raw, 0.0, HERE, map_id="level-2"))  # all on its map
+    assert (goal.x_m, goal.y_m) == (2.0, 0.0)
+
+
 def test_a_new_order_while_one_runs_is_refused_until_it_is_cancelled() -> None:
     vehicle, _ = _vehicle()
     (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)])))
@@ -290,6 +305,67 @@ def test_a_hard_wait_on_a_node_holds_the_vehicle_for_its_duration() -> None:
     assert {"actionId": "w1", "actionType": "wait", "actionStatus": "FINISHED"} in state_of(
         vehicle
     )["actionStates"]
+
+
+def _statuses(vehicle: Vehicle) -> dict[str, str]:
+    return {a["actionId"]: a["actionStatus"] for a in state_of(vehicle)["actionStates"]}
+
+
+def test_a_nodes_actions_run_in_order_a_hard_one_alone() -> None:
+    """§6.12: SOFT and NONE actions start together; a HARD one waits for those before it and
+    holds back those after it; the vehicle leaves once no SOFT or HARD action is left."""
+    vehicle, _ = _vehicle()
+    b = {
+        **node("b", 2, 2.0, 0.0),
+        "actions": [
+            action("wait", "soft1", "SOFT", duration=1.0),
+            action("wait", "soft2", "SOFT", duration=2.0),
+            action("wait", "hard", "HARD", duration=3.0),
+            action("wait", "none", "NONE", duration=10.0),
+        ],
+    }
+    (to_b,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), b, node("c", 4, 4.0, 0.0)])))
+    assert goals(reach(vehicle, to_b, now=10.0)) == []
+    assert _statuses(vehicle) == {
+        "soft1": "RUNNING",
+        "soft2": "RUNNING",
+        "hard": "WAITING",
+        "none": "WAITING",
+    }
+    assert goals(vehicle.on_tick(11.0)) == []  # soft1 ended; soft2 still runs: hard waits
+    assert _statuses(vehicle)["hard"] == "WAITING"
+    assert goals(vehicle.on_tick(12.0)) == []  # both ended: hard runs, alone
+    assert _statuses(vehicle) == {
+        "soft1": "FINISHED",
+        "soft2": "FINISHED",
+        "hard": "RUNNING",
+        "none": "WAITING",
+    }
+    assert goals(vehicle.on_tick(14.9)) == []
+    (to_c,) = goals(vehicle.on_tick(15.0))  # hard ended: the NONE wait runs while driving
+    assert (to_c.x_m, to_c.y_m) == (4.0, 0.0)
+    assert _statuses(vehicle)["none"] == "RUNNING"
+
+
+def test_cancel_runs_until_the_robot_stands_and_fails_what_had_not_ended() -> None:
+    """§6.6.3: every action not ended fails; the cancel is RUNNING while the robot still
+    moves and FINISHED once it stands; a new order is taken meanwhile."""
+    vehicle, _ = _vehicle()
+    b = {**node("b", 2, 2.0, 0.0), "actions": [action("wait", "w", "HARD", duration=5.0)]}
+    (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), b])))
+    vehicle.on_tick(0.5, standing=False)  # driving toward b
+    out = vehicle.on_instant_actions(instant(action("cancelOrder", "c1")), 1.0, HERE)
+    assert out == [CancelGoal(stamp=1.0, received=1.0, goal_id=goal.goal_id)]
+    assert _statuses(vehicle) == {"w": "FAILED", "c1": "RUNNING"}
+    vehicle.on_tick(1.2, standing=False)  # still slowing down
+    assert _statuses(vehicle)["c1"] == "RUNNING"
+    other = order([node("x", 0, 0.0, 0.0), node("y", 2, 0.0, 2.0)], order_id="o2")
+    (to_y,) = goals(send(vehicle, other))
+    assert (to_y.x_m, to_y.y_m) == (0.0, 2.0)
+    vehicle.on_tick(1.5, standing=True)
+    assert _statuses(vehicle)["c1"] == "FINISHED"
+    again = vehicle.on_instant_actions(instant(action("cancelOrder", "c2")), 2.0, HERE)
+    assert [type(m) for m in again] == [CancelGoal]  # o2 runs: it is cancelled in turn
 
 
 def test_pause_stops_the_goal_and_resume_sends_it_again() -> None:
