@@ -15,6 +15,7 @@ the very cache the daemon reads.
 from __future__ import annotations
 
 import importlib
+import pickle
 import subprocess
 import sys
 import threading
@@ -22,12 +23,14 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+import numba
 from numba.core.dispatcher import Dispatcher
 
 from navd.config import NavdConfig
+from navd.errors import NavdError
 from navd.logs import get_logger
 
-__all__ = ["KERNEL_MODULES", "KernelCache", "cold_kernels", "warm_up_all"]
+__all__ = ["KERNEL_MODULES", "KernelCache", "KernelCacheError", "cold_kernels", "warm_up_all"]
 
 _log = get_logger("kernels")
 
@@ -77,25 +80,44 @@ def _dispatchers() -> Iterator[tuple[str, Dispatcher]]:
                 yield f"{module_name}.{name}", value
 
 
+class KernelCacheError(NavdError):
+    """numba's cache index cannot be read with this numba (its internals differ from the
+    ones navd was written for): whether a kernel is cached is unknown."""
+
+
 def _is_cached(dispatcher: Dispatcher) -> bool:
     """Whether numba's cache holds machine code of this kernel's present source for this
     machine (any signature): what its first call would load instead of compiling.
 
-    Reads numba's index through its cache object; a numba whose internals differ counts as
-    cold (the child then compiles, which is slower but always right).
+    Reads numba's index through its cache object. An index that cannot be read (a file cut
+    short) counts as cold: numba compiles and writes it again.
+
+    Raises:
+        KernelCacheError: this numba keeps its cache otherwise.
     """
     cache: Any = getattr(dispatcher, "_cache", None)
     try:
-        index = cache._cache_file._load_index()
+        cache_file, index_key = cache._cache_file, cache._index_key
         target: Any = dispatcher.targetctx
-        wanted = cache._index_key(None, target.codegen())[1:]
-    except (AttributeError, TypeError, OSError, EOFError, ValueError):
+        wanted = tuple(index_key(None, target.codegen())[1:])
+    except (AttributeError, TypeError) as err:
+        raise KernelCacheError(
+            f"numba {numba.__version__} keeps its cache in a way navd cannot read ({err}); "
+            "the kernels compile in the daemon itself"
+        ) from err
+    try:
+        index = cache_file._load_index()
+    except (OSError, EOFError, ValueError, pickle.UnpicklingError, AttributeError):
         return False
-    return any(tuple(key[1:]) == tuple(wanted) for key in index)
+    return any(tuple(key[1:]) == wanted for key in index)
 
 
 def cold_kernels() -> list[str]:
-    """The daemon's kernels that numba's cache holds nothing for (their dotted names)."""
+    """The daemon's kernels that numba's cache holds nothing for (their dotted names).
+
+    Raises:
+        KernelCacheError: whether they are cached cannot be known with this numba.
+    """
     return [name for name, dispatcher in _dispatchers() if not _is_cached(dispatcher)]
 
 
@@ -104,13 +126,15 @@ class KernelCache:
     loads them: a cold cache is filled by a child process (``navd kernels``).
 
     ``prepare`` may be called from several warm-up threads at once; the first does the work
-    and the others wait for it. It never raises: if the child fails, the warm-ups compile
-    in this process as before (more memory, same kernels) and the failure is logged.
+    and the others wait for it. It never raises: if the child fails (or the cache cannot be
+    read), the warm-ups compile in this process as before (more memory, same kernels) and
+    why is logged.
     """
 
     def __init__(self, command: tuple[str, ...] | None = None) -> None:
         self._command = command or (sys.executable, "-m", "navd", "kernels")
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # one prepare at a time
+        self._spawn = threading.Lock()  # starting the child and stopping it
         self._done = False
         self._child: subprocess.Popen[str] | None = None
         self._stopped = False
@@ -118,39 +142,59 @@ class KernelCache:
     def prepare(self) -> None:
         """Fill the cache if it is cold (blocks: call it from a warm-up thread)."""
         with self._lock:
-            if not self._done:
+            if self._done:
+                return
+            try:
                 self._fill()
+            except Exception as err:  # the warm-ups go on whatever happened here
+                _log.warning("kernels_prepare_failed", error=str(err), fallback="in process")
+            finally:
                 self._done = True
 
     def stop(self) -> None:
         """End a compile still running (the daemon is stopping); later calls of ``prepare``
         compile nothing."""
-        self._stopped = True
-        child = self._child
+        with self._spawn:
+            self._stopped = True
+            child = self._child
         if child is not None and child.poll() is None:
             child.kill()
+            child.wait()
 
     def _fill(self) -> None:
-        cold = cold_kernels()
+        try:
+            cold = cold_kernels()
+        except KernelCacheError as err:
+            _log.warning("kernels_cache_unreadable", reason=str(err))
+            return
         if not cold:
             return
         _log.info("kernels_compiling", cold=len(cold), first=cold[0])
         started = time.monotonic()
-        try:
+        with self._spawn:
             if self._stopped:
                 return
-            self._child = child = subprocess.Popen(
-                self._command,
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT,
-                text=True,
-            )
+            try:
+                self._child = child = subprocess.Popen(
+                    self._command,
+                    stdin=subprocess.DEVNULL,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.STDOUT,
+                    text=True,
+                )
+            except OSError as err:
+                _log.warning("kernels_compile_failed", reason=str(err), fallback="in process")
+                return
+        try:
             output, _ = child.communicate(timeout=COMPILE_TIMEOUT_S)
-        except (OSError, subprocess.TimeoutExpired) as err:
-            if self._child is not None:
-                self._child.kill()
-            _log.warning("kernels_compile_failed", reason=str(err), fallback="in process")
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+            _log.warning(
+                "kernels_compile_failed",
+                reason=f"still compiling after {COMPILE_TIMEOUT_S:g} s",
+                fallback="in process",
+            )
             return
         if self._stopped:  # the daemon is stopping: the cache stays as the child left it
             return

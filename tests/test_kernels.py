@@ -20,7 +20,7 @@ from numba.core.dispatcher import Dispatcher
 
 import navd
 from navd import kernels
-from navd.kernels import KERNEL_MODULES, KernelCache
+from navd.kernels import KERNEL_MODULES, KernelCache, KernelCacheError
 from navd.logs import add_log_tap, configure_logging, remove_log_tap
 
 # Not the daemon's: the simulator's own kernels and the benchmarks'.
@@ -95,20 +95,49 @@ def test_a_failing_child_is_logged_and_the_warm_ups_go_on(
     assert sum(e["event"] == "kernels_compile_failed" for e in events) == 2
 
 
-def test_stopping_ends_a_compile_still_running(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_stopping_ends_a_compile_still_running(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, events: list[Mapping[str, Any]]
+) -> None:
+    started = tmp_path / "started"
     monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
-    cache = KernelCache(_python("import time; time.sleep(60)"))
+    cache = KernelCache(
+        _python(f"import time; open({str(started)!r}, 'w').close(); time.sleep(600)")
+    )
     thread = threading.Thread(target=cache.prepare)
     thread.start()
-    deadline = time.monotonic() + 10.0
-    while cache._child is None and time.monotonic() < deadline:
+    deadline = time.monotonic() + 60.0
+    while not started.exists() and time.monotonic() < deadline:
         time.sleep(0.01)
-    started = time.monotonic()
+    assert started.exists()
     cache.stop()
-    thread.join(timeout=10.0)
+    thread.join(timeout=60.0)  # the compile would take ten minutes
     assert not thread.is_alive()
-    assert time.monotonic() - started < 5.0
-    assert cache._child is not None and cache._child.returncode is not None
+    assert [e["event"] for e in events] == ["kernels_compiling"]  # neither done nor failed
+    cache.prepare()  # done: nothing starts again
+
+
+def test_a_cache_navd_cannot_read_is_said_and_nothing_is_started(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, events: list[Mapping[str, Any]]
+) -> None:
+    marker = tmp_path / "ran"
+
+    def unreadable() -> list[str]:
+        raise KernelCacheError("numba 9.9 keeps its cache in a way navd cannot read")
+
+    monkeypatch.setattr(kernels, "cold_kernels", unreadable)
+    KernelCache(_python(f"open({str(marker)!r}, 'w')")).prepare()
+    assert not marker.exists()
+    (said,) = [e for e in events if e["event"] == "kernels_cache_unreadable"]
+    assert "numba 9.9" in said["reason"]
+
+    def broken() -> list[str]:
+        raise RuntimeError("an index file cut short")
+
+    monkeypatch.setattr(kernels, "cold_kernels", broken)
+    KernelCache(_python(f"open({str(marker)!r}, 'w')")).prepare()  # never raises
+    (failed,) = [e for e in events if e["event"] == "kernels_prepare_failed"]
+    assert failed["error"] == "an index file cut short"
+    assert not marker.exists()
 
 
 @pytest.mark.e2e

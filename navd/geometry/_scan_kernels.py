@@ -1,6 +1,7 @@
 """The numba kernel of ``scan.scan_points``: a sweep's ranges to hit and no-return points in
-one pass (the numpy version took some twenty passes over the beams; three modules convert
-each scan, ten times a second)."""
+one pass (its numpy twin takes some twenty passes over the beams; three modules convert each
+scan, ten times a second). The twin serves callers on the event loop until a warm-up has
+loaded the kernel, and checks it in the tests."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["split_ranges"]
+__all__ = ["split_ranges", "split_ranges_numpy"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -62,4 +63,31 @@ def split_ranges(
             n_hits += 1
         else:
             n_misses += 1
-    return hits[:n_hits], misses[:n_misses]
+    return hits[:n_hits].copy(), misses[:n_misses].copy()  # not views of n-row buffers
+
+
+def split_ranges_numpy(
+    ranges: FloatArray,
+    angle_min: float,
+    angle_increment: float,
+    range_min: float,
+    range_max: float,
+    use_max: float,
+    mount_x: float,
+    mount_y: float,
+    mount_yaw: float,
+) -> tuple[FloatArray, FloatArray]:
+    """``split_ranges`` in numpy: the same points, without compiling anything."""
+    r = ranges
+    angles = angle_min + angle_increment * np.arange(r.size)
+    finite = np.isfinite(r)
+    hit = finite & (r >= range_min) & (r < range_max) & (r <= use_max)
+    miss = (~finite & (r > 0)) | (finite & ((r >= range_max) | (r > use_max)))
+    local = [
+        np.column_stack([reach * np.cos(angles[chosen]), reach * np.sin(angles[chosen])])
+        for reach, chosen in ((r[hit], hit), (use_max, miss))
+    ]
+    c, s = math.cos(mount_yaw), math.sin(mount_yaw)
+    rotation = np.array([[c, -s], [s, c]])
+    hits, misses = (points @ rotation.T + (mount_x, mount_y) for points in local)
+    return hits, misses

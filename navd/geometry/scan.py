@@ -14,7 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry._scan_kernels import split_ranges
+from navd.geometry._scan_kernels import split_ranges, split_ranges_numpy
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import IDENTITY, Pose2
 
@@ -105,12 +105,13 @@ def scan_points(
     range_max: float,
     mount: Pose2 = IDENTITY,
     max_range: float | None = None,
+    loaded_only: bool = False,
 ) -> ScanPoints:
     """Ranges of a LaserScan as points in the robot frame.
 
-    Readings outside [range_min, range_max), NaN and inf are dropped as hits; readings at or
-    beyond ``max_range`` (or beyond range_max, "no return") become misses that only clear
-    space up to ``max_range``.
+    Readings outside [range_min, range_max), NaN and inf are dropped as hits; readings
+    beyond ``max_range`` (or at or beyond range_max, "no return") become misses that only
+    clear space up to ``max_range``.
 
     Args:
         ranges: [m] one per beam.
@@ -118,11 +119,14 @@ def scan_points(
         range_min, range_max: [m] the sensor's valid interval.
         mount: the sensor's pose in the robot frame.
         max_range: [m] longest range used (default: range_max).
+        loaded_only: never compile (for a caller on the event loop): until a warm-up has
+            loaded the kernel, its numpy twin does the work.
     """
     r = np.ascontiguousarray(ranges, dtype=np.float64).reshape(-1)
     use_max = range_max if max_range is None else min(max_range, range_max)
+    split = split_ranges_numpy if loaded_only and not split_ranges.signatures else split_ranges
     # floats always: an int or float32 argument would compile another specialization
-    hits, misses = split_ranges(
+    hits, misses = split(
         r,
         float(angle_min),
         float(angle_increment),
@@ -141,7 +145,9 @@ def scan_points(
     return ScanPoints(hits, misses, view)
 
 
-def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) -> ScanPoints:
+def laser_points(
+    scan: LaserScanLike, mount: LidarMount, *, max_range_m: float, loaded_only: bool = False
+) -> ScanPoints:
     """A scan's points in the robot frame, through the lidar's mount.
 
     Args:
@@ -150,6 +156,7 @@ def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) 
             bearings are mirrored: a ray at +a in the lidar is at -a in base_link).
         max_range_m: [m] longest range the caller uses (SLAM's matching reach, the
             obstacle layer's, the collision guard's); farther readings become misses.
+        loaded_only: never compile (for a caller on the event loop), see ``scan_points``.
     """
     flip = -1.0 if mount.upside_down else 1.0
     return scan_points(
@@ -160,4 +167,5 @@ def laser_points(scan: LaserScanLike, mount: LidarMount, *, max_range_m: float) 
         range_max=scan.range_max,
         mount=mount.pose,
         max_range=max_range_m,
+        loaded_only=loaded_only,
     )

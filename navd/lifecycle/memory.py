@@ -65,34 +65,46 @@ def release_compiler_code(library: str = COMPILER_LIBRARY) -> int:
     return released
 
 
-def _clean_mappings(library: str) -> list[tuple[int, int, int]]:
-    """(start, end, resident bytes) of each read-only mapping of ``library`` with no page
-    written, from /proc/self/smaps (empty where there is none)."""
-    try:
-        with open("/proc/self/smaps", encoding="ascii", errors="replace") as smaps:
-            text = smaps.read()
-    except OSError:
-        return []
+def _clean_mappings(library: str, smaps: str | None = None) -> list[tuple[int, int, int]]:
+    """(start, end, resident bytes) of each read-only mapping of ``library`` all of whose
+    pages are the file's own bytes, from ``smaps`` (default: this process's
+    /proc/self/smaps; empty where there is none).
+
+    A page the process wrote (relocated data) is dirty, or anonymous, or, swapped out, in
+    ``Swap``: a mapping with any of those is left alone, as is one whose resident pages are
+    not all clean.
+    """
+    if smaps is None:
+        try:
+            with open("/proc/self/smaps", encoding="utf-8", errors="replace") as file:
+                smaps = file.read()
+        except OSError:
+            return []
     found: list[tuple[int, int, int]] = []
-    for header, counts in _mappings(text):
-        if len(header) < 6 or not header[5].endswith(library) or "w" in header[1]:
+    for header, counts in _mappings(smaps):
+        path = header[5].removesuffix(" (deleted)") if len(header) == 6 else ""
+        if not path.endswith(library) or "w" in header[1]:
             continue
-        written = counts.get("Private_Dirty", 1) + counts.get("Shared_Dirty", 1)
-        if written == 0 and counts.get("Anonymous", 1) == 0:
+        written = sum(
+            counts.get(key, 1) for key in ("Private_Dirty", "Shared_Dirty", "Anonymous", "Swap")
+        )
+        clean = counts.get("Private_Clean", 0) + counts.get("Shared_Clean", 0)
+        if written == 0 and clean == counts.get("Rss", -1):
             low, high = header[0].split("-")
-            found.append((int(low, 16), int(high, 16), counts.get("Rss", 0) * 1024))
+            found.append((int(low, 16), int(high, 16), clean * 1024))
     return found
 
 
 def _mappings(smaps: str) -> list[tuple[list[str], dict[str, int]]]:
-    """Each mapping of an smaps text: its header's fields and its counters (kB)."""
+    """Each mapping of an smaps text: its header's fields (the path, spaces and all, as the
+    sixth) and its counters [kB]."""
     mappings: list[tuple[list[str], dict[str, int]]] = []
     for line in smaps.splitlines():
-        fields = line.split()
-        if len(fields) >= 5 and not fields[0].endswith(":"):  # "start-end perms offset ..."
+        fields = line.split(maxsplit=5)
+        if len(fields) >= 5 and "-" in fields[0] and not fields[0].endswith(":"):
             mappings.append((fields, {}))
-        elif mappings and len(fields) >= 2 and fields[1].isdigit():
-            mappings[-1][1][fields[0].rstrip(":")] = int(fields[1])
+        elif mappings and len(fields) >= 2 and fields[0].endswith(":") and fields[1].isdigit():
+            mappings[-1][1][fields[0][:-1]] = int(fields[1])
     return mappings
 
 

@@ -20,14 +20,14 @@ from numba import njit
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.geometry.mount import SensorMounts
-from navd.geometry.scan import laser_points
+from navd.geometry.scan import laser_points, scan_points
 from navd.lifecycle.messages import LaserScan, PoseEstimate
 from navd.lifecycle.module import Module, ModuleContext
 from navd.planning._dwa_kernels import footprint_distance
 from navd.planning.layers import LIVE_SCAN_S
 from navd.planning.zones import RECHECK_S, ZoneMasks
 
-__all__ = ["CollisionGuard", "GuardSettings", "guard_scale"]
+__all__ = ["CollisionGuard", "GuardSettings", "guard_scale", "warm_up_guard"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -128,6 +128,8 @@ def guard_scale(
     """
     if not s.enabled or points_m.shape[0] == 0 or (linear_mps == 0.0 and angular_radps == 0.0):
         return 1.0, ""
+    if not _sweep_clearance.signatures:  # asked on the event loop, which must not compile
+        return 0.0, "collision guard starting (its kernel is not loaded yet): stop"
     braking = max(
         abs(linear_mps) / s.linear_decel_mps2, abs(angular_radps) / s.angular_decel_radps2
     )
@@ -158,8 +160,13 @@ def guard_scale(
     return 1.0, ""
 
 
-def _warm_up(settings: GuardSettings) -> None:
-    guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, settings)
+def warm_up_guard(settings: GuardSettings) -> None:
+    """Load the guard's kernels: the sweep (``guard_scale`` stops the robot until it is
+    loaded) and the scan's points (numpy does them until then)."""
+    fp = settings.footprint
+    points = scan_points(np.full(8, 1.0), -math.pi, math.pi / 4, range_min=0.1, range_max=8.0)
+    _sweep_clearance(points.hits, 0.1, 0.1, 0.5, 4, fp.kind, fp.half_length_m, fp.half_width_m)
+    guard_scale(points.hits, 0.1, 0.1, settings)
 
 
 class CollisionGuard(Module):
@@ -183,7 +190,7 @@ class CollisionGuard(Module):
         # Compile (or load) the kernel now, not on the event loop nor on the first command
         # of a moving robot.
         settings = self.settings.value
-        self.ctx.warm_up(lambda: _warm_up(settings), name="warm-up")
+        self.ctx.warm_up(lambda: warm_up_guard(settings), name="warm-up")
         self.ctx.every(RECHECK_S, self._check_zones, name="speed-zones")
 
     def _check_zones(self, now: float) -> None:
@@ -209,7 +216,8 @@ class CollisionGuard(Module):
 
     def _on_scan(self, scan: LaserScan) -> None:
         mount = self.settings.value.mounts.lidar(scan.device_id)
-        hits = laser_points(scan, mount, max_range_m=GUARD_REACH_M).hits
+        # on the event loop: never compiles (before the warm-up, numpy does it)
+        hits = laser_points(scan, mount, max_range_m=GUARD_REACH_M, loaded_only=True).hits
         by_lidar = self._by_lidar
         by_lidar[scan.device_id] = (scan.stamp, hits)
         if len(by_lidar) == 1:

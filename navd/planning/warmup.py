@@ -13,7 +13,7 @@ from navd.geometry.scan import scan_points
 from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
 from navd.planning.goal import NavGoal
-from navd.planning.guard import GuardSettings, guard_scale
+from navd.planning.guard import GuardSettings, warm_up_guard
 from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 
@@ -45,4 +45,4 @@ def warm_up() -> None:
         GridFrame(0.05, 0.0, 0.0, 20, 20), nothing, nothing, CostmapSettings.from_config(config)
     )
     GlobalPlanner().plan(floor, (0.1, 0.1), (0.9, 0.7), SearchSettings.from_config(config))
-    guard_scale(np.array([[1.0, 0.0]]), 0.1, 0.1, GuardSettings.from_config(config))
+    warm_up_guard(GuardSettings.from_config(config))

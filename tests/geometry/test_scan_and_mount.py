@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
+from navd.geometry._scan_kernels import split_ranges, split_ranges_numpy
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points, scan_points
@@ -105,6 +106,7 @@ def test_each_beam_lands_where_its_range_and_bearing_put_it_through_the_mount() 
     ranges[rng.choice(720, 40, replace=False)] = np.inf
     ranges[rng.choice(720, 40, replace=False)] = np.nan
     ranges[rng.choice(720, 20, replace=False)] = -np.inf
+    ranges[:4] = (0.2, 8.0, 12.0, 0.19)  # range_min: a hit; the range used: a hit; ...
     mount = Pose2(0.12, -0.05, 0.4)
     angle_min, step = -math.pi, 2.0 * math.pi / 720
     points = scan_points(
@@ -113,7 +115,7 @@ def test_each_beam_lands_where_its_range_and_bearing_put_it_through_the_mount() 
     hits, misses = [], []
     for k, r in enumerate(ranges):
         a = angle_min + step * k
-        if r == np.inf or (math.isfinite(r) and r >= 8.0):
+        if r == np.inf or (math.isfinite(r) and (r >= 12.0 or r > 8.0)):
             reach, out = 8.0, misses  # no return, or beyond the range used: clears to 8 m
         elif math.isfinite(r) and r >= 0.2:
             reach, out = float(r), hits
@@ -124,3 +126,32 @@ def test_each_beam_lands_where_its_range_and_bearing_put_it_through_the_mount() 
         out.append((mount.x + c * x - s * y, mount.y + s * x + c * y))
     np.testing.assert_allclose(points.hits, np.array(hits), atol=1e-12)
     np.testing.assert_allclose(points.misses, np.array(misses), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("ranges", "range_min", "range_max", "use_max"),
+    [
+        ([0.5, 1.0, 2.0], 0.1, 10.0, 10.0),  # all hits
+        ([0.1, 10.0, 5.0], 0.1, 10.0, 5.0),  # at range_min, at range_max, at the range used
+        ([np.nan, np.inf, -np.inf, -1.0, 0.0, -0.0], 0.1, 10.0, 8.0),  # special values
+        ([3.0, 4.0], 5.0, 2.0, 2.0),  # range_min above range_max: nothing is a hit
+        (np.linspace(0.0, 20.0, 401), 0.15, 12.0, 6.0),  # a sweep across every boundary
+    ],
+)
+def test_the_kernel_and_its_numpy_twin_give_the_same_points(
+    ranges: list[float], range_min: float, range_max: float, use_max: float
+) -> None:
+    r = np.asarray(ranges, dtype=np.float64)
+    args = (r, -1.0, 0.01, range_min, range_max, use_max, 0.3, -0.2, 0.7)
+    for got, want in zip(split_ranges(*args), split_ranges_numpy(*args), strict=True):
+        assert got.shape == want.shape
+        np.testing.assert_allclose(got, want, atol=1e-12)
+
+
+def test_float32_and_strided_ranges_read_as_their_values() -> None:
+    values = np.array([1.0, 9.0, 2.5, 9.0, 4.0, 9.0], dtype=np.float32)
+    strided = values[::2]  # 1.0, 2.5, 4.0: a view with a stride of two
+    points = scan_points(strided, 0.0, 0.5, range_min=0.1, range_max=8.0)
+    expected = scan_points([1.0, 2.5, 4.0], 0.0, 0.5, range_min=0.1, range_max=8.0)
+    np.testing.assert_array_equal(points.hits, expected.hits)
+    assert points.hits.shape == (3, 2) and points.misses.shape == (0, 2)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -93,6 +95,27 @@ GUARD = GuardSettings(Footprint.rectangle(0.4, 0.3), 0.15, 0.5, 0.4, 0.5, 2.0, 0
 def test_guard_scales_by_the_clearance_of_the_braking_sweep(wall_x, v, w, scale) -> None:
     wall = np.column_stack([np.full(201, wall_x), np.linspace(-1.0, 1.0, 201)])
     assert guard_scale(wall, v, w, GUARD)[0] == scale
+
+
+def test_guard_stops_every_move_until_its_kernel_is_loaded() -> None:
+    """A fresh process (as the daemon before its warm-up): the guard is asked on the event
+    loop, which must not compile, so it stops the robot rather than pass a command unchecked."""
+    code = (
+        "import numpy as np\n"
+        "from navd.config import NavdConfig\n"
+        "from navd.planning.guard import GuardSettings, guard_scale, warm_up_guard\n"
+        "s = GuardSettings.from_config(NavdConfig())\n"
+        "far = np.array([[9.0, 9.0]])\n"
+        "print(guard_scale(far, 0.3, 0.0, s))\n"
+        "warm_up_guard(s)\n"
+        "print(guard_scale(far, 0.3, 0.0, s))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True
+    )
+    before, after = done.stdout.splitlines()
+    assert before.startswith("(0.0, 'collision guard starting")
+    assert after == "(1.0, '')"
 
 
 def test_guard_passes_everything_when_collisions_are_off() -> None:
