@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import importlib
 import io
-import os
 import pkgutil
-import subprocess
 import sys
 import threading
 import time
@@ -138,32 +136,3 @@ def test_a_cache_navd_cannot_read_is_said_and_nothing_is_started(
     (failed,) = [e for e in events if e["event"] == "kernels_prepare_failed"]
     assert failed["error"] == "an index file cut short"
     assert not marker.exists()
-
-
-@pytest.mark.e2e
-def test_navd_kernels_fills_an_empty_cache_with_every_kernel(tmp_path: Path) -> None:
-    """The real command on an empty cache: before, every kernel is missing; after, none is
-    (so the warm-ups reach every kernel the daemon has: a daemon that found one missing
-    would start a child on every start)."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
-
-    def navd_kernels(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(
-            [sys.executable, "-m", "navd", "kernels", *args],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=600,
-            check=False,
-        )
-
-    before = navd_kernels("--check")
-    assert before.returncode == 1
-    missing = [line for line in before.stdout.splitlines() if line.startswith("not in the cache")]
-    assert any("madgwick_ingest" in line for line in missing)
-    assert any("bucket_astar" in line for line in missing)
-    filled = navd_kernels()
-    assert filled.returncode == 0, filled.stderr
-    after = navd_kernels("--check")
-    assert after.returncode == 0, after.stdout
-    assert "every kernel is in the cache" in after.stdout

@@ -5,8 +5,9 @@ and timestamps of what the vehicle sends back.
 
 Only what navd uses is modelled; other fields of the schemas are accepted and ignored. An
 edge's ``trajectory`` (navd plans its own way) and a node without ``nodePosition`` refuse the
-order by name (the specification's "orderError", ``vehicle``); corridors, edge orientation
-and a node's ``mapId`` are read as given and not checked.
+order by name (the specification's "orderError", ``vehicle``), as does a node on another
+map than the robot's (``vehicle``); corridors and edge orientation are read as given and
+not checked.
 """
 
 from __future__ import annotations

@@ -6,6 +6,9 @@ right after, must never compile on the event loop (a compile there stalls it for
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import threading
 import time
 import tomllib
@@ -123,6 +126,18 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
             sensor.join(timeout=2.0)
     compiled = [e for e in daemon.seen if e.get("event") == "kernels_compiled"]
     assert compiled, "the cold cache was not filled by a child process"
+    # The child reached every kernel: a daemon that found one missing would start a child on
+    # every start.
+    check = subprocess.run(
+        [sys.executable, "-m", "navd", "kernels", "--check"],
+        env=dict(os.environ, **cold),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert check.returncode == 0, check.stdout
+    assert "every kernel is in the cache" in check.stdout
     assert peak_mb <= MAX_PEAK_MB, f"the daemon peaked at {peak_mb:.0f} MB"
     assert all(s.sent > 0 for s in sensors)
     accepted = {d.kind: d.accepted for d in status.devices}
