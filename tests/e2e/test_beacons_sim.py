@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.client import ConnectionClosedError
 from navd.drivers.protocol.frames import InitialPoseFrame, MissionFrame, SubscribeFrame
-from navd.drivers.protocol.replies import MissionStatusFrame, StatusFrame
+from navd.drivers.protocol.replies import MissionStatusFrame, Reply, StatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import from_shapes, office
+from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e
 
@@ -45,27 +45,13 @@ async def _run(
     """Send ``mission``; every mission status up to its end, and the daemon's pose
     (stamp [s], x, y [m]) from each status it sent meanwhile."""
     await s.control.request(SubscribeFrame(rate_hz=10.0))
-    ack = await s.control.request(mission)
-    assert ack.mission_id == mission.mission_id
-    s.sim.release_clock()
-    seen: list[MissionStatusFrame] = []
     poses: list[tuple[float, float, float]] = []
-    deadline = s.sim.now() + limit_s
-    while s.sim.now() < deadline:
-        s.check()
-        try:
-            frame = await s.control.receive(1.0)
-        except TimeoutError:
-            continue
-        except ConnectionClosedError:
-            break
+
+    def pose_of(frame: Reply) -> None:
         if isinstance(frame, StatusFrame) and frame.pose is not None:
             poses.append((frame.stamp, frame.pose.x, frame.pose.y))
-        if isinstance(frame, MissionStatusFrame) and frame.mission_id == mission.mission_id:
-            seen.append(frame)
-            if frame.state in ("completed", "failed", "canceled"):
-                break
-    return seen, poses
+
+    return await follow_mission(s, mission, limit_s, pose_of), poses
 
 
 def _errors_m(s: Session, poses: list[tuple[float, float, float]]) -> np.ndarray:

@@ -13,12 +13,11 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.client import ConnectionClosedError
 from navd.drivers.protocol.frames import MissionFrame, SubscribeFrame
-from navd.drivers.protocol.replies import MissionStatusFrame
 from navd.estimation.geo import GeoFrame
 from navd.sim.session import session
 from navd.sim.world import from_shapes
+from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e
 
@@ -70,25 +69,10 @@ async def test_a_500_m_gps_mission_reaches_every_waypoint_within_3_m(tmp_path: P
         hold_clock=True,
     ) as s:  # fmt: skip
         await s.control.request(SubscribeFrame(rate_hz=1.0))  # (not idle for 300 s)
-        ack = await s.control.request(mission)
-        assert ack.mission_id == "field"
-        s.sim.release_clock()
-        seen: list[MissionStatusFrame] = []
         rss: list[tuple[float, int]] = []  # (simulated time [s], resident memory [kB])
-        deadline = s.sim.now() + 1200.0
-        while s.sim.now() < deadline:
-            s.check()
-            try:
-                frame = await s.control.receive(1.0)
-            except TimeoutError:
-                continue
-            except ConnectionClosedError:
-                break
-            rss.append((s.sim.now(), _rss_kb(s.daemon.pid)))
-            if isinstance(frame, MissionStatusFrame) and frame.mission_id == "field":
-                seen.append(frame)
-                if frame.state in ("completed", "failed", "canceled"):
-                    break
+        seen = await follow_mission(
+            s, mission, 1200.0, lambda _: rss.append((s.sim.now(), _rss_kb(s.daemon.pid)))
+        )
         truth = [(x, y) for _, x, y, _ in s.sim.truth]
         collisions = s.sim.body.collisions
     assert seen and seen[-1].state == "completed", seen[-1:] or "no mission status"

@@ -11,11 +11,11 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.client import ConnectionClosedError
 from navd.drivers.protocol.frames import InitialPoseFrame, MissionControlFrame, MissionFrame
 from navd.drivers.protocol.replies import MissionStatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import office
+from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e
 
@@ -27,24 +27,7 @@ PATROL = [(3.5, 3.2), (8.5, 3.2), (9.0, 1.2), (0.8, 1.9)]
 async def _run(s: Session, mission: MissionFrame, limit_s: float) -> list[MissionStatusFrame]:
     """Send ``mission`` from the robot's start; every mission status up to its end."""
     s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
-    ack = await s.control.request(mission)
-    assert ack.mission_id == mission.mission_id
-    s.sim.release_clock()
-    seen: list[MissionStatusFrame] = []
-    deadline = s.sim.now() + limit_s
-    while s.sim.now() < deadline:
-        s.check()
-        try:
-            frame = await s.control.receive(1.0)
-        except TimeoutError:
-            continue
-        except ConnectionClosedError:
-            break
-        if isinstance(frame, MissionStatusFrame) and frame.mission_id == mission.mission_id:
-            seen.append(frame)
-            if frame.state in ("completed", "failed", "canceled"):
-                break
-    return seen
+    return await follow_mission(s, mission, limit_s)
 
 
 def _steps(points: list[tuple[float, float]], **extra: Any) -> list[dict[str, Any]]:
