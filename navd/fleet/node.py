@@ -48,6 +48,7 @@ __all__ = ["FleetNode", "FleetSettings"]
 
 MIN_STATE_S = 0.1  # [s] state messages at most this often (a burst of changes is one)
 TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
+POSE_FRESH_S = 1.0  # [s] an older pose says nothing of whether the robot stands
 FIRST_RETRY_S = 0.5  # [s] the first pause before reconnecting; it doubles up to MAX_RETRY_S
 MAX_RETRY_S = 10.0
 # §6.2: QoS 0 for every topic but ``connection`` (QoS 1, retained, and the last will)
@@ -177,6 +178,16 @@ class FleetNode(Module):
     def _here(self) -> Pose2 | None:
         pose = self._pose
         return None if pose is None else Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
+
+    def _standing(self, now: float) -> bool:
+        """Whether the robot is known to stand: its latest pose says so and is fresh (with
+        none, it cannot have driven an order)."""
+        pose = self._pose
+        if pose is None:
+            return True
+        if now - pose.received > POSE_FRESH_S:
+            return False  # not known: a cancel then ends by its deadline
+        return not reports.driving(self._robot())
 
     def _robot(self) -> reports.Robot:
         pose = self._pose
@@ -340,7 +351,7 @@ class FleetNode(Module):
     # --- publishing -----------------------------------------------------------------------
 
     def _tick(self, now: float) -> None:
-        self._publish(self.vehicle.on_tick(now, standing=not reports.driving(self._robot())))
+        self._publish(self.vehicle.on_tick(now, standing=self._standing(now)))
         self._tell_others(now)
         client = self._client
         if client is None:

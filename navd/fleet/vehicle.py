@@ -38,13 +38,16 @@ from navd.fleet.vda5050 import Action, Edge, InstantActions, Node, Order
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
 
-__all__ = ["INSTANT_ACTIONS", "NODE_ACTIONS", "START_DEVIATION_M", "Vehicle"]
+__all__ = ["CANCEL_STOP_S", "INSTANT_ACTIONS", "NODE_ACTIONS", "START_DEVIATION_M", "Vehicle"]
 
 # [m] how near the first node of a new order the robot must stand when the node gives no
 # allowedDeviationXY (the order's start must be "trivially reachable").
 START_DEVIATION_M = 1.0
 # [s] a node goal that failed is tried again after this (the error stays reported meanwhile).
 RETRY_S = 5.0
+# [s] a cancelOrder is FINISHED this long after it came even if the robot was never seen
+# standing (its pose no longer arriving): a robot braking from its top speed stands in 2 s.
+CANCEL_STOP_S = 5.0
 NODE_ACTIONS = ("wait",)
 INSTANT_ACTIONS = (
     "cancelOrder",
@@ -94,6 +97,7 @@ class Vehicle:
         self.standing = True  # the robot's speed is below ``reports``' standing thresholds
         self._queued: list[Action] = []  # the last node's actions not started yet, in order
         self._cancelling: _ActionState | None = None  # a cancelOrder waiting for a standstill
+        self._cancel_by = math.inf  # [s] when that cancel ends anyway
         self._goals = 0
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
@@ -187,7 +191,7 @@ class Vehicle:
                 self.changed = True
         self._start_queued(now)
         cancelling = self._cancelling
-        if cancelling is not None and standing:
+        if cancelling is not None and (standing or now >= self._cancel_by):
             cancelling.status, self._cancelling = "FINISHED", None
             self.changed = True
         if now >= self._retry_at:
@@ -349,14 +353,20 @@ class Vehicle:
         """A goal toward the next released node, unless paused, blocked or done."""
         if self.paused or self.held or self.goal_id is not None or self._blocked():
             return []
+        if self._cancelling is not None:  # a new order drives once the cancelled one stood
+            return []
         if not self.nodes or not self.nodes[0].released or self._retry_at < math.inf:
             return []
         node = self.nodes[0]
         edge = self.edges[0] if self.edges and self.edges[0].endNodeId == node.nodeId else None
-        if edge is not None:
-            for action in edge.actions:
-                if self.actions.get(action.actionId, _ActionState(action)).status == "WAITING":
-                    self._start(action, now)
+        if edge is not None:  # its actions start as the node's do, before the robot sets off
+            self._queued += [
+                a
+                for a in edge.actions
+                if self.actions.get(a.actionId, _ActionState(a)).status == "WAITING"
+                and a not in self._queued
+            ]
+            self._start_queued(now)
             if self._blocked():
                 return []
         position = node.nodePosition
@@ -400,10 +410,14 @@ class Vehicle:
 
     def _start_queued(self, now: float) -> None:
         """Start the last node's waiting actions in order, as far as blocking types allow:
-        a HARD action only once nothing else runs, and nothing beside it."""
-        while self._queued:
+        a HARD action only once nothing else runs, and nothing beside it; none while paused."""
+        while self._queued and not self.paused:
             action = self._queued[0]
-            running = [s for s in self.actions.values() if s.status == "RUNNING"]
+            running = [
+                s
+                for s in self.actions.values()
+                if s.status == "RUNNING" and s.action.actionType not in INSTANT_ACTIONS
+            ]
             if any(s.action.blockingType == "HARD" for s in running):
                 return
             if action.blockingType == "HARD" and running:
@@ -448,11 +462,11 @@ class Vehicle:
                 return []
             out = self._cancel_goal(now)
             for other in self.actions.values():
-                if other is not state and other.status not in _ENDED:
+                if other not in (state, self._cancelling) and other.status not in _ENDED:
                     other.status, other.result = "FAILED", "cancelled"
             self.nodes, self.edges, self._queued = [], [], []
-            if not self.standing:  # FINISHED once the robot stands (``on_tick``)
-                self._cancelling = state
+            if not self.standing and self._cancelling is None:  # FINISHED once it stands
+                self._cancelling, self._cancel_by = state, now + CANCEL_STOP_S
                 return out
         elif kind == "startPause":
             self.paused = True
@@ -460,6 +474,7 @@ class Vehicle:
         elif kind == "stopPause":
             self.paused = False
             self._clear_errors("orderInterrupted")
+            self._start_queued(now)
             out = self._drive(now)
         elif kind == "initPosition":
             problem = _init_position_problem(action)

@@ -14,7 +14,7 @@ import pytest
 
 from navd.config import NavdConfig
 from navd.fleet import reports
-from navd.fleet.vehicle import RETRY_S, Vehicle
+from navd.fleet.vehicle import CANCEL_STOP_S, RETRY_S, Vehicle
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
 from tests.fleet.vda5050_schemas import check
@@ -349,7 +349,7 @@ def test_a_nodes_actions_run_in_order_a_hard_one_alone() -> None:
 
 def test_cancel_runs_until_the_robot_stands_and_fails_what_had_not_ended() -> None:
     """§6.6.3: every action not ended fails; the cancel is RUNNING while the robot still
-    moves and FINISHED once it stands; a new order is taken meanwhile."""
+    moves and FINISHED once it stands; a new order is taken meanwhile and driven after."""
     vehicle, _ = _vehicle()
     b = {**node("b", 2, 2.0, 0.0), "actions": [action("wait", "w", "HARD", duration=5.0)]}
     (goal,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), b])))
@@ -357,15 +357,65 @@ def test_cancel_runs_until_the_robot_stands_and_fails_what_had_not_ended() -> No
     out = vehicle.on_instant_actions(instant(action("cancelOrder", "c1")), 1.0, HERE)
     assert out == [CancelGoal(stamp=1.0, received=1.0, goal_id=goal.goal_id)]
     assert _statuses(vehicle) == {"w": "FAILED", "c1": "RUNNING"}
-    vehicle.on_tick(1.2, standing=False)  # still slowing down
+    assert goals(vehicle.on_tick(1.2, standing=False)) == []  # still slowing down
     assert _statuses(vehicle)["c1"] == "RUNNING"
     other = order([node("x", 0, 0.0, 0.0), node("y", 2, 0.0, 2.0)], order_id="o2")
-    (to_y,) = goals(send(vehicle, other))
-    assert (to_y.x_m, to_y.y_m) == (0.0, 2.0)
+    assert goals(send(vehicle, other)) == []  # taken, not driven while the robot stops
+    assert state_of(vehicle)["orderId"] == "o2"
+    second = vehicle.on_instant_actions(instant(action("cancelOrder", "c2")), 1.3, HERE)
+    assert [type(m) for m in second] == []  # o2 cancelled before it moved: nothing to stop
+    assert _statuses(vehicle)["c1"] == "RUNNING"  # the first cancel is not failed by it
     vehicle.on_tick(1.5, standing=True)
     assert _statuses(vehicle)["c1"] == "FINISHED"
-    again = vehicle.on_instant_actions(instant(action("cancelOrder", "c2")), 2.0, HERE)
-    assert [type(m) for m in again] == [CancelGoal]  # o2 runs: it is cancelled in turn
+    (to_y,) = goals(
+        send(vehicle, order([node("x", 0, 0.0, 0.0), node("y", 2, 0.0, 2.0)], order_id="o3"))
+    )
+    assert (to_y.x_m, to_y.y_m) == (0.0, 2.0)
+
+
+def test_a_cancel_ends_in_time_when_the_robot_is_never_seen_standing() -> None:
+    vehicle, _ = _vehicle()
+    send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))
+    vehicle.on_tick(0.5, standing=False)
+    vehicle.on_instant_actions(instant(action("cancelOrder", "c1", "HARD")), 1.0, HERE)
+    vehicle.on_tick(1.0 + CANCEL_STOP_S - 0.1, standing=False)  # its pose stopped coming
+    assert _statuses(vehicle)["c1"] == "RUNNING"
+    vehicle.on_tick(1.0 + CANCEL_STOP_S, standing=False)
+    assert _statuses(vehicle)["c1"] == "FINISHED"
+    other = order([node("x", 0, 0.0, 0.0), node("y", 2, 0.0, 2.0)], order_id="o2")
+    assert len(goals(send(vehicle, other))) == 1
+
+
+def test_an_edges_actions_follow_the_blocking_rules_before_the_robot_sets_off() -> None:
+    vehicle, _ = _vehicle()
+    a, b = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)
+    waits = [action("wait", "e1", "HARD", duration=1.0), action("wait", "e2", "HARD", duration=1.0)]
+    assert goals(send(vehicle, order([a, b], edges=[edge(a, b, actions=waits)]))) == []
+    assert _statuses(vehicle) == {"e1": "RUNNING", "e2": "WAITING"}
+    assert goals(vehicle.on_tick(1.0)) == []  # e1 ended: e2 runs, alone, still standing
+    assert _statuses(vehicle) == {"e1": "FINISHED", "e2": "RUNNING"}
+    (to_b,) = goals(vehicle.on_tick(2.0))
+    assert (to_b.x_m, to_b.y_m) == (2.0, 0.0)
+
+
+def test_a_paused_vehicle_starts_no_action_until_stop_pause() -> None:
+    vehicle, _ = _vehicle()
+    b = {
+        **node("b", 2, 2.0, 0.0),
+        "actions": [
+            action("wait", "s", "SOFT", duration=1.0),
+            action("wait", "h", "HARD", duration=1.0),
+        ],
+    }
+    (to_b,) = goals(send(vehicle, order([node("a", 0, 0.0, 0.0), b, node("c", 4, 4.0, 0.0)])))
+    reach(vehicle, to_b, now=10.0)
+    vehicle.on_instant_actions(instant(action("startPause", "p1")), 10.5, HERE)
+    vehicle.on_tick(11.0)  # s ended while paused; h may not start
+    assert _statuses(vehicle)["h"] == "WAITING"
+    vehicle.on_instant_actions(instant(action("stopPause", "p2")), 12.0, HERE)
+    assert _statuses(vehicle)["h"] == "RUNNING"
+    (to_c,) = goals(vehicle.on_tick(13.0))
+    assert (to_c.x_m, to_c.y_m) == (4.0, 0.0)
 
 
 def test_pause_stops_the_goal_and_resume_sends_it_again() -> None:
