@@ -36,16 +36,18 @@ COLD_COMPILE_S = 300.0  # [s] on a slow machine, every kernel from nothing
 # interpreter lock through LLVM's passes, which the loop sees as lag too: up to 135 ms here.
 WORST_LAG_MS = 500.0
 LAG_WINDOW = 12_000  # [samples of 50 ms] the lag percentiles cover the whole run
-# [MB] the daemon's peak resident memory. Compiling in the daemon itself peaked at 405 MB
-# here (LLVM keeps what it used); loading from the cache the child filled, at 224-232 MB.
-MAX_PEAK_MB = 300.0
+# [MB] the daemon's anonymous memory once set up (its heap: what compiling leaves behind).
+# Compiling in the daemon itself left 285 MB here (LLVM keeps what it used); loading from the
+# cache the child filled, 110 MB. The file pages (libraries' code) are not counted: how many
+# are resident depends on the page cache (a library just installed maps in larger pieces).
+MAX_ANON_MB = 200.0
 
 
-def _peak_mb(pid: int) -> float:
+def _anon_mb(pid: int) -> float:
     for row in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if row.startswith("VmHWM:"):
+        if row.startswith("RssAnon:"):
             return int(row.split()[1]) / 1024
-    raise AssertionError("no VmHWM in /proc status")
+    raise AssertionError("no RssAnon in /proc status")
 
 
 def _imu(stamp: float) -> Frame:
@@ -114,7 +116,7 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
         while not done >= SET_UPS:
             done.add(daemon.wait_for("set_up_done", timeout_s=COLD_COMPILE_S)["thread"])
         time.sleep(2.0)  # and the first messages after the set-ups
-        peak_mb = _peak_mb(daemon.proc.pid)
+        anon_mb = _anon_mb(daemon.proc.pid)
         with Client("127.0.0.1", port, device_id="ui", timeout_s=10.0) as ui:
             ui.request(SubscribeFrame(rate_hz=10))
             status = ui.receive()
@@ -138,7 +140,7 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
     )
     assert check.returncode == 0, check.stdout
     assert "every kernel is in the cache" in check.stdout
-    assert peak_mb <= MAX_PEAK_MB, f"the daemon peaked at {peak_mb:.0f} MB"
+    assert anon_mb <= MAX_ANON_MB, f"the daemon holds {anon_mb:.0f} MB of anonymous memory"
     assert all(s.sent > 0 for s in sensors)
     accepted = {d.kind: d.accepted for d in status.devices}
     for kind, _, _ in SENSORS:
