@@ -41,7 +41,10 @@ def add_commands(commands: Commands) -> None:
     )
     replay.add_argument("--max-range", type=float, help="[m] longest range used (slam.max_range_m)")
     replay.add_argument(
-        "--loop-closure", action="store_true", help="close loops (slam.loop_closure = true)"
+        "--loop-closure",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="close loops or not (slam.loop_closure; on by default)",
     )
     replay.add_argument(
         "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
@@ -96,8 +99,8 @@ def _replay(args: argparse.Namespace) -> int:
     settings = MapperSettings.from_config(config)
     if args.max_range is not None:
         settings = dataclasses.replace(settings, max_range_m=args.max_range)
-    if args.loop_closure:
-        settings = dataclasses.replace(settings, loop_closure=True)
+    if args.loop_closure is not None:
+        settings = dataclasses.replace(settings, loop_closure=args.loop_closure)
     try:
         recording = open_recording(args.log, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
         if recording.mount is not None and not args.quiet:

@@ -51,25 +51,27 @@ class SlamConfig(Section):
         description="[1/m^2] trust in the odometry: match score lost per squared metre a match "
         "lies from the odometry's prediction (raise it for good wheel odometry)",
     )
-    prior_weight_per_rad2: float = Field(
-        1.0,
+    prior_weight_per_rad2: float | None = Field(
+        None,
         ge=0,
         le=10000,
         description="[1/rad^2] trust in the odometry's heading: match score lost per squared "
-        "radian a match turns from the odometry's prediction",
+        "radian a match turns from the odometry's prediction (unset: learned from how far the "
+        "matched scans turned from it, 0.5-200)",
     )
     loop_closure: bool = Field(
-        False,
+        True,
         **restart(
-            "match keyframes onto old places and re-solve the pose graph (costs CPU: off "
-            "unless the robot revisits places after drifting metres)"
+            "match keyframes onto old places and re-solve the pose graph, so a robot back "
+            "where it was after drifting metres closes the loop (off: the map keeps the drift; "
+            "keyframes then keep no scans, and memory stays smaller)"
         ),
     )
     loop_search_radius_m: float = Field(
-        10.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
+        15.0, gt=0, le=100, description="[m] how far away an old keyframe may be to try a loop"
     )
     loop_search_xy_m: float = Field(
-        4.0,
+        20.0,
         gt=0,
         le=50,
         description="[m] largest half-width of the loop closure search window (it grows by 3 % "

@@ -21,9 +21,10 @@ import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
+from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser
-from navd.slam.matcher import CorrelativeMatcher
+from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.settings import MapperSettings
@@ -62,15 +63,30 @@ class _Counts:
     keyframes: int = 0
     fields_built: int = 0
     optimizations: int = 0
+    repaired: int = 0
+    repair_ambiguous: int = 0
+    doubtful: int = 0
 
 
 # Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
 EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
 # A match is judged on the scan points that land on mapped cells: at least this many of them.
 MIN_KNOWN_POINTS = 10
-# Below this share of points on mapped cells an unmatched scan counts as new ground: it is
-# mapped from the motion prior instead of dropped.
-EXPLORING_KNOWN_FRACTION = 0.5
+# After this many scans in a row that did not match, every keyframe searches for a loop
+# (not every ``loop_check_every``-th): a robot back on old ground after drifting off it.
+LOST_RUN = 3
+# ... and a scan on mapped ground (at least this share of its points) that does not match is
+# searched for again in a wider window (REPAIR_XY_M, REPAIR_YAW_RAD): the robot came back to
+# old ground further off than the tracking window. The wider match must fit at least
+# ``loop_min_score`` on the mapped points and be unambiguous (no translation farther than
+# REPAIR_RIVAL_EXCLUDE_M but within REPAIR_XY_M scoring more than REPAIR_MAX_RIVAL_RATIO of it).
+REPAIR_KNOWN_FRACTION = 0.5
+REPAIR_XY_M, REPAIR_YAW_RAD = 2.0, 0.25
+REPAIR_RIVAL_EXCLUDE_M, REPAIR_MAX_RIVAL_RATIO = 0.3, 0.9
+# A match whose fit is below FIT_DROP_RATIO of the median of the last RECENT_FITS matched
+# scans is checked the same way; the wider match must beat its fit by REPAIR_MARGIN. (If it
+# does not, the match stands, counted as doubtful: people walking by, a door opened.)
+FIT_DROP_RATIO, RECENT_FITS, REPAIR_MARGIN = 0.7, 20, 0.2
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
@@ -82,7 +98,13 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
         search_yaw_rad=s.search_yaw_rad,
         reach_m=s.max_range_m / 2,
         prior_weight_per_m2=s.prior_weight_per_m2,
-        prior_weight_per_rad2=s.prior_weight_per_rad2,
+        prior_weight_per_rad2=s.prior_weight_per_rad2 or 0.0,
+    )
+
+
+def _wide_matcher(s: MapperSettings) -> CorrelativeMatcher:
+    return CorrelativeMatcher(
+        search_xy_m=REPAIR_XY_M, search_yaw_rad=REPAIR_YAW_RAD, reach_m=s.max_range_m / 2
     )
 
 
@@ -96,6 +118,7 @@ class ScanMapper:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
+        self.wide_matcher = _wide_matcher(s)
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
@@ -104,7 +127,11 @@ class ScanMapper:
         self._anchors: list[tuple[int, Pose2]] = []
         self.loops = LoopCloser(s)
         self.counts = _Counts()
+        self.heading_trust = HeadingTrust()
         self._last_odom: Pose2 | None = None
+        self._weak_run = 0  # scans in a row that did not match the map
+        self._fits = np.zeros(RECENT_FITS)  # the last matched scans' fits (a ring)
+        self._fits_seen = 0
         self._field: LikelihoodField | None = None
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
@@ -113,6 +140,7 @@ class ScanMapper:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
+        self.wide_matcher = _wide_matcher(settings)
         self.loops.configure(settings)
         self._field = None
 
@@ -160,7 +188,10 @@ class ScanMapper:
         s = self.settings
         self.counts.scans += 1
         prior = self.predict(odom)
+        odometry_step = odom is not None and self._last_odom is not None and self.pose is not None
         self._last_odom = odom
+        if s.prior_weight_per_rad2 is None:
+            self.matcher.prior_weight_per_rad2 = self.heading_trust.weight_per_rad2()
         if self.grid.empty:
             self.pose = prior
             keyframe = self._insert(stamp, prior, scan)
@@ -173,18 +204,36 @@ class ScanMapper:
         known = self.grid.known_fraction(match.pose, points)
         known_points = known * points.shape[0]
         fit = match.score / known if known > 0.0 else 0.0
+        if known_points >= MIN_KNOWN_POINTS and known >= REPAIR_KNOWN_FRACTION:
+            # On mapped ground a fit far below the recent ones is doubtful: search wider for
+            # a pose that explains the scan clearly better (wheels that slipped, a robot back
+            # on old ground further off than the window). So is a run of scans that do not
+            # match at all.
+            lost = fit < s.min_score and self._weak_run >= LOST_RUN
+            dropped = fit >= s.min_score and fit < FIT_DROP_RATIO * self._recent_fit()
+            if lost or dropped:
+                better = s.loop_min_score if lost else max(s.loop_min_score, fit + REPAIR_MARGIN)
+                repaired = self._repair(points, prior, better)
+                if repaired is not None:
+                    match, known = repaired
+                    fit = match.score / known
+                elif dropped:
+                    self.counts.doubtful += 1
         if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
+            self._weak_run += 1
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
             if (
-                known < EXPLORING_KNOWN_FRACTION
+                known_points < MIN_KNOWN_POINTS
                 and points.shape[0] >= MIN_KNOWN_POINTS
                 and self.grid.known_fraction(prior, ROBOT_CELL) == 1.0
             ):
                 # New ground with too little map to match against, seen from ground the map
                 # knows: map it from the motion prior, or the map never grows there and the
-                # robot stays lost. (A prior off the mapped ground is more likely wrong than
-                # new: such scans are dropped, not mapped at a doubtful pose.)
+                # robot stays lost. Where enough of the scan lies on mapped ground to judge
+                # and that part does not fit, the scan is doubtful, never mapped (a wrong
+                # heading, old ground come back to far off); and a prior off the mapped
+                # ground is more likely wrong than new: such scans are dropped too.
                 self.counts.exploring += 1
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
@@ -193,10 +242,39 @@ class ScanMapper:
                 self._insert(stamp, prior, scan, mapped=False)
             return ScanResult(prior, cov, match.score, False, False)
         self.counts.matched += 1
+        self._weak_run = 0
+        self._fits[self._fits_seen % self._fits.size] = fit
+        self._fits_seen += 1
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))
+        if odometry_step:
+            self.heading_trust.record(pose.yaw - prior.yaw)
         self.pose = pose
         keyframe = self._insert(stamp, pose, scan)
         return ScanResult(pose, match.covariance, match.score, True, keyframe)
+
+    def _recent_fit(self) -> float:
+        """The median fit of the last matched scans (0 before any)."""
+        n = min(self._fits_seen, self._fits.size)
+        return float(np.median(self._fits[:n])) if n else 0.0
+
+    def _repair(
+        self, points: FloatArray, prior: Pose2, min_fit: float
+    ) -> tuple[Match, float] | None:
+        """The scan's pose in a wider window around ``prior`` if it fits there at least
+        ``min_fit`` and unambiguously, with its known fraction; None otherwise."""
+        field = self._field_around(prior)
+        match = self.wide_matcher.match(field, points, prior)
+        known = self.grid.known_fraction(match.pose, points)
+        if known <= 0.0 or match.score / known < min_fit:
+            return None
+        rival = rival_ratio(
+            field, points, match.pose, radius_m=REPAIR_XY_M, exclude_m=REPAIR_RIVAL_EXCLUDE_M
+        )
+        if rival > REPAIR_MAX_RIVAL_RATIO:
+            self.counts.repair_ambiguous += 1
+            return None
+        self.counts.repaired += 1
+        return match, known
 
     def _insert(self, stamp: float, pose: Pose2, scan: ScanPoints, mapped: bool = True) -> bool:
         """Make a keyframe if the robot moved far enough since the last; True if it did and
@@ -219,7 +297,8 @@ class ScanMapper:
         self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
-        if s.loop_closure and k % s.loop_check_every == 0:
+        lost = self._weak_run >= LOST_RUN
+        if s.loop_closure and (lost or k % s.loop_check_every == 0):
             self._close_loop(k)
         return mapped
 

@@ -175,11 +175,15 @@ def replay(
         "matched": counts.matched,
         "weak_matches": counts.weak_matches,
         "exploring": counts.exploring,
+        "repaired": counts.repaired,
+        "repair_ambiguous": counts.repair_ambiguous,
+        "doubtful": counts.doubtful,
         "keyframes": counts.keyframes,
         "loop_checks": mapper.loops.counts.checks,
         "loops_found": mapper.loops.counts.found,
         "loops_ambiguous": mapper.loops.counts.ambiguous,
         "graph_optimizations": counts.optimizations,
+        "heading_prior_weight_per_rad2": round(mapper.matcher.prior_weight_per_rad2, 3),
         "map_cells": list(mapper.grid.logodds.shape),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")

@@ -31,7 +31,7 @@ class MapperSettings:
     loop_search_xy_m: float
     loop_min_score: float
     prior_weight_per_m2: float
-    prior_weight_per_rad2: float
+    prior_weight_per_rad2: float | None  # None: learned (navd.slam.heading_trust)
     loop_search_yaw_rad: float = 0.5
     loop_min_gap: int = 40
     loop_check_every: int = 3

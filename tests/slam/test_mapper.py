@@ -83,3 +83,26 @@ def test_a_scan_from_a_pose_off_the_mapped_ground_is_not_mapped() -> None:
     assert not result.matched and not result.keyframe
     assert (mapper.counts.exploring, mapper.counts.weak_matches) == (0, 1)
     np.testing.assert_array_equal(mapper.grid.logodds, before)
+
+
+def room_scan(pose: Pose2) -> ScanPoints:
+    """What a full-circle lidar sees at ``pose`` in the bench room (12 m x 8 m)."""
+    angle_min, increment, ranges = cast(pose)
+    return scan_points(ranges, angle_min, increment, range_min=0.1, range_max=12.0)
+
+
+def test_a_robot_whose_wheels_slipped_further_than_the_window_is_found_again() -> None:
+    # The wheels slip 0.8 m (a bump, a lifted wheel): the odometry is 0.8 m ahead of the
+    # robot from then on, beyond the 0.3 m tracking window. There the scan fits the map at
+    # 0.5, where the scans before fit at 0.98: doubtful. The wider search finds the robot
+    # where the scan fits as before, and tracking goes on from there.
+    mapper = ScanMapper(MapperSettings.defaults(keep_trajectory=True))
+    truth = [Pose2(-4.0 + 0.1 * i, -1.0, 0.0) for i in range(60)]
+    slip = Pose2(0.8, 0.0, 0.0)
+    for i, pose in enumerate(truth):
+        odom = pose.compose(slip) if i >= 30 else pose
+        mapper.add(float(i), room_scan(pose), odom)
+    assert mapper.counts.repaired == 1
+    assert mapper.counts.weak_matches == mapper.counts.exploring == 0
+    for pose, true in zip(mapper.trajectory()[30:], truth[30:], strict=True):
+        assert math.hypot(pose.x - true.x, pose.y - true.y) < 0.05

@@ -74,6 +74,9 @@ def test_the_mapper_finds_loops_when_asked() -> None:
         loop_min_gap=10,
         keyframe_distance_m=0.2,
         max_range_m=12.0,
+        # The room is 12 m x 8 m: with the default 20 m window every old keyframe is near,
+        # they join one pass that ended moments ago, and no loop is searched (docs/slam.md).
+        loop_search_xy_m=4.0,
         keep_trajectory=True,
     )
     mapper = ScanMapper(settings)
