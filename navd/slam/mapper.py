@@ -162,6 +162,25 @@ class ScanMapper:
             out.append(self.keyframes[index].pose.compose(relative) if index >= 0 else relative)
         return out
 
+    def tracking_counts(self) -> dict[str, int | float]:
+        """How tracking went so far: the replay summary's and the daemon status's counts."""
+        c = self.counts
+        return {
+            "scans": c.scans,
+            "matched": c.matched,
+            "weak_matches": c.weak_matches,
+            "exploring": c.exploring,
+            "doubtful": c.doubtful,
+            "repaired": c.repaired,
+            "repair_ambiguous": c.repair_ambiguous,
+            "keyframes": c.keyframes,
+            "loop_checks": self.loops.counts.checks,
+            "loops_found": self.loops.counts.found,
+            "loops_ambiguous": self.loops.counts.ambiguous,
+            "graph_optimizations": c.optimizations,
+            "heading_prior_weight_per_rad2": round(self.matcher.prior_weight_per_rad2, 3),
+        }
+
     def _anchor(self, pose: Pose2) -> None:
         index = len(self.keyframes) - 1
         if index < 0:

@@ -5,7 +5,8 @@ falls behind, older scans are dropped and counted, never queued). The job matche
 onto the map around the pose predicted by wheel odometry (integrated here) or, without
 wheels, by scan odometry (kiss-icp), inserts it at
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
-``MAP_PERIOD_S`` after the map changed, a ``MapUpdate``. Maps are saved on request (a
+``MAP_PERIOD_S`` after the map changed, a ``MapUpdate`` (and once per ``MAP_PERIOD_S`` the
+tracking counts, ``SlamTracking``). Maps are saved on request (a
 control client's save_map) and at shutdown if ``slam.save_on_shutdown``; ``slam.load_map``
 starts from a saved map, and the first scan then finds the robot anywhere on it (global
 search); an initial pose from a control client makes the next scan search around it (±1 m,
@@ -39,6 +40,7 @@ from navd.lifecycle.messages import (
     PoseFound,
     PoseMeasurement,
     SaveMapRequest,
+    SlamTracking,
     WheelOdometry,
 )
 from navd.lifecycle.module import Module, ModuleContext
@@ -122,6 +124,7 @@ class SlamNode(Module):
         self._has_odometry = False
         self._map_published_at = -math.inf
         self._map_revision = -1
+        self._tracking_published_at = -math.inf
         # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
         self._relocate: Pose2 | str | None = None
         self._reseed = False  # the next search's pose re-seeds the estimate (pose find)
@@ -283,6 +286,10 @@ class SlamNode(Module):
                 self._map_revision = grid.revision
                 self._map_published_at = now
                 messages.append(_map_update(grid, now))
+            if now - self._tracking_published_at >= MAP_PERIOD_S:
+                self._tracking_published_at = now
+                counts = self.mapper.tracking_counts()
+                messages.append(SlamTracking(stamp=now, received=now, counts=counts))
         if pose_found is not None:
             messages.append(pose_found)
             if reseed:  # asked for by a person: the estimate starts again from it

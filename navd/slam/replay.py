@@ -165,25 +165,13 @@ def replay(
         encoding="ascii",
     )
     ms = sorted(1e3 * s for s in per_scan) or [math.nan]
-    counts = mapper.counts
     summary: dict[str, object] = {
         "scans": len(stamps),
         "data_seconds": round(stamps[-1] - stamps[0], 3) if stamps else 0.0,
         "wall_seconds": round(wall, 3),
         "ms_per_scan_p50": round(percentile(ms, 50), 3),
         "ms_per_scan_p95": round(percentile(ms, 95), 3),
-        "matched": counts.matched,
-        "weak_matches": counts.weak_matches,
-        "exploring": counts.exploring,
-        "repaired": counts.repaired,
-        "repair_ambiguous": counts.repair_ambiguous,
-        "doubtful": counts.doubtful,
-        "keyframes": counts.keyframes,
-        "loop_checks": mapper.loops.counts.checks,
-        "loops_found": mapper.loops.counts.found,
-        "loops_ambiguous": mapper.loops.counts.ambiguous,
-        "graph_optimizations": counts.optimizations,
-        "heading_prior_weight_per_rad2": round(mapper.matcher.prior_weight_per_rad2, 3),
+        **mapper.tracking_counts(),
         "map_cells": list(mapper.grid.logodds.shape),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
 from pathlib import Path
 
@@ -13,8 +14,10 @@ from navd.drivers.protocol.frames import (
     InitialPoseFrame,
     SaveMapFrame,
     ScanFrame,
+    SubscribeFrame,
+    UnsubscribeFrame,
 )
-from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame
+from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame, StatusFrame
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     InitialPose,
@@ -23,6 +26,7 @@ from navd.lifecycle.messages import (
     PoseFound,
     PoseMeasurement,
     SafeStop,
+    SlamTracking,
 )
 from navd.slam.map_io import load_map
 from navd.slam.node import SlamNode
@@ -48,6 +52,7 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         poses = record(daemon, PoseMeasurement)
         maps = record(daemon, MapUpdate)
         estimates = record(daemon, PoseEstimate)
+        tracking = record(daemon, SlamTracking)
         lidar = await connected(port, "lidar", "lidar0")
         control = await connected(port, "control", "ui")
         path = [Pose2(0.04 * i, 0.02 * i, 0.01 * i) for i in range(15)]
@@ -60,6 +65,20 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
             assert math.hypot(measured.x_m - truth.x, measured.y_m - truth.y) < 0.05
             assert abs(measured.yaw_rad - truth.yaw) < math.radians(1.5)
         assert maps and maps[0].occupancy.max() > 65
+        # Tracking's counts go out at most once a second: every scan after the first (which
+        # anchors the map) matched, none was doubtful.
+        assert tracking
+        assert all(b.stamp - a.stamp >= 1.0 for a, b in itertools.pairwise(tracking))
+        for sent in tracking:
+            counts = sent.counts
+            assert counts["scans"] == counts["matched"] + 1
+            assert counts["weak_matches"] == counts["doubtful"] == counts["repaired"] == 0
+        # ... and a control client sees the latest in its status.
+        await control.request(SubscribeFrame(rate_hz=20))
+        status = await control.receive_type(StatusFrame)
+        assert status.diagnostics.slam is not None
+        assert status.diagnostics.slam["scans"] == tracking[-1].counts["scans"]
+        await control.request(UnsubscribeFrame())
 
         # The robot stops at the path's end; the estimator (built beside start-up) takes the
         # lidar poses and settles there.

@@ -294,7 +294,8 @@ class ConfigNews(ReplyPart):
 
 
 class Diagnostics(ReplyPart):
-    """Why the robot is held, localization, loop lag [ms], modules, workers, config."""
+    """Why the robot is held, localization, loop lag [ms], modules, workers, config, and
+    how scan matching goes."""
 
     safety: list[str]
     localization: LocalizationInfo | None
@@ -306,6 +307,7 @@ class Diagnostics(ReplyPart):
     modules: list[ModuleInfo]
     workers: list[WorkerInfo]
     config: ConfigNews
+    slam: dict[str, Any] | None = None  # scan matching's counts (SlamTracking)
 
 
 class BeaconInfo(ReplyPart):

@@ -39,6 +39,7 @@ from navd.lifecycle.messages import (
     PoseEstimate,
     RecordingState,
     SafetyState,
+    SlamTracking,
 )
 from navd.lifecycle.module import ModuleContext
 
@@ -53,6 +54,7 @@ class StatusBoard:
     def __init__(self) -> None:
         self.pose: PoseEstimate | None = None
         self.localization: LocalizationState | None = None
+        self.slam: SlamTracking | None = None
         self.drive: DriveCommand | None = None
         self.goal: GoalStatus | None = None
         self.mission: MissionStatus | None = None
@@ -67,6 +69,7 @@ class StatusBoard:
         """Keep up to date from the bus (handlers attributed to ``ctx``'s module)."""
         ctx.subscribe(PoseEstimate, self._pose)
         ctx.subscribe(LocalizationState, self._localization)
+        ctx.subscribe(SlamTracking, self._slam)
         ctx.subscribe(DriveCommand, self._drive)
         ctx.subscribe(DaemonStatus, self._daemon)
         ctx.subscribe(SafetyState, self._safety)
@@ -131,6 +134,7 @@ class StatusBoard:
                 if daemon is None
                 else [WorkerInfo(**w._asdict()) for w in daemon.workers],
                 config=self.config,
+                slam=None if self.slam is None else dict(self.slam.counts),
             ),
         )
 
@@ -145,6 +149,9 @@ class StatusBoard:
 
     def _localization(self, state: LocalizationState) -> None:
         self.localization = state
+
+    def _slam(self, tracking: SlamTracking) -> None:
+        self.slam = tracking
 
     def _drive(self, drive: DriveCommand) -> None:
         self.drive = drive

@@ -57,6 +57,7 @@ from navd.lifecycle.messages.results import (
     Path,
     PoseEstimate,
     PoseMeasurement,
+    SlamTracking,
     StuckDetected,
     WorkerStats,
 )
@@ -126,6 +127,7 @@ __all__ = [
     "SafeStopCleared",
     "SafetyState",
     "SaveMapRequest",
+    "SlamTracking",
     "StuckDetected",
     "Vector3",
     "VelocityCommand",

@@ -107,6 +107,23 @@ class LocalizationState(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class SlamTracking(Message):
+    """How scan matching went since start (SLAM module), at most once a second.
+
+    Attributes:
+        counts: scans, matched, weak_matches (not matched, not mapped), exploring (new
+            ground mapped from the odometry), doubtful, repaired (found again by a wider
+            search), keyframes, loops_found, and heading_prior_weight_per_rad2.
+    """
+
+    counts: Mapping[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        Message.__post_init__(self)
+        object.__setattr__(self, "counts", MappingProxyType(dict(self.counts)))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Orientation(Message):
     """The IMU's orientation from Madgwick's filter, for scan deskewing and levelling.
 
