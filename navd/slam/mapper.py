@@ -132,6 +132,7 @@ class ScanMapper:
         self._weak_run = 0  # scans in a row that did not match the map
         self._fits = np.zeros(RECENT_FITS)  # the last matched scans' fits (a ring)
         self._fits_seen = 0
+        self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
         self._field: LikelihoodField | None = None
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
@@ -142,6 +143,18 @@ class ScanMapper:
         self.matcher = _tracking_matcher(settings)
         self.wide_matcher = _wide_matcher(settings)
         self.loops.configure(settings)
+        self._field = None
+        # Fits on the old settings' field are no yardstick for the new one's.
+        self._fits_seen = 0
+        self._weak_run = 0
+
+    def load(self, grid: OccupancyGrid) -> None:
+        """Start from a saved map: it stays under everything mapped from here on, and a
+        loop closure's rebuild draws the keyframes over it (it has none of its own)."""
+        self.grid = grid
+        self._base = OccupancyGrid.from_array(
+            grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
+        )
         self._field = None
 
     def predict(self, odom: Pose2 | None) -> Pose2:
@@ -195,6 +208,7 @@ class ScanMapper:
     def set_pose(self, pose: Pose2) -> None:
         """Put the robot at ``pose`` (an initial pose from a person, or a global search)."""
         self.pose = pose
+        self._weak_run = 0
 
     def add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None = None) -> ScanResult:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
@@ -239,7 +253,6 @@ class ScanMapper:
                 elif dropped:
                     self.counts.doubtful += 1
         if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
-            self._weak_run += 1
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
             if (
@@ -256,6 +269,7 @@ class ScanMapper:
                 self.counts.exploring += 1
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
+            self._weak_run += 1  # (new ground mapped above is no sign of being lost)
             if s.loop_closure:
                 # Lost on a map the robot drifted from is what a loop closure repairs.
                 self._insert(stamp, prior, scan, mapped=False)
@@ -284,7 +298,8 @@ class ScanMapper:
         field = self._field_around(prior)
         match = self.wide_matcher.match(field, points, prior)
         known = self.grid.known_fraction(match.pose, points)
-        if known <= 0.0 or match.score / known < min_fit:
+        enough = known >= REPAIR_KNOWN_FRACTION and known * points.shape[0] >= MIN_KNOWN_POINTS
+        if not enough or match.score / known < min_fit:
             return None
         rival = rival_ratio(
             field, points, match.pose, radius_m=REPAIR_XY_M, exclude_m=REPAIR_RIVAL_EXCLUDE_M
@@ -343,16 +358,28 @@ class ScanMapper:
             Keyframe(f.stamp, Pose2(*map(float, p)), f.scan, f.mapped)
             for f, p in zip(self.keyframes, after, strict=True)
         ]
-        grid = OccupancyGrid(self.settings.resolution_m)
+        self.rebuild_map()
+        if self.pose is not None:
+            # The robot moves with the newest keyframe.
+            self.pose = self.keyframes[-1].pose.compose(last_old.between(self.pose))
+
+    def rebuild_map(self) -> None:
+        """Draw the map again from the keyframes' scans at their poses (as the pose graph
+        last placed them), over the loaded map if there is one."""
+        base = self._base
+        grid = (
+            OccupancyGrid(self.settings.resolution_m)
+            if base is None
+            else OccupancyGrid.from_array(
+                base.logodds, base.origin_x, base.origin_y, base.resolution
+            )
+        )
         for frame in self.keyframes:
             if frame.scan is not None and frame.mapped:
                 grid.insert(frame.pose, frame.scan)
         grid.revision = self.grid.revision + 1
         self.grid = grid
         self._field = None
-        if self.pose is not None:
-            # The robot moves with the newest keyframe.
-            self.pose = self.keyframes[-1].pose.compose(last_old.between(self.pose))
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""

@@ -144,7 +144,7 @@ class SlamNode(Module):
         load = ctx.startup_config.slam.load_map
         if load is not None:
             try:
-                self.mapper.grid = load_map(Path(load))
+                self.mapper.load(load_map(Path(load)))
             except MapFileError as err:  # the file the config names: a user's input
                 raise MapFileError(f"slam.load_map: {err}") from err
             ctx.log.info("map_loaded", path=load, cells=self.mapper.grid.logodds.shape)
@@ -349,7 +349,7 @@ class SlamNode(Module):
             return (MapLoaded(stamp=now, received=now, name=name, reason=str(err)),)
         with self._lock:
             self.mapper = ScanMapper(self._in_force.mapper)
-            self.mapper.grid = grid
+            self.mapper.load(grid)
             self._relocate = GLOBAL
             self._reseed = True  # the estimate, in the old map's frame, starts again too
             self._map_revision = grid.revision

@@ -106,3 +106,29 @@ def test_a_robot_whose_wheels_slipped_further_than_the_window_is_found_again() -
     assert mapper.counts.weak_matches == mapper.counts.exploring == 0
     for pose, true in zip(mapper.trajectory()[30:], truth[30:], strict=True):
         assert math.hypot(pose.x - true.x, pose.y - true.y) < 0.05
+
+
+def test_a_map_rebuilt_from_its_keyframes_keeps_the_loaded_map_under_them() -> None:
+    # A saved map: the room seen from one corner, and a mark this run never sees (a block
+    # beyond the walls). A loop closure redraws the map from this run's keyframes; the
+    # loaded map, which has no keyframes, must stay under them (before, it was dropped).
+    loaded = OccupancyGrid(0.05)
+    loaded.insert(Pose2(-5.0, -3.0, 0.0), room_scan(Pose2(-5.0, -3.0, 0.0)))
+    mark = np.array([[8.0, 0.0]])
+    col, row = loaded.cells(mark)[0]
+    loaded.logodds[row - 2 : row + 3, col - 2 : col + 3] = 3.5
+    mapper = ScanMapper(MapperSettings.defaults())
+    mapper.load(loaded)
+    start = Pose2(3.5, -0.5, math.pi / 2)
+    mapper.set_pose(start)
+    for i in range(40):
+        angle = 2 * math.pi * i / 80  # half a loop around the room
+        pose = Pose2(4.0 * math.cos(angle) - 0.5, 2.2 * math.sin(angle) - 0.5, angle + math.pi / 2)
+        mapper.add(0.1 * i, room_scan(pose), pose)
+    assert mapper.counts.matched == 40 and mapper.counts.keyframes > 5
+    drawn = mapper.grid.logodds.copy()
+    mapper.rebuild_map()
+    col, row = mapper.grid.cells(mark)[0]
+    assert mapper.grid.logodds[row, col] == 3.5
+    # The rest is as it was drawn scan by scan: the loaded map, then each keyframe over it.
+    np.testing.assert_allclose(mapper.grid.logodds, drawn, atol=1e-5)
