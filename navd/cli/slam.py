@@ -47,6 +47,13 @@ def add_commands(commands: Commands) -> None:
         help="close loops or not (slam.loop_closure; on by default)",
     )
     replay.add_argument(
+        "--perturb",
+        metavar="KIND",
+        help="replay a seeded, worse version of the log: drop, odometry, noise, half_beams or "
+        "range8 (robustness checks, docs/slam.md)",
+    )
+    replay.add_argument("--seed", type=int, default=0, help="seed of --perturb (default 0)")
+    replay.add_argument(
         "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
     )
     replay.add_argument(
@@ -88,6 +95,7 @@ def _replay(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.errors import SlamError  # noqa: PLC0415
+    from navd.slam.perturb import perturb  # noqa: PLC0415
     from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
     from navd.slam.settings import MapperSettings  # noqa: PLC0415
 
@@ -117,8 +125,15 @@ def _replay(args: argparse.Namespace) -> int:
             y_m=args.laser_y,
             yaw_rad=args.laser_yaw,
         )
+        scans = recording.scans
+        if args.perturb is not None:
+            try:
+                scans = perturb(scans, args.perturb, args.seed)
+            except ValueError as err:
+                print(f"navd replay: --perturb: {err}", file=sys.stderr)
+                return EXIT_USAGE
         result = replay(
-            recording.scans,
+            scans,
             args.out,
             settings,
             mount=mount,

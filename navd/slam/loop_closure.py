@@ -64,6 +64,8 @@ LOOP_QUERY_KEYFRAMES = 10
 # the window scoring more than LOOP_MAX_RIVAL_RATIO of it.
 LOOP_COARSE_MIN_SCORE = 0.5
 LOOP_COARSE_EXCLUDE_M = 0.6
+# A coarse query with fewer points than this is not searched (nothing to match).
+LOOP_MIN_QUERY_POINTS = 20
 # Fine match: within LOOP_FINE_XY_M [m] / LOOP_FINE_YAW_RAD of the coarse pose, on the
 # full-resolution map of LOOP_SUBMAP_KEYFRAMES keyframes either side of the nearest old one.
 LOOP_FINE_XY_M, LOOP_FINE_YAW_RAD = 0.4, 0.06
@@ -206,6 +208,8 @@ class LoopCloser:
             current.pose, s.max_range_m + window_m, resolution * LOOP_COARSE_BLUR_CELLS
         )
         query = _query_points(keyframes, k, resolution)
+        if query.shape[0] < LOOP_MIN_QUERY_POINTS:
+            return None  # the newest scans saw (almost) nothing: a wide hall, a short lidar
         pose, score, _ = global_search(
             field,
             query,
@@ -231,4 +235,6 @@ def _query_points(keyframes: list[Keyframe], k: int, voxel_m: float) -> FloatArr
         scan: ScanPoints | None = frame.scan
         if scan is not None and scan.hits.size:
             clouds.append(current.between(frame.pose).transform(scan.hits))
+    if not clouds:
+        return np.zeros((0, 2))
     return voxel_downsample(np.vstack(clouds), voxel_m)

@@ -72,6 +72,20 @@ def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() 
     assert (closer.counts.checks, closer.counts.found) == (1, 1)
 
 
+def test_a_revisit_whose_scans_saw_nothing_is_not_searched_and_does_not_fail() -> None:
+    # Back in the room, but the newest scans have no hits (an 8 m lidar in a wide hall):
+    # there is nothing to match, and the search says so instead of failing on no points.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    detour = _detour(first[-1].pose, 120.0)
+    blind = ScanPoints(np.zeros((0, 2)), np.zeros((0, 2)))
+    revisit = [Keyframe(0.0, t, blind) for t in _ellipse(12, turn0=1.0)]
+    keyframes = first + detour + revisit
+    closer = LoopCloser(settings)
+    assert closer.search(keyframes, len(keyframes) - 1) == []
+    assert (closer.counts.checks, closer.counts.found) == (1, 0)
+
+
 def test_the_window_grows_with_the_path_so_a_short_detour_cannot_jump_metres() -> None:
     # The same 2.5 m error after only 30 m of path is not believed: the window is 1 m wide.
     settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
