@@ -26,8 +26,8 @@ __all__ = ["HeadingTrust"]
 WINDOW = 400  # matched scans the spread is taken over
 MIN_SAMPLES = 50  # errors needed before the measured weight is used
 START_WEIGHT = 5.0  # [1/rad^2] weight before then
-# [1] weight = this / sigma² [rad²]; set on the Freiburg logs: clinic (sigma 0.0021 rad per
-# scan) gets about 100, aces (0.0032) about 45, intel (0.0094) about 5.
+# [1] weight = this / sigma² [rad²]; set on the Freiburg logs, whose replays end with weights
+# of 70 (fr-clinic), 43 (aces) and 6.5 (intel).
 WEIGHT_PER_PRECISION = 4.5e-4
 MIN_WEIGHT, MAX_WEIGHT = 0.5, 200.0  # [1/rad^2]
 MAD_TO_SIGMA = 1.4826  # a Gaussian's sigma per median absolute deviation
