@@ -44,6 +44,14 @@ class SlamConfig(Section):
         description="[ratio] scans whose points on mapped ground match worse than this keep the "
         "odometry pose, unmapped (on mostly new ground they are mapped from it)",
     )
+    lost_after_scans: int = Field(
+        10,
+        ge=0,
+        le=1000,
+        description="scans in a row on mapped ground that do not fit it (or fit far worse than "
+        "the last ones) after which the robot is lost: it is stopped and the map searched for "
+        "it, near its last good pose first (0: never)",
+    )
     prior_weight_per_m2: float = Field(
         0.5,
         ge=0,

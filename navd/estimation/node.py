@@ -4,7 +4,9 @@ Sensor messages go in as they arrive (each handler is one cheap filter step); at
 ``estimation.publish_rate_hz`` the module publishes the fused pose predicted to now, the IMU
 orientation, and the localization state when it changes (and once a second); the beacons'
 places once the filter exists and whenever a learnt one moves (at most once a second).
-Losing localization after having had it is a safety stop until it is regained.
+Losing localization after having had it is a safety stop until it is regained: the
+uncertainty grown past ``estimation.lost_position_std_m``, or scan matching lost on its map
+(``TrackingLost``, until the SLAM module found the robot again and re-seeded the estimate).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from navd.lifecycle.messages import (
     PoseMeasurement,
     SafeStop,
     SafeStopCleared,
+    TrackingLost,
     WheelOdometry,
 )
 from navd.lifecycle.module import Module, ModuleContext
@@ -54,6 +57,7 @@ class EstimationNode(Module):
         self._stopped = False
         self._beacons_published: tuple[object, ...] | None = None
         self._beacons_logged: set[str] = set()  # learnt beacons whose placing was logged
+        self._lost_on_map = ""  # why scan matching lost the robot; empty while it has not
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -71,6 +75,7 @@ class EstimationNode(Module):
         ctx.subscribe(BeaconObservation, self._on_beacon)
         ctx.subscribe(InitialPose, self._on_initial_pose)
         ctx.subscribe(GeoGoal, self._on_geo_goal)
+        ctx.subscribe(TrackingLost, self._on_tracking)
 
     async def on_activate(self) -> None:
         # Building the filter loads its kernels (compiling them on a cold cache), so it
@@ -154,6 +159,9 @@ class EstimationNode(Module):
                 )
         self.ctx.publish(BeaconPlaces(stamp=now, received=now, places=places))
 
+    def _on_tracking(self, tracking: TrackingLost) -> None:
+        self._lost_on_map = tracking.reason if tracking.lost else ""
+
     def _on_initial_pose(self, pose: InitialPose) -> None:
         self.ctx.log.info("initial_pose", x=pose.x_m, y=pose.y_m, yaw=pose.yaw_rad)
         if self.estimator is None:
@@ -234,6 +242,9 @@ class EstimationNode(Module):
                 )
             )
         state, position_std, yaw_std = estimator.localization(estimate)
+        reason = ""
+        if self._lost_on_map and state != Localization.UNINITIALIZED:
+            state, reason = Localization.LOST, self._lost_on_map
         changed = state != self._state
         if changed or now - self._state_published_at >= _STATE_REFRESH_S:
             self._state_published_at = now
@@ -245,20 +256,25 @@ class EstimationNode(Module):
                     position_std_m=position_std,
                     yaw_std_rad=yaw_std,
                     counters=estimator.counters,
+                    reason=reason,
                 )
             )
         if changed:
             self.ctx.log.info(
-                "localization", state=state, previous=self._state, position_std_m=position_std
+                "localization",
+                state=state,
+                previous=self._state,
+                position_std_m=position_std,
+                reason=reason or None,
             )
             self._state = state
-            self._guard(state, position_std, now)
+            self._guard(state, position_std, now, reason)
 
-    def _guard(self, state: str, position_std: float, now: float) -> None:
+    def _guard(self, state: str, position_std: float, now: float, why: str) -> None:
         """Hold the robot while localization is lost; release when it is back."""
         if state == Localization.LOST and not self._stopped:
             self._stopped = True
-            reason = f"localization lost: position std {position_std:.2f} m"
+            reason = f"localization lost: {why or f'position std {position_std:.2f} m'}"
             self.ctx.publish(
                 SafeStop(
                     stamp=now, received=now, reason=reason, source=self.name, key=SAFE_STOP_KEY

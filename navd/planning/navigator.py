@@ -266,9 +266,10 @@ class Navigator:
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
     def resume(self) -> None:
-        """Take up the goal again after someone else drove (an operator by hand): the robot
-        is somewhere else and stood still, so the route is planned afresh, the stuck watch
-        and the no-route clock start over, and the ramp starts from zero."""
+        """Take up the goal again after someone else drove (an operator by hand), or after
+        the robot lost on its map was found: it is somewhere else and stood still, so the
+        route is planned afresh, the stuck watch and the no-route clock start over, and the
+        ramp starts from zero."""
         if self.state is not GoalState.ACTIVE:
             return
         self._command = (0.0, 0.0)

@@ -57,6 +57,7 @@ from navd.lifecycle.messages import (
     Path,
     PoseEstimate,
     StuckDetected,
+    TrackingLost,
     VelocityCommand,
     ViewInterest,
 )
@@ -75,7 +76,8 @@ __all__ = ["PlannerNode"]
 
 @dataclass(frozen=True, slots=True)
 class _Resume:
-    """Take up the goal ``goal_id`` again after manual driving (queued with goals)."""
+    """Take up the goal ``goal_id`` again after manual driving, or once the robot lost on
+    its map was found again (queued with goals)."""
 
     goal_id: str
 
@@ -110,6 +112,7 @@ class PlannerNode(Module):
         # message more or less)
         self._watched = ViewInterest(stamp=0.0, received=0.0, costmap=False, trajectory=False)
         self._teleop_refused: set[str] = set()  # operators told teleop is off (once each)
+        self._lost = ""  # why the robot is lost on its map: the goal waits, stopped
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -126,6 +129,7 @@ class PlannerNode(Module):
         ctx.subscribe(DriveCommand, self._on_drive)
         ctx.subscribe(DeviceLost, self._on_chassis)
         ctx.subscribe(DeviceConnected, self._on_chassis)
+        ctx.subscribe(TrackingLost, self._on_tracking)
 
     async def on_activate(self) -> None:
         self.ctx.warm_up(warm_up, name="warm-up")
@@ -248,6 +252,20 @@ class PlannerNode(Module):
         if msg.kind is DeviceKind.CHASSIS:  # the chassis stops on losing or reopening its port
             self._stopped = True
 
+    def _on_tracking(self, tracking: TrackingLost) -> None:
+        """Lost on the map: the goal waits, the robot stopped, while SLAM searches for it
+        (the stuck watch must not count that time); found: the goal is taken up again from
+        where the robot really is."""
+        self._lost = tracking.reason if tracking.lost else ""
+        goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
+        if tracking.lost:
+            self.ctx.publish(self._stop_command())
+            if goal is not None:
+                why = f"waiting: {tracking.reason}"
+                self.ctx.publish(self._status(goal.goal_id, GoalState.ACTIVE, why, shown=PAUSED))
+        elif goal is not None:
+            self._post(_Resume(goal.goal_id))
+
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = pose.pose
         self._pose_stamp = pose.stamp
@@ -360,8 +378,8 @@ class PlannerNode(Module):
         if self.manual.over(now):
             self._end_manual(now)
             return  # the goal resumes first (its job is queued); the next tick steps
-        if self.manual.active:
-            return  # an operator drives: the navigator waits
+        if self.manual.active or self._lost:
+            return  # an operator drives, or the robot is lost: the navigator waits
         if self.nav.state is not GoalState.ACTIVE:  # a glance: the step decides under the lock
             return
         pose = self._pose

@@ -66,6 +66,7 @@ class _Counts:
     repaired: int = 0
     repair_ambiguous: int = 0
     doubtful: int = 0
+    lost: int = 0
 
 
 # Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
@@ -130,6 +131,9 @@ class ScanMapper:
         self.heading_trust = HeadingTrust()
         self._last_odom: Pose2 | None = None
         self._weak_run = 0  # scans in a row that did not match the map
+        # scans in a row on mapped ground that did not fit it, or fitted doubtfully
+        self._misfit_run = 0
+        self.last_good: Pose2 | None = None  # the last pose a scan fitted the map at
         self._fits = np.zeros(RECENT_FITS)  # the last matched scans' fits (a ring)
         self._fits_seen = 0
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
@@ -147,6 +151,7 @@ class ScanMapper:
         # Fits on the old settings' field are no yardstick for the new one's.
         self._fits_seen = 0
         self._weak_run = 0
+        self._misfit_run = 0
 
     def load(self, grid: OccupancyGrid) -> None:
         """Start from a saved map: it stays under everything mapped from here on, and a
@@ -186,6 +191,7 @@ class ScanMapper:
             "doubtful": c.doubtful,
             "repaired": c.repaired,
             "repair_ambiguous": c.repair_ambiguous,
+            "lost": c.lost,
             "keyframes": c.keyframes,
             "loop_checks": self.loops.counts.checks,
             "loops_found": self.loops.counts.found,
@@ -206,9 +212,25 @@ class ScanMapper:
         self._last_odom = None
 
     def set_pose(self, pose: Pose2) -> None:
-        """Put the robot at ``pose`` (an initial pose from a person, or a global search)."""
+        """Put the robot at ``pose`` (an initial pose from a person, or a global search);
+        it is no longer lost."""
         self.pose = pose
         self._weak_run = 0
+        self._misfit_run = 0
+
+    @property
+    def lost(self) -> bool:
+        """True once ``lost_after_scans`` scans in a row on mapped ground did not fit it, or
+        fitted far worse than the scans before (doubtful): the pose is not to be trusted.
+        The daemon then stops the robot and searches the map for it (``LostSearch``) instead
+        of adding scans; a replay goes on, and a scan that fits again ends it."""
+        n = self.settings.lost_after_scans
+        return n > 0 and self._misfit_run >= n
+
+    def _misfit(self) -> None:
+        self._misfit_run += 1
+        if self._misfit_run == self.settings.lost_after_scans:
+            self.counts.lost += 1
 
     def add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None = None) -> ScanResult:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
@@ -237,21 +259,10 @@ class ScanMapper:
         known = self.grid.known_fraction(match.pose, points)
         known_points = known * points.shape[0]
         fit = match.score / known if known > 0.0 else 0.0
-        if known_points >= MIN_KNOWN_POINTS and known >= REPAIR_KNOWN_FRACTION:
-            # On mapped ground a fit far below the recent ones is doubtful: search wider for
-            # a pose that explains the scan clearly better (wheels that slipped, a robot back
-            # on old ground further off than the window). So is a run of scans that do not
-            # match at all.
-            lost = fit < s.min_score and self._weak_run >= LOST_RUN
-            dropped = fit >= s.min_score and fit < FIT_DROP_RATIO * self._recent_fit()
-            if lost or dropped:
-                better = s.loop_min_score if lost else max(s.loop_min_score, fit + REPAIR_MARGIN)
-                repaired = self._repair(points, prior, better)
-                if repaired is not None:
-                    match, known = repaired
-                    fit = match.score / known
-                elif dropped:
-                    self.counts.doubtful += 1
+        on_mapped_ground = known_points >= MIN_KNOWN_POINTS and known >= REPAIR_KNOWN_FRACTION
+        doubtful = False
+        if on_mapped_ground:
+            match, known, fit, doubtful = self._doubt(points, prior, match, known, fit)
         if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
@@ -270,20 +281,50 @@ class ScanMapper:
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
             self._weak_run += 1  # (new ground mapped above is no sign of being lost)
+            if on_mapped_ground:
+                self._misfit()
             if s.loop_closure:
                 # Lost on a map the robot drifted from is what a loop closure repairs.
                 self._insert(stamp, prior, scan, mapped=False)
             return ScanResult(prior, cov, match.score, False, False)
         self.counts.matched += 1
         self._weak_run = 0
+        if doubtful:
+            self._misfit()
+        else:
+            self._misfit_run = 0
         self._fits[self._fits_seen % self._fits.size] = fit
         self._fits_seen += 1
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))
         if odometry_step:
             self.heading_trust.record(pose.yaw - prior.yaw)
         self.pose = pose
+        if not doubtful:
+            self.last_good = pose
         keyframe = self._insert(stamp, pose, scan)
         return ScanResult(pose, match.covariance, match.score, True, keyframe)
+
+    def _doubt(
+        self, points: FloatArray, prior: Pose2, match: Match, known: float, fit: float
+    ) -> tuple[Match, float, float, bool]:
+        """A match on mapped ground, searched for again if in doubt: (match, known fraction,
+        fit, doubtful). A fit far below the recent ones is doubtful: a wider search looks for
+        a pose that explains the scan clearly better (wheels that slipped, a robot back on
+        old ground further off than the window). So is a run of scans that do not match at
+        all."""
+        s = self.settings
+        lost = fit < s.min_score and self._weak_run >= LOST_RUN
+        dropped = fit >= s.min_score and fit < FIT_DROP_RATIO * self._recent_fit()
+        if not (lost or dropped):
+            return match, known, fit, False
+        better = s.loop_min_score if lost else max(s.loop_min_score, fit + REPAIR_MARGIN)
+        repaired = self._repair(points, prior, better)
+        if repaired is not None:
+            match, known = repaired
+            return match, known, match.score / known, False
+        if dropped:
+            self.counts.doubtful += 1
+        return match, known, fit, dropped
 
     def _recent_fit(self) -> float:
         """The median fit of the last matched scans (0 before any)."""

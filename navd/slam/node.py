@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from navd.config import NavdConfig
 from navd.geometry.mount import SensorMounts
@@ -41,12 +42,14 @@ from navd.lifecycle.messages import (
     PoseMeasurement,
     SaveMapRequest,
     SlamTracking,
+    TrackingLost,
     WheelOdometry,
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
+from navd.slam.lost_search import LostSearch
 from navd.slam.map_io import clean_leftovers, load_map, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
@@ -65,6 +68,7 @@ GLOBAL = "global"
 RESEED_STD_M = 0.2
 RESEED_STD_RAD = 0.1
 _SLOT = "scan_match"
+FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,6 +132,8 @@ class SlamNode(Module):
         # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
         self._relocate: Pose2 | str | None = None
         self._reseed = False  # the next search's pose re-seeds the estimate (pose find)
+        self._lost: LostSearch | None = None  # searching for the robot lost on the map
+        self._seeded: InitialPose | None = None  # the last seed sent to the estimate
         self._scan_odometry: ScanOdometry | None = None
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
 
@@ -236,78 +242,158 @@ class SlamNode(Module):
                 self.mapper.set_pose(self._relocate)
                 self.mapper.forget_odometry()
                 self._relocate = None
-            pose_found: PoseFound | None = None
+            messages: list[Message] = []
             if self._relocate is not None and not self.mapper.grid.empty:
-                guess = None if self._relocate == GLOBAL else self._relocate
-                assert guess is None or isinstance(guess, Pose2)
-                found = relocalize(
-                    self.mapper.grid,
-                    voxel_downsample(points.hits, mapper.voxel_size_m),
-                    guess=guess,
-                    reach_m=mapper.max_range_m,
+                messages += self._relocalize(
+                    stamp, voxel_downsample(points.hits, mapper.voxel_size_m)
                 )
-                self.ctx.log.info(
-                    "relocalized",
-                    x=round(found.pose.x, 3),
-                    y=round(found.pose.y, 3),
-                    yaw=round(found.pose.yaw, 3),
-                    score=round(found.score, 3),
-                    guess=None if guess is None else tuple(round(v, 3) for v in guess),
+            elif self._lost is not None:
+                found = self._search(
+                    stamp, voxel_downsample(points.hits, mapper.voxel_size_m), odom
                 )
-                self.mapper.set_pose(found.pose)
-                self.mapper.forget_odometry()
-                self._relocate = None
-                found_at = self.ctx.clock.now()
-                pose_found = PoseFound(
-                    stamp=stamp,  # the scan's: where the robot was when it was taken
-                    received=found_at,
-                    x_m=found.pose.x,
-                    y_m=found.pose.y,
-                    yaw_rad=found.pose.yaw,
-                    score=found.score,
-                    whole_map=guess is None,
-                )
-            reseed, self._reseed = self._reseed and pose_found is not None, False
+                return (*found, *self._now_and_then())
             result = self.mapper.add(stamp, points, odom)
             now = self.ctx.clock.now()
-            messages: list[Message] = [
-                PoseMeasurement(
-                    stamp=stamp,
-                    received=now,
-                    source="lidar",
-                    x_m=result.pose.x,
-                    y_m=result.pose.y,
-                    yaw_rad=result.pose.yaw,
-                    covariance=result.covariance,
-                )
-            ]
-            grid = self.mapper.grid
-            if grid.revision != self._map_revision and now - self._map_published_at >= MAP_PERIOD_S:
-                self._map_revision = grid.revision
-                self._map_published_at = now
-                messages.append(_map_update(grid, now))
-            if now - self._tracking_published_at >= MAP_PERIOD_S:
-                self._tracking_published_at = now
-                counts = self.mapper.tracking_counts()
-                messages.append(SlamTracking(stamp=now, received=now, counts=counts))
-        if pose_found is not None:
-            messages.append(pose_found)
-            if reseed:  # asked for by a person: the estimate starts again from it
-                messages.append(
-                    InitialPose(
+            if self.mapper.lost:
+                messages.append(self._became_lost(stamp, now))
+            else:
+                messages.insert(
+                    0,
+                    PoseMeasurement(
                         stamp=stamp,
                         received=now,
-                        x_m=pose_found.x_m,
-                        y_m=pose_found.y_m,
-                        yaw_rad=pose_found.yaw_rad,
-                        std_xy_m=RESEED_STD_M,
-                        std_yaw_rad=RESEED_STD_RAD,
-                    )
+                        source="lidar",
+                        x_m=result.pose.x,
+                        y_m=result.pose.y,
+                        yaw_rad=result.pose.yaw,
+                        covariance=result.covariance,
+                    ),
                 )
+            return (*messages, *self._now_and_then())
+
+    def _now_and_then(self) -> tuple[Message, ...]:
+        """Worker, under the lock: the map when it changed and the tracking counts, each at
+        most once per MAP_PERIOD_S."""
+        now = self.ctx.clock.now()
+        messages: list[Message] = []
+        grid = self.mapper.grid
+        if grid.revision != self._map_revision and now - self._map_published_at >= MAP_PERIOD_S:
+            self._map_revision = grid.revision
+            self._map_published_at = now
+            messages.append(_map_update(grid, now))
+        if now - self._tracking_published_at >= MAP_PERIOD_S:
+            self._tracking_published_at = now
+            counts = self.mapper.tracking_counts()
+            messages.append(SlamTracking(stamp=now, received=now, counts=counts))
         return tuple(messages)
 
+    def _relocalize(self, stamp: float, points: FloatArray) -> list[Message]:
+        """Worker, under the lock: the search a person or a loaded map asked for (around a
+        given pose, or on the whole map); a robot lost is then lost no more."""
+        guess = None if self._relocate == GLOBAL else self._relocate
+        assert guess is None or isinstance(guess, Pose2)
+        found = relocalize(
+            self.mapper.grid, points, guess=guess, reach_m=self._in_force.mapper.max_range_m
+        )
+        self.ctx.log.info(
+            "relocalized",
+            x=round(found.pose.x, 3),
+            y=round(found.pose.y, 3),
+            yaw=round(found.pose.yaw, 3),
+            score=round(found.score, 3),
+            guess=None if guess is None else tuple(round(v, 3) for v in guess),
+        )
+        self.mapper.set_pose(found.pose)
+        self.mapper.forget_odometry()
+        self._relocate = None
+        reseed, self._reseed = self._reseed, False
+        pose_found = self._found(stamp, found.pose, found.score, whole_map=guess is None)
+        messages: list[Message] = [pose_found]
+        if reseed:  # asked for by a person: the estimate starts again from it
+            messages.append(self._reseed_estimate(stamp, pose_found))
+        if self._lost is not None:
+            self._lost = None
+            messages.append(self._tracking(stamp, lost=False, reason="found by a search asked for"))
+        return messages
+
+    def _became_lost(self, stamp: float, now: float) -> Message:
+        """Worker, under the lock: the scans stopped fitting the map; the search starts."""
+        last_good = self.mapper.last_good or self.mapper.pose or Pose2(0.0, 0.0, 0.0)
+        self._lost = LostSearch(self._in_force.mapper, last_good)
+        scans = self._in_force.mapper.lost_after_scans
+        reason = (
+            f"scan matching lost the robot: {scans} scans in a row did not fit the map where it "
+            "should be; it stays stopped while the map is searched for it"
+        )
+        self.ctx.log.warning(
+            "lost_on_map",
+            last_good=tuple(round(v, 3) for v in last_good),
+            scans=scans,
+        )
+        return self._tracking(stamp, lost=True, reason=reason, at=now)
+
+    def _search(self, stamp: float, points: FloatArray, odom: Pose2) -> tuple[Message, ...]:
+        """Worker, under the lock: one search for the lost robot; once it is found, the
+        mapper and the estimate start again from there."""
+        assert self._lost is not None
+        found = self._lost.step(self.mapper.grid, points, odom)
+        if found is None:
+            return ()
+        self._lost = None
+        self.mapper.set_pose(found.pose)
+        self.mapper.forget_odometry()
+        where = "the whole map" if found.window_m == 0.0 else f"{found.window_m:g} m"
+        self.ctx.log.info(
+            "found_on_map",
+            x=round(found.pose.x, 3),
+            y=round(found.pose.y, 3),
+            yaw=round(found.pose.yaw, 3),
+            fit=round(found.fit, 3),
+            searches=found.searches,
+            window=where,
+        )
+        reason = f"found again by {found.searches} searches within {where} (fit {found.fit:.2f})"
+        pose_found = self._found(stamp, found.pose, found.fit, whole_map=found.window_m == 0.0)
+        return (
+            pose_found,
+            self._reseed_estimate(stamp, pose_found),
+            self._tracking(stamp, lost=False, reason=reason),
+        )
+
+    def _found(self, stamp: float, pose: Pose2, score: float, *, whole_map: bool) -> PoseFound:
+        return PoseFound(
+            stamp=stamp,  # the scan's: where the robot was when it was taken
+            received=self.ctx.clock.now(),
+            x_m=pose.x,
+            y_m=pose.y,
+            yaw_rad=pose.yaw,
+            score=score,
+            whole_map=whole_map,
+        )
+
+    def _reseed_estimate(self, stamp: float, found: PoseFound) -> InitialPose:
+        self._seeded = InitialPose(
+            stamp=stamp,
+            received=found.received,
+            x_m=found.x_m,
+            y_m=found.y_m,
+            yaw_rad=found.yaw_rad,
+            std_xy_m=RESEED_STD_M,
+            std_yaw_rad=RESEED_STD_RAD,
+        )
+        return self._seeded
+
+    def _tracking(
+        self, stamp: float, *, lost: bool, reason: str, at: float | None = None
+    ) -> TrackingLost:
+        received = self.ctx.clock.now() if at is None else at
+        return TrackingLost(stamp=stamp, received=received, lost=lost, reason=reason)
+
     def _on_initial_pose(self, pose: InitialPose) -> None:
-        # A person's guess: the next scan searches around it (±1 m, ±30°) on the map.
+        # A person's guess: the next scan searches around it (±1 m, ±30°) on the map. (The
+        # seeds this module sends the estimate come back here too: they are no guess.)
+        if pose == self._seeded:
+            return
         with self._lock:
             self._relocate = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
 

@@ -25,6 +25,7 @@ class MapperSettings:
     keyframe_distance_m: float
     keyframe_angle_rad: float
     min_score: float
+    lost_after_scans: int  # 0: never lost (navd.slam.lost_search)
     updating_map: bool
     loop_closure: bool
     loop_search_radius_m: float
@@ -53,6 +54,7 @@ class MapperSettings:
             keyframe_distance_m=slam.keyframe_distance_m,
             keyframe_angle_rad=slam.keyframe_angle_rad,
             min_score=slam.min_match_score,
+            lost_after_scans=slam.lost_after_scans,
             updating_map=slam.updating_map,
             loop_closure=slam.loop_closure,
             loop_search_radius_m=slam.loop_search_radius_m,

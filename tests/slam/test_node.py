@@ -21,12 +21,15 @@ from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame, Sta
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     InitialPose,
+    LocalizationState,
     MapUpdate,
     PoseEstimate,
     PoseFound,
     PoseMeasurement,
     SafeStop,
+    SafeStopCleared,
     SlamTracking,
+    TrackingLost,
 )
 from navd.slam.map_io import load_map
 from navd.slam.node import SlamNode
@@ -249,6 +252,68 @@ async def test_a_robot_carried_elsewhere_is_found_on_the_whole_map_when_asked(
         assert found[1].received >= found[1].stamp
         await lidar.close()
         await control.close()
+
+
+async def test_a_robot_carried_off_is_reported_lost_held_and_found_again_without_help(
+    tmp_path: Path,
+) -> None:
+    path = _room_map(tmp_path)
+    slam = {
+        "load_map": str(path),
+        "updating_map": False,
+        "map_dir": str(tmp_path),
+        "lost_after_scans": 5,
+    }
+    async with running_daemon(slam=slam) as (daemon, port):
+        poses = record(daemon, PoseMeasurement)
+        tracking = record(daemon, TrackingLost)
+        found = record(daemon, PoseFound)
+        seeds = record(daemon, InitialPose)
+        states = record(daemon, LocalizationState)
+        stops = record(daemon, SafeStop)
+        cleared = record(daemon, SafeStopCleared)
+        lidar = await connected(port, "lidar", "lidar0")
+        stamp = 50.0
+        here = Pose2(2.0, -2.5, 2.5)
+        for _ in range(30):  # found on the loaded map, and the estimate settles there
+            lidar.send(_frame(here, stamp))
+            stamp += 0.1
+            await asyncio.sleep(0.1)
+            if states and states[-1].state == "ok":
+                break
+        assert states[-1].state == "ok" and len(found) == 1 and not tracking
+        # Picked up and put down far away and turned; nobody says so.
+        carried = Pose2(-4.5, 0.5, -1.0)
+        for _ in range(60):
+            lidar.send(_frame(carried, stamp))
+            stamp += 0.1
+            await asyncio.sleep(0.1)
+            if len(tracking) == 2:
+                break
+        lost, back = tracking
+        assert lost.lost and "5 scans in a row did not fit the map" in lost.reason
+        assert not back.lost and "found again" in back.reason
+        # Lost: reported by localization with the reason, and the robot held until found.
+        lost_states = [s for s in states if s.state == "lost"]
+        assert lost_states and lost_states[0].reason == lost.reason
+        assert [s.reason for s in stops] == [f"localization lost: {lost.reason}"]
+        # No pose from the scans while lost; found where it is, and the estimate re-seeded.
+        assert not [p for p in poses if lost.stamp <= p.stamp < back.stamp]
+        for where in (found[1], seeds[0]):
+            assert math.hypot(where.x_m - carried.x, where.y_m - carried.y) < 0.08
+        assert found[1].stamp == seeds[0].stamp == back.stamp
+        # Tracking goes on from there.
+        for _ in range(5):
+            lidar.send(_frame(carried, stamp))
+            stamp += 0.1
+            await asyncio.sleep(0.1)
+        await until(lambda: poses[-1].stamp > back.stamp, timeout_s=10.0)
+        assert math.hypot(poses[-1].x_m - carried.x, poses[-1].y_m - carried.y) < 0.05
+        await until(lambda: states[-1].state == "ok", timeout_s=10.0)
+        assert len(cleared) == 1 and cleared[0].stamp >= back.received  # and let go
+        # One search found it, one seed: the module does not search again at its own seed.
+        assert len(found) == 2 and len(seeds) == 1
+        await lidar.close()
 
 
 async def test_a_map_loaded_at_run_time_searches_for_the_robot_and_restarts_the_estimate(

@@ -241,12 +241,14 @@ class DeviceInfo(ReplyPart):
 
 
 class LocalizationInfo(ReplyPart):
-    """The estimator's verdict, uncertainties [m, rad] and counters."""
+    """The estimator's verdict, uncertainties [m, rad] and counters; why it is lost when
+    the uncertainty does not say (scan matching lost the robot on its map)."""
 
     state: str
     position_std_m: float | None
     yaw_std_rad: float | None
     counters: dict[str, Any]
+    reason: str = ""
 
 
 class ModuleInfo(ReplyPart):

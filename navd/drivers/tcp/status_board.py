@@ -222,4 +222,5 @@ def _localization_info(state: LocalizationState | None) -> LocalizationInfo | No
         position_std_m=round(state.position_std_m, 4) if finite else None,
         yaw_std_rad=round(state.yaw_std_rad, 4) if finite else None,
         counters=dict(state.counters),
+        reason=state.reason,
     )

@@ -59,6 +59,7 @@ from navd.lifecycle.messages.results import (
     PoseMeasurement,
     SlamTracking,
     StuckDetected,
+    TrackingLost,
     WorkerStats,
 )
 from navd.lifecycle.messages.sensors import (
@@ -129,6 +130,7 @@ __all__ = [
     "SaveMapRequest",
     "SlamTracking",
     "StuckDetected",
+    "TrackingLost",
     "Vector3",
     "VelocityCommand",
     "ViewInterest",

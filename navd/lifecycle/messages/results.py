@@ -98,12 +98,15 @@ class LocalizationState(Message):
         position_std_m: [m] standard deviation of the position along its worst axis.
         yaw_std_rad: [rad] standard deviation of the yaw.
         counters: the estimator's counts (late, rejected, ignored events, resets...).
+        reason: why it is lost when the uncertainty does not say (scan matching lost the
+            robot on its map); empty otherwise.
     """
 
     state: str
     position_std_m: float
     yaw_std_rad: float
     counters: Mapping[str, object] = field(default_factory=dict)
+    reason: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -121,6 +124,25 @@ class SlamTracking(Message):
     def __post_init__(self) -> None:
         Message.__post_init__(self)
         object.__setattr__(self, "counts", MappingProxyType(dict(self.counts)))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TrackingLost(Message):
+    """Scan matching lost the robot on its map, or found it again (SLAM module), on change.
+
+    While ``lost`` the estimate is not to be trusted, whatever its uncertainty says: the
+    scans have stopped fitting the map where the estimate puts the robot (it was carried,
+    its wheels slipped far, the map is of somewhere else). The SLAM module searches the map
+    for the robot meanwhile and sends ``lost=False`` with an ``InitialPose`` when it found
+    it.
+
+    Attributes:
+        lost: True from the scan that made the robot lost until a search found it.
+        reason: why it is lost, or how it was found.
+    """
+
+    lost: bool
+    reason: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
