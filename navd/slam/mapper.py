@@ -88,6 +88,10 @@ REPAIR_RIVAL_EXCLUDE_M, REPAIR_MAX_RIVAL_RATIO = 0.3, 0.9
 # scans is checked the same way; the wider match must beat its fit by REPAIR_MARGIN. (If it
 # does not, the match stands, counted as doubtful: people walking by, a door opened.)
 FIT_DROP_RATIO, RECENT_FITS, REPAIR_MARGIN = 0.7, 20, 0.2
+# A scan with at least this share of its points (and MIN_KNOWN_POINTS) on mapped ground that
+# does not fit there counts toward being lost (``lost_after_scans``): a robot carried off sees
+# its walls where the map has open floor, or none at all.
+LOST_KNOWN_FRACTION = 0.25
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
@@ -281,7 +285,7 @@ class ScanMapper:
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
             self._weak_run += 1  # (new ground mapped above is no sign of being lost)
-            if on_mapped_ground:
+            if known_points >= MIN_KNOWN_POINTS and known >= LOST_KNOWN_FRACTION:
                 self._misfit()
             if s.loop_closure:
                 # Lost on a map the robot drifted from is what a loop closure repairs.

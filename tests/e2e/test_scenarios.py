@@ -276,3 +276,52 @@ async def test_gps_outage_indoors_does_not_stop_the_drive(tmp_path: Path) -> Non
     assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     assert s.sim.body.x_m > 5.0
+
+
+async def test_a_robot_kidnapped_mid_drive_is_held_finds_itself_and_reaches_its_goal(
+    tmp_path: Path,
+) -> None:
+    # The hall is mapped on the way to its far end. On the way back the robot is picked up
+    # and put down 3 m further on and 0.7 m aside; nobody tells navd. It must report itself
+    # lost, hold the wheels still, find itself on the map without help, and finish the goal.
+    # (Not turned half round as well: the hall is its own mirror image but for the pillar,
+    # and a robot put down facing the other way sees nearly what it saw before.)
+    world = from_shapes(HALL, "hall")
+    async with session(world, tmp_path, lockstep=True, hold_clock=True) as s:
+        await start(s, world)
+        assert (await outcome(s)).state == "reached"
+        await s.control.request(GoalFrame(x=0.5, y=0.0, yaw=math.pi, goal_id="back"))
+        await s.control.request(SubscribeFrame(rate_hz=10))
+        await until(lambda: s.sim.body.x_m < 4.3, 60.0)
+        body = s.sim.body
+        body.x_m, body.y_m = 1.2, -0.7
+        kidnapped_at = s.sim.now()
+        states: list[tuple[float, str, str]] = []  # (sim time, state, reason)
+        result = GoalStatusFrame(goal_id="back", state="timeout")
+        while s.sim.now() < kidnapped_at + 90.0:
+            s.check()
+            try:
+                frame = await s.control.receive(1.0)
+            except TimeoutError:
+                continue
+            if isinstance(frame, StatusFrame) and frame.diagnostics.localization is not None:
+                where = frame.diagnostics.localization
+                states.append((s.sim.now(), where.state, where.reason))
+            if isinstance(frame, GoalStatusFrame) and frame.goal_id == "back":
+                if frame.state in ("reached", "failed", "canceled"):
+                    result = frame
+                    break
+    assert result.state == "reached", result
+    assert s.sim.body.collisions == 0
+    assert math.hypot(s.sim.body.x_m - 0.5, s.sim.body.y_m) <= 0.25
+    # Reported lost, for scan matching's reason, then found again.
+    lost = [(t, reason) for t, state, reason in states if state == "lost"]
+    assert lost, states
+    assert "scans in a row did not fit the map" in lost[0][1]
+    found_at = max(t for t, _ in lost)
+    assert any(state == "ok" for t, state, _ in states if t > found_at)
+    # Held still while lost: the wheels were told to stop, and nothing else until found.
+    wheels = s.sim.robot.wheels.log
+    first, last = lost[0][0], lost[-1][0]
+    assert (0, 0) in [(left, right) for t, left, right in wheels if first - 0.5 <= t <= first]
+    assert {(left, right) for t, left, right in wheels if first <= t <= last} <= {(0, 0)}
