@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 import json
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load, print_figures
 from navd.config import ConfigError
+
+if TYPE_CHECKING:
+    from navd.slam.logfiles import LogScan
 
 __all__ = ["add_commands"]
 
@@ -54,6 +59,19 @@ def add_commands(commands: Commands) -> None:
     )
     replay.add_argument("--seed", type=int, default=0, help="seed of --perturb (default 0)")
     replay.add_argument(
+        "--map",
+        type=Path,
+        metavar="YAML",
+        help="a saved map to go on mapping (its pose graph too, if saved with it; the robot "
+        "is found on it by the first scan)",
+    )
+    replay.add_argument(
+        "--scans",
+        metavar="FROM:TO",
+        help="only the scans FROM (counted from 0) up to but not including TO; either may be "
+        "left out (a log split in two: 0:3000, then 3000:)",
+    )
+    replay.add_argument(
         "--scan-topic", help="bag topic of the scans (default: the sensor_msgs/LaserScan one)"
     )
     replay.add_argument(
@@ -95,7 +113,7 @@ def _replay(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
     from navd.slam.errors import SlamError  # noqa: PLC0415
-    from navd.slam.perturb import perturb  # noqa: PLC0415
+    from navd.slam.map_io import load_map_state  # noqa: PLC0415
     from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
     from navd.slam.settings import MapperSettings  # noqa: PLC0415
 
@@ -109,6 +127,11 @@ def _replay(args: argparse.Namespace) -> int:
         settings = dataclasses.replace(settings, max_range_m=args.max_range)
     if args.loop_closure is not None:
         settings = dataclasses.replace(settings, loop_closure=args.loop_closure)
+    try:
+        start_map = None if args.map is None else load_map_state(args.map)
+    except SlamError as err:
+        print(f"navd replay: --map: {err}", file=sys.stderr)
+        return EXIT_USAGE
     try:
         recording = open_recording(args.log, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
         if recording.mount is not None and not args.quiet:
@@ -125,20 +148,19 @@ def _replay(args: argparse.Namespace) -> int:
             y_m=args.laser_y,
             yaw_rad=args.laser_yaw,
         )
-        scans = recording.scans
-        if args.perturb is not None:
-            try:
-                scans = perturb(scans, args.perturb, args.seed)
-            except ValueError as err:
-                print(f"navd replay: --perturb: {err}", file=sys.stderr)
-                return EXIT_USAGE
+        try:
+            scans, total = _chosen_scans(args, recording.scans, recording.total)
+        except ValueError as err:
+            print(f"navd replay: {err}", file=sys.stderr)
+            return EXIT_USAGE
         result = replay(
             scans,
             args.out,
             settings,
             mount=mount,
             odometry=args.odometry,
-            progress=None if args.quiet else _progress_line(recording.total),
+            progress=None if args.quiet else _progress_line(total),
+            start_map=start_map,
         )
     except SlamError as err:
         said = str(err)
@@ -152,6 +174,50 @@ def _replay(args: argparse.Namespace) -> int:
         print(file=sys.stderr)
     print(json.dumps(result.summary, indent=2))
     return EXIT_OK
+
+
+def _chosen_scans(
+    args: argparse.Namespace, scans: Iterable[LogScan], total: int
+) -> tuple[Iterable[LogScan], int]:
+    """The scans ``--scans`` picks, made worse as ``--perturb`` says, and how many.
+
+    Raises:
+        ValueError: a bad --scans or --perturb, named.
+    """
+    from navd.slam.perturb import perturb  # noqa: PLC0415 - only replay needs SLAM
+
+    if args.scans is not None:
+        try:
+            first, last = _scan_range(args.scans)
+        except ValueError as err:
+            raise ValueError(f"--scans {args.scans}: {err}") from err
+        scans = itertools.islice(scans, first, last)
+        total = max(0, min(total, last if last is not None else total) - first)
+    if args.perturb is not None:
+        try:
+            scans = perturb(scans, args.perturb, args.seed)
+        except ValueError as err:
+            raise ValueError(f"--perturb: {err}") from err
+    return scans, total
+
+
+def _scan_range(text: str) -> tuple[int, int | None]:
+    """FROM:TO as (first, end or None); either may be empty.
+
+    Raises:
+        ValueError: not two counts around a colon, negative, or TO before FROM.
+    """
+    if text.count(":") != 1:
+        raise ValueError("give FROM:TO, e.g. 0:3000 or 3000:")
+    head, tail = text.split(":")
+    try:
+        first = int(head) if head.strip() else 0
+        last = int(tail) if tail.strip() else None
+    except ValueError:
+        raise ValueError("FROM and TO are scan counts (whole numbers)") from None
+    if first < 0 or (last is not None and last < first):
+        raise ValueError("FROM must be >= 0 and TO >= FROM")
+    return first, last
 
 
 def _play(args: argparse.Namespace) -> int:

@@ -1,8 +1,9 @@
 """Map files: the ROS map_server format (.pgm + .yaml) and navd's lossless state beside it.
 
 A save writes ``<name>.<revision>.pgm`` (trinary: occupied 0, free 254, unknown 205, top row
-first) and ``<name>.<revision>.npz`` (the float32 log-odds grid, origin, resolution, and
-the keyframe poses), then replaces ``<name>.yaml`` atomically: the YAML is the commit point.
+first) and ``<name>.<revision>.npz`` (the float32 log-odds grid, origin, resolution, the
+keyframe poses and, when given, the whole pose graph the map was built from: see
+``graph_file``), then replaces ``<name>.yaml`` atomically: the YAML is the commit point.
 A crash before it leaves the old YAML pointing at the old, complete files; a crash after it
 leaves the new ones. Files of older revisions are removed once the YAML points elsewhere.
 Every file is written to a temporary name, flushed to disk, then renamed.
@@ -16,7 +17,9 @@ import os
 import re
 import tempfile
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -30,12 +33,15 @@ from navd.geometry.raster_file import (
 )
 from navd.geometry.raster_file import read_map_yaml as read_raster_yaml
 from navd.slam.errors import MapFileError
+from navd.slam.graph_file import MapGraph, graph_arrays, graph_from_arrays
 from navd.slam.occupancy import OccupancyGrid
 
 __all__ = [
     "MapYaml",
+    "SavedMap",
     "clean_leftovers",
     "load_map",
+    "load_map_state",
     "read_map_yaml",
     "read_pgm",
     "save_map",
@@ -113,12 +119,17 @@ def save_map(
     grid: OccupancyGrid,
     directory: Path,
     name: str,
+    *,
     keyframe_poses: npt.NDArray[np.float64] | None = None,
     image_stem: str | None = None,
+    graph: MapGraph | None = None,
 ) -> Path:
     """Save ``grid`` as ``directory/name.yaml`` with its image and lossless state.
 
     Args:
+        keyframe_poses: N x 3 (x [m], y [m], yaw [rad]) of the keyframes, for viewers.
+        graph: the pose graph the map was built from, so a later run can go on mapping
+            with loop closure onto it.
         image_stem: fixed file stem for the image and state ("map" gives map.pgm and
             map.npz) for one-off outputs; None (the default for live saves) numbers them by
             revision so that the set stays consistent through a crash.
@@ -134,7 +145,7 @@ def save_map(
     pixels[(occupancy >= 0) & (occupancy < FREE_THRESH * 100)] = PIXEL_FREE
     pixels[occupancy > OCCUPIED_THRESH * 100] = PIXEL_OCCUPIED
     _write_atomic(directory / f"{stem}.pgm", _pgm_bytes(pixels[::-1]))
-    state = _npz_bytes(grid, keyframe_poses)
+    state = _npz_bytes(grid, keyframe_poses, graph)
     _write_atomic(directory / f"{stem}.npz", state)
     meta = MapYaml(f"{stem}.pgm", grid.resolution, (grid.origin_x, grid.origin_y, 0.0))
     _write_atomic(yaml_path, _yaml_text(meta).encode("utf-8"))
@@ -151,17 +162,22 @@ def saved_files(yaml_path: Path) -> tuple[Path, ...]:
     return (yaml_path,)
 
 
-def _npz_bytes(grid: OccupancyGrid, keyframe_poses: npt.NDArray[np.float64] | None) -> bytes:
+def _npz_bytes(
+    grid: OccupancyGrid,
+    keyframe_poses: npt.NDArray[np.float64] | None,
+    graph: MapGraph | None,
+) -> bytes:
     import io  # noqa: PLC0415
 
+    arrays: dict[str, Any] = {
+        "logodds": grid.logodds,
+        "origin": np.array([grid.origin_x, grid.origin_y]),
+        "resolution": np.array(grid.resolution),
+        "keyframe_poses": np.zeros((0, 3)) if keyframe_poses is None else keyframe_poses,
+        **({} if graph is None else graph_arrays(graph)),
+    }
     buffer = io.BytesIO()
-    np.savez(
-        buffer,
-        logodds=grid.logodds,
-        origin=np.array([grid.origin_x, grid.origin_y]),
-        resolution=np.array(grid.resolution),
-        keyframe_poses=np.zeros((0, 3)) if keyframe_poses is None else keyframe_poses,
-    )
+    np.savez(buffer, **arrays)
     return buffer.getvalue()
 
 
@@ -213,8 +229,26 @@ def clean_leftovers(directory: Path) -> list[Path]:
     return removed
 
 
+@dataclass(frozen=True, slots=True)
+class SavedMap:
+    """A map as loaded: its grid, and the pose graph it was built from if it was saved with
+    one (None for a map from another tool, or saved without it)."""
+
+    grid: OccupancyGrid
+    graph: MapGraph | None = None
+
+
 def load_map(yaml_path: Path) -> OccupancyGrid:
     """A map saved by navd (exact, from its state file) or by any map_server tool (from the image).
+
+    Raises:
+        MapFileError: missing or malformed files, named.
+    """
+    return load_map_state(yaml_path, with_graph=False).grid
+
+
+def load_map_state(yaml_path: Path, *, with_graph: bool = True) -> SavedMap:
+    """A map with the pose graph it was saved with (navd's state file), or its grid alone.
 
     Raises:
         MapFileError: missing or malformed files, named.
@@ -225,14 +259,18 @@ def load_map(yaml_path: Path) -> OccupancyGrid:
     if state.exists():
         try:
             with np.load(state) as data:
-                return OccupancyGrid.from_array(
+                grid = OccupancyGrid.from_array(
                     data["logodds"],
                     float(data["origin"][0]),
                     float(data["origin"][1]),
                     float(data["resolution"]),
                 )
+                graph = graph_from_arrays(data) if with_graph else None
         except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as err:
             raise MapFileError(f"{state}: unreadable navd map state: {err}") from err
+        except MapFileError as err:
+            raise MapFileError(f"{state}: {err}") from err
+        return SavedMap(grid, graph)
     if not math.isclose(meta.origin[2], 0.0, abs_tol=1e-9):
         raise MapFileError(f"{yaml_path}: rotated map origins (yaw != 0) are not supported")
     pixels = read_pgm(image)[::-1].astype(np.float64)
@@ -240,4 +278,6 @@ def load_map(yaml_path: Path) -> OccupancyGrid:
     logodds = np.zeros(occ.shape, dtype=np.float32)
     logodds[occ > meta.occupied_thresh] = 2.0
     logodds[occ < meta.free_thresh] = -2.0
-    return OccupancyGrid.from_array(logodds, meta.origin[0], meta.origin[1], meta.resolution)
+    return SavedMap(
+        OccupancyGrid.from_array(logodds, meta.origin[0], meta.origin[1], meta.resolution)
+    )

@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
+from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser
@@ -71,6 +72,9 @@ class _Counts:
 
 # Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
 EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
+# ... and for the edge from the nearest old keyframe to the first new one after a load or a
+# pose set from outside (a global search's pose: a cell or two, a degree or two).
+FOUND_WEIGHTS = (1 / 0.1, 1 / 0.1, 1 / 0.035)
 # A match is judged on the scan points that land on mapped cells: at least this many of them.
 MIN_KNOWN_POINTS = 10
 # After this many scans in a row that did not match, every keyframe searches for a loop
@@ -141,6 +145,8 @@ class ScanMapper:
         self._fits = np.zeros(RECENT_FITS)  # the last matched scans' fits (a ring)
         self._fits_seen = 0
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
+        # The next keyframe starts a new chain (after a load or a pose set from outside).
+        self._new_session = False
         self._field: LikelihoodField | None = None
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
@@ -157,14 +163,29 @@ class ScanMapper:
         self._weak_run = 0
         self._misfit_run = 0
 
-    def load(self, grid: OccupancyGrid) -> None:
-        """Start from a saved map: it stays under everything mapped from here on, and a
-        loop closure's rebuild draws the keyframes over it (it has none of its own)."""
+    def load(self, grid: OccupancyGrid, graph: MapGraph | None = None) -> None:
+        """Start from a saved map. With the pose graph it was built from, mapping goes on
+        where it stopped: the keyframes and edges are this run's first, loops close onto
+        them, and a rebuild draws them over the map they were drawn over. Without one the
+        map stays under everything mapped from here on, and a rebuild draws the keyframes
+        over it (it has none of its own)."""
         self.grid = grid
-        self._base = OccupancyGrid.from_array(
-            grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
-        )
+        if graph is None:
+            self._base = OccupancyGrid.from_array(
+                grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
+            )
+            self.keyframes, self.edges = [], []
+        else:
+            self._base = graph.base
+            self.keyframes, self.edges = list(graph.keyframes), list(graph.edges)
+        self._anchors = []
+        self._new_session = True
         self._field = None
+
+    def graph(self) -> MapGraph:
+        """What the map was built from, for a save (a snapshot: the keyframes are frozen,
+        the lists copied)."""
+        return MapGraph(tuple(self.keyframes), tuple(self.edges), self._base)
 
     def predict(self, odom: Pose2 | None) -> Pose2:
         """The pose now: the last pose moved by the odometry since then."""
@@ -217,10 +238,12 @@ class ScanMapper:
 
     def set_pose(self, pose: Pose2) -> None:
         """Put the robot at ``pose`` (an initial pose from a person, or a global search);
-        it is no longer lost."""
+        it is no longer lost. The next keyframe is tied to the nearest old one, not to the
+        last: the robot may have been carried from there."""
         self.pose = pose
         self._weak_run = 0
         self._misfit_run = 0
+        self._new_session = True
 
     @property
     def lost(self) -> bool:
@@ -371,8 +394,8 @@ class ScanMapper:
         if mapped:
             self.grid.insert(pose, scan)
         if self.keyframes:
-            z = self.keyframes[-1].pose.between(pose)
-            self.edges.append(Edge(len(self.keyframes) - 1, len(self.keyframes), z, EDGE_WEIGHTS))
+            self.edges.append(self._edge_to(pose))
+        self._new_session = False
         self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
@@ -380,6 +403,17 @@ class ScanMapper:
         if s.loop_closure and (lost or k % s.loop_check_every == 0):
             self._close_loop(k)
         return mapped
+
+    def _edge_to(self, pose: Pose2) -> Edge:
+        """The edge that ties a new keyframe at ``pose`` into the graph: from the last
+        keyframe (the tracked step), or, first after a load or a pose set from outside, from
+        the nearest keyframe, as a found pose (looser, robust, like a loop)."""
+        new = len(self.keyframes)
+        if not self._new_session:
+            return Edge(new - 1, new, self.keyframes[-1].pose.between(pose), EDGE_WEIGHTS)
+        where = np.array([(f.pose.x, f.pose.y) for f in self.keyframes])
+        near = int(np.argmin(np.hypot(where[:, 0] - pose.x, where[:, 1] - pose.y)))
+        return Edge(near, new, self.keyframes[near].pose.between(pose), FOUND_WEIGHTS, True)
 
     def _close_loop(self, k: int) -> None:
         """Tie keyframe ``k`` to the old passes it revisits; re-solve if it is off them."""

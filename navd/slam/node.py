@@ -50,7 +50,7 @@ from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
 from navd.slam.global_search import relocalize
 from navd.slam.lost_search import LostSearch
-from navd.slam.map_io import clean_leftovers, load_map, save_map, saved_files
+from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
@@ -150,10 +150,16 @@ class SlamNode(Module):
         load = ctx.startup_config.slam.load_map
         if load is not None:
             try:
-                self.mapper.load(load_map(Path(load)))
+                saved = load_map_state(Path(load))
+                self.mapper.load(saved.grid, saved.graph)
             except MapFileError as err:  # the file the config names: a user's input
                 raise MapFileError(f"slam.load_map: {err}") from err
-            ctx.log.info("map_loaded", path=load, cells=self.mapper.grid.logodds.shape)
+            ctx.log.info(
+                "map_loaded",
+                path=load,
+                cells=self.mapper.grid.logodds.shape,
+                keyframes=len(self.mapper.keyframes),  # a saved graph goes on growing
+            )
             self._relocate = GLOBAL  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
@@ -429,18 +435,24 @@ class SlamNode(Module):
         path = Path(folder) / f"{name}.yaml"
         now = self.ctx.clock.now()
         try:
-            grid = load_map(path)  # outside the lock: reading a large map takes a while
+            saved = load_map_state(path)  # outside the lock: reading a large map takes a while
         except MapFileError as err:
             self.ctx.log.warning("map_not_loaded", name=name, reason=str(err))
             return (MapLoaded(stamp=now, received=now, name=name, reason=str(err)),)
         with self._lock:
             self.mapper = ScanMapper(self._in_force.mapper)
-            self.mapper.load(grid)
+            self.mapper.load(saved.grid, saved.graph)
+            grid = saved.grid
             self._relocate = GLOBAL
             self._reseed = True  # the estimate, in the old map's frame, starts again too
             self._map_revision = grid.revision
             self._map_published_at = now
-        self.ctx.log.info("map_loaded", path=str(path), cells=grid.logodds.shape)
+        self.ctx.log.info(
+            "map_loaded",
+            path=str(path),
+            cells=grid.logodds.shape,
+            keyframes=0 if saved.graph is None else len(saved.graph.keyframes),
+        )
         loaded = MapLoaded(stamp=now, received=now, name=name, path=str(path))
         return (loaded, _map_update(grid, now))
 
@@ -463,9 +475,10 @@ class SlamNode(Module):
             snapshot = type(grid).from_array(
                 grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
             )
-            poses = np.array([tuple(k.pose) for k in self.mapper.keyframes]).reshape(-1, 3)
+            graph = self.mapper.graph()
+            poses = np.array([tuple(k.pose) for k in graph.keyframes]).reshape(-1, 3)
         try:
-            path = save_map(snapshot, Path(folder), name, keyframe_poses=poses)
+            path = save_map(snapshot, Path(folder), name, keyframe_poses=poses, graph=graph)
         except (MapFileError, OSError) as err:
             self.ctx.log.error("map_not_saved", name=name, folder=folder, reason=str(err))
             return self._saved(name, reason=f"cannot write to {folder}: {err}")

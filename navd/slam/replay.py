@@ -1,8 +1,12 @@
 """Offline SLAM over a laser log, as fast as the CPU allows (simulated time).
 
 The same ScanMapper as on the robot. Written into the output folder: the map (map.yaml,
-map.pgm, map.npz), map.png (the map with the trajectory), trajectory.tum (stamp x y z qx qy
-qz qw per scan) and summary.json.
+map.pgm, map.npz with the pose graph), map.png (the map with the trajectory), trajectory.tum
+(stamp x y z qx qy qz qw per scan) and summary.json.
+
+Given a saved map (``--map``), the replay goes on mapping it, as a robot started with
+``slam.load_map`` does: the first scan is searched for on the whole map, and with the map's
+pose graph the new keyframes join it and close loops onto the old ones.
 
 Where the lidar sits on the robot, in order of precedence: a value given for the replay
 (``--laser-x`` ...), then the recording's own static transforms (a bag's /tf_static), then
@@ -20,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
@@ -27,16 +32,19 @@ from navd.geometry.scan import laser_points
 from navd.lifecycle.stats import percentile
 from navd.slam.bags import inspect_bag, is_bag, read_bag
 from navd.slam.errors import LogFormatError
+from navd.slam.global_search import relocalize
 from navd.slam.logfiles import LogScan, count_scans, open_log
-from navd.slam.map_io import save_map
+from navd.slam.map_io import SavedMap, save_map
 from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.picture import map_picture
 from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
 
 __all__ = ["ReplayInput", "ReplayResult", "open_recording", "replay", "replay_mount", "tum_line"]
 
 Progress = Callable[[int, float], None]
+FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +108,55 @@ def replay_mount(
     return LidarMount(pose, configured.min_range_m)
 
 
+@dataclass
+class _Loaded:
+    """A saved map the replay goes on: how big its graph was, and where the robot was found.
+
+    Attributes:
+        keyframes, edges: the loaded graph's sizes (0 without a map or a graph).
+        searching: the next scan is searched for on the whole map.
+        found: the pose it was found at, and the search's score.
+    """
+
+    keyframes: int = 0
+    edges: int = 0
+    searching: bool = False
+    found: tuple[Pose2, float] | None = None
+
+    @classmethod
+    def of(cls, mapper: ScanMapper, start: SavedMap | None) -> _Loaded:
+        if start is None:
+            return cls()
+        mapper.load(start.grid, start.graph)
+        return cls(len(mapper.keyframes), len(mapper.edges), searching=True)
+
+    def find(self, mapper: ScanMapper, points: FloatArray) -> None:
+        """Search the whole map for the robot at its first scan (one with points)."""
+        if points.shape[0] == 0:
+            return
+        match = relocalize(mapper.grid, points, reach_m=mapper.settings.max_range_m)
+        mapper.set_pose(match.pose)
+        mapper.forget_odometry()
+        self.searching = False
+        self.found = (match.pose, match.score)
+
+    def figures(self, mapper: ScanMapper) -> dict[str, object]:
+        """The summary's lines on the loaded map: its keyframes, where the robot was found,
+        and the loops closed onto its keyframes (the first new edge ties the new keyframes
+        to the nearest old one: not a loop)."""
+        if self.found is None and not self.searching and not self.keyframes:
+            return {}
+        new_edges = mapper.edges[self.edges + 1 :]
+        loops = sum(1 for e in new_edges if e.robust and e.i < self.keyframes <= e.j)
+        pose, score = self.found if self.found is not None else (None, 0.0)
+        return {
+            "loaded_keyframes": self.keyframes,
+            "found_at": None if pose is None else [round(v, 4) for v in pose],
+            "found_score": round(score, 4),
+            "loops_to_loaded": loops,
+        }
+
+
 def tum_line(stamp: float, pose: Pose2) -> str:
     """One TUM trajectory line: stamp x y z qx qy qz qw (a rotation about z)."""
     half = pose.yaw / 2.0
@@ -114,12 +171,14 @@ def replay(
     mount: LidarMount,
     odometry: str = "log",
     progress: Progress | None = None,
+    start_map: SavedMap | None = None,
 ) -> ReplayResult:
     """Run SLAM over ``scans`` and write the results into ``out_dir``.
 
     Args:
         odometry: the motion prior: "log" (the log's odometry), "scan" (kiss-icp on the
             scans themselves) or "none" (the last pose).
+        start_map: a saved map to go on mapping (the robot found on it by the first scan).
 
     Raises:
         LogFormatError: a scan the log cannot give, or no scan at all.
@@ -128,6 +187,7 @@ def replay(
         raise ValueError(f"odometry must be log, scan or none, got {odometry!r}")
     out_dir.mkdir(parents=True, exist_ok=True)
     mapper = ScanMapper(dataclasses.replace(settings, keep_trajectory=True))
+    loaded = _Loaded.of(mapper, start_map)
     scan_odometry = (
         ScanOdometry(
             ScanOdometrySettings(settings.voxel_size_m, settings.max_range_m, mount.min_range_m)
@@ -146,6 +206,8 @@ def replay(
             odom: Pose2 | None = scan_odometry.register(points.hits)
         else:
             odom = scan.odom if odometry == "log" else None
+        if loaded.searching:
+            loaded.find(mapper, voxel_downsample(points.hits, settings.voxel_size_m))
         result = mapper.add(scan.stamp, points, odom)
         per_scan.append(time.perf_counter() - t0)
         stamps.append(scan.stamp)
@@ -157,8 +219,9 @@ def replay(
         raise LogFormatError("it holds no laser scans: nothing to map")
     # The trajectory as the final pose graph has it (loop closures correct the past too).
     poses = mapper.trajectory()
-    keyframes = np.array([tuple(k.pose) for k in mapper.keyframes]).reshape(-1, 3)
-    save_map(mapper.grid, out_dir, "map", keyframe_poses=keyframes, image_stem="map")
+    graph = mapper.graph()
+    keyframes = np.array([tuple(k.pose) for k in graph.keyframes]).reshape(-1, 3)
+    save_map(mapper.grid, out_dir, "map", keyframe_poses=keyframes, image_stem="map", graph=graph)
     map_picture(mapper.grid, poses, out_dir / "map.png")
     (out_dir / "trajectory.tum").write_text(
         "".join(tum_line(t, p) + "\n" for t, p in zip(stamps, poses, strict=True)),
@@ -172,6 +235,7 @@ def replay(
         "ms_per_scan_p50": round(percentile(ms, 50), 3),
         "ms_per_scan_p95": round(percentile(ms, 95), 3),
         **mapper.tracking_counts(),
+        **loaded.figures(mapper),
         "map_cells": list(mapper.grid.logodds.shape),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")

@@ -307,10 +307,13 @@ async def test_a_robot_kidnapped_mid_drive_is_held_finds_itself_and_reaches_its_
             if isinstance(frame, StatusFrame) and frame.diagnostics.localization is not None:
                 where = frame.diagnostics.localization
                 states.append((s.sim.now(), where.state, where.reason))
-            if isinstance(frame, GoalStatusFrame) and frame.goal_id == "back":
-                if frame.state in ("reached", "failed", "canceled"):
-                    result = frame
-                    break
+            if (
+                isinstance(frame, GoalStatusFrame)
+                and frame.goal_id == "back"
+                and frame.state in ("reached", "failed", "canceled")
+            ):
+                result = frame
+                break
     assert result.state == "reached", result
     assert s.sim.body.collisions == 0
     assert math.hypot(s.sim.body.x_m - 0.5, s.sim.body.y_m) <= 0.25

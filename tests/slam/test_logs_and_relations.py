@@ -18,7 +18,7 @@ from navd.geometry.scan import scan_points
 from navd.slam.errors import LogFormatError
 from navd.slam.global_search import relocalize
 from navd.slam.logfiles import open_log, read_carmen
-from navd.slam.map_io import load_map
+from navd.slam.map_io import load_map, load_map_state
 from navd.slam.relations import Relation, evaluate, read_relations, read_tum
 from navd.slam.replay import tum_line
 from navd.slam.voxel import voxel_downsample
@@ -252,3 +252,31 @@ def test_aces_replay_holds_with_scans_lost_and_worse_wheels(tmp_path: Path, kind
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
     assert errors.used > 1000
     assert errors.translation_mean_m <= 2 * ACES_UNPERTURBED_M
+
+
+def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path) -> None:
+    # aces in two halves, as two days of mapping: the second replay starts on the first's
+    # saved map and graph, is found on it by its first scan, maps on and closes loops onto
+    # the first run's keyframes.
+    freiburg = dataset("freiburg_slam_benchmark")
+    bag = str(freiburg / "bags_ros1" / "aces.orig.bag")
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert main(["replay", bag, "--out", str(first), "--scans", "0:3687", "--quiet"]) == 0
+    saved = load_map_state(first / "map.yaml")
+    assert saved.graph is not None and len(saved.graph.keyframes) > 400
+    args = ["replay", bag, "--out", str(second), "--scans", "3687:", "--quiet"]
+    assert main([*args, "--map", str(first / "map.yaml")]) == 0
+    summary = json.loads((second / "summary.json").read_text())
+    assert summary["scans"] == 7374 - 3687
+    assert summary["loaded_keyframes"] == len(saved.graph.keyframes)
+    # Found where the first run left the robot (the next scan, 0.24 s later).
+    _, before = read_tum(first / "trajectory.tum")
+    x, y, _ = summary["found_at"]
+    assert math.hypot(x - before[-1].x, y - before[-1].y) < 0.3
+    assert summary["loops_to_loaded"] >= 5  # 19 measured
+    # The second half is mapped as well as in one run (0.114 m over the whole log).
+    stamps, poses = read_tum(second / "trajectory.tum")
+    errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
+    assert errors.used > 500
+    assert errors.translation_mean_m <= 0.15
+    assert errors.rotation_mean_deg <= 0.6
