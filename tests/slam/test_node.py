@@ -31,7 +31,7 @@ from navd.lifecycle.messages import (
     SlamTracking,
     TrackingLost,
 )
-from navd.slam.map_io import load_map
+from navd.slam.map_io import load_map, load_map_state
 from navd.slam.node import SlamNode
 from tests.drivers.conftest import connected, record, running_daemon, until
 
@@ -99,6 +99,11 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         await until((tmp_path / "lab.yaml").exists, timeout_s=10.0)
         grid = load_map(tmp_path / "lab.yaml")
         assert grid.logodds.max() > 0
+        # ... with the pose graph it was built from, for a later run to go on mapping
+        saved = load_map_state(tmp_path / "lab.yaml")
+        (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
+        assert saved.graph is not None
+        assert len(saved.graph.keyframes) == len(node.mapper.keyframes) > 1
         await lidar.close()
         await control.close()
         await asyncio.sleep(0)
