@@ -7,11 +7,13 @@ wheels, by scan odometry (kiss-icp), inserts it at
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
 ``MAP_PERIOD_S`` after the map changed, a ``MapUpdate`` (and once per ``MAP_PERIOD_S`` the
 tracking counts, ``SlamTracking``). Maps are saved on request (a
-control client's save_map) and at shutdown if ``slam.save_on_shutdown``; ``slam.load_map``
-starts from a saved map, and the first scan then finds the robot anywhere on it (global
-search); an initial pose from a control client makes the next scan search around it (±1 m,
-±30°). ``slam.updating_map`` can be switched at runtime (off: localize on the map without
-changing it).
+control client's save_map) and at shutdown if ``slam.save_on_shutdown``, with the pose graph
+they were built from; ``slam.load_map`` starts from a saved map (mapping goes on with its
+graph), and the first scan then finds the robot anywhere on it (global search); an initial
+pose from a control client makes the next scan search around it (±1 m, ±30°). A robot lost
+on its map is reported (``TrackingLost``) and searched for by the following scans until found
+(``finder``). ``slam.updating_map`` can be switched at runtime (off: localize on the map
+without changing it).
 """
 
 from __future__ import annotations
@@ -23,7 +25,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import numpy.typing as npt
 
 from navd.config import NavdConfig
 from navd.geometry.mount import SensorMounts
@@ -38,24 +39,20 @@ from navd.lifecycle.messages import (
     MapSaved,
     MapUpdate,
     Message,
-    PoseFound,
     PoseMeasurement,
     SaveMapRequest,
     SlamTracking,
-    TrackingLost,
     WheelOdometry,
 )
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
-from navd.slam.global_search import relocalize
-from navd.slam.lost_search import LostSearch
+from navd.slam.finder import GLOBAL, Finder
 from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.settings import MapperSettings
-from navd.slam.voxel import voxel_downsample
 from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode", "SlamSettings"]
@@ -63,12 +60,7 @@ __all__ = ["SlamNode", "SlamSettings"]
 MAX_WAITING_SAVES = 8  # save requests waiting at once; more are answered at once, refused
 
 MAP_PERIOD_S = 1.0
-GLOBAL = "global"
-# How sure the estimate is told to be of a pose a search asked for by a person found [m], [rad].
-RESEED_STD_M = 0.2
-RESEED_STD_RAD = 0.1
 _SLOT = "scan_match"
-FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -129,16 +121,12 @@ class SlamNode(Module):
         self._map_published_at = -math.inf
         self._map_revision = -1
         self._tracking_published_at = -math.inf
-        # The next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no.
-        self._relocate: Pose2 | str | None = None
-        self._reseed = False  # the next search's pose re-seeds the estimate (pose find)
-        self._lost: LostSearch | None = None  # searching for the robot lost on the map
-        self._seeded: InitialPose | None = None  # the last seed sent to the estimate
         self._scan_odometry: ScanOdometry | None = None
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self._finder = Finder(ctx)
         self.settings = ctx.settings(SlamSettings, self._settings_changed)
         # What the mapper and kiss-icp were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.
@@ -160,7 +148,7 @@ class SlamNode(Module):
                 cells=self.mapper.grid.logodds.shape,
                 keyframes=len(self.mapper.keyframes),  # a saved graph goes on growing
             )
-            self._relocate = GLOBAL  # where on this map? the first scan searches all of it
+            self._finder.ask(GLOBAL)  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
@@ -243,25 +231,14 @@ class SlamNode(Module):
                 if self._scan_odometry is None:
                     self._scan_odometry = ScanOdometry(settings.odometry)
                 odom = self._scan_odometry.register(points.hits)
-            if isinstance(self._relocate, Pose2) and self.mapper.grid.empty:
-                # No map yet: the given pose is where the new map starts.
-                self.mapper.set_pose(self._relocate)
-                self.mapper.forget_odometry()
-                self._relocate = None
-            messages: list[Message] = []
-            if self._relocate is not None and not self.mapper.grid.empty:
-                messages += self._relocalize(
-                    stamp, voxel_downsample(points.hits, mapper.voxel_size_m)
-                )
-            elif self._lost is not None:
-                found = self._search(
-                    stamp, voxel_downsample(points.hits, mapper.voxel_size_m), odom
-                )
-                return (*found, *self._now_and_then())
+            messages, searched = self._finder.before(self.mapper, mapper, stamp, points, odom)
+            if searched:  # lost: the scan went into the search, not the map
+                return (*messages, *self._now_and_then())
             result = self.mapper.add(stamp, points, odom)
             now = self.ctx.clock.now()
-            if self.mapper.lost:
-                messages.append(self._became_lost(stamp, now))
+            lost = self._finder.after(self.mapper, mapper, stamp)
+            if lost is not None:
+                messages.append(lost)
             else:
                 messages.insert(
                     0,
@@ -293,115 +270,13 @@ class SlamNode(Module):
             messages.append(SlamTracking(stamp=now, received=now, counts=counts))
         return tuple(messages)
 
-    def _relocalize(self, stamp: float, points: FloatArray) -> list[Message]:
-        """Worker, under the lock: the search a person or a loaded map asked for (around a
-        given pose, or on the whole map); a robot lost is then lost no more."""
-        guess = None if self._relocate == GLOBAL else self._relocate
-        assert guess is None or isinstance(guess, Pose2)
-        found = relocalize(
-            self.mapper.grid, points, guess=guess, reach_m=self._in_force.mapper.max_range_m
-        )
-        self.ctx.log.info(
-            "relocalized",
-            x=round(found.pose.x, 3),
-            y=round(found.pose.y, 3),
-            yaw=round(found.pose.yaw, 3),
-            score=round(found.score, 3),
-            guess=None if guess is None else tuple(round(v, 3) for v in guess),
-        )
-        self.mapper.set_pose(found.pose)
-        self.mapper.forget_odometry()
-        self._relocate = None
-        reseed, self._reseed = self._reseed, False
-        pose_found = self._found(stamp, found.pose, found.score, whole_map=guess is None)
-        messages: list[Message] = [pose_found]
-        if reseed:  # asked for by a person: the estimate starts again from it
-            messages.append(self._reseed_estimate(stamp, pose_found))
-        if self._lost is not None:
-            self._lost = None
-            messages.append(self._tracking(stamp, lost=False, reason="found by a search asked for"))
-        return messages
-
-    def _became_lost(self, stamp: float, now: float) -> Message:
-        """Worker, under the lock: the scans stopped fitting the map; the search starts."""
-        last_good = self.mapper.last_good or self.mapper.pose or Pose2(0.0, 0.0, 0.0)
-        self._lost = LostSearch(self._in_force.mapper, last_good)
-        scans = self._in_force.mapper.lost_after_scans
-        reason = (
-            f"scan matching lost the robot: {scans} scans in a row did not fit the map where it "
-            "should be; it stays stopped while the map is searched for it"
-        )
-        self.ctx.log.warning(
-            "lost_on_map",
-            last_good=tuple(round(v, 3) for v in last_good),
-            scans=scans,
-        )
-        return self._tracking(stamp, lost=True, reason=reason, at=now)
-
-    def _search(self, stamp: float, points: FloatArray, odom: Pose2) -> tuple[Message, ...]:
-        """Worker, under the lock: one search for the lost robot; once it is found, the
-        mapper and the estimate start again from there."""
-        assert self._lost is not None
-        found = self._lost.step(self.mapper.grid, points, odom)
-        if found is None:
-            return ()
-        self._lost = None
-        self.mapper.set_pose(found.pose)
-        self.mapper.forget_odometry()
-        where = "the whole map" if found.window_m == 0.0 else f"{found.window_m:g} m"
-        self.ctx.log.info(
-            "found_on_map",
-            x=round(found.pose.x, 3),
-            y=round(found.pose.y, 3),
-            yaw=round(found.pose.yaw, 3),
-            fit=round(found.fit, 3),
-            searches=found.searches,
-            window=where,
-        )
-        reason = f"found again by {found.searches} searches within {where} (fit {found.fit:.2f})"
-        pose_found = self._found(stamp, found.pose, found.fit, whole_map=found.window_m == 0.0)
-        return (
-            pose_found,
-            self._reseed_estimate(stamp, pose_found),
-            self._tracking(stamp, lost=False, reason=reason),
-        )
-
-    def _found(self, stamp: float, pose: Pose2, score: float, *, whole_map: bool) -> PoseFound:
-        return PoseFound(
-            stamp=stamp,  # the scan's: where the robot was when it was taken
-            received=self.ctx.clock.now(),
-            x_m=pose.x,
-            y_m=pose.y,
-            yaw_rad=pose.yaw,
-            score=score,
-            whole_map=whole_map,
-        )
-
-    def _reseed_estimate(self, stamp: float, found: PoseFound) -> InitialPose:
-        self._seeded = InitialPose(
-            stamp=stamp,
-            received=found.received,
-            x_m=found.x_m,
-            y_m=found.y_m,
-            yaw_rad=found.yaw_rad,
-            std_xy_m=RESEED_STD_M,
-            std_yaw_rad=RESEED_STD_RAD,
-        )
-        return self._seeded
-
-    def _tracking(
-        self, stamp: float, *, lost: bool, reason: str, at: float | None = None
-    ) -> TrackingLost:
-        received = self.ctx.clock.now() if at is None else at
-        return TrackingLost(stamp=stamp, received=received, lost=lost, reason=reason)
-
     def _on_initial_pose(self, pose: InitialPose) -> None:
         # A person's guess: the next scan searches around it (±1 m, ±30°) on the map. (The
         # seeds this module sends the estimate come back here too: they are no guess.)
-        if pose == self._seeded:
+        if self._finder.sent(pose):
             return
         with self._lock:
-            self._relocate = Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
+            self._finder.ask(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
 
     def _on_save(self, request: SaveMapRequest) -> None:
         settings = self.settings.value
@@ -421,8 +296,7 @@ class SlamNode(Module):
             self.ctx.log.warning("pose_find_ignored", reason="no map yet: nothing to search")
             return
         with self._lock:
-            self._relocate = GLOBAL
-            self._reseed = True
+            self._finder.ask(GLOBAL, reseed=True)
 
     def _on_load(self, request: LoadMapRequest) -> None:
         folder = request.folder or self.settings.value.map_dir
@@ -443,8 +317,8 @@ class SlamNode(Module):
             self.mapper = ScanMapper(self._in_force.mapper)
             self.mapper.load(saved.grid, saved.graph)
             grid = saved.grid
-            self._relocate = GLOBAL
-            self._reseed = True  # the estimate, in the old map's frame, starts again too
+            # the estimate, in the old map's frame, starts again too
+            self._finder.ask(GLOBAL, reseed=True)
             self._map_revision = grid.revision
             self._map_published_at = now
         self.ctx.log.info(
