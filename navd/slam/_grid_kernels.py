@@ -148,12 +148,22 @@ def _project(px: F64, py: F64, c: float, s: float, tx: float, ty: float, k: int)
 
 
 @nb.njit(cache=True, nogil=True)
-def _block_bound(bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int) -> float:
-    """Summed ``bound`` under the projected points moved by (dx, dy) cells, float32-rounded."""
+def _block_bound(
+    bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int, size: int
+) -> float:
+    """Summed ``bound`` (the sliding maximum over ``size`` cells) under the projected points
+    moved by (dx, dy) cells, float32-rounded. A point whose block of cells starts before the
+    field's first row or column but reaches into it takes the bound of the field's first
+    block there (a superset of its cells): counting it as nothing would understate the
+    bound, and the search would no longer be exact (blocks as large as the field did)."""
     n_rows, n_cols = bound.shape
     total = 0.0
     for k in range(cols.size):
         x, y = cols[k] + dx, rows[k] + dy
+        if x < 0 < x + size:
+            x = 0
+        if y < 0 < y + size:
+            y = 0
         if 0 <= x < n_cols and 0 <= y < n_rows:
             total += bound[y, x]
     return np.float64(np.float32(total))
@@ -206,7 +216,7 @@ def branch_and_bound(
     for a in range(n_angles):
         for dy in range(-limit, limit + 1, top):
             for dx in range(-limit, limit + 1, top):
-                bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy)
+                bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy, top)
                 pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
                 queue.append((pull - bound, levels, a, dx, dy, bound))
     heapq.heapify(queue)
@@ -221,7 +231,7 @@ def branch_and_bound(
             for i in (0, half):
                 cx, cy = dx + i, dy + j
                 if abs(cx) <= limit and abs(cy) <= limit:
-                    bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy)
+                    bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy, half)
                     pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
                     heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
     return -1, 0, 0, 0.0, expanded

@@ -76,6 +76,15 @@ class LikelihoodField:
         return px, py, tx, ty
 
 
+def _max_every(values: F32, factor: int) -> F32:
+    """Row r of the result: the largest of rows r * factor .. r * factor + factor - 1."""
+    out = values[0::factor].copy()
+    for first in range(1, factor):
+        part = values[first::factor]
+        np.maximum(out[: part.shape[0]], part, out=out[: part.shape[0]])
+    return out
+
+
 def gaussian_kernel(sigma_m: float, resolution: float) -> F32:
     """exp(-d² / (2 sigma²)) over a square of half-width ceil(2 sigma / res) cells."""
     r = max(1, math.ceil(2.0 * sigma_m / resolution))
@@ -109,6 +118,18 @@ class OccupancyGrid:
         grid.logodds = np.array(logodds, dtype=np.float32)
         grid.origin_x, grid.origin_y = origin_x, origin_y
         return grid
+
+    def coarsened(self, factor: int) -> OccupancyGrid:
+        """The grid with cells ``factor`` times as large, each holding the largest log-odds
+        of the cells it covers (occupied if any is): for searches over a whole large map,
+        whose fields and bounds at full resolution would not fit a robot's memory. Made a
+        row stride and then a column stride at a time, so it never holds more than a
+        ``factor``-th of the grid besides."""
+        rows_max = _max_every(self.logodds, factor)
+        blocks = _max_every(rows_max.T, factor).T
+        return OccupancyGrid.from_array(
+            blocks, self.origin_x, self.origin_y, self.resolution * factor
+        )
 
     @property
     def empty(self) -> bool:

@@ -52,9 +52,12 @@ def sliding_max(field, f):  # type: ignore[no-untyped-def]
     return out
 
 
-def score(field, px, py, c, s, tx, ty, dx, dy):  # type: ignore[no-untyped-def]
+def score(field, px, py, c, s, tx, ty, dx, dy, size=1):  # type: ignore[no-untyped-def]
     cols = np.floor(c * px - s * py + tx + 0.5).astype(int) + dx
     rows = np.floor(s * px + c * py + ty + 0.5).astype(int) + dy
+    # a block of `size` cells starting before the field but reaching into it: its first cell
+    cols = np.where((cols < 0) & (cols + size > 0), 0, cols)
+    rows = np.where((rows < 0) & (rows + size > 0), 0, rows)
     inside = (cols >= 0) & (cols < field.shape[1]) & (rows >= 0) & (rows < field.shape[0])
     return float(field[rows[inside], cols[inside]].sum())
 
@@ -74,7 +77,7 @@ def branch_and_bound(bounds, px, py, angles, tx, ty, limit):  # type: ignore[no-
 
     def block(level, a, dx, dy):  # type: ignore[no-untyped-def]
         c, s = np.cos(angles[a]), np.sin(angles[a])
-        return score(bounds[level], px, py, c, s, tx, ty, dx, dy)
+        return score(bounds[level], px, py, c, s, tx, ty, dx, dy, 2**level)
 
     starts = range(-limit, limit + 1, 2**levels)
     queue = [

@@ -63,6 +63,37 @@ def test_branch_and_bound_equals_brute_force_on_a_small_window() -> None:
     assert math.hypot(pose.x - truth.x, pose.y - truth.y) < 0.1
 
 
+def test_a_coarsened_grid_holds_the_largest_log_odds_of_each_block() -> None:
+    values = (np.arange(35, dtype=np.float32).reshape(5, 7) - 20.0) * np.float32(0.1)
+    grid = OccupancyGrid.from_array(values, 1.0, -2.0, 0.05)
+    coarse = grid.coarsened(2)
+    assert coarse.logodds.shape == (3, 4)  # the last row and column cover one cell each
+    assert (coarse.origin_x, coarse.origin_y, coarse.resolution) == (1.0, -2.0, 0.1)
+    for r in range(3):
+        for c in range(4):
+            block = values[2 * r : 2 * r + 2, 2 * c : 2 * c + 2]
+            assert coarse.logodds[r, c] == block.max()
+
+
+def test_branch_and_bound_is_exact_with_blocks_as_large_as_the_field() -> None:
+    # The room coarsened to 20 cm cells is 110 cells wide: the search's top blocks (64 cells)
+    # start far before the field's edge. A bound that counted a block starting outside the
+    # field as nothing missed the robot (found 7 m off at 0.56 where it scores 0.96).
+    coarse = GRID.coarsened(4)
+    rows, cols = coarse.logodds.shape
+    half = 0.5 * max(rows, cols) * coarse.resolution
+    center = Pose2(
+        coarse.origin_x + 0.5 * cols * coarse.resolution,
+        coarse.origin_y + 0.5 * rows * coarse.resolution,
+        0.0,
+    )
+    field = coarse.likelihood_field(center, half, coarse.resolution)
+    for truth in (Pose2(-4.5, 0.5, -1.0), Pose2(2.0, -2.5, 2.5)):
+        pose, score, _ = global_search(field, _points(truth), center=center, half_width_m=half)
+        assert math.hypot(pose.x - truth.x, pose.y - truth.y) < 0.25
+        assert score > 0.85
+
+
 @pytest.mark.parametrize(
     "truth", [Pose2(2.0, -2.5, 2.5), Pose2(-4.5, 0.5, -1.0), Pose2(0.5, 2.5, 0.0)]
 )
