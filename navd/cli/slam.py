@@ -112,7 +112,7 @@ def _replay(args: argparse.Namespace) -> int:
         )
         return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
-    from navd.slam.errors import SlamError  # noqa: PLC0415
+    from navd.slam.errors import LogFormatError, SlamError  # noqa: PLC0415
     from navd.slam.map_io import load_map_state  # noqa: PLC0415
     from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
     from navd.slam.settings import MapperSettings  # noqa: PLC0415
@@ -164,6 +164,8 @@ def _replay(args: argparse.Namespace) -> int:
         )
     except SlamError as err:
         said = str(err)
+        if args.scans is not None and isinstance(err, LogFormatError) and "no laser scans" in said:
+            said = f"--scans {args.scans} picked no scans (the log has fewer)"
         where = "" if str(args.log) in said else f"{args.log}: "
         print(f"navd replay: {where}{said}", file=sys.stderr)
         return EXIT_USAGE
@@ -215,8 +217,8 @@ def _scan_range(text: str) -> tuple[int, int | None]:
         last = int(tail) if tail.strip() else None
     except ValueError:
         raise ValueError("FROM and TO are scan counts (whole numbers)") from None
-    if first < 0 or (last is not None and last < first):
-        raise ValueError("FROM must be >= 0 and TO >= FROM")
+    if first < 0 or (last is not None and last <= first):
+        raise ValueError("FROM must be >= 0 and TO greater than FROM")
     return first, last
 
 

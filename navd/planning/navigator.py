@@ -265,7 +265,7 @@ class Navigator:
             self.state = GoalState.FAILED
             self._fail_reason = f"no route for {now - self._failing_since:.0f} s: {error}"
 
-    def resume(self) -> None:
+    def resume(self, why: str = "resumed after manual driving") -> None:
         """Take up the goal again after someone else drove (an operator by hand), or after
         the robot lost on its map was found: it is somewhere else and stood still, so the
         route is planned afresh, the stuck watch and the no-route clock start over, and the
@@ -275,7 +275,7 @@ class Navigator:
         self._command = (0.0, 0.0)
         self._moving_since = None
         self._failing_since = None
-        self._plan_reason = "resumed after manual driving"
+        self._plan_reason = why
         self.stuck.reset()
 
     def abort(self, reason: str) -> None:

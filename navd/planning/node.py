@@ -80,6 +80,7 @@ class _Resume:
     its map was found again (queued with goals)."""
 
     goal_id: str
+    why: str = "resumed after manual driving"
 
 
 POSE_TIMEOUT_S = 0.5
@@ -113,6 +114,7 @@ class PlannerNode(Module):
         self._watched = ViewInterest(stamp=0.0, received=0.0, costmap=False, trajectory=False)
         self._teleop_refused: set[str] = set()  # operators told teleop is off (once each)
         self._lost = ""  # why the robot is lost on its map: the goal waits, stopped
+        self._found_at: float | None = None  # found again then [s]: resume at the next pose
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -256,19 +258,25 @@ class PlannerNode(Module):
         """Lost on the map: the goal waits, the robot stopped, while SLAM searches for it
         (the stuck watch must not count that time); found: the goal is taken up again from
         where the robot really is."""
-        self._lost = tracking.reason if tracking.lost else ""
-        goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
         if tracking.lost:
+            self._lost, self._found_at = tracking.reason, None
             self.ctx.publish(self._stop_command())
+            goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
             if goal is not None:
                 why = f"waiting: {tracking.reason}"
                 self.ctx.publish(self._status(goal.goal_id, GoalState.ACTIVE, why, shown=PAUSED))
-        elif goal is not None:
-            self._post(_Resume(goal.goal_id))
+        elif self._lost:
+            # Found: the goal goes on from the first estimate made after the re-seed.
+            self._found_at = tracking.received
 
     def _on_pose(self, pose: PoseEstimate) -> None:
         self._pose = pose.pose
         self._pose_stamp = pose.stamp
+        if self._found_at is not None and pose.received >= self._found_at:
+            self._lost, self._found_at = "", None
+            goal = self.nav.goal if self.nav.state is GoalState.ACTIVE else None
+            if goal is not None:
+                self._post(_Resume(goal.goal_id, "found again on the map"))
 
     def _on_map(self, update: MapUpdate) -> None:
         def job() -> None:
@@ -332,7 +340,7 @@ class PlannerNode(Module):
             or self.nav.state is not GoalState.ACTIVE
         ):
             return []
-        self.nav.resume()
+        self.nav.resume(request.why)
         return [self._status(goal.goal_id, GoalState.ACTIVE)]
 
     def _start(self, goal: Goal) -> list[Message]:
@@ -483,7 +491,8 @@ class PlannerNode(Module):
         when it is due."""
         with self._lock:
             goal = self.nav.goal
-            if goal is None or self.nav.state is not GoalState.ACTIVE or self.manual.active:
+            held = self.manual.active or self._lost
+            if goal is None or self.nav.state is not GoalState.ACTIVE or held:
                 return ()
             step = self.nav.step(now, pose, driven)
             replans = self.nav.stuck_replans
@@ -494,8 +503,8 @@ class PlannerNode(Module):
                 if not self._planning:
                     self._plan_due = due
         stamp = self.ctx.clock.now()
-        if self.manual.active:  # an operator took the wheel while this step ran: theirs holds
-            return ()
+        if self.manual.active or self._lost:
+            return ()  # an operator took the wheel while this step ran, or the robot is lost
         messages: list[Message] = [
             VelocityCommand(
                 stamp=stamp,

@@ -11,6 +11,8 @@ found (an ``InitialPose`` this module sent, which comes back to it and is no gue
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import numpy.typing as npt
 
@@ -19,7 +21,7 @@ from navd.geometry.scan import ScanPoints
 from navd.lifecycle.messages import InitialPose, Message, PoseFound, TrackingLost
 from navd.lifecycle.module import ModuleContext
 from navd.slam.global_search import relocalize
-from navd.slam.lost_search import LostSearch
+from navd.slam.lost_search import LostSearch, fit_on_map
 from navd.slam.mapper import ScanMapper
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
@@ -36,7 +38,9 @@ RESEED_STD_RAD = 0.1
 class Finder:
     """What the next scan is to search for, and the search for a lost robot.
 
-    Used under the SLAM module's lock (requests from the event loop, scans in a worker).
+    ``ask`` may come from the event loop: it takes only a small lock of its own, never the
+    SLAM module's, which a search holds for up to a second or two. The rest runs in the
+    SLAM worker under the module's lock.
 
     Args:
         ctx: the SLAM module's context (clock and log).
@@ -44,6 +48,7 @@ class Finder:
 
     def __init__(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
+        self._asked = threading.Lock()  # the two fields below
         # the next scan finds the robot on the map: anywhere (GLOBAL), near a pose, or no
         self.relocate: Pose2 | str | None = None
         self.reseed = False  # the next search's pose re-seeds the estimate
@@ -53,8 +58,9 @@ class Finder:
     def ask(self, where: Pose2 | str, *, reseed: bool = False) -> None:
         """Search at the next scan around ``where`` (a pose), or on the whole map
         (``GLOBAL``); ``reseed``: the estimate starts again from what it finds."""
-        self.relocate = where
-        self.reseed = reseed
+        with self._asked:
+            self.relocate = where
+            self.reseed = reseed
 
     def sent(self, pose: InitialPose) -> bool:
         """True if ``pose`` is the seed this module sent the estimate last."""
@@ -70,14 +76,18 @@ class Finder:
     ) -> tuple[list[Message], bool]:
         """Worker: the searches due at this scan, before the mapper takes it: what they
         found, and True if the scan went into the lost search (the mapper must not take it)."""
-        if isinstance(self.relocate, Pose2) and mapper.grid.empty:
+        with self._asked:
+            where, reseed = self.relocate, self.reseed
+            if where is not None and (isinstance(where, Pose2) or not mapper.grid.empty):
+                self.relocate, self.reseed = None, False  # taken (a whole-map search waits)
+        if isinstance(where, Pose2) and mapper.grid.empty:
             # No map yet: the given pose is where the new map starts.
-            mapper.set_pose(self.relocate)
+            mapper.set_pose(where)
             mapper.forget_odometry()
-            self.relocate = None
-        if self.relocate is not None and not mapper.grid.empty:
+        elif where is not None and not mapper.grid.empty:
             found = voxel_downsample(points.hits, settings.voxel_size_m)
-            return self._relocalize(mapper, settings, stamp, found), False
+            asked = self._relocalize(mapper, settings, stamp, found, where=where, reseed=reseed)
+            return asked, False
         if self.lost is not None:
             seen = voxel_downsample(points.hits, settings.voxel_size_m)
             return self._search(mapper, stamp, seen, odom), True
@@ -101,12 +111,30 @@ class Finder:
         return self._tracking(stamp, lost=True, reason=reason)
 
     def _relocalize(
-        self, mapper: ScanMapper, settings: MapperSettings, stamp: float, points: FloatArray
+        self,
+        mapper: ScanMapper,
+        settings: MapperSettings,
+        stamp: float,
+        points: FloatArray,
+        *,
+        where: Pose2 | str,
+        reseed: bool,
     ) -> list[Message]:
-        """The search asked for; a robot lost is then lost no more."""
-        guess = None if self.relocate == GLOBAL else self.relocate
-        assert guess is None or isinstance(guess, Pose2)
+        """The search asked for. A robot lost is then lost no more if what it found fits
+        the map as a lost robot's pose must; otherwise it stays lost and held, and its
+        search goes on, around the pose given if one was."""
+        guess = where if isinstance(where, Pose2) else None
         found = relocalize(mapper.grid, points, guess=guess, reach_m=settings.max_range_m)
+        if self.lost is not None and fit_on_map(mapper.grid, points, found, settings) is None:
+            self.ctx.log.warning(
+                "pose_not_taken",
+                reason="the robot is lost and the search asked for found no pose that fits "
+                "the map clearly; it stays stopped and searches on",
+                guess=None if guess is None else tuple(round(v, 3) for v in guess),
+            )
+            if guess is not None:
+                self.lost = LostSearch(settings, guess)
+            return []
         self.ctx.log.info(
             "relocalized",
             x=round(found.pose.x, 3),
@@ -117,8 +145,6 @@ class Finder:
         )
         mapper.set_pose(found.pose)
         mapper.forget_odometry()
-        self.relocate = None
-        reseed, self.reseed = self.reseed, False
         pose_found = self._found(stamp, found.pose, found.score, whole_map=guess is None)
         messages: list[Message] = [pose_found]
         if reseed:  # asked for by a person: the estimate starts again from it

@@ -95,6 +95,8 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
             raise MapFileError(f"the map's graph lacks its {name!r} array") from None
 
     poses = np.asarray(get("pose"), dtype=np.float64)
+    if poses.ndim != 2 or poses.shape[1] != 3:
+        raise MapFileError(f"the map's graph has keyframe poses of shape {poses.shape}, not N x 3")
     n = poses.shape[0]
     stamps, mapped, has_scan = get("stamp"), get("mapped"), get("has_scan")
     hit_end, miss_end, view = get("hit_end"), get("miss_end"), get("view")
@@ -102,8 +104,14 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
     for name, array in (("stamp", stamps), ("mapped", mapped), ("has_scan", has_scan)):
         if array.shape != (n,):
             raise MapFileError(f"the map's graph has {n} keyframes but {array.shape} {name!r}")
+    for name, points in (("hits", hits), ("misses", misses)):
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise MapFileError(f"the map's graph has {name} of shape {points.shape}, not N x 2")
     if hit_end.shape != (n,) or miss_end.shape != (n,) or view.shape != (n, 4):
         raise MapFileError(f"the map's graph has {n} keyframes but scan offsets that disagree")
+    for ends in (hit_end, miss_end):
+        if n and (int(ends[0]) < 0 or bool(np.any(np.diff(ends) < 0))):
+            raise MapFileError("the map's graph has scan offsets that disagree (not increasing)")
     if (n and (int(hit_end[-1]) != hits.shape[0] or int(miss_end[-1]) != misses.shape[0])) or (
         not n and (hits.shape[0] or misses.shape[0])
     ):
@@ -140,11 +148,14 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
     )
     base = None
     if PREFIX + "base_logodds" in data:
-        origin = get("base_origin")
+        logodds, origin = np.asarray(get("base_logodds")), get("base_origin")
+        resolution = get("base_resolution")
+        if logodds.ndim != 2 or origin.shape != (2,) or resolution.shape != ():
+            raise MapFileError(
+                "the map's graph has a base map of the wrong shape (log-odds rows x columns, "
+                "an origin x, y and one resolution)"
+            )
         base = OccupancyGrid.from_array(
-            np.asarray(get("base_logodds")),
-            float(origin[0]),
-            float(origin[1]),
-            float(get("base_resolution")),
+            logodds, float(origin[0]), float(origin[1]), float(resolution)
         )
     return MapGraph(tuple(frames), edges, base)

@@ -32,7 +32,7 @@ from navd.slam.matcher import Match, rival_ratio
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.settings import MapperSettings
 
-__all__ = ["Found", "LostSearch"]
+__all__ = ["Found", "LostSearch", "fit_on_map"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -95,7 +95,7 @@ class LostSearch:
             blur_sigma_m=self.settings.blur_sigma_m,
             reach_m=self.settings.max_range_m,
         )
-        fit = self._fit(grid, points, match)
+        fit = fit_on_map(grid, points, match, self.settings)
         candidate, self._candidate = self._candidate, None
         if fit is None:
             return None
@@ -120,18 +120,22 @@ class LostSearch:
         self._searched += 1
         return window
 
-    def _fit(self, grid: OccupancyGrid, points: FloatArray, match: Match) -> float | None:
-        """The match's fit on mapped ground if it is good and unambiguous enough, else None."""
-        known = grid.known_fraction(match.pose, points)
-        if known < KNOWN_FRACTION or known * points.shape[0] < MIN_KNOWN_POINTS:
-            return None
-        fit = match.score / known
-        if fit < self.settings.loop_min_score:
-            return None
-        field = grid.likelihood_field(
-            match.pose, self.settings.max_range_m + RIVAL_RADIUS_M, self.settings.blur_sigma_m
-        )
-        rival = rival_ratio(
-            field, points, match.pose, radius_m=RIVAL_RADIUS_M, exclude_m=RIVAL_EXCLUDE_M
-        )
-        return fit if rival <= MAX_RIVAL_RATIO else None
+
+def fit_on_map(
+    grid: OccupancyGrid, points: FloatArray, match: Match, settings: MapperSettings
+) -> float | None:
+    """The match's fit on mapped ground if it is good and unambiguous enough to take a lost
+    robot's pose from, else None."""
+    known = grid.known_fraction(match.pose, points)
+    if known < KNOWN_FRACTION or known * points.shape[0] < MIN_KNOWN_POINTS:
+        return None
+    fit = match.score / known
+    if fit < settings.loop_min_score:
+        return None
+    field = grid.likelihood_field(
+        match.pose, settings.max_range_m + RIVAL_RADIUS_M, settings.blur_sigma_m
+    )
+    rival = rival_ratio(
+        field, points, match.pose, radius_m=RIVAL_RADIUS_M, exclude_m=RIVAL_EXCLUDE_M
+    )
+    return fit if rival <= MAX_RIVAL_RATIO else None

@@ -268,6 +268,8 @@ def load_map_state(yaml_path: Path, *, with_graph: bool = True) -> SavedMap:
                 graph = graph_from_arrays(data) if with_graph else None
         except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as err:
             raise MapFileError(f"{state}: unreadable navd map state: {err}") from err
+        except (TypeError, IndexError) as err:  # arrays of shapes no save writes
+            raise MapFileError(f"{state}: malformed navd map state: {err}") from err
         except MapFileError as err:
             raise MapFileError(f"{state}: {err}") from err
         return SavedMap(grid, graph)

@@ -166,11 +166,12 @@ class ScanMapper:
     def load(self, grid: OccupancyGrid, graph: MapGraph | None = None) -> None:
         """Start from a saved map. With the pose graph it was built from, mapping goes on
         where it stopped: the keyframes and edges are this run's first, loops close onto
-        them, and a rebuild draws them over the map they were drawn over. Without one the
-        map stays under everything mapped from here on, and a rebuild draws the keyframes
-        over it (it has none of its own)."""
+        them, and a rebuild draws them over the map they were drawn over. Without one (or
+        with one whose keyframes kept no scans: saved with loop closure off, nothing to
+        redraw or close loops onto) the map stays under everything mapped from here on, and
+        a rebuild draws the new keyframes over it."""
         self.grid = grid
-        if graph is None:
+        if graph is None or any(f.scan is None and f.mapped for f in graph.keyframes):
             self._base = OccupancyGrid.from_array(
                 grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
             )
@@ -447,7 +448,7 @@ class ScanMapper:
         last placed them), over the loaded map if there is one."""
         base = self._base
         grid = (
-            OccupancyGrid(self.settings.resolution_m)
+            OccupancyGrid(self.grid.resolution)  # a loaded map's, if it differs
             if base is None
             else OccupancyGrid.from_array(
                 base.logodds, base.origin_x, base.origin_y, base.resolution

@@ -273,9 +273,7 @@ class SlamNode(Module):
     def _on_initial_pose(self, pose: InitialPose) -> None:
         # A person's guess: the next scan searches around it (±1 m, ±30°) on the map. (The
         # seeds this module sends the estimate come back here too: they are no guess.)
-        if self._finder.sent(pose):
-            return
-        with self._lock:
+        if not self._finder.sent(pose):
             self._finder.ask(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
 
     def _on_save(self, request: SaveMapRequest) -> None:
@@ -295,8 +293,7 @@ class SlamNode(Module):
         if self.mapper.grid.empty:
             self.ctx.log.warning("pose_find_ignored", reason="no map yet: nothing to search")
             return
-        with self._lock:
-            self._finder.ask(GLOBAL, reseed=True)
+        self._finder.ask(GLOBAL, reseed=True)  # (its own lock: a search may hold the mapper's)
 
     def _on_load(self, request: LoadMapRequest) -> None:
         folder = request.folder or self.settings.value.map_dir

@@ -123,6 +123,19 @@ def test_a_second_run_maps_on_and_closes_loops_onto_the_first(tmp_path: Path) ->
     assert math.hypot(second.pose.x - truth.x, second.pose.y - truth.y) < 0.05
 
 
+def test_a_graph_saved_with_loop_closure_off_keeps_its_map_under_a_rebuild(tmp_path: Path) -> None:
+    # Its keyframes kept no scans: nothing to redraw. A rebuild (after a loop closure of the
+    # new run) must keep the saved map, not draw an empty one from scanless keyframes.
+    first = ScanMapper(MapperSettings.defaults(loop_closure=False))
+    drive(first, range(40))
+    saved = load_map_state(save_map(first.grid, tmp_path, "room", graph=first.graph()))
+    assert saved.graph is not None and saved.graph.keyframes[0].scan is None
+    second = ScanMapper(MapperSettings.defaults())
+    second.load(saved.grid, saved.graph)
+    second.rebuild_map()
+    np.testing.assert_array_equal(second.grid.logodds, first.grid.logodds)
+
+
 def test_a_map_saved_without_a_graph_loads_as_before(tmp_path: Path) -> None:
     mapper = ScanMapper(MapperSettings.defaults())
     drive(mapper, range(10))
@@ -143,6 +156,9 @@ def test_a_graph_whose_arrays_disagree_is_refused_by_name(tmp_path: Path) -> Non
         ("graph_edge_ij", arrays["graph_edge_ij"] + 1000, "an edge to a keyframe it does not"),
         ("graph_hit_end", arrays["graph_hit_end"][:-1], "scan offsets that disagree"),
         ("graph_hits", arrays["graph_hits"][:-5], "points its offsets do not account for"),
+        ("graph_pose", arrays["graph_pose"][:, :2], "not N x 3"),
+        ("graph_hits", arrays["graph_hits"].ravel(), "not N x 2"),
+        ("graph_hit_end", arrays["graph_hit_end"][::-1], "not increasing"),
     ):
         with state.open("wb") as f:
             np.savez(f, **{**arrays, name: broken})

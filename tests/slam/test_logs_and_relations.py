@@ -130,6 +130,30 @@ def _touch(path: Path) -> Path:
     return path
 
 
+def test_replay_scan_ranges_and_maps_that_cannot_be_used_are_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = _write_dump(tmp_path, PATH)
+    out = str(tmp_path / "out")
+    for scans, says in (
+        ("5:5", "TO greater than FROM"),
+        ("7", "give FROM:TO"),
+        ("a:b", "whole numbers"),
+        ("100000:", "picked no scans"),
+    ):
+        assert main(["replay", str(log), "--out", out, "--quiet", "--scans", scans]) == 2
+        assert says in capsys.readouterr().err
+    missing = tmp_path / "nowhere.yaml"
+    assert main(["replay", str(log), "--out", out, "--quiet", "--map", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "--map" in err and str(missing) in err
+    # A part of the log: only those scans are mapped.
+    assert main(["replay", str(log), "--out", out, "--quiet", "--scans", "2:6"]) == 0
+    capsys.readouterr()
+    stamps, _ = read_tum(tmp_path / "out" / "trajectory.tum")
+    assert len(stamps) == 4
+
+
 def test_carmen_flaser_lines_are_read_with_their_odometry(tmp_path: Path) -> None:
     log = tmp_path / "tiny.clf"
     ranges = " ".join(["1.50"] * 5)
