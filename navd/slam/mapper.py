@@ -21,11 +21,12 @@ import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
+from navd.slam.doubt import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, Doubt
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser
-from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
+from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.settings import MapperSettings
@@ -75,23 +76,6 @@ EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
 # ... and for the edge from the nearest old keyframe to the first new one after a load or a
 # pose set from outside (a global search's pose: a cell or two, a degree or two).
 FOUND_WEIGHTS = (1 / 0.1, 1 / 0.1, 1 / 0.035)
-# A match is judged on the scan points that land on mapped cells: at least this many of them.
-MIN_KNOWN_POINTS = 10
-# After this many scans in a row that did not match, every keyframe searches for a loop
-# (not every ``loop_check_every``-th): a robot back on old ground after drifting off it.
-LOST_RUN = 3
-# ... and a scan on mapped ground (at least this share of its points) that does not match is
-# searched for again in a wider window (REPAIR_XY_M, REPAIR_YAW_RAD): the robot came back to
-# old ground further off than the tracking window. The wider match must fit at least
-# ``loop_min_score`` on the mapped points and be unambiguous (no translation farther than
-# REPAIR_RIVAL_EXCLUDE_M but within REPAIR_XY_M scoring more than REPAIR_MAX_RIVAL_RATIO of it).
-REPAIR_KNOWN_FRACTION = 0.5
-REPAIR_XY_M, REPAIR_YAW_RAD = 2.0, 0.25
-REPAIR_RIVAL_EXCLUDE_M, REPAIR_MAX_RIVAL_RATIO = 0.3, 0.9
-# A match whose fit is below FIT_DROP_RATIO of the median of the last RECENT_FITS matched
-# scans is checked the same way; the wider match must beat its fit by REPAIR_MARGIN. (If it
-# does not, the match stands, counted as doubtful: people walking by, a door opened.)
-FIT_DROP_RATIO, RECENT_FITS, REPAIR_MARGIN = 0.7, 20, 0.2
 # A scan with at least this share of its points (and MIN_KNOWN_POINTS) on mapped ground that
 # does not fit there counts toward being lost (``lost_after_scans``): a robot carried off sees
 # its walls where the map has open floor, or none at all.
@@ -111,12 +95,6 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
     )
 
 
-def _wide_matcher(s: MapperSettings) -> CorrelativeMatcher:
-    return CorrelativeMatcher(
-        search_xy_m=REPAIR_XY_M, search_yaw_rad=REPAIR_YAW_RAD, reach_m=s.max_range_m / 2
-    )
-
-
 @dataclass
 class ScanMapper:
     """Builds the map and tracks the robot on it, one scan at a time."""
@@ -127,7 +105,6 @@ class ScanMapper:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
-        self.wide_matcher = _wide_matcher(s)
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
@@ -142,8 +119,7 @@ class ScanMapper:
         # scans in a row on mapped ground that did not fit it, or fitted doubtfully
         self._misfit_run = 0
         self.last_good: Pose2 | None = None  # the last pose a scan fitted the map at
-        self._fits = np.zeros(RECENT_FITS)  # the last matched scans' fits (a ring)
-        self._fits_seen = 0
+        self.doubt = Doubt(s, self.counts)
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
         # The next keyframe starts a new chain (after a load or a pose set from outside).
         self._new_session = False
@@ -155,11 +131,9 @@ class ScanMapper:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
-        self.wide_matcher = _wide_matcher(settings)
         self.loops.configure(settings)
         self._field = None
-        # Fits on the old settings' field are no yardstick for the new one's.
-        self._fits_seen = 0
+        self.doubt.configure(settings)
         self._weak_run = 0
         self._misfit_run = 0
 
@@ -290,7 +264,16 @@ class ScanMapper:
         on_mapped_ground = known_points >= MIN_KNOWN_POINTS and known >= REPAIR_KNOWN_FRACTION
         doubtful = False
         if on_mapped_ground:
-            match, known, fit, doubtful = self._doubt(points, prior, match, known, fit)
+            match, known, doubtful = self.doubt.check(
+                self.grid,
+                self._field_around,
+                points,
+                prior=prior,
+                match=match,
+                known=known,
+                weak_run=self._weak_run,
+            )
+            fit = match.score / known
         if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
@@ -321,8 +304,7 @@ class ScanMapper:
             self._misfit()
         else:
             self._misfit_run = 0
-        self._fits[self._fits_seen % self._fits.size] = fit
-        self._fits_seen += 1
+        self.doubt.record(fit)
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))
         if odometry_step:
             self.heading_trust.record(pose.yaw - prior.yaw)
@@ -331,53 +313,6 @@ class ScanMapper:
             self.last_good = pose
         keyframe = self._insert(stamp, pose, scan)
         return ScanResult(pose, match.covariance, match.score, True, keyframe)
-
-    def _doubt(
-        self, points: FloatArray, prior: Pose2, match: Match, known: float, fit: float
-    ) -> tuple[Match, float, float, bool]:
-        """A match on mapped ground, searched for again if in doubt: (match, known fraction,
-        fit, doubtful). A fit far below the recent ones is doubtful: a wider search looks for
-        a pose that explains the scan clearly better (wheels that slipped, a robot back on
-        old ground further off than the window). So is a run of scans that do not match at
-        all."""
-        s = self.settings
-        lost = fit < s.min_score and self._weak_run >= LOST_RUN
-        dropped = fit >= s.min_score and fit < FIT_DROP_RATIO * self._recent_fit()
-        if not (lost or dropped):
-            return match, known, fit, False
-        better = s.loop_min_score if lost else max(s.loop_min_score, fit + REPAIR_MARGIN)
-        repaired = self._repair(points, prior, better)
-        if repaired is not None:
-            match, known = repaired
-            return match, known, match.score / known, False
-        if dropped:
-            self.counts.doubtful += 1
-        return match, known, fit, dropped
-
-    def _recent_fit(self) -> float:
-        """The median fit of the last matched scans (0 before any)."""
-        n = min(self._fits_seen, self._fits.size)
-        return float(np.median(self._fits[:n])) if n else 0.0
-
-    def _repair(
-        self, points: FloatArray, prior: Pose2, min_fit: float
-    ) -> tuple[Match, float] | None:
-        """The scan's pose in a wider window around ``prior`` if it fits there at least
-        ``min_fit`` and unambiguously, with its known fraction; None otherwise."""
-        field = self._field_around(prior)
-        match = self.wide_matcher.match(field, points, prior)
-        known = self.grid.known_fraction(match.pose, points)
-        enough = known >= REPAIR_KNOWN_FRACTION and known * points.shape[0] >= MIN_KNOWN_POINTS
-        if not enough or match.score / known < min_fit:
-            return None
-        rival = rival_ratio(
-            field, points, match.pose, radius_m=REPAIR_XY_M, exclude_m=REPAIR_RIVAL_EXCLUDE_M
-        )
-        if rival > REPAIR_MAX_RIVAL_RATIO:
-            self.counts.repair_ambiguous += 1
-            return None
-        self.counts.repaired += 1
-        return match, known
 
     def _insert(self, stamp: float, pose: Pose2, scan: ScanPoints, mapped: bool = True) -> bool:
         """Make a keyframe if the robot moved far enough since the last; True if it did and
