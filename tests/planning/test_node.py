@@ -22,6 +22,8 @@ from navd.lifecycle.messages import (
     LaserScan,
     LocalTrajectory,
     Path,
+    PoseEstimate,
+    TrackingLost,
     VelocityCommand,
     ViewInterest,
 )
@@ -217,4 +219,37 @@ async def test_the_costmap_and_trajectory_are_made_only_while_a_viewer_asks() ->
         await asyncio.sleep(0.3)
         assert len(trajectories) == counted
         await lidar.close()
+        await control.close()
+
+
+async def test_a_goal_waits_while_the_robot_is_lost_and_goes_on_once_it_is_found() -> None:
+    async with running_daemon() as (daemon, port):
+        commands = record(daemon, VelocityCommand)
+        statuses = record(daemon, GoalStatus)
+        estimates = record(daemon, PoseEstimate)
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+        await until(lambda: any(c.source == "planner" and c.linear_mps > 0 for c in commands))
+        now = daemon.clock.now()
+        why = "scan matching lost the robot: a test says so"
+        daemon.bus.publish(TrackingLost(stamp=now, received=now, lost=True, reason=why))
+        await until(lambda: any(s.state == "paused" for s in statuses))
+        paused = next(s for s in statuses if s.state == "paused")
+        assert paused.goal_id == "g1" and paused.reason == f"waiting: {why}"
+        # Stopped, and nothing but stops from the planner for as long as it is lost.
+        held_from = len(commands)
+        await asyncio.sleep(0.5)
+        held = [c for c in commands[held_from - 1 :] if c.source == "planner"]
+        assert held and all(c.is_stop for c in held)
+        # Found: the goal goes on once an estimate made after the finding arrives.
+        now = daemon.clock.now()
+        daemon.bus.publish(TrackingLost(stamp=now, received=now, lost=False, reason="found"))
+        await until(lambda: any(e.received >= now for e in estimates))
+        await until(
+            lambda: any(
+                c.source == "planner" and c.linear_mps > 0 and c.stamp > now for c in commands
+            )
+        )
+        assert statuses[-1].goal_id == "g1" and statuses[-1].state == "active"
         await control.close()
