@@ -321,6 +321,40 @@ async def test_a_robot_carried_off_is_reported_lost_held_and_found_again_without
         await lidar.close()
 
 
+async def test_a_wrong_pose_given_while_lost_is_not_taken(tmp_path: Path) -> None:
+    path = _room_map(tmp_path)
+    slam = {"load_map": str(path), "updating_map": False, "lost_after_scans": 5}
+    async with running_daemon(slam=slam) as (daemon, port):
+        tracking = record(daemon, TrackingLost)
+        found = record(daemon, PoseFound)
+        lidar = await connected(port, "lidar", "lidar0")
+        control = await connected(port, "control", "ui")
+        stamp = 50.0
+        lidar.send(_frame(Pose2(2.0, -2.5, 2.5), stamp))
+        await until(lambda: bool(found), timeout_s=15.0)  # found on the loaded map
+        carried = Pose2(-4.5, 0.5, -1.0)
+        for _ in range(5):  # lost after five scans from somewhere else
+            stamp += 0.1
+            lidar.send(_frame(carried, stamp))
+            await asyncio.sleep(0.1)
+        await until(lambda: bool(tracking), timeout_s=10.0)
+        assert tracking[0].lost and len(tracking) == 1
+        # A person means well but is wrong: 4 m off, facing the other way. What a search
+        # there finds does not fit; the robot stays lost and searches on from there.
+        await control.request(InitialPoseFrame(x=0.0, y=2.5, yaw=2.0))
+        for _ in range(40):
+            stamp += 0.1
+            lidar.send(_frame(carried, stamp))
+            await asyncio.sleep(0.1)
+            if len(tracking) == 2:
+                break
+        assert not tracking[1].lost and "found again" in tracking[1].reason
+        for where in found[1:]:  # nothing was taken but the truth
+            assert math.hypot(where.x_m - carried.x, where.y_m - carried.y) < 0.08
+        await lidar.close()
+        await control.close()
+
+
 async def test_a_map_loaded_at_run_time_searches_for_the_robot_and_restarts_the_estimate(
     tmp_path: Path,
 ) -> None:
