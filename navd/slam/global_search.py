@@ -91,19 +91,15 @@ def relocalize(
     need seven 170 MB arrays) and the search a fraction of the time.
     """
     if guess is None:
-        rows, cols = grid.logodds.shape
-        half = 0.5 * max(rows, cols) * grid.resolution
-        center = Pose2(
-            grid.origin_x + 0.5 * cols * grid.resolution,
-            grid.origin_y + 0.5 * rows * grid.resolution,
-            0.0,
-        )
+        center, half = grid.whole()
         field_half, yaw_window = half, math.pi
     else:
         center, half, yaw_window = guess, search_xy_m, search_yaw_rad
         field_half = reach_m + search_xy_m
     if half > COARSE_ABOVE_M:
-        coarse = grid.coarsened(COARSE_FACTOR)
+        # only the part searched: a lost robot's 16 m window on a large map, every scan
+        part = grid if guess is None else grid.cropped(center, field_half)
+        coarse = part.coarsened(COARSE_FACTOR)
         blur = max(blur_sigma_m, coarse.resolution)
         field = coarse.likelihood_field(center, field_half, blur)
         center, _, _ = global_search(

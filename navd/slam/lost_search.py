@@ -110,10 +110,9 @@ class LostSearch:
     def _window(self, grid: OccupancyGrid) -> float:
         """The next search's half-width [m] around the last good pose (0: the whole map):
         the next larger than the last, the largest again once there."""
-        rows, cols = grid.logodds.shape
-        whole = rows * cols <= WHOLE_MAP_MAX_CELLS
-        side_m = max(rows, cols) * grid.resolution
-        windows = [w for w in WINDOWS_M if w < side_m or not whole]
+        whole = grid.logodds.size <= WHOLE_MAP_MAX_CELLS
+        _, half_m = grid.whole()
+        windows = [w for w in WINDOWS_M if w < 2 * half_m or not whole]
         if whole:
             windows.append(0.0)
         window = windows[min(self._searched, len(windows) - 1)]

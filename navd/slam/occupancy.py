@@ -119,6 +119,29 @@ class OccupancyGrid:
         grid.origin_x, grid.origin_y = origin_x, origin_y
         return grid
 
+    def whole(self) -> tuple[Pose2, float]:
+        """The map's middle (yaw 0) and the half-width [m] of the square that holds it."""
+        rows, cols = self.logodds.shape
+        middle = Pose2(
+            self.origin_x + 0.5 * cols * self.resolution,
+            self.origin_y + 0.5 * rows * self.resolution,
+            0.0,
+        )
+        return middle, 0.5 * max(rows, cols) * self.resolution
+
+    def cropped(self, center: Pose2, radius_m: float) -> OccupancyGrid:
+        """The part of the grid within ``radius_m`` of ``center`` (a square; a copy)."""
+        res = self.resolution
+        col, row = self.cells(np.array([[center.x, center.y]]))[0]
+        half = math.ceil(radius_m / res)
+        rows, cols = self.logodds.shape
+        r0, r1 = max(0, int(row) - half), min(rows, int(row) + half + 1)
+        c0, c1 = max(0, int(col) - half), min(cols, int(col) + half + 1)
+        part = self.logodds[r0 : max(r0, r1), c0 : max(c0, c1)]
+        return OccupancyGrid.from_array(
+            part, self.origin_x + c0 * res, self.origin_y + r0 * res, res
+        )
+
     def coarsened(self, factor: int) -> OccupancyGrid:
         """The grid with cells ``factor`` times as large, each holding the largest log-odds
         of the cells it covers (occupied if any is): for searches over a whole large map,

@@ -75,18 +75,25 @@ def test_a_coarsened_grid_holds_the_largest_log_odds_of_each_block() -> None:
             assert coarse.logodds[r, c] == block.max()
 
 
+def test_a_cropped_grid_is_the_part_around_a_pose_where_it_was() -> None:
+    part = GRID.cropped(Pose2(1.0, -0.5, 0.3), 2.0)
+    assert part.logodds.shape == (81, 81)
+    # the same cells at the same places
+    col, row = GRID.cells(np.array([[part.origin_x + 0.01, part.origin_y + 0.01]]))[0]
+    np.testing.assert_array_equal(part.logodds, GRID.logodds[row : row + 81, col : col + 81])
+    edge = GRID.cropped(Pose2(GRID.origin_x, GRID.origin_y, 0.0), 1.0)  # clipped at the corner
+    assert edge.logodds.shape == (21, 21) and (edge.origin_x, edge.origin_y) == (
+        GRID.origin_x,
+        GRID.origin_y,
+    )
+
+
 def test_branch_and_bound_is_exact_with_blocks_as_large_as_the_field() -> None:
     # The room coarsened to 20 cm cells is 110 cells wide: the search's top blocks (64 cells)
     # start far before the field's edge. A bound that counted a block starting outside the
     # field as nothing missed the robot (found 7 m off at 0.56 where it scores 0.96).
     coarse = GRID.coarsened(4)
-    rows, cols = coarse.logodds.shape
-    half = 0.5 * max(rows, cols) * coarse.resolution
-    center = Pose2(
-        coarse.origin_x + 0.5 * cols * coarse.resolution,
-        coarse.origin_y + 0.5 * rows * coarse.resolution,
-        0.0,
-    )
+    center, half = coarse.whole()
     field = coarse.likelihood_field(center, half, coarse.resolution)
     for truth in (Pose2(-4.5, 0.5, -1.0), Pose2(2.0, -2.5, 2.5)):
         pose, score, _ = global_search(field, _points(truth), center=center, half_width_m=half)
