@@ -166,7 +166,8 @@ async def drive_group(
 ) -> dict[str, Any]:
     """Drive ``goal`` with the vehicles ``serials`` (None: every ONLINE one with a position);
     ``report`` hears each step. The summary: "reached" true or the reason, the largest shape
-    error [m] once the group had formed up, and the time it took.
+    error [m] once the group had formed up, the time it took, and how far each robot got
+    ("members": the last place it reached, paused or not, its errors, where it last was).
 
     Raises:
         ValueError: no vehicle to drive, or one asked for is not there.
@@ -205,6 +206,7 @@ async def drive_group(
         formation=goal.formation,
         max_shape_error_m=round(run.worst_formed_m, 3),
         seconds=round(time.monotonic() - began, 1),
+        members=[m.progress_report(group.steps) for m in group.members],
     )
     return outcome
 

@@ -87,6 +87,19 @@ class _Member:
     errors: list[str] = field(default_factory=list)
     paused: bool = False  # held by the fleet control for the others to catch up
 
+    def progress_report(self, steps: int) -> dict[str, Any]:
+        """How far it got: the last place reached of ``steps`` (-1: not even its form-up
+        place), paused by the fleet control or not, its errors, where it last said it was."""
+        at = None if self.position is None else [round(self.position[i], 2) for i in (1, 2)]
+        return {
+            "serial": self.serial,
+            "reached": self.reached,
+            "of": steps - 1,
+            "paused": self.paused,
+            "errors": list(self.errors),
+            "at": at,
+        }
+
 
 class GroupDrive:
     """One group goal being driven (see the module docstring).

@@ -262,6 +262,8 @@ class Costmap:
             (inf when there is none).
         cost: [0..1] cost of each cell for the robot's centre; inf where it cannot be.
         unknown: cells never observed.
+        unknown_blocks: unknown cells cannot be crossed (``planning.allow_unknown`` false);
+            otherwise an unknown cell of infinite cost is blocked by a nearby obstacle.
     """
 
     frame: GridFrame
@@ -269,6 +271,7 @@ class Costmap:
     clearance_m: npt.NDArray[np.float32]
     cost: npt.NDArray[np.float32]
     unknown: BoolArray
+    unknown_blocks: bool = False
 
 
 def build_costmap(
@@ -302,7 +305,14 @@ def build_costmap(
     else:
         cost[unknown] = np.inf
     cost[clearance < settings.robot_radius_m] = np.inf
-    return Costmap(frame, obstacles.copy(), clearance, cost, unknown.copy())
+    return Costmap(
+        frame,
+        obstacles.copy(),
+        clearance,
+        cost,
+        unknown.copy(),
+        unknown_blocks=not settings.allow_unknown,
+    )
 
 
 def ros_costmap(costmap: Costmap) -> npt.NDArray[np.int8]:

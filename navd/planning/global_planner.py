@@ -141,7 +141,11 @@ class GlobalPlanner:
                 f"y {frame.origin_y_m:.2f}..{y1:.2f})",
                 "off the map",
             )
-        if not math.isfinite(costmap.cost[goal]) and costmap.unknown[goal]:
+        if (
+            not math.isfinite(costmap.cost[goal])
+            and costmap.unknown[goal]
+            and costmap.unknown_blocks
+        ):
             raise GoalUnreachableError(
                 f"{where} is in unexplored space and planning.allow_unknown is false",
                 "unknown",

@@ -7,6 +7,7 @@ daemons keep their own clocks."""
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,19 @@ async def _all_online(broker: Broker, fleet: list[Session], count: int) -> None:
     raise AssertionError(f"not all {count} vehicles online with a position: {view.vehicles}")
 
 
+def _why(summary: dict[str, Any], tmp_path: Path) -> str:
+    """The summary and each robot's last few goal and planning events, for a failure."""
+    lines = [json.dumps(summary)]
+    for log in sorted(tmp_path.glob("*/navd.log")):
+        events = [
+            line.strip()[:300]
+            for line in log.read_text(errors="replace").splitlines()
+            if any(f'"{e}"' in line for e in ("goal_done", "plan_failed", "goal_canceled"))
+        ]
+        lines += [f"{log.parent.name}:", *events[-6:]]
+    return "\n".join(lines)
+
+
 async def test_three_robots_drive_a_triangle_to_a_group_goal(tmp_path: Path) -> None:
     broker = Broker(tmp_path)
     broker.start()
@@ -66,13 +80,14 @@ async def test_three_robots_drive_a_triangle_to_a_group_goal(tmp_path: Path) -> 
         ) as fleet:  # fmt: skip
             await _all_online(broker, fleet, 3)
             goal = GroupGoal(8.5, 5.0, formation="triangle", spacing_m=1.2, step_m=1.5)
-            summary = await drive_group(broker.url, goal, timeout_s=240.0)
+            # about 80-130 s here; a loaded 2-core machine restarts paused robots more often
+            summary = await drive_group(broker.url, goal, timeout_s=420.0)
             truth = np.array([(s.sim.body.x_m, s.sim.body.y_m) for s in fleet])
             collisions = [s.sim.body.collisions for s in fleet]
     finally:
         broker.stop()
-    assert summary["reached"] is True, summary
-    assert summary["max_shape_error_m"] <= 0.3, summary
+    assert summary["reached"] is True, _why(summary, tmp_path)
+    assert summary["max_shape_error_m"] <= 0.3, _why(summary, tmp_path)
     assert collisions == [0, 0, 0]
     assert math.dist(truth.mean(axis=0), (8.5, 5.0)) < 0.5
     gaps = sorted(math.dist(a, b) for i, a in enumerate(truth) for b in truth[i + 1 :])
@@ -105,6 +120,6 @@ async def test_two_robots_pass_each_other_in_a_corridor(tmp_path: Path) -> None:
             ends = [(s.sim.body.x_m, s.sim.body.y_m) for s in fleet]
     finally:
         broker.stop()
-    assert [r["reached"] for r in results] == [True, True], results
+    assert [r["reached"] for r in results] == [True, True], _why({"runs": results}, tmp_path)
     assert collisions == [0, 0]
     assert math.dist(ends[0], (14.0, 5.0)) < 0.5 and math.dist(ends[1], (0.0, 5.0)) < 0.5

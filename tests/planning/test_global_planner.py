@@ -255,6 +255,25 @@ def test_unknown_goal_is_refused_when_unknown_space_is_forbidden() -> None:
     assert info.value.reason == "unknown"
 
 
+def test_an_unseen_goal_beside_an_obstacle_is_named_occupied_when_unknown_space_is_allowed() -> (
+    None
+):
+    # another robot's body: an obstacle with the shadow it casts (unknown) around it
+    frame = GridFrame(RES, 0.0, 0.0, 20, 20)
+    obstacles = np.zeros((20, 20), bool)
+    obstacles[15, 15] = True
+    unknown = np.zeros((20, 20), bool)
+    unknown[14:17, 14:20] = True
+    costmap = build_costmap(
+        frame, obstacles, unknown, CostmapSettings(0.2, 0.3, 3.0, True, 0.5, 65)
+    )
+    with pytest.raises(GoalUnreachableError, match="occupied") as info:
+        GlobalPlanner().plan(
+            costmap, (0.5, 0.5), (1.65, 1.55), SearchSettings(cost_weight=1.0, smooth=True)
+        )
+    assert info.value.reason == "occupied"
+
+
 def test_a_robot_too_close_to_a_wall_plans_from_the_nearest_free_cell() -> None:
     cost = np.zeros((20, 20), np.float32)
     cost[:, :3] = np.inf
