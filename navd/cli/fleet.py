@@ -38,7 +38,7 @@ def add_commands(commands: Commands) -> None:
         "--formation", choices=("line", "column", "triangle"), default="triangle", help="the shape"
     )
     goal.add_argument(
-        "--spacing", type=float, default=1.0, help="[m] between neighbours (default 1)"
+        "--spacing", type=float, default=1.5, help="[m] between neighbours (default 1.5)"
     )
     goal.add_argument(
         "--step", type=float, default=1.5, help="[m] released at a time (default 1.5)"

@@ -31,7 +31,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
 from navd.planning.goal import GoalState, NavGoal
-from navd.planning.guard import GUARD_REACH_M, GuardSettings, guard_scale
+from navd.planning.guard import GUARD_REACH_M, GuardSettings, guard_scale, warm_up_guard
 from navd.planning.navigator import Navigator
 from navd.planning.settings import NavigatorSettings
 from navd.sim._sim_kernels import cast_rays
@@ -159,10 +159,11 @@ def run_world(
     index: int, cylinders: FloatArray, optimal_length_m: float, config: NavdConfig
 ) -> BarnRun:
     """Drive one BARN world with navd's navigator in simulated time."""
+    guard = GuardSettings.from_config(config)
+    warm_up_guard(guard)  # the guard stops the robot while its kernel is not loaded
     world = barn_world(cylinders)
     nav = Navigator(NavigatorSettings.from_config(config))
     nav.set_goal(NavGoal("barn", GOAL[0], GOAL[1]))
-    guard = GuardSettings.from_config(config)
     near = np.empty((0, 2))  # [m] the latest scan's hits within the guard's reach
     driven: tuple[float, float] | None = None
     body = Body(*START)

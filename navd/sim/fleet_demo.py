@@ -73,7 +73,7 @@ async def _drive(
         world, folder, robots, url, overrides=ON_BEACONS, sim_settings=SENSORS
     ) as fleet:
         await _online(url, fleet, count, 60.0)
-        goal = GroupGoal(*GOAL, formation="triangle", spacing_m=1.2, step_m=1.5)
+        goal = GroupGoal(*GOAL, formation="triangle", spacing_m=1.5, step_m=1.5)
         summary = await drive_group(url, goal, timeout_s=limit_s)
         truths = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]
         collisions = [s.sim.body.collisions for s in fleet]

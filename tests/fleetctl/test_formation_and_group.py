@@ -55,7 +55,9 @@ def test_the_shape_error_ignores_where_the_group_is_and_which_way_it_faces() -> 
 
 def _group() -> GroupDrive:
     robots = [("navd", "r1", 0.0, 0.0), ("navd", "r2", 0.0, 1.0), ("navd", "r3", 1.0, 0.5)]
-    return GroupDrive("g", robots, GroupGoal(6.0, 0.5, step_m=2.0), now_unix_s=1000.0)
+    return GroupDrive(
+        "g", robots, GroupGoal(6.0, 0.5, spacing_m=1.0, step_m=2.0), now_unix_s=1000.0
+    )
 
 
 def _state(group: GroupDrive, serial: str, place: int, xy: tuple[float, float]) -> dict[str, Any]:
