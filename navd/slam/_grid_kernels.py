@@ -181,6 +181,7 @@ def branch_and_bound(
     limit: int,
     turn_cost: F64,
     per_cell2: float,
+    floor: float,
 ) -> tuple[int, int, int, float, int]:
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
@@ -192,11 +193,15 @@ def branch_and_bound(
         limit: translations dx, dy in [-limit, limit] cells are searched.
         turn_cost: per rotation, what its distance from the prior costs (summed-score units).
         per_cell2: what each squared cell of translation from the prior costs (same units).
+        floor: the least summed field less pull wanted (-inf: none). A block whose bound
+            falls below it cannot hold such a candidate and is dropped unexpanded: a search
+            with nothing good enough in it ends early, and one with something finds the same
+            optimum as without a floor.
 
     Returns:
         (rotation index, dx, dy, summed field under the points, blocks expanded) of the
         candidate with the highest summed field less its pull; the rotation index is -1 if
-        there was nothing to search.
+        there was nothing to search, or nothing reached ``floor``.
 
     A queue entry is (-(bound - pull), level, rotation, dx, dy, bound) for the 2^level x
     2^level block of translations starting at (dx, dy), the pull taken at the block's
@@ -218,7 +223,8 @@ def branch_and_bound(
             for dx in range(-limit, limit + 1, top):
                 bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy, top)
                 pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
-                queue.append((pull - bound, levels, a, dx, dy, bound))
+                if bound - pull >= floor:
+                    queue.append((pull - bound, levels, a, dx, dy, bound))
     heapq.heapify(queue)
     expanded = 0
     while len(queue) > 0:
@@ -233,7 +239,8 @@ def branch_and_bound(
                 if abs(cx) <= limit and abs(cy) <= limit:
                     bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy, half)
                     pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
-                    heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
+                    if bound - pull >= floor:
+                        heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
     return -1, 0, 0, 0.0, expanded
 
 

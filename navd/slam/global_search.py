@@ -38,8 +38,13 @@ def global_search(
     yaw_window_rad: float = math.pi,
     angle_step_rad: float = math.radians(1.0),
     levels: int = 6,
+    min_score: float = -math.inf,
 ) -> tuple[Pose2, float, int]:
     """The best pose within ``half_width_m`` and ``yaw_window_rad`` of ``center``.
+
+    ``min_score`` is the least mean field value the caller takes: the search drops what
+    cannot reach it, so a window without such a pose is given up early (the answer is then
+    ``center`` with score 0), and one with it finds the same pose as without.
 
     Returns:
         (pose, mean field value under the points, candidates expanded).
@@ -60,6 +65,7 @@ def global_search(
         math.ceil(half_width_m / res),
         np.zeros(angles.size),  # no prior: every pose within the window is as likely
         0.0,
+        min_score * points.shape[0] if math.isfinite(min_score) else -math.inf,
     )
     if a < 0:
         return center, 0.0, expanded

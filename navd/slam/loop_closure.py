@@ -217,6 +217,7 @@ class LoopCloser:
             half_width_m=window_m,
             yaw_window_rad=s.loop_search_yaw_rad,
             angle_step_rad=LOOP_COARSE_ANGLE_STEP_RAD,
+            min_score=LOOP_COARSE_MIN_SCORE,  # most passes hold no match: given up early
         )
         if score < LOOP_COARSE_MIN_SCORE:
             return None

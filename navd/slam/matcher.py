@@ -123,7 +123,7 @@ class CorrelativeMatcher:
         turn_cost = n * self.prior_weight_per_rad2 * (angles - prior.yaw) ** 2
         bounds = tuple(field.bound(1 << level) for level in range(self.levels + 1))
         a, dx, dy, score, blocks = k.branch_and_bound(
-            bounds, px, py, cosines, sines, tx, ty, limit, turn_cost, per_cell2
+            bounds, px, py, cosines, sines, tx, ty, limit, turn_cost, per_cell2, -math.inf
         )
         best = (max(a, 0), dx, dy, score)
         scan = _Projected(px, py, angles, tx, ty)

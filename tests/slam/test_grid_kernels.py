@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -81,7 +83,7 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
     no_pull = np.zeros(angles.size)
     a, dx, dy, total, _ = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0, -math.inf
     )
     assert (a, dx, dy) == ref.branch_and_bound(bounds, px, py, angles, tx, ty, limit)[:3]
     exhaustive = {
@@ -92,6 +94,33 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     }
     assert total == pytest.approx(max(exhaustive.values()), rel=1e-5)
     assert total == pytest.approx(exhaustive[a, dx, dy], rel=1e-5)
+
+
+@pytest.mark.parametrize("seed", [6, 7, 8])
+def test_a_floor_gives_up_a_search_below_it_early_and_leaves_one_above_it_unchanged(
+    seed: int,
+) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((60, 70)).astype(np.float32) ** 4
+    px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
+    angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
+    tx, ty, limit = 35.2, 29.7, 6
+    bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
+    no_pull = np.zeros(angles.size)
+    c, s = np.cos(angles), np.sin(angles)
+
+    def search(floor: float) -> tuple[int, int, int, float, int]:
+        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, no_pull, 0.0, floor)
+
+    free = search(-math.inf)
+    best = free[3]
+    # at or below the optimum: the same answer, with no more work
+    for floor in (best, 0.9 * best):
+        kept = search(floor)
+        assert kept[:4] == free[:4] and kept[4] <= free[4]
+    # above it: nothing is found, and the search stops sooner
+    above = search(best * 1.5)
+    assert above[0] == -1 and above[4] < free[4]
 
 
 @pytest.mark.parametrize("seed", [6, 7, 8])
@@ -107,7 +136,17 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
     tx, ty, limit = 35.2, 29.7, 6
     bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
     a, dx, dy, total, _ = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, turn_cost, per_cell2
+        bounds,
+        px,
+        py,
+        np.cos(angles),
+        np.sin(angles),
+        tx,
+        ty,
+        limit,
+        turn_cost,
+        per_cell2,
+        -math.inf,
     )
     pulled = {
         (b, x, y): ref.score(field, px, py, np.cos(angle), np.sin(angle), tx, ty, x, y)
