@@ -115,7 +115,7 @@ def demo_picture(  # noqa: PLR0917 - every layer of the picture, named
     canvas.disc(x0, y0, 0.15, ESTIMATE_RGB)
     if world.goal is not None:
         canvas.disc(world.goal[0], world.goal[1], 0.2, GOAL_RGB)
-    path.write_bytes(encode_png(canvas.rgb[::-1].copy()))
+    path.write_bytes(encode_png(canvas.rgb, bottom_up=True))
 
 
 # each robot of a fleet in a colour of its own (cycled beyond six)
@@ -140,4 +140,4 @@ def fleet_picture(
         if len(way):
             canvas.disc(float(way[-1, 0]), float(way[-1, 1]), 0.25, rgb)
     canvas.disc(goal_xy_m[0], goal_xy_m[1], 0.1, GOAL_RGB)
-    path.write_bytes(encode_png(canvas.rgb[::-1].copy()))
+    path.write_bytes(encode_png(canvas.rgb, bottom_up=True))

@@ -17,9 +17,10 @@ import os
 import re
 import tempfile
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 import numpy.typing as npt
@@ -49,16 +50,22 @@ __all__ = [
 ]
 
 PIXEL_OCCUPIED, PIXEL_FREE, PIXEL_UNKNOWN = 0, 254, 205
+WRITE_ROWS = 512  # image rows written at a time
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that readers see the old file or the new, never part."""
+def _write_atomic(path: Path, data: bytes | Callable[[BinaryIO], None]) -> None:
+    """Write ``data`` (bytes, or a function writing them to the open file: a large map is
+    streamed, not built in memory first) to ``path`` so that readers see the old file or
+    the new, never part."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         # mkstemp makes the file private; a map is for everyone who may read the folder.
         os.fchmod(fd, 0o644)
         with os.fdopen(fd, "wb") as f:
-            f.write(data)
+            if isinstance(data, bytes):
+                f.write(data)
+            else:
+                data(f)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -73,9 +80,17 @@ def _write_atomic(path: Path, data: bytes) -> None:
         os.close(dir_fd)
 
 
-def _pgm_bytes(pixels: npt.NDArray[np.uint8]) -> bytes:
-    rows, cols = pixels.shape
-    return f"P5\n{cols} {rows}\n255\n".encode("ascii") + pixels.tobytes()
+def _pgm_writer(pixels: npt.NDArray[np.uint8]) -> Callable[[BinaryIO], None]:
+    """Writes ``pixels`` (row 0 = the map's bottom) as a binary PGM, top row first, a band
+    of rows at a time."""
+
+    def write(f: BinaryIO) -> None:
+        rows, cols = pixels.shape
+        f.write(f"P5\n{cols} {rows}\n255\n".encode("ascii"))
+        for top in range(rows, 0, -WRITE_ROWS):
+            f.write(pixels[max(top - WRITE_ROWS, 0) : top][::-1].tobytes())
+
+    return write
 
 
 def read_pgm(path: Path) -> npt.NDArray[np.uint8]:
@@ -144,9 +159,10 @@ def save_map(
     pixels = np.full(occupancy.shape, PIXEL_UNKNOWN, dtype=np.uint8)
     pixels[(occupancy >= 0) & (occupancy < FREE_THRESH * 100)] = PIXEL_FREE
     pixels[occupancy > OCCUPIED_THRESH * 100] = PIXEL_OCCUPIED
-    _write_atomic(directory / f"{stem}.pgm", _pgm_bytes(pixels[::-1]))
-    state = _npz_bytes(grid, keyframe_poses, graph)
-    _write_atomic(directory / f"{stem}.npz", state)
+    del occupancy
+    _write_atomic(directory / f"{stem}.pgm", _pgm_writer(pixels))
+    del pixels
+    _write_atomic(directory / f"{stem}.npz", _npz_writer(grid, keyframe_poses, graph))
     meta = MapYaml(f"{stem}.pgm", grid.resolution, (grid.origin_x, grid.origin_y, 0.0))
     _write_atomic(yaml_path, _yaml_text(meta).encode("utf-8"))
     _remove_old(directory, name, keep=stem)
@@ -162,13 +178,12 @@ def saved_files(yaml_path: Path) -> tuple[Path, ...]:
     return (yaml_path,)
 
 
-def _npz_bytes(
+def _npz_writer(
     grid: OccupancyGrid,
     keyframe_poses: npt.NDArray[np.float64] | None,
     graph: MapGraph | None,
-) -> bytes:
-    import io  # noqa: PLC0415
-
+) -> Callable[[BinaryIO], None]:
+    """Writes the lossless state (log-odds, frame, keyframes, graph) as an .npz."""
     arrays: dict[str, Any] = {
         "logodds": grid.logodds,
         "origin": np.array([grid.origin_x, grid.origin_y]),
@@ -176,9 +191,7 @@ def _npz_bytes(
         "keyframe_poses": np.zeros((0, 3)) if keyframe_poses is None else keyframe_poses,
         **({} if graph is None else graph_arrays(graph)),
     }
-    buffer = io.BytesIO()
-    np.savez(buffer, **arrays)
-    return buffer.getvalue()
+    return lambda f: np.savez(f, **arrays)
 
 
 def _next_revision(directory: Path, name: str) -> int:

@@ -47,3 +47,18 @@ def test_ray_casting_marks_free_and_occupied_and_the_grid_grows() -> None:
     assert grid.logodds[row, col] == pytest.approx(before[0].max())  # old content kept in place
     occupancy = grid.occupancy_percent()
     assert occupancy.min() == -1 and occupancy.max() > 65
+
+
+def test_occupancy_percent_of_a_large_grid_is_the_probability_of_each_cell() -> None:
+    # more rows than one band of the conversion; unknown (0) cells scattered among them
+    rng = np.random.default_rng(3)
+    grid = OccupancyGrid(0.05)
+    grid.logodds = rng.uniform(-2.0, 3.5, (700, 90)).astype(np.float32)
+    grid.logodds[rng.random((700, 90)) < 0.2] = 0.0
+    occupancy = grid.occupancy_percent()
+    assert occupancy.shape == (700, 90) and occupancy.dtype == np.int8
+    logodds = grid.logodds.astype(np.float64)
+    probability = np.exp(logodds) / (1.0 + np.exp(logodds))  # the odds' definition
+    known = grid.logodds != 0.0
+    assert np.all(occupancy[~known] == -1)
+    assert np.abs(occupancy[known] - probability[known] * 100.0).max() <= 0.5 + 1e-9
