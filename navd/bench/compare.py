@@ -154,7 +154,14 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
     occupied = random_rectangles(cells, 0.25, seed=cells)
     cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
     frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
-    costmap = Costmap(frame, occupied, np.zeros(cost.shape, np.float32), cost, ~occupied & False)
+    costmap = Costmap(
+        frame,
+        occupied,
+        np.zeros(cost.shape, np.float32),
+        cost,
+        ~occupied & False,
+        unknown_blocks=False,
+    )
     search = SearchSettings(cost_weight=0.0, smooth=False)
     start_m, goal_m = (5.5, 5.5), (cells - 5.5, cells - 5.5)
     planner = GlobalPlanner()

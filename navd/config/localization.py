@@ -65,7 +65,7 @@ class SlamConfig(Section):
         le=10000,
         description="[1/rad^2] trust in the odometry's heading: match score lost per squared "
         "radian a match turns from the odometry's prediction (unset: learned from how far the "
-        "matched scans turned from it, 0.5-200)",
+        "matched scans turned from it, 5-200)",
         examples=[50.0],
     )
     loop_closure: bool = Field(

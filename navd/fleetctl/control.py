@@ -206,7 +206,7 @@ async def drive_group(
         formation=goal.formation,
         max_shape_error_m=round(run.worst_formed_m, 3),
         seconds=round(time.monotonic() - began, 1),
-        members=[m.progress_report(group.steps) for m in group.members],
+        members=[m.progress_report() for m in group.members],
     )
     return outcome
 

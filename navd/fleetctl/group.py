@@ -92,17 +92,18 @@ class _Member:
     errors: list[str] = field(default_factory=list)
     paused: bool = False  # held by the fleet control for the others to catch up
 
-    def progress_report(self, steps: int) -> dict[str, Any]:
-        """How far it got: the last place reached of ``steps`` (-1: not even its form-up
-        place), paused by the fleet control or not, its errors, where it last said it was."""
+    def progress_report(self) -> dict[str, Any]:
+        """How far it got: the last place reached ("last_place", -1: not even its form-up
+        place) of its last ("of"), paused by the fleet control or not, its errors, and where
+        it last said it was ("at_m": x, y in the map frame, None if never)."""
         at = None if self.position is None else [round(self.position[i], 2) for i in (1, 2)]
         return {
             "serial": self.serial,
-            "reached": self.reached,
-            "of": steps - 1,
+            "last_place": self.reached,
+            "of": int(self.places.shape[0]) - 1,
             "paused": self.paused,
             "errors": list(self.errors),
-            "at": at,
+            "at_m": at,
         }
 
 

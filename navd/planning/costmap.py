@@ -271,7 +271,7 @@ class Costmap:
     clearance_m: npt.NDArray[np.float32]
     cost: npt.NDArray[np.float32]
     unknown: BoolArray
-    unknown_blocks: bool = False
+    unknown_blocks: bool
 
 
 def build_costmap(

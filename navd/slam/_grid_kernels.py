@@ -193,7 +193,8 @@ def branch_and_bound(
         limit: translations dx, dy in [-limit, limit] cells are searched.
         turn_cost: per rotation, what its distance from the prior costs (summed-score units).
         per_cell2: what each squared cell of translation from the prior costs (same units).
-        floor: the least summed field less pull wanted (-inf: none). A block whose bound
+        floor: the least summed field less pull wanted (-inf: none; the fields hold no
+            NaN, whose blocks a floor would drop). A block whose bound
             falls below it cannot hold such a candidate and is dropped unexpanded: a search
             with nothing good enough in it ends early, and one with something finds the same
             optimum as without a floor.

@@ -65,7 +65,7 @@ def global_search(
         math.ceil(half_width_m / res),
         np.zeros(angles.size),  # no prior: every pose within the window is as likely
         0.0,
-        min_score * points.shape[0] if math.isfinite(min_score) else -math.inf,
+        -math.inf if min_score == -math.inf else min_score * points.shape[0],
     )
     if a < 0:
         return center, 0.0, expanded

@@ -16,7 +16,8 @@ errors are known it is ``START_WEIGHT``.
 
 The floor matters more than it looks. Each error is the odometry's step less the matched
 step, so the matcher's own heading noise is in the spread too, and it grows with the
-lidar's range noise: 3 cm of it took the Intel lab's weight from 6.5 to 2.9, the prior then
+lidar's range noise: 3 cm of it took the Intel lab's weight from 6.5 (no noise, no floor) to
+2.9, the prior then
 pulled too little to hold a fast turn, and one wrong match in a turn lost the map (3.7 m
 mean error). The floor of 5 (a sigma of about 0.5° per scan, the Intel lab's own wheels) keeps that
 pull: with it the Intel lab holds 0.04 m under 3 cm of noise, 0.046 m with half its beams,
@@ -36,7 +37,7 @@ WINDOW = 400  # matched scans the spread is taken over
 MIN_SAMPLES = 50  # errors needed before the measured weight is used
 START_WEIGHT = 5.0  # [1/rad^2] weight before then
 # [1] weight = this / sigma² [rad²]; set on the Freiburg logs, whose replays end with weights
-# of 70 (fr-clinic), 43 (aces) and 6.5 (intel).
+# of 70 (fr-clinic), 43 (aces) and 7.5 (intel from the bag; 6.5 before the floor).
 WEIGHT_PER_PRECISION = 4.5e-4
 MIN_WEIGHT, MAX_WEIGHT = 5.0, 200.0  # [1/rad^2] (the floor: see the module docstring)
 MAD_TO_SIGMA = 1.4826  # a Gaussian's sigma per median absolute deviation

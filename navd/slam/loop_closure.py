@@ -11,9 +11,11 @@ wide window in a building of corridors finds many places that look alike. The se
 2. Coarse: the last few keyframes' scans together (a few metres of travel: a corridor with
    its side doors, not one view of bare walls) are matched onto a coarse map of the pass over
    the whole window, by the multi-level branch and bound of ``global_search`` (exact at
-   its cell and angle steps, and cheap however wide the window). The match must be
-   unambiguous over the whole window: no translation farther than ``LOOP_COARSE_EXCLUDE_M``
-   may score more than ``LOOP_MAX_RIVAL_RATIO`` of it.
+   its cell and angle steps, and cheap however wide the window). The search is given
+   ``LOOP_COARSE_MIN_SCORE`` as its floor, so a pass with nothing that good in it (most of
+   them) is given up early. The match must be unambiguous over the whole window: no
+   translation farther than ``LOOP_COARSE_EXCLUDE_M`` may score more than
+   ``LOOP_MAX_RIVAL_RATIO`` of it.
 3. Fine: the keyframe's own scan is matched onto the full-resolution map of the pass near the
    coarse pose; it must reach ``loop_min_score`` and be unambiguous within
    ``LOOP_RIVAL_RADIUS_M``.

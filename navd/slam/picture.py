@@ -35,7 +35,8 @@ def encode_png(rgb: npt.NDArray[np.uint8], *, bottom_up: bool = False) -> bytes:
         else:
             band = rgb[start : start + BAND_ROWS]
         # Each row starts with filter type 0 (none).
-        raw = np.hstack([np.zeros((band.shape[0], 1), dtype=np.uint8), band.reshape(-1, cols * 3)])
+        flat = band.reshape(band.shape[0], cols * 3)
+        raw = np.hstack([np.zeros((band.shape[0], 1), dtype=np.uint8), flat])
         parts.append(deflate.compress(raw.tobytes()))
     parts.append(deflate.flush())
     header = struct.pack(">IIBBBBB", cols, rows, 8, 2, 0, 0, 0)

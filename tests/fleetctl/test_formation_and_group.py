@@ -149,13 +149,14 @@ def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
     x, y = r1.places[0] + (r1.places[1] - r1.places[0]) * 0.5 / np.hypot(
         *(r1.places[1] - r1.places[0])
     )
-    assert r1.progress_report(group.steps) == {
+    # the centre's way: 5.7 m from the robots' mean to the goal in 2 m steps, 3 of them
+    assert r1.progress_report() == {
         "serial": "r1",
-        "reached": 0,
-        "of": group.steps - 1,
+        "last_place": 0,
+        "of": 3,
         "paused": True,
         "errors": [],
-        "at": [round(x, 2), round(y, 2)],
+        "at_m": [round(x, 2), round(y, 2)],
     }
     at(r3, 0.28, 6.0)
     assert [(m.serial, a) for m, a in group.corrections(6.0)] == [("r2", "stopPause")]

@@ -59,6 +59,7 @@ def costmap_of(cost: np.ndarray) -> Costmap:
         np.zeros(cost.shape, np.float32),
         cost.astype(np.float32),
         np.zeros(cost.shape, bool),
+        unknown_blocks=False,
     )
 
 

@@ -121,6 +121,28 @@ def test_a_floor_gives_up_a_search_below_it_early_and_leaves_one_above_it_unchan
     # above it: nothing is found, and the search stops sooner
     above = search(best * 1.5)
     assert above[0] == -1 and above[4] < free[4]
+    assert search(float(np.nextafter(best, math.inf)))[0] == -1  # the least bit above
+
+
+@pytest.mark.parametrize("seed", [6, 7, 8])
+def test_a_floor_with_a_pull_keeps_the_pulled_optimum(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((60, 70)).astype(np.float32) ** 4
+    px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
+    angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
+    turn_cost = 5.0 * angles**2 * 40
+    tx, ty, limit, per_cell2 = 35.2, 29.7, 6, 0.3
+    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    c, s = np.cos(angles), np.sin(angles)
+
+    def search(floor: float) -> tuple[int, int, int, float, int]:
+        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, turn_cost, per_cell2, floor)
+
+    free = search(-math.inf)
+    a, dx, dy, total, _ = free
+    pulled = total - (turn_cost[a] + per_cell2 * (dx * dx + dy * dy))  # what the search ranks
+    assert search(pulled)[:4] == free[:4]
+    assert search(float(np.nextafter(pulled, math.inf)))[0] == -1
 
 
 @pytest.mark.parametrize("seed", [6, 7, 8])

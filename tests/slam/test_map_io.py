@@ -13,6 +13,7 @@ from PIL import Image
 from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
+from navd.slam import map_io, occupancy
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import clean_leftovers, load_map, read_map_yaml, save_map
 from navd.slam.occupancy import OccupancyGrid
@@ -39,8 +40,15 @@ def test_a_saved_map_reloads_bit_exact(tmp_path: Path) -> None:
     )
 
 
-def test_yaml_and_pgm_follow_map_server_conventions(tmp_path: Path) -> None:
+@pytest.mark.parametrize("band_rows", [None, 7])
+def test_yaml_and_pgm_follow_map_server_conventions(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, band_rows: int | None
+) -> None:
+    if band_rows is not None:  # the image and percentages made in many bands, one partial
+        monkeypatch.setattr(map_io, "WRITE_ROWS", band_rows)
+        monkeypatch.setattr(occupancy, "PERCENT_ROWS", band_rows - 2)
     grid = _grid()
+    assert grid.logodds.shape[0] % 7 != 0
     path = save_map(grid, tmp_path, "office")
     meta = yaml.safe_load(path.read_text())
     assert set(meta) == {
@@ -109,6 +117,26 @@ def test_a_crash_before_the_yaml_is_replaced_leaves_the_old_map(
     save_map(second, tmp_path, "office")  # the next save succeeds and tidies up
     np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, second.logodds)
     assert sorted(p.suffix for p in tmp_path.iterdir()) == [".npz", ".pgm", ".yaml"]
+
+
+def test_a_state_file_that_fails_half_written_leaves_the_old_map(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    first = _grid()
+    save_map(first, tmp_path, "office", image_stem="map")
+    second = _grid()
+    second.logodds[:] = 1.0
+
+    def disk_full(file: object, **arrays: object) -> None:
+        file.write(b"PK\x03\x04 half a zip")  # type: ignore[attr-defined]
+        raise OSError("no space left on device")
+
+    monkeypatch.setattr(np, "savez", disk_full)
+    with pytest.raises(OSError, match="no space"):
+        save_map(second, tmp_path, "office", image_stem="map")
+    monkeypatch.undo()
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, first.logodds)
+    assert not list(tmp_path.glob(".*.tmp"))  # the half-written file is gone
 
 
 @pytest.mark.parametrize(
