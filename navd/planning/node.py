@@ -87,6 +87,9 @@ POSE_TIMEOUT_S = 0.5
 STATUS_PERIOD_S = 0.5
 SOURCE = "planner"
 PAUSED = "paused"  # GoalStatus.state of a goal paused while an operator drives
+# [s] a search failing the same way (tried again at every tick while, say, another robot
+# stands on the goal) is logged again at most this often, with how often it failed meanwhile
+PLAN_FAILED_LOG_S = 5.0
 
 
 class PlannerNode(Module):
@@ -108,6 +111,10 @@ class PlannerNode(Module):
         self._status_at = -math.inf
         self._last_state: GoalState | None = None
         self._broken: Exception | None = None  # a search that broke, not yet reported
+        # the last planning failure logged (its text, when) and how many like it since: only
+        # the planning worker touches them, one search at a time
+        self._failure_logged: tuple[str, float] | None = None
+        self._failures_unlogged = 0
         self.manual = ManualDriving()  # event loop only
         # What a viewer watches (set on the loop, read by workers: a stale glance costs one
         # message more or less)
@@ -409,6 +416,17 @@ class PlannerNode(Module):
         self._stopped = False
         self.ctx.submit("local_plan", lambda: self._step(now, pose, driven))
 
+    def _log_failure(self, now: float, reason: str, error: str) -> None:
+        """Log a failed search, unless it failed the same way within PLAN_FAILED_LOG_S."""
+        last = self._failure_logged
+        if last is not None and last[0] == error and now - last[1] < PLAN_FAILED_LOG_S:
+            self._failures_unlogged += 1
+            return
+        self.ctx.log.warning(
+            "plan_failed", reason=reason, error=error, repeats=self._failures_unlogged
+        )
+        self._failure_logged, self._failures_unlogged = (error, now), 0
+
     def _plan(self, now: float, pose: Pose2, reason: str) -> tuple[Message, ...]:
         """Worker: a snapshot of the layers (under the lock), A* on it (outside), then the
         route to the navigator. Whatever goes wrong fails or delays the goal with the reason;
@@ -424,7 +442,7 @@ class PlannerNode(Module):
             costmap = request.costmap()
             path = request.solve(self.nav.global_planner, costmap)
         except PlanningError as err:
-            self.ctx.log.warning("plan_failed", reason=reason, error=str(err))
+            self._log_failure(now, reason, str(err))
             with self._lock:
                 if self.nav.goal is goal:
                     self.nav.plan_failed(now, err)
@@ -439,6 +457,7 @@ class PlannerNode(Module):
                 self._planned()
                 return self._failed()
         else:
+            self._failure_logged, self._failures_unlogged = None, 0
             with self._lock:
                 self._planned()
                 if self.nav.goal is not goal or goal is None:

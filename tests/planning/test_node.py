@@ -27,6 +27,7 @@ from navd.lifecycle.messages import (
     VelocityCommand,
     ViewInterest,
 )
+from navd.planning.errors import GoalUnreachableError
 from navd.planning.global_planner import GlobalPlanner
 from navd.planning.node import PlannerNode
 from tests.drivers.conftest import connected, record, running_daemon, until
@@ -252,4 +253,36 @@ async def test_a_goal_waits_while_the_robot_is_lost_and_goes_on_once_it_is_found
             )
         )
         assert statuses[-1].goal_id == "g1" and statuses[-1].state == "active"
+        await control.close()
+
+
+async def test_a_search_failing_the_same_way_is_logged_once_a_while_not_at_every_tick(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def occupied(*args: object, **kwargs: object) -> object:
+        raise GoalUnreachableError("goal (3.00, 0.00) m is occupied: another robot", "occupied")
+
+    monkeypatch.setattr(GlobalPlanner, "plan", occupied)
+    async with running_daemon() as (daemon, port):
+        (planner,) = [m for m in daemon.manager.modules if isinstance(m, PlannerNode)]
+        said: list[dict[str, Any]] = []
+        real_log = planner.ctx.log
+
+        class Listening:
+            def __getattr__(self, name: str) -> Any:
+                return getattr(real_log, name)
+
+            def warning(self, event: str, **fields: Any) -> Any:
+                said.append({"event": event, **fields})
+                return real_log.warning(event, **fields)
+
+        monkeypatch.setattr(planner.ctx, "log", Listening())
+        control = await connected(port, "control", "ui")
+        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+        await asyncio.sleep(1.5)  # tried again at every tick: some thirty searches
+        failed = [s for s in said if s["event"] == "plan_failed"]
+        assert len(failed) == 1 and failed[0]["repeats"] == 0
+        assert "occupied: another robot" in failed[0]["error"]
+        assert planner.nav.goal is not None  # still waiting for the goal to clear
         await control.close()
