@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
-from navd.bench.planning import random_rectangles
+from navd.bench.planning import random_rectangles, uniform_costmap
 from navd.bench.room import cast
 from navd.config import NavdConfig
 from navd.estimation.madgwick import MadgwickFilter
@@ -151,17 +151,7 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
 
 
 def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
-    occupied = random_rectangles(cells, 0.25, seed=cells)
-    cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
-    frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
-    costmap = Costmap(
-        frame,
-        occupied,
-        np.zeros(cost.shape, np.float32),
-        cost,
-        ~occupied & False,
-        unknown_blocks=False,
-    )
+    costmap = uniform_costmap(cells)
     search = SearchSettings(cost_weight=0.0, smooth=False)
     start_m, goal_m = (5.5, 5.5), (cells - 5.5, cells - 5.5)
     planner = GlobalPlanner()
@@ -174,7 +164,7 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
         return {f"astar_uniform_{cells}_navd_ms": round(_median_ms(ours, repeats), 2)}
     import pyastar2d  # noqa: PLC0415
 
-    weights = np.where(occupied, np.inf, 1.0).astype(np.float32)
+    weights = np.where(costmap.obstacles, np.inf, 1.0).astype(np.float32)
     start, goal = (5, 5), (cells - 6, cells - 6)
 
     def peer() -> object:

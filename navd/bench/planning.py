@@ -31,7 +31,7 @@ from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
 from navd.planning.profile import VelocityProfile
 
-__all__ = ["random_rectangles", "run"]
+__all__ = ["random_rectangles", "run", "uniform_costmap"]
 
 
 def random_rectangles(cells: int, fill: float, seed: int) -> npt.NDArray[np.bool_]:
@@ -48,6 +48,18 @@ def random_rectangles(cells: int, fill: float, seed: int) -> npt.NDArray[np.bool
     occupied[:20, :20] = False
     occupied[-20:, -20:] = False
     return occupied
+
+
+def uniform_costmap(cells: int) -> Costmap:
+    """A cells x cells costmap of 1 m cells: a quarter in random rectangles (impassable),
+    the rest free at no cost, nothing unknown (the uniform-cost A* benchmarks)."""
+    occupied = random_rectangles(cells, 0.25, seed=cells)
+    cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
+    frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
+    no_clearance = np.zeros(cost.shape, np.float32)
+    return Costmap(
+        frame, occupied, no_clearance, cost, np.zeros_like(occupied), unknown_blocks=False
+    )
 
 
 def _timed_plans(  # noqa: PLR0917 - one search's inputs, named in the docstring
@@ -71,17 +83,7 @@ def _timed_plans(  # noqa: PLR0917 - one search's inputs, named in the docstring
 
 
 def _astar(cells: int, repeats: int) -> dict[str, object]:
-    occupied = random_rectangles(cells, 0.25, seed=cells)
-    cost = np.where(occupied, np.inf, 0.0).astype(np.float32)
-    frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
-    costmap = Costmap(
-        frame,
-        occupied,
-        np.zeros(cost.shape, np.float32),
-        cost,
-        ~occupied & False,
-        unknown_blocks=False,
-    )
+    costmap = uniform_costmap(cells)
     search = SearchSettings(cost_weight=0.0, smooth=False)
     start, goal = (5.5, 5.5), (cells - 5.5, cells - 5.5)
     ms, path = _timed_plans(GlobalPlanner(), search, costmap, start, goal, repeats)
