@@ -28,7 +28,7 @@ from numba import njit
 
 from navd.geometry._angle_kernels import wrap
 
-__all__ = ["APPLIED", "DIVERGED", "REJECTED", "ukf_step"]
+__all__ = ["APPLIED", "DIVERGED", "REJECTED", "propagate", "ukf_step"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -229,6 +229,24 @@ def _update(
     new_x[_TH] = wrap(new_x[_TH])
     new_p = p - gain @ s @ gain.T
     return new_x, new_p, y, s, True
+
+
+@njit(cache=True, nogil=True)
+def propagate(
+    x: FloatArray, p: FloatArray, dt: float, q_poly: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The mean and covariance ``dt`` [s] on by the linear model alone: F x and F P Fᵀ + Q
+    (the estimate between events; no sigma points, the yaw left unwrapped). ``q_poly``: the
+    5 x 81 process noise polynomial (``ProcessNoise.polynomial``)."""
+    f = np.eye(_N)
+    half = 0.5 * dt * dt
+    for pos, vel, acc in ((_X, _VX, _AX), (_Y, _VY, _AY), (_TH, _VTH, _ATH)):
+        f[pos, vel] = dt
+        f[pos, acc] = half
+        f[vel, acc] = dt
+    powers = np.array([dt**5, dt**4, dt**3, dt**2, dt])
+    q = (powers @ q_poly).reshape(_N, _N)
+    return f @ x, f @ p @ f.T + q
 
 
 @njit(cache=True, nogil=True)

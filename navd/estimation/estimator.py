@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import WorldConfig
+from navd.estimation._ukf_kernels import propagate
 from navd.estimation.beacon_map import BeaconMap, RobotPose
 from navd.estimation.bearing import bearing_to_yaw
 from navd.estimation.errors import GeoError
@@ -127,7 +128,9 @@ class StateEstimator:
         # each IMU's rotation to base_link as rows, None when aligned (found on first use)
         self._imu_rows: dict[str, _Rows | None] = {}
         est = settings.estimation
-        self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
+        self._q_poly = ProcessNoise(
+            est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2
+        ).polynomial
         self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
         self.beacon_map = BeaconMap(settings.beacons.gate_chi2)
         # the latest range to each known beacon: (stamp [s], range [m], std [m])
@@ -150,7 +153,9 @@ class StateEstimator:
         self.geo = geo
         self._imu_rows = {}
         est = settings.estimation
-        self._noise = ProcessNoise(est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2)
+        self._q_poly = ProcessNoise(
+            est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2
+        ).polynomial
         self.madgwick.configure(est)
         self.beacon_map.gate_chi2 = settings.beacons.gate_chi2
         self.history.settings = HistorySettings.of(est)
@@ -426,10 +431,7 @@ class StateEstimator:
         if not self.history.initialized:
             return None
         latest = self.history.latest
-        dt = max(now - latest.stamp, 0.0)
-        f = transition_matrix(dt)
-        x = f @ latest.x
-        p = f @ latest.p @ f.T + self._noise(dt)
+        x, p = propagate(latest.x, latest.p, max(now - latest.stamp, 0.0), self._q_poly)
         yaw = wrap_angle(float(x[TH]))
         cov = p[np.ix_((X, Y, TH), (X, Y, TH))]
         forward = math.cos(yaw) * x[VX] + math.sin(yaw) * x[VY]

@@ -9,8 +9,10 @@ import math
 import numpy as np
 
 from navd.config import EstimationConfig
+from navd.estimation._ukf_kernels import propagate
+from navd.estimation.history import Snapshot
 from navd.estimation.madgwick import MadgwickFilter
-from navd.estimation.motion_model import STATE_SIZE, Row
+from navd.estimation.motion_model import STATE_SIZE, ProcessNoise, Row
 from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
 from navd.lifecycle.messages import Imu, Vector3
 
@@ -20,7 +22,7 @@ __all__ = ["warm_up"]
 def warm_up(config: EstimationConfig) -> None:
     """Run a throwaway Madgwick filter over a few samples (with and without a magnetometer)
     and read a window of them back; step a throwaway UKF without and with a measurement,
-    through the gate and past it."""
+    through the gate and past it; predict a state between events (the estimate)."""
     madgwick = MadgwickFilter(config)
     for k in range(4):
         stamp = 0.01 * k
@@ -42,3 +44,6 @@ def warm_up(config: EstimationConfig) -> None:
     ukf.step(0.1, None, math.inf)
     ukf.step(0.1, measurement, math.inf)
     ukf.step(0.1, measurement, 0.0)  # refused by the gate: the tail rows alone
+    # the estimate's prediction, on a history's read-only arrays (a type of their own)
+    latest = Snapshot.of(0.0, np.zeros(STATE_SIZE), np.eye(STATE_SIZE))
+    propagate(latest.x, latest.p, 0.04, ProcessNoise(1.0, 1.0).polynomial)

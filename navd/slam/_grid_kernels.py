@@ -182,6 +182,7 @@ def branch_and_bound(
     turn_cost: F64,
     per_cell2: float,
     floor: float,
+    cell_max: float = 1.0,
 ) -> tuple[int, int, int, float, int]:
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
@@ -198,6 +199,8 @@ def branch_and_bound(
             falls below it cannot hold such a candidate and is dropped unexpanded: a search
             with nothing good enough in it ends early, and one with something finds the same
             optimum as without a floor.
+        cell_max: the largest value a cell of the field can hold, so that ``cell_max`` times
+            the points bounds every translation of a rotation not yet projected.
 
     Returns:
         (rotation index, dx, dy, summed field under the points, blocks expanded) of the
@@ -208,30 +211,39 @@ def branch_and_bound(
     2^level block of translations starting at (dx, dy), the pull taken at the block's
     translation nearest the prior (so it stays a bound); ties are broken by the rest of the
     tuple, so the result does not depend on the order blocks were queued in.
+
+    A rotation starts as one entry of level ``levels + 1`` bounded by ``cell_max`` per point
+    less its turn cost; only when that entry comes first are its points projected and its
+    coarsest blocks queued. Under a strong pull toward the prior, the rotations far from it
+    are never projected: a tracked scan projects a few of its 85 rotations instead of all.
     """
     levels = len(bounds) - 1
     top = 1 << levels
     n_angles, n_points = cosines.size, px.size
     cols = np.empty((n_angles, n_points), dtype=np.int64)
     rows = np.empty((n_angles, n_points), dtype=np.int64)
-    for a in range(n_angles):
-        for k in range(n_points):
-            cols[a, k], rows[a, k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
     queue = [(0.0, 0, 0, 0, 0, 0.0)]
     queue.pop()
+    most = cell_max * n_points
     for a in range(n_angles):
-        for dy in range(-limit, limit + 1, top):
-            for dx in range(-limit, limit + 1, top):
-                bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy, top)
-                pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
-                if bound - pull >= floor:
-                    queue.append((pull - bound, levels, a, dx, dy, bound))
+        if most - turn_cost[a] >= floor:
+            queue.append((turn_cost[a] - most, levels + 1, a, 0, 0, most))
     heapq.heapify(queue)
     expanded = 0
     while len(queue) > 0:
         _, level, a, dx, dy, bound = heapq.heappop(queue)
         if level == 0:
             return a, dx, dy, bound, expanded
+        if level > levels:  # a rotation's first turn: project its points, queue its blocks
+            for k in range(n_points):
+                cols[a, k], rows[a, k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
+            for dy in range(-limit, limit + 1, top):
+                for dx in range(-limit, limit + 1, top):
+                    bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy, top)
+                    pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
+                    if bound - pull >= floor:
+                        heapq.heappush(queue, (pull - bound, levels, a, dx, dy, bound))
+            continue
         expanded += 1
         half = 1 << (level - 1)
         for j in (0, half):

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from navd.estimation._ukf_kernels import propagate
 from navd.estimation.motion_model import (
     AX,
     STATE_SIZE,
@@ -56,6 +57,19 @@ def test_process_noise_adds_up_over_split_steps() -> None:
     two = f @ noise(0.1) @ f.T + noise(0.1)
     np.testing.assert_allclose(one, two, atol=1e-15)
     assert one[AX, AX] == pytest.approx(0.25 * 0.2)
+
+
+def test_the_linear_prediction_kernel_is_the_transition_and_the_process_noise() -> None:
+    rng = np.random.default_rng(3)
+    state = rng.normal(size=STATE_SIZE)
+    root = rng.normal(size=(STATE_SIZE, STATE_SIZE))
+    cov = root @ root.T
+    noise = ProcessNoise(0.25, 1.0)
+    for dt in (0.0, 0.04, 0.7):
+        x, p = propagate(state, cov, dt, noise.polynomial)
+        f = transition_matrix(dt)
+        np.testing.assert_allclose(x, f @ state, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(p, f @ cov @ f.T + noise(dt), rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("yaw", [0.0, 1.0, -2.0, math.pi - 0.01])

@@ -1,6 +1,7 @@
 """The estimation warm-up compiles exactly what the daemon's IMU path then runs: in a fresh
-process, feeding samples decoded from the wire after it compiles nothing more (a compile on
-the event loop stalled it for a second on a cold cache)."""
+process, feeding samples decoded from the wire, poses and asking for the estimate after it
+compiles nothing more (a compile on the event loop stalled it for a second on a cold
+cache; the estimate's read-only arrays are a type of their own)."""
 
 from __future__ import annotations
 
@@ -42,9 +43,15 @@ SCRIPT = textwrap.dedent(
                         yaw_rad=0.01, covariance=np.diag([0.0025, 0.0025, 0.0004])),
         1.05,
     )
+    estimator.add_pose(
+        PoseMeasurement(stamp=1.06, received=1.07, source="lidar", x_m=0.11, y_m=0.0,
+                        yaw_rad=0.01, covariance=np.diag([0.0025, 0.0025, 0.0004])),
+        1.07,
+    )
+    assert estimator.estimate(1.08) is not None
     after = {f.__name__: len(f.signatures) for f in kernels}
     assert warmed["madgwick_ingest"] and warmed["imu_window_mean"], warmed
-    assert warmed["ukf_step"], warmed
+    assert warmed["ukf_step"] and warmed["propagate"], warmed
     assert after == warmed, (warmed, after)
     print("ok")
     """

@@ -63,7 +63,9 @@ class SensorRole:
                 if isinstance(frame, PingFrame):
                     conn.send(Pong(id=frame.id))
                     continue
-                frame_id = getattr(frame, "frame_id", None)  # only ROS-shaped frames have one
+                # only ROS-shaped frames have one (a model's fields are in its __dict__;
+                # getattr of a missing one costs pydantic an exception, at every IMU line)
+                frame_id = vars(frame).get("frame_id")
                 if frame_id is not None:
                     refusal = mounts.frame_refusal(device_id, frame_id)
                     if refusal is not None:
