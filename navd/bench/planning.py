@@ -149,7 +149,7 @@ def _replan(
 def _dwa(cycles: int) -> dict[str, object]:
     config = NavdConfig.model_validate({"robot": {"footprint": "rectangle"}})
     profile = VelocityProfile.from_config(config)
-    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_caps)
+    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_table)
     rng = np.random.default_rng(7)
     path = path_field(np.array([[0.0, 0.0], [6.0, 0.0]]))
     times = []

@@ -9,6 +9,11 @@ cells). Two structures make them cheap to test against thousands of footprint po
 - buckets (points sorted by square cell, CSR layout): the exact footprint test for poses
   close to something reads only the points in the 3 x 3 buckets around the pose.
 
+The points are first gathered from around the robot and merged into small cells
+(``snap_near``), and the (v, ω) samples are drawn from the dynamic window
+(``window_samples``) in one call each: a control cycle made of dozens of small NumPy calls
+cost three times as much in the daemon, between the other threads' work, as alone.
+
 NumPy twins live in tests/planning/dwa_reference.py.
 """
 
@@ -35,6 +40,8 @@ __all__ = [
     "choose",
     "footprint_distance",
     "rollouts",
+    "snap_near",
+    "window_samples",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -48,6 +55,105 @@ METRICS = 5
 # The longest ratio of an 8-connected path length to the straight distance (at 22.5°).
 CHAMFER_RATIO = 1.0 / math.cos(math.pi / 8.0)
 SQRT2 = math.sqrt(2.0)
+
+
+@njit(cache=True, nogil=True)
+def window_samples(
+    v_now: float,
+    w_now: float,
+    dv: float,
+    dw: float,
+    band_lo: float,
+    band_hi: float,
+    linear_samples: int,
+    angular_samples: int,
+    min_speed: float,
+    rotate_only: bool,
+    backward: bool,
+    max_yaw: float,
+    table_speeds: FloatArray,
+    table_rates: FloatArray,
+) -> FloatArray:
+    """K x 2 (v, ω) samples [m/s, rad/s] of the dynamic window around (v_now, w_now).
+
+    Speeds: ``linear_samples`` across the part of [band_lo, band_hi] within ``dv`` of v_now
+    (out of reach: the one step towards the band); turning on the spot (``rotate_only``):
+    the speed nearest 0 within reach; forward with ``min_speed`` > 0: only those at least that
+    fast (or the top one). Each speed takes ``angular_samples`` yaw rates across what ``dw``
+    reaches of its cap: ``max_yaw``, and the yaw-rate table (|v| -> top rate, linearly
+    interpolated) where it has entries; a yaw rate beyond the cap eases off towards it.
+    """
+    lo, hi = max(band_lo, v_now - dv), min(band_hi, v_now + dv)
+    if lo > hi:  # the band lies out of reach this period: change speed towards it
+        lo = v_now - dv if band_hi < v_now - dv else v_now + dv
+        hi = lo
+    if rotate_only:
+        speeds = np.array([min(max(0.0, v_now - dv), v_now + dv)])
+    else:
+        speeds = _linspace(lo, hi, linear_samples)
+    if not backward and min_speed > 0.0:
+        least = min(min_speed, abs(hi))
+        keep = np.abs(speeds) >= least
+        speeds = speeds[keep] if keep.any() else speeds[-1:]
+    if table_speeds.size > 0:
+        caps = np.minimum(max_yaw, np.interp(np.abs(speeds), table_speeds, table_rates))
+    else:
+        caps = np.full(speeds.size, max_yaw)
+    fractions = _linspace(0.0, 1.0, angular_samples)
+    out = np.empty((speeds.size * angular_samples, 2))
+    for i in range(speeds.size):
+        cap = caps[i]
+        w_lo = max(-cap, w_now - dw)
+        w_hi = min(cap, w_now + dw)
+        if w_lo > w_hi:  # turning faster than this speed allows: ease off towards its cap
+            w_lo = min(max(w_now, -cap), cap)
+            w_hi = w_lo
+        for j in range(angular_samples):
+            out[i * angular_samples + j, 0] = speeds[i]
+            out[i * angular_samples + j, 1] = w_lo + (w_hi - w_lo) * fractions[j]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _linspace(start: float, stop: float, num: int) -> FloatArray:
+    """NumPy's ``linspace`` with its rounding: start + i * ((stop - start) / (num - 1)), the
+    last one ``stop`` exactly (numba's own rounds otherwise)."""
+    out = np.empty(num)
+    step = (stop - start) / (num - 1) if num > 1 else 0.0
+    for i in range(num):
+        out[i] = i * step + start
+    if num > 1:
+        out[num - 1] = stop
+    return out
+
+
+@njit(cache=True, nogil=True)
+def snap_near(points: FloatArray, x: float, y: float, half: float, snap: float) -> FloatArray:
+    """[m] the centres of the ``snap`` cells holding the points within the square of half-size
+    ``half`` around (x, y), each once, in (column, row) order."""
+    keys = np.empty(points.shape[0], dtype=np.int64)
+    n = 0
+    for k in range(points.shape[0]):
+        px, py = points[k, 0], points[k, 1]
+        if abs(px - x) <= half and abs(py - y) <= half:
+            col = np.int64(math.floor(px / snap))
+            row = np.int64(math.floor(py / snap))
+            keys[n] = (col << 32) + (row & 0xFFFFFFFF)
+            n += 1
+    keys = np.sort(keys[:n])
+    out = np.empty((n, 2))
+    m = 0
+    for k in range(n):
+        if k > 0 and keys[k] == keys[k - 1]:
+            continue
+        col = keys[k] >> 32
+        row = keys[k] & 0xFFFFFFFF
+        if row >= 1 << 31:
+            row -= 1 << 32
+        out[m, 0] = (col + 0.5) * snap
+        out[m, 1] = (row + 0.5) * snap
+        m += 1
+    return out[:m]
 
 
 @njit(cache=True, nogil=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +20,8 @@ from navd.planning._dwa_kernels import (
     chamfer_distance,
     choose,
     rollouts,
+    snap_near,
+    window_samples,
 )
 from navd.planning.margins import keep_clear_m
 
@@ -168,14 +170,19 @@ class LocalPlanner:
 
     Args:
         settings: limits, footprint, sampling and weights.
-        yaw_rate_caps: top yaw rates [rad/s] of an array of speeds [m/s] (the profile table).
+        yaw_rate_table: (speeds [m/s], top yaw rates [rad/s]) of the profile's table, read
+            by linear interpolation of |v|; None: ``max_yaw_rate_radps`` at every speed.
     """
 
     def __init__(
-        self, settings: DwaSettings, yaw_rate_caps: Callable[[FloatArray], FloatArray] | None = None
+        self,
+        settings: DwaSettings,
+        yaw_rate_table: tuple[Sequence[float], Sequence[float]] | None = None,
     ) -> None:
         self.settings = settings
-        self._yaw_caps_of = yaw_rate_caps
+        speeds, rates = yaw_rate_table if yaw_rate_table is not None else ((), ())
+        self._table_speeds = np.array(speeds, dtype=np.float64)
+        self._table_rates = np.array(rates, dtype=np.float64)
         self.steps = max(round(settings.horizon_s / settings.step_s), 1)
         fp = settings.footprint
         self._footprint = np.array(
@@ -194,41 +201,26 @@ class LocalPlanner:
     def velocities(self, current: tuple[float, float], window: Window) -> FloatArray:
         """K x 2 (v, ω) samples of the dynamic window around the ``current`` command."""
         s = self.settings
-        v_now, w_now = current
-        dv = s.linear_accel_mps2 * s.period_s
-        dw = s.angular_accel_radps2 * s.period_s
         if window.backward:
             lo, hi = -s.max_reverse_mps, -min(window.min_speed_mps, s.max_reverse_mps)
         else:
             lo, hi = 0.0, window.max_speed_mps  # reversing is for stuck recovery only
-        band_hi = hi
-        lo, hi = max(lo, v_now - dv), min(hi, v_now + dv)
-        if lo > hi:  # the band lies out of reach this period: change speed towards it
-            lo = hi = v_now - dv if band_hi < v_now - dv else v_now + dv
-        speeds = np.linspace(lo, hi, s.linear_samples)
-        if window.rotate_only:
-            speeds = np.array([min(max(0.0, v_now - dv), v_now + dv)])
-        if not window.backward and window.min_speed_mps > 0.0:
-            keep = np.abs(speeds) >= min(window.min_speed_mps, abs(hi))
-            speeds = speeds[keep] if keep.any() else speeds[-1:]
-        caps = np.minimum(s.max_yaw_rate_radps, self._yaw_caps(speeds))
-        w_lo = np.maximum(-caps, w_now - dw)
-        w_hi = np.minimum(caps, w_now + dw)
-        # Turning faster than a speed allows: ease off towards its cap.
-        stuck_turn = w_lo > w_hi
-        w_lo = np.where(stuck_turn, np.clip(w_now, -caps, caps), w_lo)
-        w_hi = np.where(stuck_turn, w_lo, w_hi)
-        fraction = np.linspace(0.0, 1.0, s.angular_samples)
-        turns = w_lo[:, None] + (w_hi - w_lo)[:, None] * fraction[None, :]
-        return np.column_stack([np.repeat(speeds, s.angular_samples), turns.ravel()]).astype(
-            np.float64
+        return window_samples(  # (one type per argument: the kernel is compiled once)
+            float(current[0]),
+            float(current[1]),
+            float(s.linear_accel_mps2 * s.period_s),
+            float(s.angular_accel_radps2 * s.period_s),
+            float(lo),
+            float(hi),
+            int(s.linear_samples),
+            int(s.angular_samples),
+            float(window.min_speed_mps),
+            bool(window.rotate_only),
+            bool(window.backward),
+            float(s.max_yaw_rate_radps),
+            self._table_speeds,
+            self._table_rates,
         )
-
-    def _yaw_caps(self, speeds_mps: FloatArray) -> FloatArray:
-        """[rad/s] the top yaw rate at each speed."""
-        if self._yaw_caps_of is None:
-            return np.full(speeds_mps.shape, self.settings.max_yaw_rate_radps)
-        return self._yaw_caps_of(speeds_mps)
 
     def choose(  # noqa: PLR0917 - the inputs of one cycle, each named in the docstring
         self,
@@ -256,11 +248,12 @@ class LocalPlanner:
         half = reach + fp.circumradius_m + max(s.margin_m, s.clearance_cap_m) + 2 * LOCAL_CELL_M
         ox, oy = pose.x - half, pose.y - half
         n = math.ceil(2 * half / LOCAL_CELL_M)
-        near = _snap(
-            obstacles_m[
-                (np.abs(obstacles_m[:, 0] - pose.x) <= half)
-                & (np.abs(obstacles_m[:, 1] - pose.y) <= half)
-            ]
+        near = snap_near(  # (a read-only or strided array would be a type of its own)
+            np.require(obstacles_m, np.float64, ("C", "W")),
+            float(pose.x),
+            float(pose.y),
+            float(half),
+            SNAP_M,
         )
         distance = chamfer_distance(near, ox, oy, LOCAL_CELL_M, n, n)
         bucket = fp.circumradius_m + s.margin_m + SNAP_SLACK_M
@@ -310,18 +303,6 @@ class LocalPlanner:
             k,
             int(k - colliding.sum()),
         )
-
-
-def _snap(points_m: FloatArray) -> FloatArray:
-    """[m] the centres of the SNAP_M cells holding the points, each once."""
-    if points_m.shape[0] == 0:
-        return points_m
-    cells = np.floor(points_m / SNAP_M).astype(np.int64)
-    keys = np.unique((cells[:, 0] << 32) + (cells[:, 1] & 0xFFFFFFFF))
-    x = keys >> 32
-    y = (keys & 0xFFFFFFFF).astype(np.int64)
-    y = np.where(y >= 1 << 31, y - (1 << 32), y)
-    return (np.column_stack([x, y]).astype(np.float64) + 0.5) * SNAP_M
 
 
 def arc(pose: Pose2, v: float, w: float, dt: float, steps: int) -> FloatArray:

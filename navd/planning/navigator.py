@@ -98,7 +98,7 @@ class Navigator:
         self.stuck = StuckMonitor(settings.stuck)
         self.global_planner = GlobalPlanner()
         self.profile = settings.profile
-        self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_caps)
+        self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_table)
         self._command = (0.0, 0.0)
         self._planned_at = -math.inf
         self._moving_since: float | None = None
@@ -116,7 +116,7 @@ class Navigator:
         self.stuck.configure(settings.stuck)
         if settings.dwa != self.local.settings or settings.profile != self.profile:
             self.profile = settings.profile
-            self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_caps)
+            self.local = LocalPlanner(settings.dwa, settings.profile.yaw_rate_table)
 
     def settings_in_use(self) -> tuple[object, ...]:
         """The settings each part holds now."""

@@ -70,9 +70,7 @@ class VelocityProfile:
         """[rad/s] top yaw rate at ``speed_mps`` (either direction), from the table."""
         return float(np.interp(abs(speed_mps), self.table_speeds_mps, self.table_yaw_rates_radps))
 
-    def yaw_rate_caps(self, speeds_mps: FloatArray) -> FloatArray:
-        """[rad/s] ``yaw_rate_cap`` of each of an array of speeds, in one call."""
-        caps: FloatArray = np.interp(
-            np.abs(speeds_mps), self.table_speeds_mps, self.table_yaw_rates_radps
-        )
-        return caps
+    @property
+    def yaw_rate_table(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """([m/s] speeds, [rad/s] top yaw rates) of the table, as the local planner takes it."""
+        return self.table_speeds_mps, self.table_yaw_rates_radps

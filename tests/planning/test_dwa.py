@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.geometry.pose import IDENTITY, Pose2
-from navd.planning._dwa_kernels import CHAMFER_RATIO, bucket_points, chamfer_distance
+from navd.planning._dwa_kernels import (
+    CHAMFER_RATIO,
+    bucket_points,
+    chamfer_distance,
+    snap_near,
+    window_samples,
+)
 from navd.planning.dwa import SNAP_SLACK_M, DwaSettings, LocalPlanner, Window, arc, path_field
 
 
@@ -99,7 +105,7 @@ def test_dwa_lets_a_robot_inside_the_margin_move_away() -> None:
 
 def test_dwa_window_respects_acceleration_and_the_yaw_table() -> None:
     lp, s = planner("circle")
-    lp2 = LocalPlanner(s, lambda v: 1.5 - abs(v))
+    lp2 = LocalPlanner(s, ((0.0, 1.5), (1.5, 0.0)))  # the top yaw rate: 1.5 - |v|
     v = lp2.velocities((0.3, 0.0), Window(0.5))
     dv = s.linear_accel_mps2 * s.period_s
     assert v[:, 0].min() == pytest.approx(0.3 - dv) and v[:, 0].max() == pytest.approx(0.3 + dv)
@@ -139,14 +145,85 @@ def test_chamfer_grid_is_a_lower_bound_on_the_true_distance(seed: int) -> None:
 
 
 def test_snapped_points_are_within_the_slack_of_every_original() -> None:
-    from navd.planning.dwa import _snap
-
     rng = np.random.default_rng(5)
     points = rng.uniform(-3.0, 3.0, (2000, 2))
-    snapped = _snap(points)
+    snapped = snap_near(points, 0.0, 0.0, 3.0, 0.01)
     nearest = np.hypot(*(points[:, None, :] - snapped[None, :, :]).transpose(2, 0, 1)).min(axis=1)
     assert nearest.max() <= SNAP_SLACK_M + 1e-12
     assert len(snapped) == len({tuple(c) for c in np.floor(points / 0.01).astype(int)})
+
+
+def _window_twin(
+    v_now: float,
+    w_now: float,
+    dv: float,
+    dw: float,
+    lo: float,
+    hi: float,
+    n_v: int,
+    n_w: int,
+    min_speed: float,
+    rotate_only: bool,
+    backward: bool,
+    max_yaw: float,
+    table: tuple[tuple[float, ...], tuple[float, ...]],
+) -> np.ndarray:
+    """The dynamic window written with NumPy array calls (how the planner drew it before)."""
+    band_hi = hi
+    lo, hi = max(lo, v_now - dv), min(hi, v_now + dv)
+    if lo > hi:
+        lo = hi = v_now - dv if band_hi < v_now - dv else v_now + dv
+    speeds = np.linspace(lo, hi, n_v)
+    if rotate_only:
+        speeds = np.array([min(max(0.0, v_now - dv), v_now + dv)])
+    if not backward and min_speed > 0.0:
+        keep = np.abs(speeds) >= min(min_speed, abs(hi))
+        speeds = speeds[keep] if keep.any() else speeds[-1:]
+    caps = np.minimum(max_yaw, np.interp(np.abs(speeds), *table))
+    w_lo = np.maximum(-caps, w_now - dw)
+    w_hi = np.minimum(caps, w_now + dw)
+    stuck = w_lo > w_hi
+    w_lo = np.where(stuck, np.clip(w_now, -caps, caps), w_lo)
+    w_hi = np.where(stuck, w_lo, w_hi)
+    turns = w_lo[:, None] + (w_hi - w_lo)[:, None] * np.linspace(0.0, 1.0, n_w)[None, :]
+    return np.column_stack([np.repeat(speeds, n_w), turns.ravel()])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_the_window_kernel_draws_the_numpy_window_exactly(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    backward = bool(rng.random() < 0.2)
+    lo, hi = (-0.3, -0.05) if backward else (0.0, float(rng.uniform(0.0, 1.0)))
+    args = (
+        float(rng.uniform(-0.4, 1.2)),  # the command now: at times out of the band's reach
+        float(rng.uniform(-2.5, 2.5)),  # and turning faster than the table allows
+        0.1,
+        0.4,
+        lo,
+        hi,
+        int(rng.integers(1, 12)),
+        int(rng.integers(1, 12)),
+        float(rng.choice([0.0, 0.1, 0.6])),
+        bool(rng.random() < 0.2),
+        backward,
+        1.5,
+    )
+    table = ((0.0, 0.5, 1.0), (1.8, 1.0, 0.4))
+    expected = _window_twin(*args, table)
+    drawn = window_samples(*args, np.array(table[0]), np.array(table[1]))
+    np.testing.assert_array_equal(drawn, expected)
+
+
+def test_only_points_near_the_robot_are_snapped_each_cell_once() -> None:
+    rng = np.random.default_rng(8)
+    points = rng.uniform(-4.0, 4.0, (3000, 2))
+    points = np.vstack([points, points[:500] + 0.001])  # a second beam in the same cell
+    snapped = snap_near(points, 0.5, -0.25, 1.5, 0.01)
+    near = points[(np.abs(points[:, 0] - 0.5) <= 1.5) & (np.abs(points[:, 1] + 0.25) <= 1.5)]
+    cells = np.unique(np.floor(near / 0.01).astype(np.int64), axis=0)
+    in_order = snapped[np.lexsort((snapped[:, 1], snapped[:, 0]))]  # (any order will do)
+    np.testing.assert_array_equal(in_order, (cells + 0.5) * 0.01)
 
 
 def test_buckets_hold_exactly_their_points() -> None:

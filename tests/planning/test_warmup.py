@@ -1,7 +1,7 @@
 """The planning warm-up compiles what the planner then runs: in a fresh process, planning on
 an inflated room (the bucket search) and on open floor (jump point search), and replanning
-on each (the last route checked and continued), after it compiles nothing more, so a first
-goal never waits for the compiler."""
+on each (the last route checked and continued), and the local planner on every kind of
+window, after it compiles nothing more, so a first goal never waits for the compiler."""
 
 from __future__ import annotations
 
@@ -13,14 +13,19 @@ SCRIPT = textwrap.dedent(
     """
     import numpy as np
     from navd.config import NavdConfig
+    from navd.geometry.pose import Pose2
     from navd.planning import (
-        _astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels
+        _astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels, _dwa_kernels
     )
     from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
+    from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
     from navd.planning.global_planner import GlobalPlanner, SearchSettings
+    from navd.planning.profile import VelocityProfile
     from navd.planning.warmup import warm_up
 
-    modules = (_astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels)
+    modules = (
+        _astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels, _dwa_kernels
+    )
     kernels = [
         getattr(m, n) for m in modules for n in dir(m) if hasattr(getattr(m, n), "signatures")
     ]
@@ -38,9 +43,21 @@ SCRIPT = textwrap.dedent(
         planner.plan(costmap, (0.5, 0.5), (4.0, 5.5), search)
         rebuilt = build_costmap(frame, obstacles, np.zeros_like(obstacles), settings)
         assert planner.plan(rebuilt, (0.55, 0.5), (4.0, 5.5), search).reused
+    # the local planner: every kind of window, read-only and strided obstacle points
+    local = LocalPlanner(
+        DwaSettings.from_config(config), VelocityProfile.from_config(config).yaw_rate_table
+    )
+    wall = np.column_stack([np.full(40, 1.0), np.linspace(-1.0, 1.0, 40), np.zeros(40)])
+    wall.flags.writeable = False
+    route = path_field(np.array([[0.0, 0.0], [2.0, 0.5]]))
+    for window in (Window(0.5), Window(0.0, rotate_only=True), Window(0.3, 0.1, backward=True),
+                   Window(0.4, min_speed_mps=0.2)):
+        local.choose(Pose2(0.0, 0.0, 0.1), (0.2, 0.1), wall[:, :2], route,
+                     Pose2(2.0, 0.5, 0.0), window)
     after = {f.__name__: len(f.signatures) for f in kernels}
     names = ("bucket_astar", "trace_steps", "jump_point_search", "trace_back", "shortcut")
-    for name in (*names, "path_changed", "distance_to"):
+    dwa = ("window_samples", "snap_near", "rollouts", "chamfer_distance", "bucket_points")
+    for name in (*names, *dwa, "path_changed", "distance_to"):
         assert warmed[name], (name, warmed)
     assert after == warmed, (warmed, after)
     print("ok")
