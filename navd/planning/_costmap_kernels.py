@@ -30,7 +30,9 @@ def mark_and_clear(
     Rays run from the sensor cell (origin_i, origin_j) = (row, column) to ``cells[k]`` by
     Bresenham's line; the end cell itself is only cleared for a miss (a ray that saw nothing).
     Cells outside the grid are skipped; all clearing happens before any marking, so one ray
-    never clears what another of the same scan hit.
+    never clears what another of the same scan hit, and a ray ending in the same cell as the
+    one before it (neighbouring beams on a wall a few metres off: several per cell) is not
+    traced again.
 
     Args:
         last_seen: rows x columns, updated in place.
@@ -43,6 +45,8 @@ def mark_and_clear(
     for k in range(cells.shape[0]):
         i1 = cells[k, 0]
         j1 = cells[k, 1]
+        if k > 0 and i1 == cells[k - 1, 0] and j1 == cells[k - 1, 1] and is_hit[k] == is_hit[k - 1]:
+            continue  # the ray before ended in the same cell: the same line, already cleared
         di = abs(i1 - origin_i)
         dj = abs(j1 - origin_j)
         si = 1 if i1 > origin_i else -1

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from navd.planning._costmap_kernels import mark_and_clear
 from navd.planning.costmap import (
     CostmapSettings,
     GridFrame,
@@ -73,6 +74,29 @@ def test_obstacle_layer_marks_hits_and_clears_along_rays_and_forgets_old_marks()
     # A ray with no return clears all the way to its end.
     layer.add_scan((0.05, 0.05), np.empty((0, 2)), np.array([[1.95, 0.05]]), stamp=0.8)
     assert not layer.active(0.9).any()
+
+
+def test_rays_ending_in_the_cell_of_the_ray_before_clear_and_mark_as_if_each_were_traced() -> None:
+    # A dense scan of a room: neighbouring beams end in the same cell, and the kernel skips
+    # them; traced in a shuffled order (no neighbours), every ray is traced: the same layer.
+    rng = np.random.default_rng(11)
+    angles = np.linspace(-math.pi, math.pi, 1440, endpoint=False)
+    ranges = rng.uniform(0.5, 3.0) + 0.4 * np.sin(3 * angles)
+    ends = np.column_stack([1.0 + ranges * np.cos(angles), 0.5 + ranges * np.sin(angles)])
+    frame = GridFrame(0.05, -3.0, -3.0, 120, 120)
+    cells = frame.cells_of(ends)
+    is_hit = rng.random(cells.shape[0]) < 0.8
+    is_hit[200:400] = False  # a stretch of misses
+    origin = frame.cell_of(1.0, 0.5)
+    in_order = np.full((120, 120), 5.0)  # every cell seen occupied at 5 s
+    mark_and_clear(in_order, origin[0], origin[1], cells, is_hit, 7.0)
+    shuffled = np.full((120, 120), 5.0)
+    order = rng.permutation(cells.shape[0])
+    mark_and_clear(shuffled, origin[0], origin[1], cells[order], is_hit[order], 7.0)
+    repeats = (np.diff(cells, axis=0) == 0).all(axis=1) & (is_hit[1:] == is_hit[:-1])
+    assert repeats.sum() > 500  # the case is the one meant
+    np.testing.assert_array_equal(in_order, shuffled)
+    assert (in_order == 7.0).any() and (in_order == -np.inf).any() and (in_order == 5.0).any()
 
 
 def test_obstacle_layer_keeps_its_marks_when_the_frame_grows() -> None:
