@@ -1,4 +1,6 @@
-"""Shared test helpers: a bus on simulated time and message and frame factories."""
+"""Shared test helpers: a bus on simulated time and message and frame factories; property
+tests draw the same examples on every run (derandomized, no example database), so a run
+fails or passes on the code alone."""
 
 from __future__ import annotations
 
@@ -7,12 +9,16 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
+from hypothesis import settings
 
 from navd.drivers.protocol.frames import ScanFrame
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.messages import Message, VelocityCommand
 from navd.lifecycle.supervision import Supervisor
+
+settings.register_profile("navd", derandomize=True, database=None)
+settings.load_profile("navd")
 
 
 def velocity(linear: float = 0.1, angular: float = 0.0, t: float = 0.0) -> VelocityCommand:

@@ -1,4 +1,6 @@
-"""Numba kernel of one step of the pose UKF: predict, update, gate, with angles on the circle.
+"""Numba kernels of the pose UKF: one step (predict, update, gate, with angles on the
+circle), and the prediction by the linear model alone between events (``propagate``, the
+published estimate).
 
 The same algebra as the textbook UKF (Wan and van der Merwe 2000) as filterpy writes it, on
 the 9-state model of ``motion_model`` with Merwe's scaled sigma points: predict propagates

@@ -10,7 +10,6 @@ from __future__ import annotations
 import asyncio
 import heapq
 import itertools
-import math
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Protocol
@@ -18,9 +17,6 @@ from typing import Protocol
 from navd.lifecycle.errors import LifecycleError
 
 __all__ = ["Clock", "MonotonicClock", "SimClock", "Tick", "ticks"]
-
-# [periods] how far past a grid point a time may lie and still count as on it (rounding)
-GRID_TOLERANCE = 1e-9
 
 
 class Clock(Protocol):
@@ -151,12 +147,10 @@ async def ticks(
 ) -> AsyncIterator[Tick]:
     """Yield ticks every ``period_s`` [s] without drift.
 
-    The first tick comes at once; the next ones at whole multiples of the period on the clock,
-    so every loop ticking at one period (or at whole multiples of it) comes due together and
-    the event loop wakes once for all of them (a wake-up costs more than most ticks' work). When
-    the consumer falls more than a period behind, the missed deadlines are skipped (and
-    counted) rather than fired in a burst. A callable period is read after every tick: a new
-    value takes effect from the first multiple of it after the last deadline passed.
+    Deadlines are ``start + k * period``; when the consumer falls more than a period behind,
+    the missed deadlines are skipped (and counted) rather than fired in a burst. A callable
+    period is read after every tick: a new value takes effect from the next deadline, which
+    becomes the start of the new grid.
 
     Args:
         clock: the time source.
@@ -168,30 +162,21 @@ async def ticks(
     """
     period = period_s if callable(period_s) else (lambda: period_s)
     step = _positive(period())
-    deadline = clock.now()  # the first tick: at once
-    start = math.floor(deadline / step) * step  # the grid the next ones lie on
+    start = clock.now()
     k = 0
     index = 0
     while limit is None or index < limit:
+        deadline = start + k * step
         await clock.sleep(deadline - clock.now())
         now = clock.now()
         late = now - deadline
         skipped = int(late // step) if late >= step else 0
         yield Tick(index, deadline, late, skipped)
         index += 1
-        passed = max(deadline, start + (k + skipped) * step)  # the last deadline passed
         k += 1 + skipped
         new_step = _positive(period())
         if new_step != step:
-            start, k, step = _grid_after(passed, new_step), 0, new_step
-        deadline = start + k * step
-
-
-def _grid_after(time_s: float, step_s: float) -> float:
-    """[s] the first whole multiple of ``step_s`` after ``time_s`` (a rounding error's worth
-    after it does not count: the next one is taken)."""
-    n = math.floor(time_s / step_s + GRID_TOLERANCE) + 1
-    return n * step_s
+            start, k, step = start + k * step - step + new_step, 0, new_step
 
 
 def _positive(period_s: float) -> float:

@@ -1,6 +1,6 @@
 """Numba kernels of the costmap: the obstacle layer marked and cleared by scan rays.
 
-The kernels see arrays and scalars only. NumPy twins live in tests/planning/costmap_reference.py.
+The kernels see arrays and scalars only; tests/planning/test_costmap.py checks them.
 """
 
 from __future__ import annotations

@@ -14,7 +14,8 @@ The points are first gathered from around the robot and merged into small cells
 (``window_samples``) in one call each: a control cycle made of dozens of small NumPy calls
 cost three times as much in the daemon, between the other threads' work, as alone.
 
-NumPy twins live in tests/planning/dwa_reference.py.
+NumPy formulations of the dynamic window and the snapping are checked against the kernels in
+tests/planning/test_dwa.py.
 """
 
 from __future__ import annotations
@@ -82,6 +83,17 @@ def window_samples(
     fast (or the top one). Each speed takes ``angular_samples`` yaw rates across what ``dw``
     reaches of its cap: ``max_yaw``, and the yaw-rate table (|v| -> top rate, linearly
     interpolated) where it has entries; a yaw rate beyond the cap eases off towards it.
+
+    Args:
+        v_now, w_now: [m/s, rad/s] the command in force.
+        dv, dw: [m/s, rad/s] what the accelerations change in one control period.
+        band_lo, band_hi: [m/s] the speeds allowed (forward: 0 to the profile's cap;
+            backing out: negative).
+        linear_samples, angular_samples: samples across the window.
+        min_speed: [m/s] least forward |v| (stuck handling), 0 for any.
+        rotate_only, backward: turning on the spot; backing out.
+        max_yaw: [rad/s] the robot's top yaw rate.
+        table_speeds, table_rates: [m/s, rad/s] the yaw-rate table (empty: none).
     """
     lo, hi = max(band_lo, v_now - dv), min(band_hi, v_now + dv)
     if lo > hi:  # the band lies out of reach this period: change speed towards it
@@ -129,8 +141,9 @@ def _linspace(start: float, stop: float, num: int) -> FloatArray:
 
 @njit(cache=True, nogil=True)
 def snap_near(points: FloatArray, x: float, y: float, half: float, snap: float) -> FloatArray:
-    """[m] the centres of the ``snap`` cells holding the points within the square of half-size
-    ``half`` around (x, y), each once, in (column, row) order."""
+    """[m] the centres of the ``snap`` [m] cells holding the ``points`` [m, N x 2] within the
+    square of half-size ``half`` [m] around (x, y) [m], each once, in the order of their
+    packed (column, row) keys."""
     keys = np.empty(points.shape[0], dtype=np.int64)
     n = 0
     for k in range(points.shape[0]):

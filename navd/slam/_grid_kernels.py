@@ -182,7 +182,7 @@ def branch_and_bound(
     turn_cost: F64,
     per_cell2: float,
     floor: float,
-    cell_max: float = 1.0,
+    cell_max: float,
 ) -> tuple[int, int, int, float, int]:
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
@@ -212,10 +212,12 @@ def branch_and_bound(
     translation nearest the prior (so it stays a bound); ties are broken by the rest of the
     tuple, so the result does not depend on the order blocks were queued in.
 
-    A rotation starts as one entry of level ``levels + 1`` bounded by ``cell_max`` per point
-    less its turn cost; only when that entry comes first are its points projected and its
-    coarsest blocks queued. Under a strong pull toward the prior, the rotations far from it
-    are never projected: a tracked scan projects a few of its 85 rotations instead of all.
+    A rotation starts as one entry bounded by ``cell_max`` per point less its turn cost, at
+    the coarsest level and a dx before any block's (so it comes first among the entries it
+    ties with exactly where its blocks would); only when it comes first are its points
+    projected and its coarsest blocks queued. Under a strong pull toward the prior the
+    rotations far from it are never projected: a tracked scan projects a few of its
+    rotations instead of all of them.
     """
     levels = len(bounds) - 1
     top = 1 << levels
@@ -225,16 +227,15 @@ def branch_and_bound(
     queue = [(0.0, 0, 0, 0, 0, 0.0)]
     queue.pop()
     most = cell_max * n_points
+    unprojected = -limit - 1  # the dx that marks a rotation's entry
     for a in range(n_angles):
         if most - turn_cost[a] >= floor:
-            queue.append((turn_cost[a] - most, levels + 1, a, 0, 0, most))
+            queue.append((turn_cost[a] - most, levels, a, unprojected, 0, most))
     heapq.heapify(queue)
     expanded = 0
     while len(queue) > 0:
         _, level, a, dx, dy, bound = heapq.heappop(queue)
-        if level == 0:
-            return a, dx, dy, bound, expanded
-        if level > levels:  # a rotation's first turn: project its points, queue its blocks
+        if dx == unprojected:  # a rotation's first turn: project its points, queue its blocks
             for k in range(n_points):
                 cols[a, k], rows[a, k] = _project(px, py, cosines[a], sines[a], tx, ty, k)
             for dy in range(-limit, limit + 1, top):
@@ -244,6 +245,8 @@ def branch_and_bound(
                     if bound - pull >= floor:
                         heapq.heappush(queue, (pull - bound, levels, a, dx, dy, bound))
             continue
+        if level == 0:
+            return a, dx, dy, bound, expanded
         expanded += 1
         half = 1 << (level - 1)
         for j in (0, half):

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from navd.geometry.pose import Pose2
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, Match
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import FIELD_PEAK, LikelihoodField, OccupancyGrid
 
 __all__ = ["global_search", "relocalize"]
 
@@ -66,6 +66,7 @@ def global_search(
         np.zeros(angles.size),  # no prior: every pose within the window is as likely
         0.0,
         -math.inf if min_score == -math.inf else min_score * points.shape[0],
+        FIELD_PEAK,
     )
     if a < 0:
         return center, 0.0, expanded

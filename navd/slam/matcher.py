@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
 from navd.slam import _grid_kernels as k
-from navd.slam.occupancy import LikelihoodField
+from navd.slam.occupancy import FIELD_PEAK, LikelihoodField
 
 __all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]
 
@@ -123,7 +123,18 @@ class CorrelativeMatcher:
         turn_cost = n * self.prior_weight_per_rad2 * (angles - prior.yaw) ** 2
         bounds = tuple(field.bound(1 << level) for level in range(self.levels + 1))
         a, dx, dy, score, blocks = k.branch_and_bound(
-            bounds, px, py, cosines, sines, tx, ty, limit, turn_cost, per_cell2, -math.inf
+            bounds,
+            px,
+            py,
+            cosines,
+            sines,
+            tx,
+            ty,
+            limit,
+            turn_cost,
+            per_cell2,
+            -math.inf,
+            FIELD_PEAK,
         )
         best = (max(a, 0), dx, dy, score)
         scan = _Projected(px, py, angles, tx, ty)

@@ -16,7 +16,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
 from navd.slam import _grid_kernels as k
 
-__all__ = ["LikelihoodField", "OccupancyGrid"]
+__all__ = ["FIELD_PEAK", "LikelihoodField", "OccupancyGrid"]
 
 F32 = npt.NDArray[np.float32]
 F64 = npt.NDArray[np.float64]
@@ -26,6 +26,9 @@ L_OCC = 0.85  # log-odds added to the cell a ray ends in
 L_MIN, L_MAX = -2.0, 3.5  # clamps: the map stays able to change its mind
 OCCUPIED_LOGODDS = 0.0  # above this a cell counts as occupied when matching
 PERCENT_ROWS = 256  # rows converted at a time by occupancy_percent
+# The largest value a likelihood field cell holds: the centre of a Gaussian stamp, exp(0)
+# (stamps are kept by their maximum, never added); searches bound a scan's score with it.
+FIELD_PEAK = 1.0
 
 
 @dataclass

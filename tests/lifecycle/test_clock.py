@@ -92,29 +92,6 @@ async def test_ticks_follow_a_drift_free_schedule() -> None:
     assert seen == [(0, 0.0, 0), (1, 0.1, 0), (2, 0.2, 0), (3, 0.3, 0)]
 
 
-async def test_loops_started_apart_tick_together_on_the_period_grid() -> None:
-    # One wake-up of the event loop for every loop due: after its first tick (at once), each
-    # loop ticks at whole multiples of its period, whenever it started.
-    clock = SimClock(start_s=10.013)
-    seen: dict[str, list[float]] = {"a": [], "b": [], "slow": []}
-
-    async def consume(name: str, period_s: float) -> None:
-        async for tick in ticks(clock, period_s, limit=4):
-            seen[name].append(round(tick.scheduled_s, 9))
-
-    first = asyncio.create_task(consume("a", 0.05))
-    await _settle()
-    clock.advance(0.021)  # the others start 21 ms later
-    others = [asyncio.create_task(consume("b", 0.05)), asyncio.create_task(consume("slow", 0.1))]
-    for _ in range(30):
-        await _settle()
-        clock.advance(0.01)
-    await asyncio.gather(first, *others)
-    assert seen["a"] == [10.013, 10.05, 10.1, 10.15]
-    assert seen["b"] == [10.034, 10.05, 10.1, 10.15]
-    assert seen["slow"] == [10.034, 10.1, 10.2, 10.3]
-
-
 async def test_ticks_skip_missed_deadlines_instead_of_bursting() -> None:
     clock = SimClock(start_s=0.0)
     seen: list[tuple[int, float, int]] = []

@@ -83,7 +83,7 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
     no_pull = np.zeros(angles.size)
     a, dx, dy, total, _ = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0, -math.inf
+        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0, -math.inf, 1.0
     )
     assert (a, dx, dy) == ref.branch_and_bound(bounds, px, py, angles, tx, ty, limit)[:3]
     exhaustive = {
@@ -110,7 +110,7 @@ def test_a_floor_gives_up_a_search_below_it_early_and_leaves_one_above_it_unchan
     c, s = np.cos(angles), np.sin(angles)
 
     def search(floor: float) -> tuple[int, int, int, float, int]:
-        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, no_pull, 0.0, floor)
+        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, no_pull, 0.0, floor, 1.0)
 
     free = search(-math.inf)
     best = free[3]
@@ -136,7 +136,9 @@ def test_a_floor_with_a_pull_keeps_the_pulled_optimum(seed: int) -> None:
     c, s = np.cos(angles), np.sin(angles)
 
     def search(floor: float) -> tuple[int, int, int, float, int]:
-        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, turn_cost, per_cell2, floor)
+        return k.branch_and_bound(
+            bounds, px, py, c, s, tx, ty, limit, turn_cost, per_cell2, floor, 1.0
+        )
 
     free = search(-math.inf)
     a, dx, dy, total, _ = free
@@ -169,6 +171,7 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
         turn_cost,
         per_cell2,
         -math.inf,
+        1.0,
     )
     pulled = {
         (b, x, y): ref.score(field, px, py, np.cos(angle), np.sin(angle), tx, ty, x, y)
@@ -203,3 +206,32 @@ def test_count_known_matches_the_reference_on_and_off_the_grid() -> None:
     got = k.count_known(logodds, cols_x, rows_y)
     assert got == ref.count_known(logodds, cols_x, rows_y)
     assert 0 < got < 500
+
+
+def test_a_tie_between_rotations_goes_to_the_first_as_when_every_rotation_is_queued_at_once() -> (
+    None
+):
+    # One point, two rotations: the first sees a full cell but turns away from the prior
+    # (cost 0.5), the second sees a half cell straight ahead: both score 0.5. A rotation's
+    # points are projected only when its entry comes first; the second's entry (bound 1 - 0)
+    # comes before the first's (1 - 0.5), and still the first wins the tie, as it does when
+    # all rotations are projected up front.
+    field = np.zeros((5, 5), dtype=np.float32)
+    field[2, 3] = 1.0  # the point (1, 0) not turned, from the prior at cell (2, 2)
+    field[3, 2] = 0.5  # the same point turned a quarter
+    angles = np.array([0.0, math.pi / 2])
+    a, dx, dy, total, _ = k.branch_and_bound(
+        (field,),
+        np.array([1.0]),
+        np.array([0.0]),
+        np.cos(angles),
+        np.sin(angles),
+        2.0,
+        2.0,
+        0,
+        np.array([0.5, 0.0]),
+        0.0,
+        -math.inf,
+        1.0,
+    )
+    assert (a, dx, dy, total) == (0, 0, 0, 1.0)
