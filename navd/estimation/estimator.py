@@ -458,7 +458,7 @@ class StateEstimator:
         position_std = math.sqrt(max(_largest_eigenvalue(cov[0, 0], cov[0, 1], cov[1, 1]), 0.0))
         yaw_std = math.sqrt(max(float(cov[2, 2]), 0.0))
         est = self.settings.estimation
-        if position_std > est.lost_position_std_m:
+        if not position_std <= est.lost_position_std_m:  # a spread that is not a number too
             return Localization.LOST, position_std, yaw_std
         if position_std > est.degraded_position_std_m:
             return Localization.DEGRADED, position_std, yaw_std

@@ -192,6 +192,20 @@ def test_localization_degrades_then_is_lost_without_position_updates() -> None:
     assert stds == sorted(stds)  # predict-only: the position only gets less certain
 
 
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_a_position_spread_that_is_not_a_number_is_lost_not_ok(bad: float) -> None:
+    estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
+    estimator.set_pose(
+        InitialPose(stamp=0.0, received=0.0, x_m=1.0, y_m=2.0, yaw_rad=0.5, std_xy_m=0.05)
+    )
+    good = estimator.estimate(0.0)
+    assert good is not None and estimator.localization(good)[0] == Localization.OK
+    cov = good.covariance.copy()
+    cov[0, 0] = bad
+    state, std, _ = estimator.localization(dataclasses.replace(good, covariance=cov))
+    assert state == Localization.LOST and not std <= 1.0
+
+
 def _mounted(**mounts: object) -> NavdConfig:
     """The config with the datum and these ``mounts`` tables."""
     world = {key.split(".")[1]: value for key, value in DATUM.items()}
