@@ -45,8 +45,10 @@ def mark_and_clear(
     for k in range(cells.shape[0]):
         i1 = cells[k, 0]
         j1 = cells[k, 1]
-        if k > 0 and i1 == cells[k - 1, 0] and j1 == cells[k - 1, 1] and is_hit[k] == is_hit[k - 1]:
-            continue  # the ray before ended in the same cell: the same line, already cleared
+        if k > 0 and i1 == cells[k - 1, 0] and j1 == cells[k - 1, 1]:
+            # the ray before ended in the same cell: the same line, already cleared (a miss
+            # clears its end cell too, but a hit there is marked after all clearing anyway)
+            continue
         di = abs(i1 - origin_i)
         dj = abs(j1 - origin_j)
         si = 1 if i1 > origin_i else -1
