@@ -1,7 +1,8 @@
 """Numba kernels of the occupancy grid and the correlative scan matcher.
 
-Grids are indexed [row, col] = [y, x] in cells. Every kernel has a NumPy twin in
-tests/slam/grid_reference.py.
+Grids are indexed [row, col] = [y, x] in cells. The occupancy grid is stored in tiles
+(navd.slam.tiles); its kernels take the tiled array's parts. Every kernel has a NumPy twin,
+on a dense array, in tests/slam/grid_reference.py.
 
 - ``ray_update``: log-odds update along each ray (Bresenham): every cell the ray crosses
   gets ``l_free``, the end cell of a ray that hit something gets ``l_occ``; values are
@@ -27,6 +28,8 @@ import numba as nb
 import numpy as np
 import numpy.typing as npt
 
+from navd.slam.tiles import TILE, TILE_MASK, TILE_SHIFT
+
 __all__ = [
     "branch_and_bound",
     "count_known",
@@ -39,11 +42,40 @@ __all__ = [
 FloatArray = npt.NDArray[np.float32]
 F64 = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+I32Grid = npt.NDArray[np.int32]
+Tiles = npt.NDArray[np.float32]  # [n, TILE, TILE]
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _tile_to_write(index: I32Grid, used: IntArray, gy: int, gx: int) -> int:
+    """The tile holding tile-numbered cell (gy, gx), allocated if it was not yet (the
+    caller reserved room: see TiledArray.reserve)."""
+    t = index[gy >> TILE_SHIFT, gx >> TILE_SHIFT]
+    if t < 0:
+        t = used[0]
+        used[0] = t + 1
+        index[gy >> TILE_SHIFT, gx >> TILE_SHIFT] = t
+    return int(t)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _read(index: I32Grid, tiles: Tiles, gy: int, gx: int) -> float:
+    """Tile-numbered cell (gy, gx); 0 in a tile never written."""
+    t = index[gy >> TILE_SHIFT, gx >> TILE_SHIFT]
+    if t < 0:
+        return 0.0
+    return float(tiles[t, gy & TILE_MASK, gx & TILE_MASK])
 
 
 @nb.njit(cache=True, nogil=True)
 def ray_update(
-    logodds: FloatArray,
+    index: I32Grid,
+    tiles: Tiles,
+    used: IntArray,
+    off_r: int,
+    off_c: int,
+    rows: int,
+    cols: int,
     x0: int,
     y0: int,
     ends_x: IntArray,
@@ -54,8 +86,9 @@ def ray_update(
     l_min: float,
     l_max: float,
 ) -> None:
-    """Free the cells from (x0, y0) to each end (exclusive); mark hit ends occupied."""
-    rows, cols = logodds.shape
+    """Free the cells from (x0, y0) to each end (exclusive); mark hit ends occupied. The
+    grid is the tiled array of the first seven arguments (TiledArray.parts)."""
+    cells = tiles.reshape(-1)  # tile t's cell (a, b) is at t * TILE² + a * TILE + b
     for k in range(ends_x.size):
         x1, y1 = ends_x[k], ends_y[k]
         dx = abs(x1 - x0)
@@ -64,10 +97,17 @@ def ray_update(
         sy = 1 if y0 < y1 else -1
         err = dx + dy
         x, y = x0, y0
+        tile_r = tile_c = -1  # the tile the ray is in, and where its cells start
+        first = 0
         while x != x1 or y != y1:
             if 0 <= x < cols and 0 <= y < rows:
-                v = logodds[y, x] + l_free
-                logodds[y, x] = max(v, l_min)
+                gy, gx = y + off_r, x + off_c
+                if gy >> TILE_SHIFT != tile_r or gx >> TILE_SHIFT != tile_c:
+                    tile_r, tile_c = gy >> TILE_SHIFT, gx >> TILE_SHIFT
+                    first = _tile_to_write(index, used, gy, gx) << (2 * TILE_SHIFT)
+                i = first + ((gy & TILE_MASK) << TILE_SHIFT) + (gx & TILE_MASK)
+                v = cells[i] + l_free
+                cells[i] = max(v, l_min)
             e2 = 2 * err
             if e2 >= dy:
                 err += dy
@@ -76,13 +116,21 @@ def ray_update(
                 err += dx
                 y += sy
         if hits[k] and 0 <= x1 < cols and 0 <= y1 < rows:
-            v = logodds[y1, x1] + l_occ
-            logodds[y1, x1] = min(v, l_max)
+            gy, gx = y1 + off_r, x1 + off_c
+            t = _tile_to_write(index, used, gy, gx)
+            v = tiles[t, gy & TILE_MASK, gx & TILE_MASK] + l_occ
+            tiles[t, gy & TILE_MASK, gx & TILE_MASK] = min(v, l_max)
 
 
 @nb.njit(cache=True, nogil=True)
 def smear(
-    logodds: FloatArray,
+    index: I32Grid,
+    tiles: Tiles,
+    used: IntArray,
+    off_r: int,
+    off_c: int,
+    rows: int,
+    cols: int,
     threshold: float,
     row0: int,
     col0: int,
@@ -91,29 +139,37 @@ def smear(
 ) -> None:
     """Stamp ``kernel`` (odd square) into ``field`` around every cell above ``threshold``.
 
-    ``field`` covers the grid window starting at (row0, col0) with its own shape; cells of
-    the grid outside the window stamp nothing. ``field`` must be zeroed by the caller.
+    The grid is the tiled array of the first seven arguments (TiledArray.parts); ``field``
+    covers its window starting at (row0, col0) with its own shape; cells of the grid
+    outside the window stamp nothing, and tiles never written are skipped whole. ``field``
+    must be zeroed by the caller.
     """
-    rows, cols = field.shape
-    g_rows, g_cols = logodds.shape
+    f_rows, f_cols = field.shape
     r = kernel.shape[0] // 2
-    for fy in range(rows):
-        gy = fy + row0
-        if gy < 0 or gy >= g_rows:
-            continue
-        for fx in range(cols):
-            gx = fx + col0
-            if gx < 0 or gx >= g_cols or logodds[gy, gx] <= threshold:
+    g0, g1 = max(row0, 0) + off_r, min(row0 + f_rows, rows) + off_r  # tile numbering
+    h0, h1 = max(col0, 0) + off_c, min(col0 + f_cols, cols) + off_c
+    if g0 >= g1 or h0 >= h1:
+        return
+    for tr in range(g0 >> TILE_SHIFT, ((g1 - 1) >> TILE_SHIFT) + 1):
+        for tc in range(h0 >> TILE_SHIFT, ((h1 - 1) >> TILE_SHIFT) + 1):
+            t = index[tr, tc]
+            if t < 0:
                 continue
-            for ky in range(-r, r + 1):
-                y = fy + ky
-                if y < 0 or y >= rows:
-                    continue
-                for kx in range(-r, r + 1):
-                    x = fx + kx
-                    if 0 <= x < cols:
-                        w = kernel[ky + r, kx + r]
-                        field[y, x] = max(field[y, x], w)
+            for gy in range(max(g0, tr * TILE), min(g1, (tr + 1) * TILE)):
+                fy = gy - off_r - row0
+                for gx in range(max(h0, tc * TILE), min(h1, (tc + 1) * TILE)):
+                    if tiles[t, gy & TILE_MASK, gx & TILE_MASK] <= threshold:
+                        continue
+                    fx = gx - off_c - col0
+                    for ky in range(-r, r + 1):
+                        y = fy + ky
+                        if y < 0 or y >= f_rows:
+                            continue
+                        for kx in range(-r, r + 1):
+                            x = fx + kx
+                            if 0 <= x < f_cols:
+                                w = kernel[ky + r, kx + r]
+                                field[y, x] = max(field[y, x], w)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -306,10 +362,20 @@ def fine_scores(
 
 
 @nb.njit(cache=True, nogil=True)
-def count_known(logodds: FloatArray, cols_x: IntArray, rows_y: IntArray) -> int:
+def count_known(
+    index: I32Grid,
+    tiles: Tiles,
+    used: IntArray,
+    off_r: int,
+    off_c: int,
+    rows: int,
+    cols: int,
+    cols_x: IntArray,
+    rows_y: IntArray,
+) -> int:
     """How many of the cells (cols_x[i], rows_y[i]) have an observed cell (log-odds not 0)
-    among themselves and their 8 neighbours; cells off the grid count as unobserved."""
-    rows, cols = logodds.shape
+    among themselves and their 8 neighbours; cells off the grid count as unobserved. The
+    grid is the tiled array of the first seven arguments (TiledArray.parts)."""
     known = 0
     for i in range(cols_x.size):
         x0 = cols_x[i]
@@ -317,7 +383,7 @@ def count_known(logodds: FloatArray, cols_x: IntArray, rows_y: IntArray) -> int:
         found = False
         for y in range(max(y0 - 1, 0), min(y0 + 2, rows)):
             for x in range(max(x0 - 1, 0), min(x0 + 2, cols)):
-                if logodds[y, x] != 0.0:
+                if _read(index, tiles, y + off_r, x + off_c) != 0.0:
                     found = True
                     break
             if found:

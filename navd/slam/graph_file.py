@@ -72,10 +72,7 @@ def graph_arrays(graph: MapGraph) -> dict[str, npt.NDArray[np.generic]]:
         "edge_robust": np.array([e.robust for e in edges], dtype=bool),
     }
     if graph.base is not None:
-        base = graph.base
-        arrays["base_logodds"] = base.logodds
-        arrays["base_origin"] = np.array([base.origin_x, base.origin_y])
-        arrays["base_resolution"] = np.array(base.resolution)
+        arrays.update(graph.base.state("base_"))
     return {PREFIX + name: value for name, value in arrays.items()}
 
 
@@ -147,15 +144,11 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
         for e in range(m)
     )
     base = None
-    if PREFIX + "base_logodds" in data:
-        logodds, origin = np.asarray(get("base_logodds")), get("base_origin")
-        resolution = get("base_resolution")
-        if logodds.ndim != 2 or origin.shape != (2,) or resolution.shape != ():
-            raise MapFileError(
-                "the map's graph has a base map of the wrong shape (log-odds rows x columns, "
-                "an origin x, y and one resolution)"
-            )
-        base = OccupancyGrid.from_array(
-            logodds, float(origin[0]), float(origin[1]), float(resolution)
-        )
+    if PREFIX + "base_origin" in data:
+        try:
+            base = OccupancyGrid.from_state(data, PREFIX + "base_")
+        except KeyError as err:
+            raise MapFileError(f"the map's graph has a base map without its {err} array") from None
+        except ValueError as err:
+            raise MapFileError(f"the map's graph has a malformed base map: {err}") from err
     return MapGraph(tuple(frames), edges, base)

@@ -110,7 +110,7 @@ class LostSearch:
     def _window(self, grid: OccupancyGrid) -> float:
         """The next search's half-width [m] around the last good pose (0: the whole map):
         the next larger than the last, the largest again once there."""
-        whole = grid.logodds.size <= WHOLE_MAP_MAX_CELLS
+        whole = grid.shape[0] * grid.shape[1] <= WHOLE_MAP_MAX_CELLS
         _, half_m = grid.whole()
         windows = [w for w in WINDOWS_M if w < 2 * half_m or not whole]
         if whole:

@@ -80,15 +80,24 @@ def _write_atomic(path: Path, data: bytes | Callable[[BinaryIO], None]) -> None:
         os.close(dir_fd)
 
 
-def _pgm_writer(pixels: npt.NDArray[np.uint8]) -> Callable[[BinaryIO], None]:
-    """Writes ``pixels`` (row 0 = the map's bottom) as a binary PGM, top row first, a band
-    of rows at a time."""
+def _pixels(grid: OccupancyGrid, rows: slice) -> npt.NDArray[np.uint8]:
+    """The trinary image of the grid's ``rows`` (row 0 = the map's bottom)."""
+    occupancy = grid.occupancy_percent(rows)
+    pixels = np.full(occupancy.shape, PIXEL_UNKNOWN, dtype=np.uint8)
+    pixels[(occupancy >= 0) & (occupancy < FREE_THRESH * 100)] = PIXEL_FREE
+    pixels[occupancy > OCCUPIED_THRESH * 100] = PIXEL_OCCUPIED
+    return pixels
+
+
+def _pgm_writer(grid: OccupancyGrid) -> Callable[[BinaryIO], None]:
+    """Writes the grid's image as a binary PGM, top row first, made and written a band of
+    rows at a time (a large map's image is never held whole)."""
 
     def write(f: BinaryIO) -> None:
-        rows, cols = pixels.shape
+        rows, cols = grid.shape
         f.write(f"P5\n{cols} {rows}\n255\n".encode("ascii"))
         for top in range(rows, 0, -WRITE_ROWS):
-            f.write(pixels[max(top - WRITE_ROWS, 0) : top][::-1].tobytes())
+            f.write(_pixels(grid, slice(max(top - WRITE_ROWS, 0), top))[::-1].tobytes())
 
     return write
 
@@ -155,13 +164,7 @@ def save_map(
     directory.mkdir(parents=True, exist_ok=True)
     yaml_path = directory / f"{name}.yaml"
     stem = image_stem or f"{name}.{_next_revision(directory, name)}"
-    occupancy = grid.occupancy_percent()
-    pixels = np.full(occupancy.shape, PIXEL_UNKNOWN, dtype=np.uint8)
-    pixels[(occupancy >= 0) & (occupancy < FREE_THRESH * 100)] = PIXEL_FREE
-    pixels[occupancy > OCCUPIED_THRESH * 100] = PIXEL_OCCUPIED
-    del occupancy
-    _write_atomic(directory / f"{stem}.pgm", _pgm_writer(pixels))
-    del pixels
+    _write_atomic(directory / f"{stem}.pgm", _pgm_writer(grid))
     _write_atomic(directory / f"{stem}.npz", _npz_writer(grid, keyframe_poses, graph))
     meta = MapYaml(f"{stem}.pgm", grid.resolution, (grid.origin_x, grid.origin_y, 0.0))
     _write_atomic(yaml_path, _yaml_text(meta).encode("utf-8"))
@@ -185,9 +188,7 @@ def _npz_writer(
 ) -> Callable[[BinaryIO], None]:
     """Writes the lossless state (log-odds, frame, keyframes, graph) as an .npz."""
     arrays: dict[str, Any] = {
-        "logodds": grid.logodds,
-        "origin": np.array([grid.origin_x, grid.origin_y]),
-        "resolution": np.array(grid.resolution),
+        **grid.state(),
         "keyframe_poses": np.zeros((0, 3)) if keyframe_poses is None else keyframe_poses,
         **({} if graph is None else graph_arrays(graph)),
     }
@@ -272,12 +273,7 @@ def load_map_state(yaml_path: Path, *, with_graph: bool = True) -> SavedMap:
     if state.exists():
         try:
             with np.load(state) as data:
-                grid = OccupancyGrid.from_array(
-                    data["logodds"],
-                    float(data["origin"][0]),
-                    float(data["origin"][1]),
-                    float(data["resolution"]),
-                )
+                grid = OccupancyGrid.from_state(data)
                 graph = graph_from_arrays(data) if with_graph else None
         except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as err:
             raise MapFileError(f"{state}: unreadable navd map state: {err}") from err

@@ -146,9 +146,7 @@ class ScanMapper:
         a rebuild draws the new keyframes over it."""
         self.grid = grid
         if graph is None or any(f.scan is None and f.mapped for f in graph.keyframes):
-            self._base = OccupancyGrid.from_array(
-                grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
-            )
+            self._base = grid.copy()
             self.keyframes, self.edges = [], []
         else:
             self._base = graph.base
@@ -382,19 +380,16 @@ class ScanMapper:
         """Draw the map again from the keyframes' scans at their poses (as the pose graph
         last placed them), over the loaded map if there is one."""
         base = self._base
-        grid = (
-            OccupancyGrid(self.grid.resolution)  # a loaded map's, if it differs
-            if base is None
-            else OccupancyGrid.from_array(
-                base.logodds, base.origin_x, base.origin_y, base.resolution
-            )
-        )
+        revision = self.grid.revision + 1
+        # The old grid and field go before the new grid is drawn: a large map's tiles are
+        # never held twice (fr-clinic's are 45 MB). Until this returns the grid is partly
+        # drawn: whoever shares the mapper across threads holds their lock around it.
+        self._field = None
+        self.grid = OccupancyGrid(self.grid.resolution) if base is None else base.copy()
         for frame in self.keyframes:
             if frame.scan is not None and frame.mapped:
-                grid.insert(frame.pose, frame.scan)
-        grid.revision = self.grid.revision + 1
-        self.grid = grid
-        self._field = None
+                self.grid.insert(frame.pose, frame.scan)
+        self.grid.revision = revision
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""

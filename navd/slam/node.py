@@ -120,6 +120,7 @@ class SlamNode(Module):
         self._has_odometry = False
         self._map_published_at = -math.inf
         self._map_revision = -1
+        self._map_drawn = False  # the last job left a map (read without the lock)
         self._tracking_published_at = -math.inf
         self._scan_odometry: ScanOdometry | None = None
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
@@ -140,12 +141,13 @@ class SlamNode(Module):
             try:
                 saved = load_map_state(Path(load))
                 self.mapper.load(saved.grid, saved.graph)
+                self._map_drawn = not saved.grid.empty
             except MapFileError as err:  # the file the config names: a user's input
                 raise MapFileError(f"slam.load_map: {err}") from err
             ctx.log.info(
                 "map_loaded",
                 path=load,
-                cells=self.mapper.grid.logodds.shape,
+                cells=self.mapper.grid.shape,
                 keyframes=len(self.mapper.keyframes),  # a saved graph goes on growing
             )
             self._finder.ask(GLOBAL)  # where on this map? the first scan searches all of it
@@ -166,7 +168,7 @@ class SlamNode(Module):
 
     async def on_deactivate(self) -> None:
         settings = self.settings.value  # map_dir, map_name, save_on_shutdown: read at use
-        if settings.save_on_shutdown and not self.mapper.grid.empty:
+        if settings.save_on_shutdown and self._map_drawn:
             self.ctx.publish(self._save(settings.map_name, settings.map_dir))
 
     def settings_in_use(self) -> tuple[object, ...]:
@@ -260,6 +262,7 @@ class SlamNode(Module):
         now = self.ctx.clock.now()
         messages: list[Message] = []
         grid = self.mapper.grid
+        self._map_drawn = not grid.empty
         if grid.revision != self._map_revision and now - self._map_published_at >= MAP_PERIOD_S:
             self._map_revision = grid.revision
             self._map_published_at = now
@@ -289,8 +292,9 @@ class SlamNode(Module):
 
     def _on_find(self, _request: FindPoseRequest) -> None:
         # The next scan searches the whole map; the estimate is re-seeded with what it finds.
-        # A glance at the map without the lock: an empty one has nothing to search yet.
-        if self.mapper.grid.empty:
+        # Not the grid itself (a job may be redrawing it under the lock): whether the last
+        # job left a map, as it noted.
+        if not self._map_drawn:
             self.ctx.log.warning("pose_find_ignored", reason="no map yet: nothing to search")
             return
         self._finder.ask(GLOBAL, reseed=True)  # (its own lock: a search may hold the mapper's)
@@ -314,6 +318,7 @@ class SlamNode(Module):
             self.mapper = ScanMapper(self._in_force.mapper)
             self.mapper.load(saved.grid, saved.graph)
             grid = saved.grid
+            self._map_drawn = not grid.empty
             # the estimate, in the old map's frame, starts again too
             self._finder.ask(GLOBAL, reseed=True)
             self._map_revision = grid.revision
@@ -321,7 +326,7 @@ class SlamNode(Module):
         self.ctx.log.info(
             "map_loaded",
             path=str(path),
-            cells=grid.logodds.shape,
+            cells=grid.shape,
             keyframes=0 if saved.graph is None else len(saved.graph.keyframes),
         )
         loaded = MapLoaded(stamp=now, received=now, name=name, path=str(path))
@@ -343,9 +348,7 @@ class SlamNode(Module):
             if grid.empty:
                 self.ctx.log.warning("map_not_saved", reason="the map is empty", name=name)
                 return self._saved(name, reason="the map is empty")
-            snapshot = type(grid).from_array(
-                grid.logodds, grid.origin_x, grid.origin_y, grid.resolution
-            )
+            snapshot = grid.copy()
             graph = self.mapper.graph()
             poses = np.array([tuple(k.pose) for k in graph.keyframes]).reshape(-1, 3)
         try:

@@ -7,7 +7,9 @@ for y. A log-odds of exactly 0 means the cell was never observed (unknown).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -15,6 +17,7 @@ import numpy.typing as npt
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
 from navd.slam import _grid_kernels as k
+from navd.slam.tiles import TiledArray
 
 __all__ = ["FIELD_PEAK", "LikelihoodField", "OccupancyGrid"]
 
@@ -25,7 +28,9 @@ L_FREE = -0.4  # log-odds added to a cell a ray passes through
 L_OCC = 0.85  # log-odds added to the cell a ray ends in
 L_MIN, L_MAX = -2.0, 3.5  # clamps: the map stays able to change its mind
 OCCUPIED_LOGODDS = 0.0  # above this a cell counts as occupied when matching
-PERCENT_ROWS = 256  # rows converted at a time by occupancy_percent
+# Rows converted at a time by occupancy_percent and coarsened: a band of a map 8000 cells
+# wide takes 4 MB in its float64 steps.
+PERCENT_ROWS = 64
 # The largest value a likelihood field cell holds: the centre of a Gaussian stamp, exp(0)
 # (stamps are kept by their maximum, never added); searches bound a scan's score with it.
 FIELD_PEAK = 1.0
@@ -100,6 +105,9 @@ def gaussian_kernel(sigma_m: float, resolution: float) -> F32:
 class OccupancyGrid:
     """A log-odds grid that grows in ``chunk_m`` steps to hold what the robot sees.
 
+    The cells are kept in tiles (``TiledArray``) allocated where a ray passed: a large
+    building's grid costs the memory of the part the robot saw, not of its bounding box.
+
     Args:
         resolution: [m] cell size.
         chunk_m: [m] how much the grid grows at a time.
@@ -108,24 +116,87 @@ class OccupancyGrid:
     def __init__(self, resolution: float, chunk_m: float = 10.0) -> None:
         self.resolution = resolution
         self.chunk_m = chunk_m
-        self.logodds: F32 = np.zeros((0, 0), dtype=np.float32)
+        self.cells_store = TiledArray()
         self.origin_x = 0.0
         self.origin_y = 0.0
         self.revision = 0
 
     @classmethod
     def from_array(
-        cls, logodds: F32, origin_x: float, origin_y: float, resolution: float
+        cls, logodds: npt.ArrayLike, origin_x: float, origin_y: float, resolution: float
     ) -> OccupancyGrid:
-        """A grid holding ``logodds`` (copied) with that origin and resolution."""
+        """A grid holding ``logodds`` (copied, as float32) with that origin and resolution."""
+        return cls._of(TiledArray.from_dense(logodds), origin_x, origin_y, resolution)
+
+    @classmethod
+    def _of(
+        cls, store: TiledArray, origin_x: float, origin_y: float, resolution: float
+    ) -> OccupancyGrid:
         grid = cls(resolution)
-        grid.logodds = np.array(logodds, dtype=np.float32)
+        grid.cells_store = store
         grid.origin_x, grid.origin_y = origin_x, origin_y
         return grid
 
+    @classmethod
+    def from_state(cls, data: Mapping[str, Any], prefix: str = "") -> OccupancyGrid:
+        """The grid ``state(prefix)`` wrote, exactly; also a dense ``logodds`` array (maps
+        saved before the grid was tiled).
+
+        Raises:
+            KeyError: a part is missing; ValueError: parts no save writes (named).
+        """
+        origin = np.asarray(data[prefix + "origin"], dtype=np.float64)
+        resolution = np.asarray(data[prefix + "resolution"], dtype=np.float64)
+        if origin.shape != (2,) or resolution.shape != ():
+            raise ValueError(f"origin {origin.shape} or resolution {resolution.shape} malformed")
+        if prefix + "logodds" in data:
+            store = TiledArray.from_dense(np.asarray(data[prefix + "logodds"]))
+        else:
+            store = TiledArray.from_parts(
+                data[prefix + "tile_index"],
+                data[prefix + "tiles"],
+                data[prefix + "tile_offset"],
+                data[prefix + "shape"],
+            )
+        return cls._of(store, float(origin[0]), float(origin[1]), float(resolution))
+
+    def state(self, prefix: str = "") -> dict[str, Any]:
+        """The arrays a save writes (each name after ``prefix``): the tiles as they are, so
+        the grid reloads bit-exact (``from_state``)."""
+        arrays = {
+            **self.cells_store.state(),
+            "origin": np.array([self.origin_x, self.origin_y]),
+            "resolution": np.array(self.resolution),
+        }
+        return {prefix + name: value for name, value in arrays.items()}
+
+    def copy(self) -> OccupancyGrid:
+        """An independent grid with the same cells, frame and revision."""
+        grid = self._of(self.cells_store.copy(), self.origin_x, self.origin_y, self.resolution)
+        grid.chunk_m, grid.revision = self.chunk_m, self.revision
+        return grid
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols) of the grid's extent."""
+        return (self.cells_store.rows, self.cells_store.cols)
+
+    @property
+    def stored_bytes(self) -> int:
+        """Bytes the cells take: the tiles allocated, not the extent."""
+        return self.cells_store.allocated_bytes
+
+    def to_array(self, rows: slice = slice(None)) -> F32:
+        """The log-odds of ``rows`` (a step-1 slice; all by default) over the whole width,
+        dense (a copy: of a large map, take a band of rows at a time)."""
+        r0, r1, step = rows.indices(self.shape[0])
+        if step != 1:
+            raise ValueError("to_array takes a slice of rows with step 1")
+        return self.cells_store.window(r0, r1, 0, self.shape[1])
+
     def whole(self) -> tuple[Pose2, float]:
         """The map's middle (yaw 0) and the half-width [m] of the square that holds it."""
-        rows, cols = self.logodds.shape
+        rows, cols = self.shape
         middle = Pose2(
             self.origin_x + 0.5 * cols * self.resolution,
             self.origin_y + 0.5 * rows * self.resolution,
@@ -138,10 +209,10 @@ class OccupancyGrid:
         res = self.resolution
         col, row = self.cells(np.array([[center.x, center.y]]))[0]
         half = math.ceil(radius_m / res)
-        rows, cols = self.logodds.shape
+        rows, cols = self.shape
         r0, r1 = max(0, int(row) - half), min(rows, int(row) + half + 1)
         c0, c1 = max(0, int(col) - half), min(cols, int(col) + half + 1)
-        part = self.logodds[r0 : max(r0, r1), c0 : max(c0, c1)]
+        part = self.cells_store.window(r0, max(r0, r1), c0, max(c0, c1))
         return OccupancyGrid.from_array(
             part, self.origin_x + c0 * res, self.origin_y + r0 * res, res
         )
@@ -150,18 +221,20 @@ class OccupancyGrid:
         """The grid with cells ``factor`` times as large, each holding the largest log-odds
         of the cells it covers (occupied if any is): for searches over a whole large map,
         whose fields and bounds at full resolution would not fit a robot's memory. Made a
-        row stride and then a column stride at a time, so it never holds more than a
-        ``factor``-th of the grid besides."""
-        rows_max = _max_every(self.logodds, factor)
-        blocks = _max_every(rows_max.T, factor).T
-        return OccupancyGrid.from_array(
-            blocks, self.origin_x, self.origin_y, self.resolution * factor
-        )
+        band of rows at a time, so it never holds the grid dense."""
+        rows, cols = self.shape
+        band = factor * max(1, PERCENT_ROWS // factor)
+        out = np.zeros((-(-rows // factor), -(-cols // factor)), dtype=np.float32)
+        for start in range(0, rows, band):
+            rows_max = _max_every(self.cells_store.window(start, start + band, 0, cols), factor)
+            blocks = _max_every(rows_max.T, factor).T
+            out[start // factor : start // factor + blocks.shape[0]] = blocks
+        return OccupancyGrid.from_array(out, self.origin_x, self.origin_y, self.resolution * factor)
 
     @property
     def empty(self) -> bool:
         """True before the first scan was inserted."""
-        return self.logodds.size == 0
+        return self.shape[0] * self.shape[1] == 0
 
     def cells(self, points: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
         """Integer (col, row) of world points (N x 2) [m]."""
@@ -178,7 +251,9 @@ class OccupancyGrid:
         if self.empty or points.shape[0] == 0:
             return 0.0
         cells = self.cells(pose.transform(points))
-        known = int(k.count_known(self.logodds, cells[:, 0].copy(), cells[:, 1].copy()))
+        known = int(
+            k.count_known(*self.cells_store.parts(), cells[:, 0].copy(), cells[:, 1].copy())
+        )
         return float(known / points.shape[0])
 
     def insert(self, pose: Pose2, scan: ScanPoints) -> None:
@@ -191,12 +266,20 @@ class OccupancyGrid:
         start = self.cells(np.array([[pose.x, pose.y]]))[0]
         flags = np.zeros(ends.shape[0], dtype=np.bool_)
         flags[: hits.shape[0]] = True
+        cols_x, rows_y = cells[:, 0].copy(), cells[:, 1].copy()
+        # Every ray lies in the box around its start and ends: room for all tiles in it.
+        self.cells_store.reserve(
+            min(int(rows_y.min()), int(start[1])),
+            max(int(rows_y.max()), int(start[1])),
+            min(int(cols_x.min()), int(start[0])),
+            max(int(cols_x.max()), int(start[0])),
+        )
         k.ray_update(
-            self.logodds,
+            *self.cells_store.parts(),
             int(start[0]),
             int(start[1]),
-            cells[:, 0].copy(),
-            cells[:, 1].copy(),
+            cols_x,
+            rows_y,
             flags,
             L_FREE,
             L_OCC,
@@ -214,7 +297,7 @@ class OccupancyGrid:
             new_lo = np.floor((lo - self.chunk_m / 2) / res) * res
             new_hi = np.ceil((hi + self.chunk_m / 2) / res) * res
         else:
-            rows, cols = self.logodds.shape
+            rows, cols = self.shape
             old_lo = np.array([self.origin_x, self.origin_y])
             old_hi = old_lo + np.array([cols, rows]) * res
             if np.all(lo >= old_lo) and np.all(hi < old_hi):
@@ -225,13 +308,12 @@ class OccupancyGrid:
             new_hi = old_hi + np.ceil(np.maximum(hi - old_hi + res, 0) / self.chunk_m) * grow_hi
         cols = round((new_hi[0] - new_lo[0]) / res)
         rows = round((new_hi[1] - new_lo[1]) / res)
-        grown = np.zeros((rows, cols), dtype=np.float32)
-        if not self.empty:
+        if self.empty:
+            self.cells_store = TiledArray(rows, cols)
+        else:
             off_c = round((self.origin_x - new_lo[0]) / res)
             off_r = round((self.origin_y - new_lo[1]) / res)
-            h, w = self.logodds.shape
-            grown[off_r : off_r + h, off_c : off_c + w] = self.logodds
-        self.logodds = grown
+            self.cells_store.grow(rows, cols, off_r, off_c)
         self.origin_x, self.origin_y = float(new_lo[0]), float(new_lo[1])
 
     def likelihood_field(self, center: Pose2, radius_m: float, sigma_m: float) -> LikelihoodField:
@@ -241,20 +323,32 @@ class OccupancyGrid:
         col, row = self.cells(np.array([[center.x, center.y]]))[0]
         col0, row0 = int(col) - half, int(row) - half
         values = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.float32)
-        k.smear(self.logodds, OCCUPIED_LOGODDS, row0, col0, gaussian_kernel(sigma_m, res), values)
+        k.smear(
+            *self.cells_store.parts(),
+            OCCUPIED_LOGODDS,
+            row0,
+            col0,
+            gaussian_kernel(sigma_m, res),
+            values,
+        )
         return LikelihoodField(values, self.origin_x + col0 * res, self.origin_y + row0 * res, res)
 
-    def occupancy_percent(self) -> npt.NDArray[np.int8]:
-        """ROS OccupancyGrid values: -1 unknown, else 0..100 probability of occupied.
+    def occupancy_percent(self, rows: slice = slice(None)) -> npt.NDArray[np.int8]:
+        """ROS OccupancyGrid values of ``rows`` (a step-1 slice; all by default): -1 unknown,
+        else 0..100 probability of occupied.
 
         Converted a band of rows at a time: the float64 steps of a whole large map (fr-clinic,
-        41 million cells) took over 1 GB at once for a 41 MB answer.
+        41 million cells) took over 1 GB at once for a 41 MB answer. Of a large map, take a
+        band of rows at a time too.
         """
-        out = np.empty(self.logodds.shape, dtype=np.int8)
-        for start in range(0, self.logodds.shape[0], PERCENT_ROWS):
-            band = self.logodds[start : start + PERCENT_ROWS]
+        r0, r1, step = rows.indices(self.shape[0])
+        if step != 1:
+            raise ValueError("occupancy_percent takes a slice of rows with step 1")
+        out = np.empty((max(r1 - r0, 0), self.shape[1]), dtype=np.int8)
+        for start in range(r0, r1, PERCENT_ROWS):
+            band = self.to_array(slice(start, min(start + PERCENT_ROWS, r1)))
             p = 1.0 - 1.0 / (1.0 + np.exp(band.astype(np.float64)))
-            rows = np.round(p * 100.0).astype(np.int8)
-            rows[band == 0.0] = -1
-            out[start : start + PERCENT_ROWS] = rows
+            values = np.round(p * 100.0).astype(np.int8)
+            values[band == 0.0] = -1
+            out[start - r0 : start - r0 + band.shape[0]] = values
         return out

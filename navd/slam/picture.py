@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 import zlib
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import numpy.typing as npt
 from navd.geometry.pose import Pose2
 from navd.slam.occupancy import OccupancyGrid
 
-__all__ = ["encode_png", "map_picture"]
+__all__ = ["encode_png", "encode_png_bands", "map_picture"]
 
 TRAJECTORY_RGB = (220, 30, 30)
 BAND_ROWS = 256  # rows converted and compressed at a time (a large map is not copied whole)
@@ -22,6 +23,17 @@ def encode_png(rgb: npt.NDArray[np.uint8], *, bottom_up: bool = False) -> bytes:
     """An 8-bit RGB PNG of ``rgb`` (rows x cols x 3, top row first; last row first if
     ``bottom_up``, as a map's row 0 is its bottom)."""
     rows, cols, _ = rgb.shape
+    if bottom_up:
+        tops = range(rows, 0, -BAND_ROWS)
+        bands = (rgb[max(top - BAND_ROWS, 0) : top][::-1] for top in tops)
+    else:
+        bands = (rgb[start : start + BAND_ROWS] for start in range(0, rows, BAND_ROWS))
+    return encode_png_bands(rows, cols, bands)
+
+
+def encode_png_bands(rows: int, cols: int, bands: Iterable[npt.NDArray[np.uint8]]) -> bytes:
+    """An 8-bit RGB PNG of ``rows`` x ``cols`` pixels given as ``bands`` of rows (each
+    n x cols x 3, top band first): a large picture is never held whole."""
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         crc = zlib.crc32(kind + data) & 0xFFFFFFFF
@@ -29,15 +41,15 @@ def encode_png(rgb: npt.NDArray[np.uint8], *, bottom_up: bool = False) -> bytes:
 
     deflate = zlib.compressobj(6)
     parts = []
-    for start in range(0, rows, BAND_ROWS):
-        if bottom_up:
-            band = rgb[max(rows - start - BAND_ROWS, 0) : rows - start][::-1]
-        else:
-            band = rgb[start : start + BAND_ROWS]
+    seen = 0
+    for band in bands:
         # Each row starts with filter type 0 (none).
         flat = band.reshape(band.shape[0], cols * 3)
         raw = np.hstack([np.zeros((band.shape[0], 1), dtype=np.uint8), flat])
         parts.append(deflate.compress(raw.tobytes()))
+        seen += band.shape[0]
+    if seen != rows:
+        raise ValueError(f"a PNG of {rows} rows was given {seen}")
     parts.append(deflate.flush())
     header = struct.pack(">IIBBBBB", cols, rows, 8, 2, 0, 0, 0)
     return (
@@ -49,14 +61,10 @@ def encode_png(rgb: npt.NDArray[np.uint8], *, bottom_up: bool = False) -> bytes:
 
 
 def map_picture(grid: OccupancyGrid, trajectory: list[Pose2], path: Path) -> None:
-    """Write the map (white free, black occupied, grey unknown) with the trajectory in red."""
-    occupancy = grid.occupancy_percent()
-    rgb = np.empty((*occupancy.shape, 3), dtype=np.uint8)
-    for start in range(0, occupancy.shape[0], BAND_ROWS):
-        band = occupancy[start : start + BAND_ROWS].astype(np.int16)
-        gray = np.where(band < 0, 205, 255 - band * 255 // 100).astype(np.uint8)
-        rgb[start : start + BAND_ROWS] = gray[:, :, None]
-    del occupancy
+    """Write the map (white free, black occupied, grey unknown) with the trajectory in red,
+    a band of rows at a time (fr-clinic's picture is 123 MB of pixels)."""
+    rows, cols = grid.shape
+    cells = np.zeros((0, 2), dtype=np.int64)
     if len(trajectory) > 1:
         xy = np.array([(p.x, p.y) for p in trajectory])
         # Sample the path every half cell so the drawn line has no gaps.
@@ -71,9 +79,19 @@ def map_picture(grid: OccupancyGrid, trajectory: list[Pose2], path: Path) -> Non
             + [xy[-1:]]
         )
         cells = grid.cells(dense)
-        rows, cols = rgb.shape[:2]
         inside = (
             (cells[:, 0] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] >= 0) & (cells[:, 1] < rows)
         )
-        rgb[cells[inside, 1], cells[inside, 0]] = TRAJECTORY_RGB
-    path.write_bytes(encode_png(rgb, bottom_up=True))
+        cells = cells[inside]
+
+    def bands() -> Iterator[npt.NDArray[np.uint8]]:
+        for top in range(rows, 0, -BAND_ROWS):  # the map's top (its last rows) first
+            bottom = max(top - BAND_ROWS, 0)
+            band = grid.occupancy_percent(slice(bottom, top)).astype(np.int16)
+            gray = np.where(band < 0, 205, 255 - band * 255 // 100).astype(np.uint8)
+            rgb = np.repeat(gray[:, :, None], 3, axis=2)
+            mine = cells[(cells[:, 1] >= bottom) & (cells[:, 1] < top)]
+            rgb[mine[:, 1] - bottom, mine[:, 0]] = TRAJECTORY_RGB
+            yield rgb[::-1]
+
+    path.write_bytes(encode_png_bands(rows, cols, bands()))

@@ -236,7 +236,7 @@ def replay(
         "ms_per_scan_p95": round(percentile(ms, 95), 3),
         **mapper.tracking_counts(),
         **loaded.figures(mapper),
-        "map_cells": list(mapper.grid.logodds.shape),
+        "map_cells": list(mapper.grid.shape),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")
     return ReplayResult(stamps, poses, summary)

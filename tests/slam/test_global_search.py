@@ -67,22 +67,22 @@ def test_a_coarsened_grid_holds_the_largest_log_odds_of_each_block() -> None:
     values = (np.arange(35, dtype=np.float32).reshape(5, 7) - 20.0) * np.float32(0.1)
     grid = OccupancyGrid.from_array(values, 1.0, -2.0, 0.05)
     coarse = grid.coarsened(2)
-    assert coarse.logodds.shape == (3, 4)  # the last row and column cover one cell each
+    assert coarse.shape == (3, 4)  # the last row and column cover one cell each
     assert (coarse.origin_x, coarse.origin_y, coarse.resolution) == (1.0, -2.0, 0.1)
     for r in range(3):
         for c in range(4):
             block = values[2 * r : 2 * r + 2, 2 * c : 2 * c + 2]
-            assert coarse.logodds[r, c] == block.max()
+            assert coarse.to_array()[r, c] == block.max()
 
 
 def test_a_cropped_grid_is_the_part_around_a_pose_where_it_was() -> None:
     part = GRID.cropped(Pose2(1.0, -0.5, 0.3), 2.0)
-    assert part.logodds.shape == (81, 81)
+    assert part.shape == (81, 81)
     # the same cells at the same places
     col, row = GRID.cells(np.array([[part.origin_x + 0.01, part.origin_y + 0.01]]))[0]
-    np.testing.assert_array_equal(part.logodds, GRID.logodds[row : row + 81, col : col + 81])
+    np.testing.assert_array_equal(part.to_array(), GRID.to_array()[row : row + 81, col : col + 81])
     edge = GRID.cropped(Pose2(GRID.origin_x, GRID.origin_y, 0.0), 1.0)  # clipped at the corner
-    assert edge.logodds.shape == (21, 21) and (edge.origin_x, edge.origin_y) == (
+    assert edge.shape == (21, 21) and (edge.origin_x, edge.origin_y) == (
         GRID.origin_x,
         GRID.origin_y,
     )

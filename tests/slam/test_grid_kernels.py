@@ -9,6 +9,7 @@ import pytest
 
 from navd.slam import _grid_kernels as k
 from navd.slam.occupancy import gaussian_kernel
+from navd.slam.tiles import TILE, TiledArray
 from tests.slam import grid_reference as ref
 
 
@@ -19,31 +20,54 @@ def _tie_free(x0: int, y0: int, x1: int, y1: int) -> bool:
     return all((2 * i * minor) % (2 * n) != n for i in range(n))
 
 
+def _grown_store(rows: int, cols: int) -> TiledArray:
+    """An empty tiled array of rows x cols whose cells are off its tiles' boundaries (grown
+    at its low edges by cells that are not whole tiles), with room reserved everywhere."""
+    store = TiledArray(rows - 30, cols - 45)
+    store.grow(rows, cols, 30, 45)
+    assert (store.off_r % TILE, store.off_c % TILE) != (0, 0)
+    store.reserve(0, rows - 1, 0, cols - 1)
+    return store
+
+
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_ray_update_matches_the_reference(seed: int) -> None:
+    # rays from the middle of a grid of 4 x 4 tiles to ends in and around it: they cross
+    # tile boundaries and the grid's edges
     rng = np.random.default_rng(seed)
     rays = []
     while len(rays) < 60:
-        x1, y1 = (int(v) for v in rng.integers(-5, 45, 2))
-        if (x1, y1) != (20, 20) and _tie_free(20, 20, x1, y1):
+        x1, y1 = (int(v) for v in rng.integers(-5, 205, 2))
+        if (x1, y1) != (100, 100) and _tie_free(100, 100, x1, y1):
             rays.append((x1, y1))
     ends = np.array(rays, dtype=np.int64)
     hits = rng.random(len(rays)) < 0.7
-    got = np.zeros((40, 40), dtype=np.float32)
-    want = np.zeros((40, 40), dtype=np.float32)
-    k.ray_update(got, 20, 20, ends[:, 0].copy(), ends[:, 1].copy(), hits, -0.4, 0.85, -2.0, 3.5)
-    ref.ray_update(want, 20, 20, ends[:, 0], ends[:, 1], hits, -0.4, 0.85, -2.0, 3.5)
-    np.testing.assert_allclose(got, want, atol=1e-6)
-    assert got.min() >= -2.0 and got.max() <= 3.5
+    got = _grown_store(200, 200)
+    want = np.zeros((200, 200), dtype=np.float32)
+    k.ray_update(
+        *got.parts(), 100, 100, ends[:, 0].copy(), ends[:, 1].copy(), hits, -0.4, 0.85, -2.0, 3.5
+    )
+    ref.ray_update(want, 100, 100, ends[:, 0], ends[:, 1], hits, -0.4, 0.85, -2.0, 3.5)
+    dense = got.window(0, 200, 0, 200)
+    np.testing.assert_allclose(dense, want, atol=1e-6)
+    assert dense.min() >= -2.0 and dense.max() <= 3.5
+    # a tile is allocated where a ray wrote, and nowhere else
+    written = np.zeros(got.index.shape, dtype=bool)
+    rows, cols = np.nonzero(want)
+    written[(rows + got.off_r) // TILE, (cols + got.off_c) // TILE] = True
+    np.testing.assert_array_equal(got.index >= 0, written)
 
 
 def test_smear_matches_the_reference_including_window_edges() -> None:
     rng = np.random.default_rng(4)
-    grid = np.where(rng.random((50, 60)) < 0.05, 1.0, -1.0).astype(np.float32)
+    grid = np.where(rng.random((150, 170)) < 0.02, 1.0, -1.0).astype(np.float32)
+    grid[:, 64:128] = 0.0  # a column of tiles never written
     kernel = gaussian_kernel(0.05, 0.05)
-    field = np.zeros((30, 35), dtype=np.float32)
-    k.smear(grid, 0.0, 25, -5, kernel, field)  # window hangs over the grid's left edge
-    np.testing.assert_allclose(field, ref.smear(grid, 0.0, 25, -5, kernel, (30, 35)))
+    store = TiledArray.from_dense(grid)
+    assert (store.index < 0).any()
+    field = np.zeros((130, 135), dtype=np.float32)
+    k.smear(*store.parts(), 0.0, 25, -5, kernel, field)  # hangs over the left and top edges
+    np.testing.assert_allclose(field, ref.smear(grid, 0.0, 25, -5, kernel, (130, 135)))
 
 
 @pytest.mark.parametrize("f", [1, 2, 4, 5])
@@ -198,14 +222,15 @@ def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
 
 def test_count_known_matches_the_reference_on_and_off_the_grid() -> None:
     rng = np.random.default_rng(9)
-    logodds = np.where(rng.random((30, 40)) < 0.1, rng.normal(0, 1, (30, 40)), 0.0).astype(
+    logodds = np.where(rng.random((130, 140)) < 0.01, rng.normal(0, 1, (130, 140)), 0.0).astype(
         np.float32
     )
-    cols_x = rng.integers(-4, 44, 500)
-    rows_y = rng.integers(-4, 34, 500)
-    got = k.count_known(logodds, cols_x, rows_y)
+    logodds[64:128, :] = 0.0  # a row of tiles never written
+    cols_x = rng.integers(-4, 144, 3000)
+    rows_y = rng.integers(-4, 134, 3000)
+    got = k.count_known(*TiledArray.from_dense(logodds).parts(), cols_x, rows_y)
     assert got == ref.count_known(logodds, cols_x, rows_y)
-    assert 0 < got < 500
+    assert 0 < got < 3000
 
 
 def test_a_tie_between_rotations_goes_to_the_first_as_when_every_rotation_is_queued_at_once() -> (

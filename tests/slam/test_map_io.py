@@ -31,13 +31,39 @@ def test_a_saved_map_reloads_bit_exact(tmp_path: Path) -> None:
     grid = _grid()
     path = save_map(grid, tmp_path, "office")
     loaded = load_map(path)
-    assert loaded.logodds.dtype == np.float32
-    np.testing.assert_array_equal(loaded.logodds, grid.logodds)
+    assert loaded.to_array().dtype == np.float32
+    np.testing.assert_array_equal(loaded.to_array(), grid.to_array())
     assert (loaded.origin_x, loaded.origin_y, loaded.resolution) == (
         grid.origin_x,
         grid.origin_y,
         grid.resolution,
     )
+
+
+def test_a_map_saved_dense_before_the_grid_was_tiled_still_loads(tmp_path: Path) -> None:
+    grid = _grid()
+    path = save_map(grid, tmp_path, "office", image_stem="map")
+    dense = grid.to_array()
+    np.savez(  # the state file as navd wrote it with a dense grid
+        tmp_path / "map.npz",
+        logodds=dense,
+        origin=np.array([grid.origin_x, grid.origin_y]),
+        resolution=np.array(grid.resolution),
+        keyframe_poses=np.zeros((0, 3)),
+    )
+    loaded = load_map(path)
+    np.testing.assert_array_equal(loaded.to_array(), dense)
+    assert (loaded.origin_x, loaded.origin_y) == (grid.origin_x, grid.origin_y)
+
+
+def test_a_state_file_with_malformed_tiles_is_named(tmp_path: Path) -> None:
+    grid = _grid()
+    path = save_map(grid, tmp_path, "office", image_stem="map")
+    state = dict(np.load(tmp_path / "map.npz"))
+    state["tile_index"] = state["tile_index"] + 1000  # names tiles the file does not hold
+    np.savez(tmp_path / "map.npz", **state)
+    with pytest.raises(MapFileError, match=r"map\.npz.*tiles outside"):
+        load_map(path)
 
 
 @pytest.mark.parametrize("band_rows", [None, 7])
@@ -48,7 +74,7 @@ def test_yaml_and_pgm_follow_map_server_conventions(
         monkeypatch.setattr(map_io, "WRITE_ROWS", band_rows)
         monkeypatch.setattr(occupancy, "PERCENT_ROWS", band_rows - 2)
     grid = _grid()
-    assert grid.logodds.shape[0] % 7 != 0
+    assert grid.shape[0] % 7 != 0
     path = save_map(grid, tmp_path, "office")
     meta = yaml.safe_load(path.read_text())
     assert set(meta) == {
@@ -63,10 +89,10 @@ def test_yaml_and_pgm_follow_map_server_conventions(
     assert meta["resolution"] == 0.05 and meta["negate"] == 0
     assert meta["origin"] == [grid.origin_x, grid.origin_y, 0.0]
     image = np.asarray(Image.open(tmp_path / meta["image"]))
-    assert image.shape == grid.logodds.shape
+    assert image.shape == grid.shape
     # map_server: p = (255 - pixel) / 255; occupied above occupied_thresh, free below free_thresh.
     p = (255.0 - image) / 255.0
-    logodds = grid.logodds[::-1]  # image row 0 is the top (largest y)
+    logodds = grid.to_array()[::-1]  # image row 0 is the top (largest y)
     probability = 1.0 - 1.0 / (1.0 + np.exp(logodds.astype(np.float64)))
     occupied = probability > meta["occupied_thresh"]
     free = (probability < meta["free_thresh"]) & (logodds != 0.0)
@@ -88,9 +114,9 @@ def test_a_foreign_map_loads_from_its_image(tmp_path: Path) -> None:
     )
     grid = load_map(tmp_path / "lab.yaml")
     assert (grid.origin_x, grid.origin_y, grid.resolution) == (-1.0, 2.0, 0.1)
-    assert np.all(grid.logodds[3, :] > 0)  # top image row = highest grid row
-    assert np.all(grid.logodds[0:3, 1:5] < 0)
-    assert grid.logodds[0, 0] == 0.0
+    assert np.all(grid.to_array()[3, :] > 0)  # top image row = highest grid row
+    assert np.all(grid.to_array()[0:3, 1:5] < 0)
+    assert grid.to_array()[0, 0] == 0.0
 
 
 def test_a_crash_before_the_yaml_is_replaced_leaves_the_old_map(
@@ -112,10 +138,10 @@ def test_a_crash_before_the_yaml_is_replaced_leaves_the_old_map(
     with pytest.raises(OSError, match="power lost"):
         save_map(second, tmp_path, "office")
     monkeypatch.undo()
-    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, first.logodds)
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").to_array(), first.to_array())
     assert not list(tmp_path.glob(".*.tmp"))  # no temporary file left behind
     save_map(second, tmp_path, "office")  # the next save succeeds and tidies up
-    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, second.logodds)
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").to_array(), second.to_array())
     assert sorted(p.suffix for p in tmp_path.iterdir()) == [".npz", ".pgm", ".yaml"]
 
 
@@ -125,7 +151,7 @@ def test_a_state_file_that_fails_half_written_leaves_the_old_map(
     first = _grid()
     save_map(first, tmp_path, "office", image_stem="map")
     second = _grid()
-    second.logodds[:] = 1.0
+    second = OccupancyGrid.from_array(np.ones(second.shape), second.origin_x, second.origin_y, 0.05)
 
     def disk_full(file: object, **arrays: object) -> None:
         file.write(b"PK\x03\x04 half a zip")  # type: ignore[attr-defined]
@@ -135,7 +161,7 @@ def test_a_state_file_that_fails_half_written_leaves_the_old_map(
     with pytest.raises(OSError, match="no space"):
         save_map(second, tmp_path, "office", image_stem="map")
     monkeypatch.undo()
-    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, first.logodds)
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").to_array(), first.to_array())
     assert not list(tmp_path.glob(".*.tmp"))  # the half-written file is gone
 
 
@@ -190,7 +216,7 @@ def test_what_cut_saves_left_behind_is_cleaned_and_nothing_else(tmp_path: Path) 
         "office.yaml",
         "plan.1.pgm",
     ]
-    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").logodds, _grid().logodds)
+    np.testing.assert_array_equal(load_map(tmp_path / "office.yaml").to_array(), _grid().to_array())
     assert clean_leftovers(tmp_path / "absent") == []
 
 

@@ -68,7 +68,7 @@ def test_a_robot_outrunning_its_map_keeps_mapping_from_odometry() -> None:
     # about 0.2 m apart, so look within 0.25 m along it).
     for x, y in [(32.0, W), (33.0, -W), (34.0, W)]:
         col, row = mapper.grid.cells(np.array([[x, y]]))[0]
-        assert (mapper.grid.logodds[row, col - 5 : col + 6] > 0.0).any(), (x, y)
+        assert (mapper.grid.to_array()[row, col - 5 : col + 6] > 0.0).any(), (x, y)
     end = mapper.trajectory()[-1]
     assert math.hypot(end.x - truth[-1].x, end.y - truth[-1].y) < 0.1
 
@@ -78,11 +78,11 @@ def test_a_scan_from_a_pose_off_the_mapped_ground_is_not_mapped() -> None:
     # its scan is dropped rather than mapped at a doubtful pose.
     mapper = ScanMapper(MapperSettings.defaults(max_range_m=SENSOR_RANGE_M))
     mapper.add(0.0, front_scan(Pose2(0.0, 0.0, 0.0)), Pose2(0.0, 0.0, 0.0))
-    before = mapper.grid.logodds.copy()
+    before = mapper.grid.to_array()
     result = mapper.add(1.0, front_scan(Pose2(2.0, 0.0, 0.0)), Pose2(22.0, 0.0, 0.0))
     assert not result.matched and not result.keyframe
     assert (mapper.counts.exploring, mapper.counts.weak_matches) == (0, 1)
-    np.testing.assert_array_equal(mapper.grid.logodds, before)
+    np.testing.assert_array_equal(mapper.grid.to_array(), before)
 
 
 def room_scan(pose: Pose2) -> ScanPoints:
@@ -116,7 +116,9 @@ def test_a_map_rebuilt_from_its_keyframes_keeps_the_loaded_map_under_them() -> N
     loaded.insert(Pose2(-5.0, -3.0, 0.0), room_scan(Pose2(-5.0, -3.0, 0.0)))
     mark = np.array([[8.0, 0.0]])
     col, row = loaded.cells(mark)[0]
-    loaded.logodds[row - 2 : row + 3, col - 2 : col + 3] = 3.5
+    cells = loaded.to_array()
+    cells[row - 2 : row + 3, col - 2 : col + 3] = 3.5
+    loaded = OccupancyGrid.from_array(cells, loaded.origin_x, loaded.origin_y, 0.05)
     mapper = ScanMapper(MapperSettings.defaults())
     mapper.load(loaded)
     start = Pose2(3.5, -0.5, math.pi / 2)
@@ -126,9 +128,9 @@ def test_a_map_rebuilt_from_its_keyframes_keeps_the_loaded_map_under_them() -> N
         pose = Pose2(4.0 * math.cos(angle) - 0.5, 2.2 * math.sin(angle) - 0.5, angle + math.pi / 2)
         mapper.add(0.1 * i, room_scan(pose), pose)
     assert mapper.counts.matched == 40 and mapper.counts.keyframes > 5
-    drawn = mapper.grid.logodds.copy()
+    drawn = mapper.grid.to_array()
     mapper.rebuild_map()
     col, row = mapper.grid.cells(mark)[0]
-    assert mapper.grid.logodds[row, col] == 3.5
+    assert mapper.grid.to_array()[row, col] == 3.5
     # The rest is as it was drawn scan by scan: the loaded map, then each keyframe over it.
-    np.testing.assert_allclose(mapper.grid.logodds, drawn, atol=1e-5)
+    np.testing.assert_allclose(mapper.grid.to_array(), drawn, atol=1e-5)

@@ -98,7 +98,7 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         await control.request(SaveMapFrame(name="lab"))
         await until((tmp_path / "lab.yaml").exists, timeout_s=10.0)
         grid = load_map(tmp_path / "lab.yaml")
-        assert grid.logodds.max() > 0
+        assert grid.to_array().max() > 0
         # ... with the pose graph it was built from, for a later run to go on mapping
         saved = load_map_state(tmp_path / "lab.yaml")
         (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
@@ -107,6 +107,29 @@ async def test_scans_become_poses_and_the_map_is_saved(tmp_path: Path) -> None:
         await lidar.close()
         await control.close()
         await asyncio.sleep(0)
+
+
+async def test_the_map_is_saved_on_shutdown_only_once_one_was_drawn(tmp_path: Path) -> None:
+    # save_on_shutdown: a daemon that never mapped leaves nothing; one that mapped saves;
+    # a find asked before any map is ignored (it has nothing to search) and stops nothing.
+    empty, mapped = tmp_path / "empty", tmp_path / "mapped"
+    for folder in (empty, mapped):
+        slam = {"map_dir": str(folder), "map_name": "shutdown", "save_on_shutdown": True}
+        async with running_daemon(slam=slam) as (daemon, port):
+            found = record(daemon, PoseFound)
+            poses = record(daemon, PoseMeasurement)
+            control = await connected(port, "control", "ui")
+            await control.request(FindPoseFrame())
+            if folder is mapped:
+                lidar = await connected(port, "lidar", "lidar0")
+                for i in range(3):
+                    lidar.send(_frame(Pose2(0.05 * i, 0.0, 0.0), 10.0 + 0.1 * i))
+                    await until(lambda n=i, seen=poses: len(seen) > n, timeout_s=10.0)
+                await lidar.close()
+            await control.close()
+        assert not found  # the early find searched nothing, and tracking was not disturbed
+    assert not (empty / "shutdown.yaml").exists()
+    assert load_map(mapped / "shutdown.yaml").to_array().max() > 0
 
 
 def _room_map(folder: Path) -> Path:

@@ -10,6 +10,7 @@ import pytest
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam.occupancy import OccupancyGrid
+from navd.slam.tiles import TILE
 from navd.slam.voxel import voxel_downsample
 
 
@@ -37,28 +38,45 @@ def test_ray_casting_marks_free_and_occupied_and_the_grid_grows() -> None:
     scan = scan_points([3.0], 0.0, 0.1, range_min=0.1, range_max=10.0)
     grid.insert(Pose2(0, 0, 0), scan)
     col, row = grid.cells(np.array([[3.05, 0.05]]))[0]
-    assert grid.logodds[row, col] > 0
+    assert grid.to_array()[row, col] > 0
     free_col, free_row = grid.cells(np.array([[1.5, 0.05]]))[0]
-    assert grid.logodds[free_row, free_col] < 0
-    before = grid.logodds.copy(), grid.origin_x, grid.origin_y
+    assert grid.to_array()[free_row, free_col] < 0
+    before = grid.to_array(), grid.origin_x, grid.origin_y
     grid.insert(Pose2(0, 0, math.pi), scan)  # a wall 3 m behind: the grid grows to the left
     assert grid.origin_x < before[1]
     col, row = grid.cells(np.array([[3.05, 0.05]]))[0]
-    assert grid.logodds[row, col] == pytest.approx(before[0].max())  # old content kept in place
+    assert grid.to_array()[row, col] == pytest.approx(before[0].max())  # old content kept in place
     occupancy = grid.occupancy_percent()
     assert occupancy.min() == -1 and occupancy.max() > 65
+
+
+def test_a_grid_stores_the_tiles_its_rays_crossed_not_its_whole_extent() -> None:
+    # two round rooms (3 m radius) 150 m apart: the extent spans both, the tiles only what
+    # the rays crossed
+    grid = OccupancyGrid(0.05)
+    circle = scan_points(np.full(360, 3.0), -math.pi, math.pi / 180, range_min=0.1, range_max=10.0)
+    for pose in (Pose2(0.0, 0.0, 0.0), Pose2(150.0, 40.0, 0.5)):
+        grid.insert(pose, circle)
+    rows, cols = grid.shape
+    assert cols * 0.05 > 150.0
+    # a room's 6 m square spans at most 3 x 3 tiles of 64 cells (3.2 m)
+    assert grid.stored_bytes <= 2 * 9 * TILE * TILE * 4 < 0.02 * rows * cols * 4
+    dense = grid.to_array()
+    for x, y in ((0.0, 3.0), (150.0, 37.0)):  # each room's wall is in it
+        col, row = grid.cells(np.array([[x, y]]))[0]
+        assert (dense[row - 2 : row + 3, col - 2 : col + 3] > 0).any()
 
 
 def test_occupancy_percent_of_a_large_grid_is_the_probability_of_each_cell() -> None:
     # more rows than one band of the conversion; unknown (0) cells scattered among them
     rng = np.random.default_rng(3)
-    grid = OccupancyGrid(0.05)
-    grid.logodds = rng.uniform(-2.0, 3.5, (700, 90)).astype(np.float32)
-    grid.logodds[rng.random((700, 90)) < 0.2] = 0.0
+    cells = rng.uniform(-2.0, 3.5, (700, 90)).astype(np.float32)
+    cells[rng.random((700, 90)) < 0.2] = 0.0
+    grid = OccupancyGrid.from_array(cells, 0.0, 0.0, 0.05)
     occupancy = grid.occupancy_percent()
     assert occupancy.shape == (700, 90) and occupancy.dtype == np.int8
-    logodds = grid.logodds.astype(np.float64)
+    logodds = grid.to_array().astype(np.float64)
     probability = np.exp(logodds) / (1.0 + np.exp(logodds))  # the odds' definition
-    known = grid.logodds != 0.0
+    known = grid.to_array() != 0.0
     assert np.all(occupancy[~known] == -1)
     assert np.abs(occupancy[known] - probability[known] * 100.0).max() <= 0.5 + 1e-9
