@@ -144,7 +144,7 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
         for e in range(m)
     )
     base = None
-    if PREFIX + "base_origin" in data:
+    if any(name.startswith(PREFIX + "base_") for name in data):
         try:
             base = OccupancyGrid.from_state(data, PREFIX + "base_")
         except KeyError as err:

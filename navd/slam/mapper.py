@@ -249,8 +249,13 @@ class ScanMapper:
             self.matcher.prior_weight_per_rad2 = self.heading_trust.weight_per_rad2()
         if self.grid.empty:
             self.pose = prior
-            keyframe = self._insert(stamp, prior, scan)
             cov = np.diag([s.resolution_m**2, s.resolution_m**2, 1e-4])
+            if scan.hits.size == 0 and scan.misses.size == 0:
+                # A blind sweep (a lidar spinning up sends zeros) starts no map: as the first
+                # keyframe it would leave even the robot's cell unknown, and no scan after it
+                # could ever be mapped. The first that sees anything starts the map.
+                return ScanResult(prior, cov, 0.0, False, False)
+            keyframe = self._insert(stamp, prior, scan)
             return ScanResult(prior, cov, 0.0, False, keyframe)
         points = voxel_downsample(scan.hits, s.voxel_size_m)
         match = self.matcher.match(self._field_around(prior), points, prior)

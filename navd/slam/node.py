@@ -323,6 +323,8 @@ class SlamNode(Module):
             self._finder.ask(GLOBAL, reseed=True)
             self._map_revision = grid.revision
             self._map_published_at = now
+            # under the lock: the next scan job draws into this very grid
+            update = _map_update(grid, now)
         self.ctx.log.info(
             "map_loaded",
             path=str(path),
@@ -330,7 +332,7 @@ class SlamNode(Module):
             keyframes=0 if saved.graph is None else len(saved.graph.keyframes),
         )
         loaded = MapLoaded(stamp=now, received=now, name=name, path=str(path))
-        return (loaded, _map_update(grid, now))
+        return (loaded, update)
 
     def _save_waiting(self) -> tuple[MapSaved, ...]:
         """Worker: every save asked for since the last job, each answered."""

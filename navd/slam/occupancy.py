@@ -145,11 +145,16 @@ class OccupancyGrid:
         Raises:
             KeyError: a part is missing; ValueError: parts no save writes (named).
         """
+        dense = prefix + "logodds" in data
+        parts = ("logodds",) if dense else ("tile_index", "tiles", "tile_offset", "shape")
+        for name in ("origin", "resolution", *parts):
+            if prefix + name not in data:
+                raise KeyError(prefix + name)
         origin = np.asarray(data[prefix + "origin"], dtype=np.float64)
         resolution = np.asarray(data[prefix + "resolution"], dtype=np.float64)
         if origin.shape != (2,) or resolution.shape != ():
             raise ValueError(f"origin {origin.shape} or resolution {resolution.shape} malformed")
-        if prefix + "logodds" in data:
+        if dense:
             store = TiledArray.from_dense(np.asarray(data[prefix + "logodds"]))
         else:
             store = TiledArray.from_parts(
@@ -262,6 +267,9 @@ class OccupancyGrid:
         misses = pose.transform(scan.misses)
         ends = np.vstack([hits, misses]) if misses.size else hits
         self._cover(np.vstack([ends, [[pose.x, pose.y]]]))
+        self.revision += 1
+        if ends.shape[0] == 0:
+            return  # a blind scan (a covered lidar): the grid holds the pose, nothing more
         cells = self.cells(ends)
         start = self.cells(np.array([[pose.x, pose.y]]))[0]
         flags = np.zeros(ends.shape[0], dtype=np.bool_)
@@ -286,7 +294,6 @@ class OccupancyGrid:
             L_MIN,
             L_MAX,
         )
-        self.revision += 1
 
     def _cover(self, points: npt.NDArray[np.float64]) -> None:
         """Grow the grid (by whole chunks) until it holds ``points``."""

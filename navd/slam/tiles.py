@@ -59,12 +59,20 @@ class TiledArray:
         rows, cols = dense.shape
         out = cls(rows, cols)
         tr, tc = out.index.shape
-        padded = np.zeros((tr * TILE, tc * TILE), dtype=np.float32)
-        padded[:rows, :cols] = dense
-        blocks = padded.reshape(tr, TILE, tc, TILE).swapaxes(1, 2)
-        written = blocks.any(axis=(2, 3))
-        out.index[written] = np.arange(int(written.sum()), dtype=np.int32)
-        out.tiles = np.ascontiguousarray(blocks[written])
+        kept = [np.zeros((0, TILE, TILE), dtype=np.float32)]
+        count = 0
+        # A row of tiles at a time: a large map is never copied whole.
+        for r in range(tr):
+            band = np.zeros((TILE, tc * TILE), dtype=np.float32)
+            part = dense[r * TILE : (r + 1) * TILE]
+            band[: part.shape[0], :cols] = part
+            blocks = band.reshape(TILE, tc, TILE).swapaxes(0, 1)
+            written = blocks.any(axis=(1, 2))
+            n = int(written.sum())
+            out.index[r, written] = np.arange(count, count + n, dtype=np.int32)
+            kept.append(blocks[written])
+            count += n
+        out.tiles = np.ascontiguousarray(np.concatenate(kept))
         out.used[0] = out.tiles.shape[0]
         return out
 
@@ -81,8 +89,13 @@ class TiledArray:
         t = np.asarray(tiles)
         off = np.asarray(offset)
         extent = np.asarray(shape)
-        if off.shape != (2,) or extent.shape != (2,) or (off < 0).any() or (extent < 0).any():
-            raise ValueError(f"tile offset {off.tolist()} or shape {extent.tolist()} malformed")
+        for name, part in (("tile_offset", off), ("shape", extent), ("tile_index", idx)):
+            if not np.issubdtype(part.dtype, np.integer):
+                raise ValueError(f"{name} holds {part.dtype}, not integers")
+        if off.shape != (2,) or (off < 0).any() or (off >= TILE).any():
+            raise ValueError(f"tile_offset {off.tolist()} is not two cells within one tile")
+        if extent.shape != (2,) or (extent < 0).any():
+            raise ValueError(f"shape {extent.tolist()} is not two sizes")
         if t.ndim != 3 or t.shape[1:] != (TILE, TILE) or t.dtype != np.float32:
             raise ValueError(
                 f"tiles of shape {t.shape} ({t.dtype}), not N x {TILE} x {TILE} float32"
@@ -91,12 +104,16 @@ class TiledArray:
         out.rows, out.cols = int(extent[0]), int(extent[1])
         out.off_r, out.off_c = int(off[0]), int(off[1])
         need = (_tiles_for(out.rows + out.off_r), _tiles_for(out.cols + out.off_c))
-        if idx.ndim != 2 or idx.shape[0] < need[0] or idx.shape[1] < need[1]:
-            raise ValueError(f"a tile index of shape {idx.shape} cannot hold {need} tiles")
-        if idx.size and (idx.min() < -1 or idx.max() >= t.shape[0]):
+        if idx.shape != need:
+            raise ValueError(f"a tile index of shape {idx.shape}, not the {need} tiles it needs")
+        named = idx[idx >= 0]
+        if (idx < -1).any() or (named >= t.shape[0]).any():
             raise ValueError(f"the tile index names tiles outside the {t.shape[0]} stored")
+        if np.unique(named).size != named.size:
+            raise ValueError("the tile index names one tile for two places")
         out.index = idx.astype(np.int32)
-        out.tiles = np.array(t, dtype=np.float32)
+        # C order, as the kernels index it (a file may hold the tiles Fortran-ordered)
+        out.tiles = np.ascontiguousarray(t, dtype=np.float32)
         out.used[0] = t.shape[0]
         return out
 

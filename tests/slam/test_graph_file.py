@@ -91,6 +91,24 @@ def test_the_map_a_graph_was_drawn_over_is_kept_with_it(tmp_path: Path) -> None:
     assert saved.graph is not None and saved.graph.base is not None
     np.testing.assert_array_equal(saved.graph.base.to_array(), before)
     assert_same_graph(saved.graph, second.graph())
+    # ... also from a file written before the grid was tiled (the base dense), and a base
+    # with a part missing is refused by name
+    state = next(tmp_path.glob("room.*.npz"))
+    with np.load(state) as data:
+        arrays = {name: data[name] for name in data.files}
+    tiled = {name: arrays.pop(name) for name in list(arrays) if name.startswith("graph_base_")}
+    for name in ("origin", "resolution"):
+        arrays[f"graph_base_{name}"] = tiled[f"graph_base_{name}"]
+    with state.open("wb") as f:
+        np.savez(f, **arrays, graph_base_logodds=before)
+    saved = load_map_state(path)
+    assert saved.graph is not None and saved.graph.base is not None
+    np.testing.assert_array_equal(saved.graph.base.to_array(), before)
+    missing = {name: a for name, a in {**arrays, **tiled}.items() if name != "graph_base_origin"}
+    with state.open("wb") as f:
+        np.savez(f, **missing)
+    with pytest.raises(MapFileError, match="base map without its 'graph_base_origin'"):
+        load_map_state(path)
 
 
 def test_a_second_run_maps_on_and_closes_loops_onto_the_first(tmp_path: Path) -> None:

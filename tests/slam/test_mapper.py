@@ -134,3 +134,18 @@ def test_a_map_rebuilt_from_its_keyframes_keeps_the_loaded_map_under_them() -> N
     assert mapper.grid.to_array()[row, col] == 3.5
     # The rest is as it was drawn scan by scan: the loaded map, then each keyframe over it.
     np.testing.assert_allclose(mapper.grid.to_array(), drawn, atol=1e-5)
+
+
+def test_a_blind_scan_first_and_between_is_taken_and_mapping_goes_on() -> None:
+    # A covered lidar (every range 0: no hit, no miss) at the start and once more later: the
+    # mapper keeps the pose it is given and maps the next real scans as ever.
+    mapper = ScanMapper(MapperSettings.defaults())
+    blind = scan_points(np.zeros(360), -math.pi, math.pi / 180, range_min=0.1, range_max=12.0)
+    assert blind.hits.size == blind.misses.size == 0
+    first = mapper.add(0.0, blind, Pose2(0.0, 0.0, 0.0))
+    assert first.pose == Pose2(0.0, 0.0, 0.0)
+    for i in range(1, 6):  # 0.4 m apart: each a keyframe
+        pose = Pose2(0.4 * i, 0.0, 0.0)
+        mapper.add(0.1 * i, blind if i == 3 else room_scan(pose), pose)
+    assert mapper.grid.to_array().max() > 0  # the walls are mapped
+    assert mapper.pose is not None and math.hypot(mapper.pose.x - 2.0, mapper.pose.y) < 0.05

@@ -80,3 +80,14 @@ def test_occupancy_percent_of_a_large_grid_is_the_probability_of_each_cell() -> 
     known = grid.to_array() != 0.0
     assert np.all(occupancy[~known] == -1)
     assert np.abs(occupancy[known] - probability[known] * 100.0).max() <= 0.5 + 1e-9
+
+
+def test_a_scan_that_saw_nothing_is_inserted_without_marking_a_cell() -> None:
+    # (a keyframe of a blind sweep, drawn again when a loop closure rebuilds the map)
+    grid = OccupancyGrid(0.05)
+    blind = scan_points(np.zeros(90), -math.pi, math.pi / 45, range_min=0.1, range_max=10.0)
+    grid.insert(Pose2(3.0, -2.0, 0.0), blind)
+    assert not grid.empty and grid.revision == 1
+    assert not grid.to_array().any()
+    col, row = grid.cells(np.array([[3.0, -2.0]]))[0]
+    assert 0 <= row < grid.shape[0] and 0 <= col < grid.shape[1]

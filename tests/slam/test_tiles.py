@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from navd.slam import _grid_kernels as k
 from navd.slam.tiles import TILE, TiledArray
 
 
@@ -45,11 +46,16 @@ def test_growing_at_the_low_edges_moves_the_cells_and_no_tile() -> None:
 
 
 def test_reserve_makes_room_for_every_empty_tile_a_box_touches() -> None:
-    store = TiledArray(200, 200)
-    store.reserve(10, 150, 70, 130)  # rows in tiles 0..2, columns in tiles 1..2
-    assert store.tiles.shape[0] >= 6 and int(store.used[0]) == 0
-    store.reserve(-50, 500, -50, 500)  # clipped to the array: all 16 tiles
-    assert store.tiles.shape[0] >= 16
+    # 10 x 10 tiles, one written (room for exactly that one)
+    dense = np.zeros((640, 640), dtype=np.float32)
+    dense[3, 3] = 1.0
+    store = TiledArray.from_dense(dense)
+    assert store.tiles.shape[0] == int(store.used[0]) == 1
+    store.reserve(10, 200, 0, 639)  # rows in tiles 0..3, all columns: 40, one written
+    assert store.tiles.shape[0] >= 40
+    store.reserve(-50, 5000, -50, 5000)  # clipped to the array: all 100 tiles
+    assert store.tiles.shape[0] >= 100 and int(store.used[0]) == 1
+    np.testing.assert_array_equal(store.window(0, 640, 0, 640), dense)  # moved, unchanged
 
 
 def test_the_state_remakes_the_array_exactly_and_bad_parts_are_named() -> None:
@@ -62,12 +68,41 @@ def test_the_state_remakes_the_array_exactly_and_bad_parts_are_named() -> None:
     parts = _parts(store)
     with pytest.raises(ValueError, match="tiles outside"):
         TiledArray.from_parts(parts["index"], parts["tiles"][:1], parts["offset"], parts["shape"])
-    with pytest.raises(ValueError, match="cannot hold"):
+    with pytest.raises(ValueError, match=r"not the .* tiles it needs"):
         TiledArray.from_parts(parts["index"][:1], parts["tiles"], parts["offset"], parts["shape"])
     with pytest.raises(ValueError, match="float32"):
         TiledArray.from_parts(
             parts["index"], parts["tiles"].astype(np.float64), parts["offset"], parts["shape"]
         )
+    twice = parts["index"].copy()
+    twice[twice >= 0] = 0
+    with pytest.raises(ValueError, match="one tile for two places"):
+        TiledArray.from_parts(twice, parts["tiles"], parts["offset"], parts["shape"])
+    for offset, match in (([np.inf, 0.0], "not integers"), ([64, 0], "within one tile")):
+        with pytest.raises(ValueError, match=match):
+            TiledArray.from_parts(parts["index"], parts["tiles"], np.array(offset), parts["shape"])
+    with pytest.raises(ValueError, match="tile_index holds float"):
+        TiledArray.from_parts(
+            parts["index"].astype(float), parts["tiles"], parts["offset"], parts["shape"]
+        )
+
+
+def test_tiles_read_from_a_file_in_fortran_order_are_written_to_as_any() -> None:
+    store = TiledArray.from_dense(np.full((100, 100), 0.5))  # every tile written: no room made
+    parts = _parts(store)
+    again = TiledArray.from_parts(
+        parts["index"], np.asfortranarray(parts["tiles"]), parts["offset"], parts["shape"]
+    )
+    for each in (again, store):
+        each.reserve(0, 99, 0, 99)
+    cells = np.array([5, 70], dtype=np.int64)
+    k.ray_update(
+        *again.parts(), 50, 50, cells, cells[::-1].copy(), np.ones(2, bool), -0.4, 0.85, -2.0, 3.5
+    )
+    k.ray_update(
+        *store.parts(), 50, 50, cells, cells[::-1].copy(), np.ones(2, bool), -0.4, 0.85, -2.0, 3.5
+    )
+    np.testing.assert_array_equal(again.window(0, 100, 0, 100), store.window(0, 100, 0, 100))
 
 
 def _parts(store: TiledArray) -> dict[str, np.ndarray]:
