@@ -104,13 +104,17 @@ def _is_navd_recording(path: Path) -> bool:
 def _load_kernels() -> None:
     """Every SLAM kernel loaded before the first scan, then what loading them left resident
     handed back, as the daemon does after its warm-ups: LLVM's code (some 70 MB that no scan
-    runs) and the heap it freed."""
-    from navd.lifecycle.memory import (  # noqa: PLC0415 - only replay needs it
+    runs) and the heap it freed. A cold numba cache is filled by a child process first, as
+    the daemon's is: compiling in this process would keep hundreds of MB (fr-clinic's replay
+    peaked at 982 MB so)."""
+    from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
+    from navd.lifecycle.memory import (  # noqa: PLC0415
         release_compiler_code,
         release_freed_memory,
     )
     from navd.slam.warmup import warm_up  # noqa: PLC0415
 
+    KernelCache().prepare()
     warm_up()
     release_freed_memory()
     release_compiler_code()
