@@ -139,13 +139,19 @@ class KernelCache:
         self._child: subprocess.Popen[str] | None = None
         self._stopped = False
 
-    def prepare(self) -> None:
-        """Fill the cache if it is cold (blocks: call it from a warm-up thread)."""
+    def prepare(self, *, every_signature: bool = False) -> None:
+        """Fill the cache if it is cold (blocks: call it from a warm-up thread).
+
+        With ``every_signature`` the child runs even when every kernel has something in the
+        cache: the index tells whether a kernel was compiled, not for which argument types,
+        and a cache filled by other programs (a test run) may lack the ones the warm-ups
+        call. The child then only loads what is there and compiles the rest (a few seconds).
+        """
         with self._lock:
             if self._done:
                 return
             try:
-                self._fill()
+                self._fill(every_signature)
             except Exception as err:  # the warm-ups go on whatever happened here
                 _log.warning("kernels_prepare_failed", error=str(err), fallback="in process")
             finally:
@@ -161,15 +167,15 @@ class KernelCache:
             child.kill()
             child.wait()
 
-    def _fill(self) -> None:
+    def _fill(self, every_signature: bool) -> None:
         try:
             cold = cold_kernels()
         except KernelCacheError as err:
             _log.warning("kernels_cache_unreadable", reason=str(err))
             return
-        if not cold:
+        if not cold and not every_signature:
             return
-        _log.info("kernels_compiling", cold=len(cold), first=cold[0])
+        _log.info("kernels_compiling", cold=len(cold), first=cold[0] if cold else "")
         started = time.monotonic()
         with self._spawn:
             if self._stopped:

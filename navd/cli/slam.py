@@ -104,9 +104,9 @@ def _is_navd_recording(path: Path) -> bool:
 def _load_kernels() -> None:
     """Every SLAM kernel loaded before the first scan, then what loading them left resident
     handed back, as the daemon does after its warm-ups: LLVM's code (some 70 MB that no scan
-    runs) and the heap it freed. A cold numba cache is filled by a child process first, as
-    the daemon's is: compiling in this process would keep hundreds of MB (fr-clinic's replay
-    peaked at 982 MB so)."""
+    runs) and the heap it freed. A child process fills numba's cache first with whatever the
+    warm-ups call that it lacks, as the daemon's start does on a cold cache: compiling in
+    this process would keep hundreds of MB (fr-clinic's replay peaked at 982 MB so)."""
     from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
     from navd.lifecycle.memory import (  # noqa: PLC0415
         release_compiler_code,
@@ -114,7 +114,7 @@ def _load_kernels() -> None:
     )
     from navd.slam.warmup import warm_up  # noqa: PLC0415
 
-    KernelCache().prepare()
+    KernelCache().prepare(every_signature=True)
     warm_up()
     release_freed_memory()
     release_compiler_code()
