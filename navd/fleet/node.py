@@ -5,7 +5,7 @@ is lost; its ``connection`` topic says ONLINE once connected, OFFLINE when navd 
 CONNECTIONBROKEN through the broker (the last will) when the connection breaks. Orders and
 instant actions come in on the vehicle's topics and go to ``vehicle.Vehicle``, whose goals
 go on the bus like anyone's, through the same planner and safety gate. The state goes out on
-every change (at most every ``MIN_STATE_S``) and at least every ``fleet.state_interval_s``;
+every change, the robot starting or stopping included (at most every ``MIN_STATE_S``) and at least every ``fleet.state_interval_s``;
 the position at ``fleet.visualization_rate_hz``; the factsheet on connecting and on request.
 While the broker is gone the order goes on or the robot holds (``fleet.on_broker_lost``).
 
@@ -106,6 +106,7 @@ class FleetNode(Module):
         self._client: aiomqtt.Client | None = None
         self._state_due = True
         self._last_state_s = -math.inf
+        self._told_driving = False  # ``driving`` as the last state message said it
         self._last_view_s = -math.inf
         self.connected = asyncio.Event()
         self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
@@ -358,13 +359,16 @@ class FleetNode(Module):
             return
         fleet = self.settings.value.fleet
         wall = time.monotonic()
-        due = self._state_due or self.vehicle.changed
+        robot = self._robot()
+        driving = reports.driving(robot)  # starting and stopping are changes too (§6.10)
+        due = self._state_due or self.vehicle.changed or driving != self._told_driving
         if (due and wall - self._last_state_s >= MIN_STATE_S) or (
             wall - self._last_state_s >= fleet.state_interval_s
         ):
             self._state_due = self.vehicle.changed = False
+            self._told_driving = driving
             self._last_state_s = wall
-            payload = self._json("state", reports.state, self.vehicle, self._robot())
+            payload = self._json("state", reports.state, self.vehicle, robot)
             self.ctx.spawn(self._send(self.topics.state, payload), name="state")
         rate = fleet.visualization_rate_hz
         if rate > 0 and wall - self._last_view_s >= 1.0 / rate:
