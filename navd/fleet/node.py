@@ -5,8 +5,9 @@ is lost; its ``connection`` topic says ONLINE once connected, OFFLINE when navd 
 CONNECTIONBROKEN through the broker (the last will) when the connection breaks. Orders and
 instant actions come in on the vehicle's topics and go to ``vehicle.Vehicle``, whose goals
 go on the bus like anyone's, through the same planner and safety gate. The state goes out on
-every change, the robot starting or stopping included (at most every ``MIN_STATE_S``) and at least every ``fleet.state_interval_s``;
-the position at ``fleet.visualization_rate_hz``; the factsheet on connecting and on request.
+every change, the robot starting or stopping included (at most every ``MIN_STATE_S``), and
+at least every ``fleet.state_interval_s``; the position at ``fleet.visualization_rate_hz``;
+the factsheet on connecting and on request.
 While the broker is gone the order goes on or the robot holds (``fleet.on_broker_lost``).
 
 It also hears the other vehicles of its interface (their visualization, and their factsheet
