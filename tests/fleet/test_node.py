@@ -1,0 +1,83 @@
+"""The fleet module's state messages, on a stand-in for the broker client: the state goes out
+when the robot starts and when it stops driving (VDA 5050 2.1 §6.10, "change in the driving
+field"), not only when the order changes, and not again while nothing changed."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+import types
+from typing import Any
+
+import numpy as np
+import pytest
+
+from navd.config import NavdConfig
+from navd.fleet import node as fleet_node
+from navd.fleet.node import FleetNode
+from navd.lifecycle.bus import Bus
+from navd.lifecycle.messages import PoseEstimate
+from navd.lifecycle.module import ModuleContext
+from navd.lifecycle.workers import WorkerPool
+from tests.fleet.vda5050_schemas import check
+
+
+class _Client:
+    """What the module publishes, as the fleet control would read it."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[str, dict[str, Any]]] = []
+
+    async def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False) -> None:
+        self.sent.append((topic.rsplit("/", 1)[-1], json.loads(payload)))
+
+    def states(self) -> list[dict[str, Any]]:
+        return [body for topic, body in self.sent if topic == "state"]
+
+
+def _pose(t: float, linear_mps: float) -> PoseEstimate:
+    return PoseEstimate(
+        stamp=t,
+        received=t,
+        x_m=1.0,
+        y_m=2.0,
+        yaw_rad=0.0,
+        covariance=np.eye(3) * 1e-4,
+        linear_mps=linear_mps,
+    )
+
+
+async def test_the_state_goes_out_when_the_robot_starts_and_when_it_stops(
+    bus: Bus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    wall = [1000.0]  # [s] the module's clock for how often it publishes
+    clock = types.SimpleNamespace(monotonic=lambda: wall[0], time=time.time)
+    monkeypatch.setattr(fleet_node, "time", clock)
+    config = NavdConfig.model_validate(
+        {"fleet": {"enabled": True, "broker_url": "mqtt://127.0.0.1:1", "serial_number": "r1"}}
+    )
+    ctx = ModuleContext(
+        "fleet", bus=bus, clock=bus.clock, workers=WorkerPool(bus, 1), config=lambda: config
+    )
+    module = FleetNode()
+    await module.on_configure(ctx)
+    client = _Client()
+    module._client = client  # type: ignore[assignment]  # connected, as far as it knows
+
+    async def tick(t: float, linear_mps: float) -> list[dict[str, Any]]:
+        bus.publish(_pose(t, linear_mps))
+        wall[0] += 1.0  # well past the least time between two states, far from 30 s
+        module._tick(t)
+        for _ in range(3):  # the sends are tasks of their own
+            await asyncio.sleep(0)
+        return client.states()
+
+    assert [s["driving"] for s in await tick(0.0, 0.0)] == [False]  # the first: due at start
+    assert len(await tick(1.0, 0.0)) == 1  # nothing changed: nothing sent
+    assert [s["driving"] for s in await tick(2.0, 0.3)] == [False, True]  # it started
+    assert len(await tick(3.0, 0.3)) == 2
+    assert [s["driving"] for s in await tick(4.0, 0.0)] == [False, True, False]  # it stopped
+    for state in client.states():
+        check("state", state)
+        assert state["agvPosition"]["x"] == 1.0 and state["orderId"] == ""
