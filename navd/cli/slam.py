@@ -106,7 +106,8 @@ def _load_kernels() -> None:
     handed back, as the daemon does after its warm-ups: LLVM's code (some 70 MB that no scan
     runs) and the heap it freed. A child process fills numba's cache first with whatever the
     warm-ups call that it lacks, as the daemon's start does on a cold cache: compiling in
-    this process would keep hundreds of MB (fr-clinic's replay peaked at 982 MB so)."""
+    this process raises its peak (fr-clinic with a cold cache: 297 MB of VmHWM, 261 MB with
+    the child; the child costs about 2 s when the cache is full)."""
     from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
     from navd.lifecycle.memory import (  # noqa: PLC0415
         release_compiler_code,
