@@ -41,6 +41,9 @@ FloatArray = npt.NDArray[np.float64]
 BLOCK_LOOKAHEAD_M = 3.0
 # Stuck recovery forgets scan obstacles this far around the robot [m].
 STUCK_CLEAR_RADIUS_M = 1.5
+# [rad] within approach_distance_m of a goal with a heading, the robot steers for that heading
+# only while the goal lies within this angle of it, seen from the robot (ahead, not behind)
+APPROACH_ALIGN_RAD = math.pi / 2
 
 
 @dataclass(frozen=True, slots=True)
@@ -342,7 +345,16 @@ class Navigator:
             )
             window = Window(0.0, rotate_only=True)
         else:
-            near_goal = distance <= s.approach_distance_m and goal.yaw_rad is not None
+            # Near the goal, arrive facing its heading, but only if the goal lies ahead along
+            # that heading: a goal behind it (reached facing away from the way in) would have
+            # the robot turn its back to the goal and creep away; it drives there facing the
+            # way and turns on the spot.
+            bearing = math.atan2(goal.y_m - pose.y, goal.x_m - pose.x)
+            near_goal = (
+                distance <= s.approach_distance_m
+                and goal.yaw_rad is not None
+                and angle_between(goal.yaw_rad, bearing) <= APPROACH_ALIGN_RAD
+            )
             heading = (
                 goal.yaw_rad
                 if near_goal and goal.yaw_rad is not None

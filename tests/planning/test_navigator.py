@@ -49,6 +49,24 @@ def test_turns_to_the_target_heading(yaw: float) -> None:
     )
 
 
+@pytest.mark.parametrize("goal", [(-0.37, 0.12, -0.54), (-0.6, -0.3, 0.3), (0.1, -0.5, 2.0)])
+def test_a_near_goal_behind_the_robot_facing_away_is_driven_to_then_turned_on(
+    goal: tuple[float, float, float],
+) -> None:
+    # within the approach distance, a goal the robot must back into if it faced the goal's
+    # heading: it drives there facing the way, then turns (it used to turn first, to the
+    # goal's heading, and creep away from the goal for good)
+    cfg = config()
+    result = drive(cfg, NO_WALLS, IDENTITY, NavGoal("g", *goal), max_time_s=30, known_map=False)
+    assert result.state is GoalState.REACHED
+    x, y, heading = result.poses[-1]
+    assert math.hypot(x - goal[0], y - goal[1]) <= cfg.planning.goal_xy_tolerance_m
+    assert abs(math.remainder(heading - goal[2], math.tau)) <= cfg.planning.goal_yaw_tolerance_rad
+    # and never farther from the goal than it started, give or take a turn's swing
+    start = math.hypot(goal[0], goal[1])
+    assert max(math.hypot(px - goal[0], py - goal[1]) for px, py, _ in result.poses) < start + 0.1
+
+
 def test_drives_through_the_room_without_touching_a_wall() -> None:
     cfg = config()
     result = drive(
