@@ -8,6 +8,7 @@ import asyncio
 import json
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands
@@ -15,6 +16,8 @@ from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands
 __all__ = ["add_commands"]
 
 DEFAULT_BROKER = "mqtt://127.0.0.1:1883"
+# [m] keep in step with navd.fleetctl.way.DEFAULT_RADIUS_M (not imported: the parser stays light)
+DEFAULT_RADIUS_M = 0.3
 
 
 def add_commands(commands: Commands) -> None:
@@ -45,6 +48,21 @@ def add_commands(commands: Commands) -> None:
     )
     goal.add_argument(
         "--speed", type=float, default=0.3, help="[m/s] the group's top speed (default 0.3)"
+    )
+    goal.add_argument(
+        "--map",
+        type=Path,
+        default=None,
+        help="the map the robots drive on (map .yaml): the group goes round walls, in a column "
+        "through doors and corridors too narrow for its formation (default: straight, open "
+        "ground)",
+    )
+    goal.add_argument(
+        "--radius",
+        type=float,
+        default=DEFAULT_RADIUS_M,
+        help=f"[m] a robot's radius plus the margin it keeps from walls, for --map (default "
+        f"{DEFAULT_RADIUS_M:g}: navd's 0.2 m disc and 0.1 m stop distance)",
     )
     goal.add_argument(
         "--robots", default=None, help="serial numbers, comma separated (default: all online)"
@@ -99,11 +117,24 @@ def _status(args: argparse.Namespace) -> int:
 def _goal(args: argparse.Namespace) -> int:
     from navd.fleetctl.control import drive_group  # noqa: PLC0415 - MQTT only for this command
     from navd.fleetctl.group import GroupGoal  # noqa: PLC0415
+    from navd.fleetctl.way import GroupMap  # noqa: PLC0415
+    from navd.slam.errors import MapFileError  # noqa: PLC0415
 
-    numbers = (args.x, args.y, args.spacing, args.step, args.speed, args.timeout)
-    if not all(math.isfinite(v) for v in numbers) or min(args.spacing, args.step, args.speed) <= 0:
-        print("navd fleet goal: x, y must be finite; spacing, step and speed > 0", file=sys.stderr)
+    numbers = (args.x, args.y, args.spacing, args.step, args.speed, args.timeout, args.radius)
+    positive = (args.spacing, args.step, args.speed, args.radius)
+    if not all(math.isfinite(v) for v in numbers) or min(positive) <= 0:
+        print(
+            "navd fleet goal: x, y must be finite; spacing, step, speed and radius > 0",
+            file=sys.stderr,
+        )
         return EXIT_USAGE
+    group_map = None
+    if args.map is not None:
+        try:
+            group_map = GroupMap.load(args.map, args.radius)
+        except MapFileError as err:
+            print(f"navd fleet goal: --map: {err}", file=sys.stderr)
+            return EXIT_USAGE
     goal = GroupGoal(
         args.x,
         args.y,
@@ -127,6 +158,7 @@ def _goal(args: argparse.Namespace) -> int:
                 interface=args.interface,
                 timeout_s=args.timeout,
                 report=report,
+                group_map=group_map,
             )
         )
     except ValueError as err:

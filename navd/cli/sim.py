@@ -100,7 +100,8 @@ def _fleet_demo(args: argparse.Namespace) -> int:
 
     if args.world is not None or args.view or args.record is not None:
         print(
-            "navd demo --fleet: runs in its own hall; drop --world, --view and --record",
+            "navd demo --fleet: runs in its own world (the office, or a hall for more than "
+            "three robots); drop --world, --view and --record",
             file=sys.stderr,
         )
         return EXIT_USAGE

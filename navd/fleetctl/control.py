@@ -20,9 +20,11 @@ from typing import Any
 from urllib.parse import urlsplit
 
 import aiomqtt
+import numpy as np
 
 from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.group import GroupDrive, GroupGoal
+from navd.fleetctl.way import GroupMap
 
 __all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action"]
 
@@ -163,19 +165,31 @@ async def drive_group(
     interface: str = "uagv",
     timeout_s: float = 600.0,
     report: Callable[[dict[str, Any]], None] = lambda _: None,
+    group_map: GroupMap | None = None,
 ) -> dict[str, Any]:
     """Drive ``goal`` with the vehicles ``serials`` (None: every ONLINE one with a position);
-    ``report`` hears each step. The summary: "reached" true or the reason, the largest shape
-    error [m] once the group had formed up, the time it took, and how far each robot got
-    ("members": the last place it reached, paused or not, its errors, where it last was).
+    ``report`` hears each step. On ``group_map`` the centre's way goes round walls and the
+    group goes in a column where its formation does not fit (``way``); without one, straight.
+    The summary: "reached" true or the reason, the largest shape error [m] once the group had
+    formed up, the shapes along the way, the centre's route [m], the time it took, and how far
+    each robot got ("members": the last place it reached, paused or not, its errors, where it
+    last was).
 
     Raises:
-        ValueError: no vehicle to drive, or one asked for is not there.
+        ValueError: no vehicle to drive, one asked for is not there, or no way for the group
+            on ``group_map`` (why, named).
     """
     view = await fleet_view(broker_url, interface)
     robots = _members(view, serials)
     maps = {v.serial: v.map_id for v in view.vehicles.values() if v.map_id is not None}
-    group = GroupDrive(f"group-{uuid.uuid4().hex[:6]}", robots, goal, time.time(), maps)
+    group = GroupDrive(
+        f"group-{uuid.uuid4().hex[:6]}",
+        robots,
+        goal,
+        time.time(),
+        map_ids=maps,
+        group_map=group_map,
+    )
     began = time.monotonic()
     outcome: dict[str, Any] = {"reached": False}
     async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:
@@ -204,6 +218,8 @@ async def drive_group(
         group=group.group_id,
         robots=[m.serial for m in group.members],
         formation=goal.formation,
+        shapes=group.way.shape_summary(),
+        route_m=np.round(group.way.route_m, 2).tolist(),
         max_shape_error_m=round(run.worst_formed_m, 3),
         seconds=round(time.monotonic() - began, 1),
         members=[m.progress_report() for m in group.members],
@@ -246,6 +262,7 @@ class _GroupRun:
         self.client, self.prefix, self.group, self.view = client, prefix, group, view
         self.report = report
         self.worst_formed_m = 0.0  # the largest shape error once the group had formed up
+        self.worst_step_m = 0.0  # the largest shape error in the step being driven
         self._pending: list[tuple[Any, str]] = []  # pauses and resumes to send
         self._actions = 0
         self._measured_s = -math.inf
@@ -262,6 +279,7 @@ class _GroupRun:
                 "group": group.group_id,
                 "robots": [m.serial for m in group.members],
                 "steps": group.steps,
+                "shapes": group.way.shape_summary(),
             }
         )
 
@@ -293,9 +311,12 @@ class _GroupRun:
                     "event": "step",
                     "released": group.released,
                     "of": group.steps - 1,
+                    "shape": group.way.shapes[group.released],
                     "shape_error_m": round(error, 3),
+                    "worst_on_the_way_m": round(self.worst_step_m, 3),  # to this step
                 }
             )
+            self.worst_step_m = 0.0
         fatal = sorted({e for m in group.members for e in m.errors if e in FATAL_ERRORS})
         return f"a vehicle refused its order: {', '.join(fatal)}" if fatal else None
 
@@ -311,6 +332,7 @@ class _GroupRun:
         error = self.group.shape_error_m(now)
         if self.group.released >= 1 and math.isfinite(error):  # formed up (place 0 reached)
             self.worst_formed_m = max(self.worst_formed_m, error)
+            self.worst_step_m = max(self.worst_step_m, error)
         self._error_m = error
         return error
 

@@ -1,9 +1,12 @@
 """A group goal (seed 000): the group's centre goes to a point, its robots keep a formation
 around it, all start together, and nobody runs ahead.
 
-The centre's way is a straight line from where the robots are (their mean) to the goal,
-cut into steps. Every place is to be reached facing the way on (the last one, the goal's
-heading), so a robot turns while it waits for the others, not when the next step starts.
+The centre's way runs from where the robots are (their mean) to the goal: a straight line,
+or with a map the route around walls, where the group goes in a column through doors and
+corridors too narrow for its formation (``way``). It is cut into steps. Every place of the
+formation is to be reached facing the way on (the last one, the goal's heading), so a robot
+turns while it waits for the others, not when the next step starts; a place in a column has
+no heading (the column bends with the route, and a robot goes on as it came).
 Each robot's VDA 5050 order is the list of its places along that way: its first node is
 where it stands, with a HARD ``wait`` until the common start time (the group
 command replicated with a start timestamp, so all start together); then its place at the
@@ -30,7 +33,8 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
-from navd.fleetctl.formation import Formation, assign, places, shape_error, slots
+from navd.fleetctl.formation import Formation, shape_error
+from navd.fleetctl.way import GroupMap, GroupWay, lay_out
 
 __all__ = ["GroupDrive", "GroupGoal"]
 
@@ -44,6 +48,9 @@ START_DEVIATION_M = 1.0
 # slowest is within CAUGHT_UP_M
 AHEAD_M = 0.1
 CAUGHT_UP_M = 0.05
+# [m] a robot this near another's place is in its way (two robots' widths and their margins:
+# the other cannot plan to a place it stands on)
+IN_THE_WAY_M = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,6 +90,7 @@ class _Member:
     manufacturer: str
     serial: str
     places: FloatArray  # [m] its place at each step (0: the form-up place)
+    headings: FloatArray  # [rad] which way it faces at each place
     start_xy: tuple[float, float]
     reached: int = -1  # the last place reached (-1: none yet)
     update: int = 0
@@ -117,6 +125,11 @@ class GroupDrive:
         now_unix_s: [s] wall time now (the start time is set from it).
         map_ids: the map each robot (by serial) says it is on; its nodes are put on it
             ("map" for one that has not said).
+        group_map: the map the group drives on (None: a straight line, open ground).
+
+    Raises:
+        ValueError: no robot, no route for the centre, or a place the group does not fit
+            even in a column (``way.lay_out``).
     """
 
     def __init__(
@@ -125,37 +138,27 @@ class GroupDrive:
         robots: list[tuple[str, str, float, float]],
         goal: GroupGoal,
         now_unix_s: float,
+        *,
         map_ids: Mapping[str, str] | None = None,
+        group_map: GroupMap | None = None,
     ) -> None:
         if not robots:
             raise ValueError("a group needs at least one robot")
         self.group_id = group_id
         self.goal = goal
         here = np.array([(x, y) for _, _, x, y in robots], dtype=np.float64)
-        start = here.mean(axis=0)
-        dx, dy = goal.x_m - start[0], goal.y_m - start[1]
-        length = math.hypot(dx, dy)
-        drive_heading = math.atan2(dy, dx) if length > 1e-6 else 0.0
-        self.heading = goal.heading_rad if goal.heading_rad is not None else drive_heading
-        self.drive_heading = drive_heading
-        self.offsets = slots(goal.formation, len(robots), goal.spacing_m)
-        steps = max(math.ceil(length / goal.step_m), 1)
-        centres = [start + (k / steps) * np.array([dx, dy]) for k in range(steps + 1)]
-        # who takes which place: the least driving to the form-up places
-        form_up = places((float(start[0]), float(start[1])), drive_heading, self.offsets)
-        taken = assign(here, form_up)
+        self.way: GroupWay = lay_out(
+            here,
+            (goal.x_m, goal.y_m),
+            goal_heading_rad=goal.heading_rad,
+            formation=goal.formation,
+            spacing_m=goal.spacing_m,
+            step_m=goal.step_m,
+            group_map=group_map,
+        )
         self.members: list[_Member] = []
         for i, (maker, serial, x, y) in enumerate(robots):
-            offset = self.offsets[taken[i] : taken[i] + 1]
-            heading = [drive_heading] * len(centres)
-            heading[-1] = self.heading
-            at = np.vstack(
-                [
-                    places((float(c[0]), float(c[1])), h, offset)
-                    for c, h in zip(centres, heading, strict=True)
-                ]
-            )
-            member = _Member(maker, serial, at, (x, y))
+            member = _Member(maker, serial, self.way.places_m[i], self.way.headings_rad[i], (x, y))
             member.map_id = (map_ids or {}).get(serial, member.map_id)
             self.members.append(member)
         self.start_unix_s = now_unix_s + goal.start_delay_s
@@ -251,24 +254,24 @@ class GroupDrive:
         )
 
     def shape_error_m(self, now_s: float) -> float:
-        """[m] the group's shape error at ``now_s`` (see ``formation.shape_error``), each
-        robot's last heard position carried on to then at its speed (they are heard at
-        different times); NaN until every robot has said where it is."""
+        """[m] the group's shape error at ``now_s``: each robot's last heard position carried
+        on to then at its speed (they are heard at different times), against where the way
+        puts it at the group's progress through the released step (the mean of the robots'
+        shares of it; ``GroupWay.target_m``), laid over as well as it fits
+        (``formation.shape_error``). NaN until every robot has said where it is."""
         if any(m.position is None for m in self.members):
             return math.nan
-        xy = np.array(
-            [
-                (x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t))
-                for t, x, y, yaw, v in (m.position for m in self.members if m.position)
-            ],
-            dtype=np.float64,
-        )
-        offsets = np.array([m.places[0] - self.members[0].places[0] for m in self.members])
-        return shape_error(xy, offsets)
+        xy = np.array([self._carried(m, now_s) for m in self.members])
+        k = self.released
+        shares = [1.0 if m.reached >= k else self._share(m, k, now_s) for m in self.members]
+        return shape_error(xy, self.way.target_m(k, float(np.mean(shares))))
 
     def corrections(self, now_s: float) -> list[tuple[_Member, str]]:
         """The pauses and resumes (``startPause`` / ``stopPause``) that keep the robots abreast
-        within the released step, from their positions carried on to ``now_s``."""
+        within the released step, from their positions carried on to ``now_s``. A robot in the
+        way of a slower one (within IN_THE_WAY_M of its place: in a column, the robot ahead
+        stands where the next one goes) is never held: holding it would hold the slower one
+        for good (its place taken, it cannot even plan)."""
         k = self.released
         if k < 1 or any(m.position is None for m in self.members):
             return []
@@ -278,19 +281,33 @@ class GroupDrive:
         out = []
         for m in self.members:
             ahead = progress.get(m.serial, math.inf) - slowest if going else 0.0
-            if not m.paused and m in going and ahead > AHEAD_M:
+            blocking = m in going and any(
+                progress[o.serial] < progress[m.serial] and self._in_the_way(m, o, k, now_s)
+                for o in going
+                if o is not m
+            )
+            if not m.paused and m in going and ahead > AHEAD_M and not blocking:
                 m.paused = True
                 out.append((m, "startPause"))
-            elif m.paused and ahead < CAUGHT_UP_M:
+            elif m.paused and (ahead < CAUGHT_UP_M or blocking):
                 m.paused = False
                 out.append((m, "stopPause"))
         return out
 
-    def _progress(self, m: _Member, k: int, now_s: float) -> float:
-        """[m] how far robot ``m`` has come along its step from place k - 1 to place k."""
+    def _in_the_way(self, m: _Member, other: _Member, k: int, now_s: float) -> bool:
+        """Robot ``m`` stands within IN_THE_WAY_M of ``other``'s place k."""
+        return float(np.hypot(*(self._carried(m, now_s) - other.places[k]))) < IN_THE_WAY_M
+
+    @staticmethod
+    def _carried(m: _Member, now_s: float) -> FloatArray:
+        """[m] where robot ``m`` is at ``now_s``: its last heard position carried on."""
         assert m.position is not None
         t, x, y, yaw, v = m.position
-        x, y = x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t)
+        return np.array([x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t)])
+
+    def _progress(self, m: _Member, k: int, now_s: float) -> float:
+        """[m] how far robot ``m`` has come along its step from place k - 1 to place k."""
+        x, y = self._carried(m, now_s)
         a, b = m.places[k - 1], m.places[k]
         step = b - a
         length = float(np.hypot(*step))
@@ -298,6 +315,13 @@ class GroupDrive:
             return 0.0
         along = ((x - a[0]) * step[0] + (y - a[1]) * step[1]) / length
         return float(np.clip(along, 0.0, length))
+
+    def _share(self, m: _Member, k: int, now_s: float) -> float:
+        """How much (0..1) of step k robot ``m`` has driven."""
+        if k < 1:
+            return 0.0
+        length = float(np.hypot(*(m.places[k] - m.places[k - 1])))
+        return self._progress(m, k, now_s) / length if length > 1e-9 else 1.0
 
     def _order_id(self, m: _Member) -> str:
         return f"{self.group_id}-{m.serial}"
@@ -313,11 +337,12 @@ class GroupDrive:
             "mapId": m.map_id,
             "allowedDeviationXY": NODE_DEVIATION_M,
         }
-        if k >= 0:  # facing the way on: the next step starts without turning on the spot
-            last = k == self.steps - 1
-            position["theta"] = math.remainder(
-                self.heading if last else self.drive_heading, math.tau
-            )
+        # facing the way on, so the next step starts without turning on the spot; but a
+        # robot in a column follows a bending route: it goes on from one place to the next
+        # as it came (a turn on the spot at every place would hold the column up)
+        in_column = bool(np.isfinite(self.way.stations_m[self.members.index(m), k]))
+        if k == self.steps - 1 or (k >= 0 and not in_column):
+            position["theta"] = math.remainder(float(m.headings[k]), math.tau)
         return {
             "nodeId": f"{self.group_id}-{m.serial}-{k + 1}",
             "sequenceId": 2 * (k + 1),

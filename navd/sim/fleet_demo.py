@@ -1,10 +1,15 @@
-"""``navd demo --fleet N``: N simulated robots, each its own navd, on a local mosquitto in a
-hall with four UWB-like beacons; ``navd fleet``'s group goal drives them in a triangle to
-the far side. Writes ``fleet.png`` (each robot's way) and ``fleet_summary.json``."""
+"""``navd demo --fleet N``: N simulated robots, each its own navd, on a local mosquitto, with
+four UWB-like beacons; ``navd fleet``'s group goal drives them in a triangle. Up to three
+robots cross the built-in office, from the lower-left room through its 1 m door and the
+corridor's 1.5 m corner to the lower-right area, in a column where the triangle does not fit;
+four to six, too many for a triangle 1.5 m apart in the office's rooms, cross a 16 m x 12 m
+hall. Writes ``fleet.png`` (each robot's way, the group centre's route) and
+``fleet_summary.json``."""
 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import math
 import tempfile
@@ -15,24 +20,42 @@ import numpy as np
 
 from navd.fleetctl.control import drive_group, fleet_view
 from navd.fleetctl.group import GroupGoal
+from navd.fleetctl.way import GroupMap
 from navd.geometry.pose import Pose2
 from navd.sim.broker import LocalBroker
 from navd.sim.errors import SimError
 from navd.sim.fleet import fleet_sessions
 from navd.sim.picture import fleet_picture
 from navd.sim.session import Session
-from navd.sim.world import World, from_shapes
+from navd.sim.world import World, from_shapes, office
 
-__all__ = ["MAX_ROBOTS", "hall", "run_fleet_demo"]
+__all__ = ["MAX_ROBOTS", "OFFICE_ROBOTS", "hall", "office_with_beacons", "run_fleet_demo"]
 
 MAX_ROBOTS = 6  # each is a navd process and a simulator: more than a laptop wants
+OFFICE_ROBOTS = 3  # more do not fit a triangle 1.5 m apart in the office's rooms
 ANCHORS = {"u1": (-0.5, -0.5), "u2": (14.5, -0.5), "u3": (14.5, 10.5), "u4": (-0.5, 10.5)}
-GOAL = (11.0, 5.0)
-ON_BEACONS: dict[str, Any] = {
-    "slam": {"enabled": False},
-    "beacons": {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in ANCHORS.items()}},
-}
+OFFICE_ANCHORS = {"u1": (-0.5, -0.5), "u2": (10.5, -0.5), "u3": (10.5, 6.5), "u4": (-0.5, 6.5)}
+HALL_GOAL = (11.0, 5.0)
+OFFICE_GOAL = (9.4, 1.5)  # the lower-right area, facing east
+# where the robots start in the office's lower-left room (clear of its desk)
+OFFICE_STARTS = ((0.0, 0.0), (0.0, 1.6), (1.2, 0.0))
 SENSORS = {"beacon_rate_hz": 20.0, "beacon_range_noise_m": 0.05}
+
+
+def on_beacons(anchors: dict[str, tuple[float, float]]) -> dict[str, Any]:
+    """Config sections for robots localized by ``anchors`` alone (the lidar only sees
+    obstacles and the other robots)."""
+    return {
+        "slam": {"enabled": False},
+        "beacons": {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in anchors.items()}},
+    }
+
+
+def office_with_beacons() -> World:
+    """The built-in office with a UWB-like beacon in each corner."""
+    return dataclasses.replace(
+        office(), beacons=tuple((b, x, y) for b, (x, y) in OFFICE_ANCHORS.items())
+    )
 
 
 def hall() -> World:
@@ -66,21 +89,32 @@ async def _online(url: str, fleet: list[Session], count: int, limit_s: float) ->
 async def _drive(
     world: World, folder: Path, count: int, url: str, limit_s: float
 ) -> dict[str, Any]:
-    robots = [
-        (f"robot-{k + 1}", Pose2(1.5, 1.5 + k * 7.0 / max(count - 1, 1), 0.0)) for k in range(count)
-    ]
+    if count <= OFFICE_ROBOTS:
+        robots = [(f"robot-{k + 1}", Pose2(x, y, 0.0)) for k, (x, y) in enumerate(OFFICE_STARTS)]
+        anchors, goal_xy = OFFICE_ANCHORS, OFFICE_GOAL
+        walls: GroupMap | None = GroupMap.of_grid(
+            world.grid, (world.origin_x_m, world.origin_y_m), world.resolution_m
+        )
+    else:
+        robots = [
+            (f"robot-{k + 1}", Pose2(1.5, 1.5 + k * 7.0 / max(count - 1, 1), 0.0))
+            for k in range(count)
+        ]
+        anchors, goal_xy, walls = ANCHORS, HALL_GOAL, None
     async with fleet_sessions(
-        world, folder, robots, url, overrides=ON_BEACONS, sim_settings=SENSORS
+        world, folder, robots[:count], url, overrides=on_beacons(anchors), sim_settings=SENSORS
     ) as fleet:
         await _online(url, fleet, count, 60.0)
-        goal = GroupGoal(*GOAL, formation="triangle", spacing_m=1.5, step_m=1.5)
-        summary = await drive_group(url, goal, timeout_s=limit_s)
+        heading = 0.0 if walls is not None else None
+        goal = GroupGoal(*goal_xy, heading_rad=heading, formation="triangle", spacing_m=1.5)
+        summary = await drive_group(url, goal, timeout_s=limit_s, group_map=walls)
         truths = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]
         collisions = [s.sim.body.collisions for s in fleet]
     ends = np.array([t[-1] for t in truths])
     summary.update(
+        world=world.name,
         collisions=sum(collisions),
-        centre_error_m=round(math.dist(ends.mean(axis=0), GOAL), 3),
+        centre_error_m=round(math.dist(ends.mean(axis=0), goal_xy), 3),
         driven_m=[round(float(np.hypot(*np.diff(t, axis=0).T).sum()), 1) for t in truths],
         trajectories=[t.tolist() for t in truths],
     )
@@ -96,7 +130,7 @@ def run_fleet_demo(count: int, out: Path, *, limit_s: float = 300.0) -> dict[str
     if not 1 <= count <= MAX_ROBOTS:
         raise SimError(f"--fleet takes 1 to {MAX_ROBOTS} robots, got {count}")
     out.mkdir(parents=True, exist_ok=True)
-    world = hall()
+    world = office_with_beacons() if count <= OFFICE_ROBOTS else hall()
     with tempfile.TemporaryDirectory(prefix="navd-fleet-") as folder:
         broker = LocalBroker(Path(folder))
         broker.start()
@@ -105,6 +139,8 @@ def run_fleet_demo(count: int, out: Path, *, limit_s: float = 300.0) -> dict[str
         finally:
             broker.stop()
     trajectories = [np.array(t) for t in summary.pop("trajectories")]
-    fleet_picture(world, trajectories, GOAL, out / "fleet.png")
+    goal_xy = OFFICE_GOAL if count <= OFFICE_ROBOTS else HALL_GOAL
+    route = np.array(summary.pop("route_m"))
+    fleet_picture(world, trajectories, goal_xy, out / "fleet.png", route_m=route)
     (out / "fleet_summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary

@@ -122,6 +122,7 @@ def demo_picture(  # noqa: PLR0917 - every layer of the picture, named
 FLEET_RGB = (
     (220, 30, 30), (40, 90, 230), (20, 160, 60), (240, 150, 20), (150, 40, 200), (0, 170, 180),
 )  # fmt: skip
+CENTRE_RGB = (90, 90, 90)  # the group centre's route, dark grey
 
 
 def fleet_picture(
@@ -129,11 +130,15 @@ def fleet_picture(
     trajectories: list[npt.NDArray[np.float64]],
     goal_xy_m: tuple[float, float],
     path: Path,
+    *,
+    route_m: npt.NDArray[np.float64] | None = None,
 ) -> None:
-    """A PNG of the world and each robot's way (N x 2 [m]) in its colour, a ring where each
-    ended, and the group's goal."""
+    """A PNG of the world, the group centre's route (N x 2 [m], if given) in dark grey, each
+    robot's way (N x 2 [m]) in its colour, a ring where each ended, and the group's goal."""
     canvas = _Canvas(world)
     canvas.cells(world.grid, world.origin_x_m, world.origin_y_m, world.resolution_m, WORLD_RGB)
+    if route_m is not None and len(route_m) > 1:
+        canvas.line(route_m, CENTRE_RGB, 1)
     for k, way in enumerate(trajectories):
         rgb = FLEET_RGB[k % len(FLEET_RGB)]
         canvas.line(way, rgb, 3)

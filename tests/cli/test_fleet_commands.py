@@ -17,7 +17,9 @@ from navd.sim.session import free_port
         (["demo", "--fleet", "9"], 2, "--fleet takes 1 to 6 robots, got 9"),
         (["demo", "--fleet", "2", "--view"], 2, "drop --world, --view and --record"),
         (["fleet", "goal", "nan", "1"], 2, "x, y must be finite"),
-        (["fleet", "goal", "1", "1", "--spacing", "0"], 2, "spacing, step and speed > 0"),
+        (["fleet", "goal", "1", "1", "--spacing", "0"], 2, "spacing, step, speed and radius > 0"),
+        (["fleet", "goal", "1", "1", "--radius", "-1"], 2, "spacing, step, speed and radius > 0"),
+        (["fleet", "goal", "1", "1", "--map", "no-such-map.yaml"], 2, "--map: "),
         (["fleet", "status", "--broker", "http://x"], 1, "must be mqtt://HOST"),
         (
             ["fleet", "status", "--broker", f"mqtt://127.0.0.1:{free_port()}"],

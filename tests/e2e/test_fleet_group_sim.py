@@ -1,12 +1,14 @@
 """A fleet on a real mosquitto: three simulated robots, each its own navd process, in one
-hall (each lidar sees the others), localized by four UWB-like beacons; ``navd fleet``'s
-group goal drives them in a triangle to the far side, all starting together, and two
-robots sent through one corridor in opposite directions pass each other. Real time: the
+world (each lidar sees the others), localized by four UWB-like beacons; ``navd fleet``'s
+group goal takes them in a triangle across the office, all starting together, in a column
+through its doors, and two robots sent through one corridor in opposite directions pass
+each other. Real time: the
 daemons keep their own clocks."""
 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -17,10 +19,11 @@ import pytest
 
 from navd.fleetctl.control import drive_group, fleet_view
 from navd.fleetctl.group import GroupGoal
+from navd.fleetctl.way import GroupMap
 from navd.geometry.pose import Pose2
 from navd.sim.fleet import fleet_sessions
 from navd.sim.session import Session
-from navd.sim.world import from_shapes
+from navd.sim.world import from_shapes, office
 from tests.fleet.broker import Broker
 
 pytest.importorskip("aiomqtt", reason="aiomqtt missing")
@@ -65,33 +68,51 @@ def _why(summary: dict[str, Any], tmp_path: Path) -> str:
     return "\n".join(lines)
 
 
-async def test_three_robots_drive_a_triangle_to_a_group_goal(tmp_path: Path) -> None:
+async def test_three_robots_take_a_triangle_across_the_office_through_its_doors(
+    tmp_path: Path,
+) -> None:
+    # the built-in office: from the lower-left room through its 1 m door, the 1.5 m gap at the
+    # corridor's corner and round a cabinet to the lower-right area; UWB-like beacons in the
+    # corners (the office has none of its own)
+    corners = {"u1": (-0.5, -0.5), "u2": (10.5, -0.5), "u3": (10.5, 6.5), "u4": (-0.5, 6.5)}
+    world = dataclasses.replace(office(), beacons=tuple((b, x, y) for b, (x, y) in corners.items()))
+    beacons = {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in corners.items()}}
+    goal = GroupGoal(9.4, 1.5, heading_rad=0.0, formation="triangle", spacing_m=1.5)
+    walls = GroupMap.of_grid(world.grid, (world.origin_x_m, world.origin_y_m), world.resolution_m)
     broker = Broker(tmp_path)
     broker.start()
     robots = [
-        ("r1", Pose2(1.0, 2.0, 0.0)),
-        ("r2", Pose2(1.5, 5.0, 0.0)),
-        ("r3", Pose2(1.0, 8.0, 0.0)),
+        ("r1", Pose2(0.0, 0.0, 0.0)),
+        ("r2", Pose2(1.5, 0.1, 0.0)),
+        ("r3", Pose2(0.2, 1.6, 0.0)),
     ]
     try:
         async with fleet_sessions(
-            from_shapes(HALL, "hall"), tmp_path, robots, broker.url, overrides=ON_BEACONS,
-            sim_settings=SENSORS,
+            world, tmp_path, robots, broker.url,
+            overrides={**ON_BEACONS, "beacons": beacons}, sim_settings=SENSORS,
         ) as fleet:  # fmt: skip
             await _all_online(broker, fleet, 3)
-            goal = GroupGoal(8.5, 5.0, formation="triangle", spacing_m=1.5, step_m=1.5)
-            # about 60 s here, with both cores busy too
-            summary = await drive_group(broker.url, goal, timeout_s=300.0)
+            summary = await drive_group(broker.url, goal, timeout_s=300.0, group_map=walls)
             truth = np.array([(s.sim.body.x_m, s.sim.body.y_m) for s in fleet])
             collisions = [s.sim.body.collisions for s in fleet]
+            ways = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]
     finally:
         broker.stop()
     assert summary["reached"] is True, _why(summary, tmp_path)
+    # it set off in a column (the triangle does not fit through the room's door) and spread
+    # out into the triangle at the goal
+    assert summary["shapes"].startswith("column") and summary["shapes"].endswith("triangle x1")
     assert summary["max_shape_error_m"] <= 0.3, _why(summary, tmp_path)
     assert collisions == [0, 0, 0]
-    assert math.dist(truth.mean(axis=0), (8.5, 5.0)) < 0.5
+    assert math.dist(truth.mean(axis=0), (9.4, 1.5)) < 0.5
     gaps = sorted(math.dist(a, b) for i, a in enumerate(truth) for b in truth[i + 1 :])
     assert gaps == pytest.approx([1.5, 1.5, 1.5], abs=0.3)  # a triangle of 1.5 m sides
+    # every robot left the lower-left room (its wall y = 2.5 up to x = 5) through its door
+    # (x 3..4)
+    for way in ways:
+        crossing = way[np.flatnonzero(np.diff(np.sign(way[:, 1] - 2.5)) != 0)]
+        out = crossing[crossing[:, 0] < 5.0]
+        assert out.size and ((out[:, 0] > 3.0) & (out[:, 0] < 4.0)).all(), crossing
 
 
 async def test_two_robots_pass_each_other_in_a_corridor(tmp_path: Path) -> None:

@@ -1,0 +1,456 @@
+"""The group's way on a map: the centre's route around walls, and at each step the formation
+asked for where it fits, a column where it does not (doors, corridors).
+
+The centre's route is planned as one robot plans its own (A* on the map inflated by a robot's
+radius and margin, smoothed). Its length is cut into steps; at each step the formation is laid
+around the centre, facing along the route. It fits when every place is ``FIT_SLACK_M`` clearer
+than a robot needs and can be seen from the centre (no robot stands behind a wall). A step
+keeps the formation asked for only when it fits all along the route from the step before to
+the step after (tried every ``FIT_EVERY_M``): the group forms a column a step before a narrow
+passage and spreads out a step after it (the form-up place and the goal need only fit
+themselves). In a column the robots follow the route itself, ``spacing_m`` of route apart,
+so they turn through doors one after another, in steps of half the spacing
+(``COLUMN_STEP_SHARE``). A column that would stand off its route's ends and in a wall moves
+along until all of it is on the route, except at the goal, where the group's centre must be.
+Without a map the route is the straight line and the formation is kept throughout.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import linear_sum_assignment
+
+from navd.fleetctl.formation import Formation, assign, places, slots
+from navd.planning.costmap import (
+    Costmap,
+    CostmapSettings,
+    GridFrame,
+    build_costmap,
+    static_layer,
+)
+from navd.planning.errors import GoalUnreachableError, StartBlockedError
+from navd.planning.global_planner import GlobalPlanner, SearchSettings
+from navd.slam.map_io import load_map
+
+__all__ = ["DEFAULT_RADIUS_M", "GroupMap", "GroupWay", "lay_out"]
+
+FloatArray = npt.NDArray[np.float64]
+# [m] a robot's radius plus the margin it keeps from walls: navd's defaults (a 0.2 m disc,
+# safety.stop_distance_m 0.1)
+DEFAULT_RADIUS_M = 0.3
+# [m] a formation's place must be this much clearer of walls than a robot needs: robots are
+# never exactly on their places, and one squeezed against a wall slows the whole group
+FIT_SLACK_M = 0.15
+# a column goes on this share of its spacing at a time: each robot's next place is then clear
+# of the robot ahead of it, which has not left it yet (robots of 0.4 m and 1.5 m spacing:
+# 0.75 m apart, with 0.55 m between the place and the body ahead; with a whole spacing the
+# next robot could not even plan to its place until the one ahead had gone half a metre)
+COLUMN_STEP_SHARE = 0.5
+# [m] the formation is tried along the route this often (a door between two steps is seen)
+FIT_EVERY_M = 0.2
+# [m] the route's heading at a point is that of the chord this long around it (a smoothed
+# route turns at corners; the formation should not flip there)
+HEADING_CHORD_M = 1.0
+# map cells at or above this occupancy [%] are walls (navd's planning default)
+OCCUPIED_PCT = 65
+# the centre's route is weighed as navd's planner weighs one (planning.cost_weight)
+ROUTE_COST_WEIGHT = 3.0
+
+
+@dataclass(frozen=True)
+class GroupMap:
+    """Where a robot of the group can be: a map's walls inflated by ``radius_m``.
+
+    Attributes:
+        costmap: the inflated map (its ``clearance_m`` is each cell's distance to a wall).
+        radius_m: [m] a robot's radius plus the margin it keeps.
+    """
+
+    costmap: Costmap
+    radius_m: float
+
+    @classmethod
+    def of_grid(
+        cls,
+        occupied: npt.NDArray[np.bool_],
+        origin_xy_m: tuple[float, float],
+        resolution_m: float,
+        radius_m: float = DEFAULT_RADIUS_M,
+        unknown: npt.NDArray[np.bool_] | None = None,
+    ) -> GroupMap:
+        """From a grid of walls (rows = y, cell (0, 0)'s corner at ``origin_xy_m``)."""
+        rows, cols = occupied.shape
+        frame = GridFrame(resolution_m, origin_xy_m[0], origin_xy_m[1], rows, cols)
+        settings = CostmapSettings(
+            robot_radius_m=radius_m,
+            inflation_radius_m=radius_m + 0.5,
+            cost_decay_per_m=3.0,
+            allow_unknown=False,
+            unknown_cost=1.0,
+            occupied_threshold_pct=OCCUPIED_PCT,
+        )
+        nothing = np.zeros_like(occupied) if unknown is None else unknown
+        return cls(build_costmap(frame, occupied, nothing, settings), radius_m)
+
+    @classmethod
+    def load(cls, yaml_path: Path, radius_m: float = DEFAULT_RADIUS_M) -> GroupMap:
+        """From a saved map (navd's or any map_server map); unknown cells are not driven.
+
+        Raises:
+            MapFileError: missing or malformed map files, named.
+        """
+        grid = load_map(yaml_path)
+        occupied, unknown = static_layer(grid.occupancy_percent(), OCCUPIED_PCT)
+        return cls.of_grid(
+            occupied, (grid.origin_x, grid.origin_y), grid.resolution, radius_m, unknown
+        )
+
+    def clearance_m(self, points_m: FloatArray) -> FloatArray:
+        """[m] each point's distance to the nearest wall (0 off the map or in unknown)."""
+        frame = self.costmap.frame
+        cells = frame.cells_of(np.atleast_2d(points_m))
+        inside = (
+            (cells[:, 0] >= 0)
+            & (cells[:, 0] < frame.rows)
+            & (cells[:, 1] >= 0)
+            & (cells[:, 1] < frame.cols)
+        )
+        out = np.zeros(cells.shape[0])
+        r, c = cells[inside, 0], cells[inside, 1]
+        known = ~self.costmap.unknown[r, c]
+        out[np.flatnonzero(inside)[known]] = self.costmap.clearance_m[r[known], c[known]]
+        return out
+
+    def sees(self, a_m: FloatArray, b_m: FloatArray, clear_m: float) -> bool:
+        """A robot can go straight from ``a_m`` to ``b_m`` [m] keeping ``clear_m`` from walls."""
+        length = float(np.hypot(*(b_m - a_m)))
+        count = max(math.ceil(length / (0.5 * self.costmap.frame.resolution_m)), 1) + 1
+        t = np.linspace(0.0, 1.0, count)[:, None]
+        return bool((self.clearance_m(a_m + t * (b_m - a_m)) >= clear_m).all())
+
+    def route(self, start_m: tuple[float, float], goal_m: tuple[float, float]) -> FloatArray:
+        """[m] N x 2 route of the group's centre from ``start_m`` to ``goal_m``.
+
+        Raises:
+            ValueError: the start or the goal is in a wall or off the map, or no route leads
+                there (the planner's reason, named).
+        """
+        try:
+            found = GlobalPlanner().plan(
+                self.costmap, start_m, goal_m, SearchSettings(ROUTE_COST_WEIGHT, smooth=True)
+            )
+        except (StartBlockedError, GoalUnreachableError) as err:
+            raise ValueError(f"the group's centre: {err}") from err
+        return found.points_m
+
+
+class _Polyline:
+    """Points along a route by distance, extended straight past both ends."""
+
+    def __init__(self, points_m: FloatArray) -> None:
+        keep = np.concatenate([[True], np.hypot(*np.diff(points_m, axis=0).T) > 1e-9])
+        self.points = points_m[keep]
+        steps = np.hypot(*np.diff(self.points, axis=0).T)
+        self.along = np.concatenate([[0.0], np.cumsum(steps)])
+        self.length_m = float(self.along[-1])
+
+    def at(self, s_m: float) -> FloatArray:
+        """[m] the point ``s_m`` along (before the start or past the end: straight on)."""
+        p: FloatArray = self.points
+        if p.shape[0] == 1:
+            return np.array(p[0], dtype=np.float64)
+        if s_m < 0.0:
+            d = (p[1] - p[0]) / np.hypot(*(p[1] - p[0]))
+            return np.array(p[0] + s_m * d, dtype=np.float64)
+        if s_m > self.length_m:
+            d = (p[-1] - p[-2]) / np.hypot(*(p[-1] - p[-2]))
+            return np.array(p[-1] + (s_m - self.length_m) * d, dtype=np.float64)
+        return np.array([np.interp(s_m, self.along, p[:, 0]), np.interp(s_m, self.along, p[:, 1])])
+
+    def heading(self, s_m: float) -> float:
+        """[rad] the route's heading at ``s_m``: its chord of HEADING_CHORD_M around it."""
+        half = 0.5 * HEADING_CHORD_M
+        a, b = self.at(s_m - half), self.at(s_m + half)
+        return math.atan2(b[1] - a[1], b[0] - a[0])
+
+
+@dataclass(frozen=True)
+class GroupWay:
+    """Each robot's place and heading at each step, and the group's shape there.
+
+    Attributes:
+        places_m: [m] robots x steps x 2: robot i's place at step k (0: where it forms up).
+        headings_rad: [rad] robots x steps: which way it faces there.
+        shapes: the formation at each step (the one asked for, or "column").
+        route_m: [m] N x 2: the centre's route.
+        stations_m: [m] robots x steps: how far along the route robot i's place at step k
+            is when the group is in a column there (NaN where it is not).
+    """
+
+    places_m: FloatArray
+    headings_rad: FloatArray
+    shapes: tuple[Formation, ...]
+    route_m: FloatArray
+    stations_m: FloatArray
+
+    def target_m(self, k: int, fraction: float) -> FloatArray:
+        """[m] robots x 2: where each robot should be when the group has come ``fraction``
+        (0..1) of step k (from the places of step k - 1 to those of step k): along the route
+        for a robot in a column at both ends of the step (it turns through doors), straight
+        between its two places otherwise."""
+        if k <= 0:
+            return self.places_m[:, 0].copy()
+        a, b = self.places_m[:, k - 1], self.places_m[:, k]
+        out = a + fraction * (b - a)
+        line = _Polyline(self.route_m)
+        for i in range(out.shape[0]):
+            s0, s1 = self.stations_m[i, k - 1], self.stations_m[i, k]
+            if math.isfinite(s0) and math.isfinite(s1):
+                out[i] = line.at(s0 + fraction * (s1 - s0))
+        return out
+
+    def shape_summary(self) -> str:
+        """The shapes in order, runs counted: "triangle x2, column x4, triangle x3"."""
+        runs: list[list[object]] = []
+        for shape in self.shapes:
+            if runs and runs[-1][0] == shape:
+                runs[-1][1] = int(str(runs[-1][1])) + 1
+            else:
+                runs.append([shape, 1])
+        return ", ".join(f"{shape} x{count}" for shape, count in runs)
+
+
+def lay_out(
+    robots_xy_m: FloatArray,
+    goal_xy_m: tuple[float, float],
+    *,
+    goal_heading_rad: float | None,
+    formation: Formation,
+    spacing_m: float,
+    step_m: float,
+    group_map: GroupMap | None = None,
+) -> GroupWay:
+    """The group's way (see the module docstring) from where the robots stand.
+
+    Raises:
+        ValueError: no route for the centre, or the group does not fit somewhere even in a
+            column (where, named).
+    """
+    count = robots_xy_m.shape[0]
+    start = robots_xy_m.mean(axis=0)
+    goal = np.asarray(goal_xy_m, dtype=np.float64)
+    if group_map is None:
+        route = np.vstack([start, goal])
+    else:
+        route = group_map.route((float(start[0]), float(start[1])), goal_xy_m)
+    line = _Polyline(route)
+    steps = max(math.ceil(line.length_m / step_m), 1)
+    stations = [k * line.length_m / steps for k in range(steps + 1)]
+    headings = [line.heading(s) if line.length_m > 1e-6 else 0.0 for s in stations]
+    if goal_heading_rad is not None:
+        headings[-1] = goal_heading_rad
+    wide = slots(formation, count, spacing_m)
+    column = slots("column", count, spacing_m)
+    laid = [places(_xy(line.at(s)), h, wide) for s, h in zip(stations, headings, strict=True)]
+    fits = _fitting(group_map, line, stations, laid, wide)
+    keep = [formation != "column" and f for f in fits]
+    if steps >= 1 and keep[0] and not keep[1]:
+        keep[0] = False  # the group forms up in the shape it sets off in
+    layer = _Layer(line, group_map, wide, column, headings[-1])
+    plan = _shape_plan(stations, keep, layer, COLUMN_STEP_SHARE * spacing_m)
+    shapes: list[Formation] = []
+    step_places: list[FloatArray] = []
+    step_headings: list[FloatArray] = []
+    step_stations: list[FloatArray] = []
+    for s, wide_here in plan:
+        laid_here = layer.lay(s, wide=wide_here, at_goal=s == stations[-1])
+        if laid_here is None:
+            x, y = line.at(s)
+            raise ValueError(
+                f"the group does not fit around ({x:.2f}, {y:.2f}) m, not even in a column "
+                f"{spacing_m:g} m apart: try a smaller spacing or another goal"
+            )
+        if not wide_here and shapes and shapes[-1] == "column":
+            # a column moved on along its route at its start never steps back, and a step
+            # that would not move it is left out
+            laid_here = layer.onward(laid_here, step_stations[-1], at_goal=s == stations[-1])
+            if laid_here is None:
+                continue
+        shapes.append(formation if wide_here else "column")
+        step_places.append(laid_here[0])
+        step_headings.append(laid_here[1])
+        step_stations.append(laid_here[2])
+    slot = assign(robots_xy_m, step_places[0])
+    places_m = np.empty((count, len(shapes), 2))
+    headings_rad = np.empty((count, len(shapes)))
+    stations_m = np.empty((count, len(shapes)))
+    for k in range(len(shapes)):
+        if k > 0 and shapes[k] != shapes[k - 1]:
+            slot = _regroup(places_m[:, k - 1], step_places[k])
+        places_m[:, k] = step_places[k][slot]
+        headings_rad[:, k] = step_headings[k][slot]
+        stations_m[:, k] = step_stations[k][slot]
+    return GroupWay(places_m, headings_rad, tuple(shapes), route, stations_m)
+
+
+class _Layer:
+    """The group's places at a station along the route, in the formation or in a column."""
+
+    def __init__(
+        self,
+        line: _Polyline,
+        group_map: GroupMap | None,
+        wide: FloatArray,
+        column: FloatArray,
+        goal_heading_rad: float,
+    ) -> None:
+        self.line, self.group_map = line, group_map
+        self.wide, self.column = wide, column
+        self.goal_heading_rad = goal_heading_rad
+
+    def lay(
+        self, s_m: float, *, wide: bool, at_goal: bool
+    ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """(places [m], headings [rad], route stations [m], NaN off the route) of the group
+        centred ``s_m`` along the route, or None where it does not fit. At the goal the
+        group faces the goal's heading, and a column is not moved off it."""
+        line, count = self.line, self.wide.shape[0]
+        centre = line.at(s_m)
+        if wide:
+            heading = self.goal_heading_rad if at_goal else line.heading(s_m)
+            laid = places(_xy(centre), heading, self.wide)
+            if self.group_map is not None and not _fits(self.group_map, centre, laid):
+                return None
+            return laid, np.full(count, heading), np.full(count, np.nan)
+        ahead = _column_stations(line, s_m + self.column[:, 0], self.group_map, movable=not at_goal)
+        if ahead is None:
+            return None
+        return self._column(np.array(ahead), at_goal=at_goal)
+
+    def onward(
+        self,
+        laid: tuple[FloatArray, FloatArray, FloatArray],
+        before_m: FloatArray,
+        *,
+        at_goal: bool,
+    ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """A column ``laid`` moved on to at least where it stood before (``before_m``, route
+        stations [m]), or None if it would not move at all."""
+        ahead = np.maximum(laid[2], before_m)
+        if not at_goal and np.allclose(ahead, before_m, atol=1e-6):
+            return None
+        return self._column(ahead, at_goal=at_goal)
+
+    def _column(
+        self, ahead_m: FloatArray, *, at_goal: bool
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        count, line = ahead_m.shape[0], self.line
+        turned = [self.goal_heading_rad] * count if at_goal else [line.heading(a) for a in ahead_m]
+        return np.array([line.at(a) for a in ahead_m]), np.array(turned), ahead_m
+
+
+def _shape_plan(
+    stations_m: list[float], keep: list[bool], layer: _Layer, column_step_m: float
+) -> list[tuple[float, bool]]:
+    """(station [m], in the formation asked for) of each place in turn: the steps; at each
+    change of shape a step where the group changes it standing (laid in the new shape where
+    it stood, or else in the old shape where it goes, when it fits there); and from a column
+    to a column, more places between, at most ``column_step_m`` apart (the next robot's
+    place is then clear of the one ahead, which has not left it yet)."""
+    last = stations_m[-1]
+    plan: list[tuple[float, bool]] = []
+    for s, wide in zip(stations_m, keep, strict=True):
+        if plan and plan[-1][1] != wide:
+            before = plan[-1][0]
+            if layer.lay(before, wide=wide, at_goal=False) is not None:
+                plan.append((before, wide))
+            elif layer.lay(s, wide=not wide, at_goal=s == last) is not None:
+                plan.append((s, not wide))
+        plan.append((s, wide))
+    out = plan[:1]
+    for (a, wide_a), (b, wide_b) in itertools.pairwise(plan):
+        if not wide_a and not wide_b and b - a > column_step_m:
+            parts = math.ceil((b - a) / column_step_m)
+            out += [(a + j * (b - a) / parts, False) for j in range(1, parts)]
+        out.append((b, wide_b))
+    return out
+
+
+def _column_stations(
+    line: _Polyline, stations_m: FloatArray, group_map: GroupMap | None, *, movable: bool
+) -> list[float] | None:
+    """[m] where along the route a column stands: at ``stations_m``, or, if a place there is
+    off the route's ends and in a wall and the column is ``movable`` (not at the goal, where
+    its centre must be), moved along until all of it is on the route (when the route is long
+    enough to hold it); None if it does not fit."""
+    if group_map is None:
+        return [float(a) for a in stations_m]
+    tries = [stations_m]
+    if movable and stations_m.max() - stations_m.min() <= line.length_m:
+        moved = stations_m - min(stations_m.min(), 0.0)
+        tries.append(moved - max(moved.max() - line.length_m, 0.0))
+    radius = group_map.radius_m
+    ends = (line.at(0.0), line.at(line.length_m))
+    for at in tries:
+        points = np.array([line.at(a) for a in at])
+        off = [  # a place off the route's ends must be seen from its end, not behind a wall
+            group_map.sees(ends[int(a > 0)], p, radius)
+            for a, p in zip(at, points, strict=True)
+            if a < 0 or a > line.length_m
+        ]
+        if (group_map.clearance_m(points) >= radius).all() and all(off):
+            return [float(a) for a in at]
+    return None
+
+
+def _fitting(
+    group_map: GroupMap | None,
+    line: _Polyline,
+    stations_m: list[float],
+    laid_m: list[FloatArray],
+    offsets: FloatArray,
+) -> list[bool]:
+    """Whether the formation ``offsets`` may be kept at each step: it fits there (laid as
+    ``laid_m``) and, between the ends, all along the route from the step before to the step
+    after (tried every FIT_EVERY_M). Everything fits without a map."""
+    if group_map is None:
+        return [True] * len(stations_m)
+    fits = [_fits(group_map, line.at(s), p) for s, p in zip(stations_m, laid_m, strict=True)]
+    samples = np.linspace(0.0, line.length_m, max(math.ceil(line.length_m / FIT_EVERY_M), 1))
+    free = [
+        _fits(group_map, line.at(s), places(_xy(line.at(s)), line.heading(s), offsets))
+        for s in samples
+    ]
+    for k in range(1, len(stations_m) - 1):
+        around = (samples >= stations_m[k - 1]) & (samples <= stations_m[k + 1])
+        fits[k] = fits[k] and all(f for f, a in zip(free, around, strict=True) if a)
+    return fits
+
+
+def _xy(point: FloatArray) -> tuple[float, float]:
+    return float(point[0]), float(point[1])
+
+
+def _fits(group_map: GroupMap, centre_m: FloatArray, places_m: FloatArray) -> bool:
+    """Every place is clear by the radius and FIT_SLACK_M, and seen from the centre."""
+    clear = group_map.radius_m + FIT_SLACK_M
+    if not (group_map.clearance_m(places_m) >= clear).all():
+        return False
+    return all(group_map.sees(centre_m, p, group_map.radius_m) for p in places_m)
+
+
+def _regroup(from_m: FloatArray, to_m: FloatArray) -> npt.NDArray[np.int64]:
+    """For each robot at ``from_m``, its place of ``to_m`` when the shape changes: the least
+    sum of squared distances, so nobody overtakes (a column forms in the order the robots
+    already stand, and spreads out without crossing)."""
+    d2 = ((from_m[:, None, :] - to_m[None, :, :]) ** 2).sum(axis=2)
+    rows, cols = linear_sum_assignment(d2)
+    order = np.empty(len(rows), dtype=np.int64)
+    order[rows] = cols
+    return order
