@@ -16,7 +16,7 @@ from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands
 __all__ = ["add_commands"]
 
 DEFAULT_BROKER = "mqtt://127.0.0.1:1883"
-# [m] keep in step with navd.fleetctl.way.DEFAULT_RADIUS_M (not imported: the parser stays light)
+# [m] as navd.fleetctl.group_map.DEFAULT_RADIUS_M (not imported: the parser stays light)
 DEFAULT_RADIUS_M = 0.3
 
 
@@ -44,7 +44,10 @@ def add_commands(commands: Commands) -> None:
         "--spacing", type=float, default=1.5, help="[m] between neighbours (default 1.5)"
     )
     goal.add_argument(
-        "--step", type=float, default=1.5, help="[m] released at a time (default 1.5)"
+        "--step",
+        type=float,
+        default=1.5,
+        help="[m] released at a time (default 1.5; a column goes half its spacing at a time)",
     )
     goal.add_argument(
         "--speed", type=float, default=0.3, help="[m/s] the group's top speed (default 0.3)"
@@ -117,14 +120,15 @@ def _status(args: argparse.Namespace) -> int:
 def _goal(args: argparse.Namespace) -> int:
     from navd.fleetctl.control import drive_group  # noqa: PLC0415 - MQTT only for this command
     from navd.fleetctl.group import GroupGoal  # noqa: PLC0415
-    from navd.fleetctl.way import GroupMap  # noqa: PLC0415
+    from navd.fleetctl.group_map import GroupMap  # noqa: PLC0415
     from navd.slam.errors import MapFileError  # noqa: PLC0415
 
     numbers = (args.x, args.y, args.spacing, args.step, args.speed, args.timeout, args.radius)
+    numbers += () if args.heading is None else (args.heading,)
     positive = (args.spacing, args.step, args.speed, args.radius)
     if not all(math.isfinite(v) for v in numbers) or min(positive) <= 0:
         print(
-            "navd fleet goal: x, y must be finite; spacing, step, speed and radius > 0",
+            "navd fleet goal: x, y and heading must be finite; spacing, step, speed and radius > 0",
             file=sys.stderr,
         )
         return EXIT_USAGE

@@ -24,7 +24,7 @@ import numpy as np
 
 from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.group import GroupDrive, GroupGoal
-from navd.fleetctl.way import GroupMap
+from navd.fleetctl.group_map import GroupMap
 
 __all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action"]
 

@@ -34,7 +34,8 @@ import numpy.typing as npt
 
 from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
 from navd.fleetctl.formation import Formation, shape_error
-from navd.fleetctl.way import GroupMap, GroupWay, lay_out
+from navd.fleetctl.group_map import GroupMap
+from navd.fleetctl.way import GroupWay, lay_out
 
 __all__ = ["GroupDrive", "GroupGoal"]
 
@@ -48,9 +49,12 @@ START_DEVIATION_M = 1.0
 # slowest is within CAUGHT_UP_M
 AHEAD_M = 0.1
 CAUGHT_UP_M = 0.05
-# [m] a robot this near another's place is in its way (two robots' widths and their margins:
-# the other cannot plan to a place it stands on)
-IN_THE_WAY_M = 1.0
+# [m] a robot this near another's place is in its way: the other cannot plan to it (a place
+# needs a robot's radius and margin, 0.3 m, clear of the robot there, 0.28 m across its
+# corners at navd's defaults, with room for the positions' noise). Farther than a triangle's
+# back row is from the robot ahead at a step's start (0.78 m at 1.5 m spacing), and than a
+# column's next robot is from the one ahead (0.75 m): those are paced as usual.
+IN_THE_WAY_M = 0.7
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,7 +71,8 @@ class GroupGoal:
             size, its own and ``safety`` margins): the back row bends round the robot ahead
             and is paused and restarted over and over, and a 1.5 m step takes 10-20 s instead
             of 7 s (three simulated robots; 1.2 m spacing against 1.5 m).
-        step_m: [m] the centre's way is released this much at a time.
+        step_m: [m] the centre's way is released this much at a time (a column: half its
+            spacing at a time, see ``way``).
         start_delay_s: [s] all robots start this long after the orders go out.
         speed_mps: [m/s] the group's top speed (each edge's maxSpeed): slow enough that a
             robot told to wait stops short of running ahead.
@@ -82,6 +87,17 @@ class GroupGoal:
     start_delay_s: float = 2.0
     speed_mps: float = 0.3
 
+    def __post_init__(self) -> None:
+        numbers = [self.x_m, self.y_m, self.spacing_m, self.step_m, self.start_delay_s]
+        numbers += [self.speed_mps] + ([] if self.heading_rad is None else [self.heading_rad])
+        if not all(math.isfinite(v) for v in numbers):
+            raise ValueError(f"a group goal's numbers must be finite: {self}")
+        if min(self.spacing_m, self.step_m, self.speed_mps) <= 0 or self.start_delay_s < 0:
+            raise ValueError(
+                f"a group goal's spacing_m, step_m and speed_mps must be > 0 and its "
+                f"start_delay_s >= 0: {self}"
+            )
+
 
 @dataclass
 class _Member:
@@ -91,6 +107,7 @@ class _Member:
     serial: str
     places: FloatArray  # [m] its place at each step (0: the form-up place)
     headings: FloatArray  # [rad] which way it faces at each place
+    stations: FloatArray  # [m] how far along the route each place is in a column (NaN: not)
     start_xy: tuple[float, float]
     reached: int = -1  # the last place reached (-1: none yet)
     update: int = 0
@@ -158,7 +175,10 @@ class GroupDrive:
         )
         self.members: list[_Member] = []
         for i, (maker, serial, x, y) in enumerate(robots):
-            member = _Member(maker, serial, self.way.places_m[i], self.way.headings_rad[i], (x, y))
+            way = self.way
+            member = _Member(
+                maker, serial, way.places_m[i], way.headings_rad[i], way.stations_m[i], (x, y)
+            )
             member.map_id = (map_ids or {}).get(serial, member.map_id)
             self.members.append(member)
         self.start_unix_s = now_unix_s + goal.start_delay_s
@@ -268,31 +288,40 @@ class GroupDrive:
 
     def corrections(self, now_s: float) -> list[tuple[_Member, str]]:
         """The pauses and resumes (``startPause`` / ``stopPause``) that keep the robots abreast
-        within the released step, from their positions carried on to ``now_s``. A robot in the
-        way of a slower one (within IN_THE_WAY_M of its place: in a column, the robot ahead
-        stands where the next one goes) is never held: holding it would hold the slower one
-        for good (its place taken, it cannot even plan)."""
+        within the released step, from their positions carried on to ``now_s``: a robot that
+        has come a larger share of its step than the slowest, by AHEAD_M or more of its own
+        step, waits (steps differ in length where the shape changes or the route bends). A
+        robot in the way of a slower one (within IN_THE_WAY_M of its place: in a column, the
+        robot ahead may stand where the next one goes) is never held: holding it would hold
+        the slower one for good (its place taken, it cannot even plan)."""
         k = self.released
         if k < 1 or any(m.position is None for m in self.members):
             return []
-        going = [m for m in self.members if m.reached < k]
-        progress = {m.serial: self._progress(m, k, now_s) for m in going}
-        slowest = min(progress.values(), default=math.inf)
+        # a robot whose place does not move this step has nothing to drive: it is no one's pace
+        going = [m for m in self.members if m.reached < k and self._length(m, k) > 1e-9]
+        share = {m.serial: self._share(m, k, now_s) for m in going}
+        slowest = min(share.values(), default=math.inf)
         out = []
         for m in self.members:
-            ahead = progress.get(m.serial, math.inf) - slowest if going else 0.0
-            blocking = m in going and any(
-                progress[o.serial] < progress[m.serial] and self._in_the_way(m, o, k, now_s)
+            mine = share.get(m.serial)
+            ahead = math.inf if mine is None else (mine - slowest) * self._length(m, k)
+            blocking = mine is not None and any(
+                share[o.serial] < mine and self._in_the_way(m, o, k, now_s)
                 for o in going
                 if o is not m
             )
-            if not m.paused and m in going and ahead > AHEAD_M and not blocking:
+            if not m.paused and mine is not None and ahead > AHEAD_M and not blocking:
                 m.paused = True
                 out.append((m, "startPause"))
             elif m.paused and (ahead < CAUGHT_UP_M or blocking):
                 m.paused = False
                 out.append((m, "stopPause"))
         return out
+
+    @staticmethod
+    def _length(m: _Member, k: int) -> float:
+        """[m] the length of robot ``m``'s step k (from place k - 1 to place k)."""
+        return float(np.hypot(*(m.places[k] - m.places[k - 1])))
 
     def _in_the_way(self, m: _Member, other: _Member, k: int, now_s: float) -> bool:
         """Robot ``m`` stands within IN_THE_WAY_M of ``other``'s place k."""
@@ -320,7 +349,7 @@ class GroupDrive:
         """How much (0..1) of step k robot ``m`` has driven."""
         if k < 1:
             return 0.0
-        length = float(np.hypot(*(m.places[k] - m.places[k - 1])))
+        length = self._length(m, k)
         return self._progress(m, k, now_s) / length if length > 1e-9 else 1.0
 
     def _order_id(self, m: _Member) -> str:
@@ -340,8 +369,7 @@ class GroupDrive:
         # facing the way on, so the next step starts without turning on the spot; but a
         # robot in a column follows a bending route: it goes on from one place to the next
         # as it came (a turn on the spot at every place would hold the column up)
-        in_column = bool(np.isfinite(self.way.stations_m[self.members.index(m), k]))
-        if k == self.steps - 1 or (k >= 0 and not in_column):
+        if k == self.steps - 1 or (k >= 0 and not math.isfinite(m.stations[k])):
             position["theta"] = math.remainder(float(m.headings[k]), math.tau)
         return {
             "nodeId": f"{self.group_id}-{m.serial}-{k + 1}",

@@ -20,30 +20,17 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import linear_sum_assignment
 
 from navd.fleetctl.formation import Formation, assign, places, slots
-from navd.planning.costmap import (
-    Costmap,
-    CostmapSettings,
-    GridFrame,
-    build_costmap,
-    static_layer,
-)
-from navd.planning.errors import GoalUnreachableError, StartBlockedError
-from navd.planning.global_planner import GlobalPlanner, SearchSettings
-from navd.slam.map_io import load_map
+from navd.fleetctl.group_map import GroupMap
 
-__all__ = ["DEFAULT_RADIUS_M", "GroupMap", "GroupWay", "lay_out"]
+__all__ = ["GroupWay", "lay_out"]
 
 FloatArray = npt.NDArray[np.float64]
-# [m] a robot's radius plus the margin it keeps from walls: navd's defaults (a 0.2 m disc,
-# safety.stop_distance_m 0.1)
-DEFAULT_RADIUS_M = 0.3
 # [m] a formation's place must be this much clearer of walls than a robot needs: robots are
 # never exactly on their places, and one squeezed against a wall slows the whole group
 FIT_SLACK_M = 0.15
@@ -54,100 +41,12 @@ FIT_SLACK_M = 0.15
 COLUMN_STEP_SHARE = 0.5
 # [m] the formation is tried along the route this often (a door between two steps is seen)
 FIT_EVERY_M = 0.2
+# [m] a route shorter than this (the goal where the group's centre is) is laid this long
+# along the goal's heading, so the formation has a direction
+MIN_ROUTE_M = 1e-3
 # [m] the route's heading at a point is that of the chord this long around it (a smoothed
 # route turns at corners; the formation should not flip there)
 HEADING_CHORD_M = 1.0
-# map cells at or above this occupancy [%] are walls (navd's planning default)
-OCCUPIED_PCT = 65
-# the centre's route is weighed as navd's planner weighs one (planning.cost_weight)
-ROUTE_COST_WEIGHT = 3.0
-
-
-@dataclass(frozen=True)
-class GroupMap:
-    """Where a robot of the group can be: a map's walls inflated by ``radius_m``.
-
-    Attributes:
-        costmap: the inflated map (its ``clearance_m`` is each cell's distance to a wall).
-        radius_m: [m] a robot's radius plus the margin it keeps.
-    """
-
-    costmap: Costmap
-    radius_m: float
-
-    @classmethod
-    def of_grid(
-        cls,
-        occupied: npt.NDArray[np.bool_],
-        origin_xy_m: tuple[float, float],
-        resolution_m: float,
-        radius_m: float = DEFAULT_RADIUS_M,
-        unknown: npt.NDArray[np.bool_] | None = None,
-    ) -> GroupMap:
-        """From a grid of walls (rows = y, cell (0, 0)'s corner at ``origin_xy_m``)."""
-        rows, cols = occupied.shape
-        frame = GridFrame(resolution_m, origin_xy_m[0], origin_xy_m[1], rows, cols)
-        settings = CostmapSettings(
-            robot_radius_m=radius_m,
-            inflation_radius_m=radius_m + 0.5,
-            cost_decay_per_m=3.0,
-            allow_unknown=False,
-            unknown_cost=1.0,
-            occupied_threshold_pct=OCCUPIED_PCT,
-        )
-        nothing = np.zeros_like(occupied) if unknown is None else unknown
-        return cls(build_costmap(frame, occupied, nothing, settings), radius_m)
-
-    @classmethod
-    def load(cls, yaml_path: Path, radius_m: float = DEFAULT_RADIUS_M) -> GroupMap:
-        """From a saved map (navd's or any map_server map); unknown cells are not driven.
-
-        Raises:
-            MapFileError: missing or malformed map files, named.
-        """
-        grid = load_map(yaml_path)
-        occupied, unknown = static_layer(grid.occupancy_percent(), OCCUPIED_PCT)
-        return cls.of_grid(
-            occupied, (grid.origin_x, grid.origin_y), grid.resolution, radius_m, unknown
-        )
-
-    def clearance_m(self, points_m: FloatArray) -> FloatArray:
-        """[m] each point's distance to the nearest wall (0 off the map or in unknown)."""
-        frame = self.costmap.frame
-        cells = frame.cells_of(np.atleast_2d(points_m))
-        inside = (
-            (cells[:, 0] >= 0)
-            & (cells[:, 0] < frame.rows)
-            & (cells[:, 1] >= 0)
-            & (cells[:, 1] < frame.cols)
-        )
-        out = np.zeros(cells.shape[0])
-        r, c = cells[inside, 0], cells[inside, 1]
-        known = ~self.costmap.unknown[r, c]
-        out[np.flatnonzero(inside)[known]] = self.costmap.clearance_m[r[known], c[known]]
-        return out
-
-    def sees(self, a_m: FloatArray, b_m: FloatArray, clear_m: float) -> bool:
-        """A robot can go straight from ``a_m`` to ``b_m`` [m] keeping ``clear_m`` from walls."""
-        length = float(np.hypot(*(b_m - a_m)))
-        count = max(math.ceil(length / (0.5 * self.costmap.frame.resolution_m)), 1) + 1
-        t = np.linspace(0.0, 1.0, count)[:, None]
-        return bool((self.clearance_m(a_m + t * (b_m - a_m)) >= clear_m).all())
-
-    def route(self, start_m: tuple[float, float], goal_m: tuple[float, float]) -> FloatArray:
-        """[m] N x 2 route of the group's centre from ``start_m`` to ``goal_m``.
-
-        Raises:
-            ValueError: the start or the goal is in a wall or off the map, or no route leads
-                there (the planner's reason, named).
-        """
-        try:
-            found = GlobalPlanner().plan(
-                self.costmap, start_m, goal_m, SearchSettings(ROUTE_COST_WEIGHT, smooth=True)
-            )
-        except (StartBlockedError, GoalUnreachableError) as err:
-            raise ValueError(f"the group's centre: {err}") from err
-        return found.points_m
 
 
 class _Polyline:
@@ -244,11 +143,7 @@ def lay_out(
     """
     count = robots_xy_m.shape[0]
     start = robots_xy_m.mean(axis=0)
-    goal = np.asarray(goal_xy_m, dtype=np.float64)
-    if group_map is None:
-        route = np.vstack([start, goal])
-    else:
-        route = group_map.route((float(start[0]), float(start[1])), goal_xy_m)
+    route = _centre_route(start, goal_xy_m, goal_heading_rad, group_map)
     line = _Polyline(route)
     steps = max(math.ceil(line.length_m / step_m), 1)
     stations = [k * line.length_m / steps for k in range(steps + 1)]
@@ -262,7 +157,7 @@ def lay_out(
     keep = [formation != "column" and f for f in fits]
     if steps >= 1 and keep[0] and not keep[1]:
         keep[0] = False  # the group forms up in the shape it sets off in
-    layer = _Layer(line, group_map, wide, column, headings[-1])
+    layer = _Layer(line, group_map, wide, column, headings[-1], explicit=goal_heading_rad)
     plan = _shape_plan(stations, keep, layer, COLUMN_STEP_SHARE * spacing_m)
     shapes: list[Formation] = []
     step_places: list[FloatArray] = []
@@ -276,7 +171,8 @@ def lay_out(
                 f"the group does not fit around ({x:.2f}, {y:.2f}) m, not even in a column "
                 f"{spacing_m:g} m apart: try a smaller spacing or another goal"
             )
-        if not wide_here and shapes and shapes[-1] == "column":
+        on_route = np.isfinite(laid_here[2]).all()
+        if on_route and shapes and shapes[-1] == "column" and np.isfinite(step_stations[-1]).all():
             # a column moved on along its route at its start never steps back, and a step
             # that would not move it is left out
             laid_here = layer.onward(laid_here, step_stations[-1], at_goal=s == stations[-1])
@@ -309,10 +205,13 @@ class _Layer:
         wide: FloatArray,
         column: FloatArray,
         goal_heading_rad: float,
+        *,
+        explicit: float | None,
     ) -> None:
         self.line, self.group_map = line, group_map
         self.wide, self.column = wide, column
         self.goal_heading_rad = goal_heading_rad
+        self.explicit = explicit  # the goal's heading, if the goal gave one
 
     def lay(
         self, s_m: float, *, wide: bool, at_goal: bool
@@ -328,10 +227,42 @@ class _Layer:
             if self.group_map is not None and not _fits(self.group_map, centre, laid):
                 return None
             return laid, np.full(count, heading), np.full(count, np.nan)
+        if at_goal and self.explicit is not None:  # a column facing the goal's heading
+            laid = places(_xy(centre), self.explicit, self.column)
+            if self.group_map is None or _fits(self.group_map, centre, laid):
+                return laid, np.full(count, self.explicit), np.full(count, np.nan)
         ahead = _column_stations(line, s_m + self.column[:, 0], self.group_map, movable=not at_goal)
         if ahead is None:
             return None
         return self._column(np.array(ahead), at_goal=at_goal)
+
+    def can_change(self, s_m: float, *, to_wide: bool, at_goal: bool) -> bool:
+        """The group, centred ``s_m`` along the route, can change its shape there: both shapes
+        fit, and each robot sees its new place from its old one (no wall between: a column
+        straddling a door does not spread out until all of it is through)."""
+        old = self.lay(s_m, wide=not to_wide, at_goal=at_goal)
+        new = self.lay(s_m, wide=to_wide, at_goal=at_goal)
+        if old is None or new is None:
+            return False
+        if self.group_map is None:
+            return True
+        order = _regroup(old[0], new[0])
+        radius = self.group_map.radius_m
+        return all(
+            self.group_map.sees(a, new[0][j], radius) for a, j in zip(old[0], order, strict=True)
+        )
+
+    def fits_along(self, a_m: float, b_m: float) -> bool:
+        """The formation fits all along the route from ``a_m`` to ``b_m`` (tried every
+        FIT_EVERY_M)."""
+        if self.group_map is None:
+            return True
+        line = self.line
+        for s in np.linspace(a_m, b_m, math.ceil(abs(b_m - a_m) / FIT_EVERY_M) + 1):
+            centre = line.at(float(s))
+            if not _fits(self.group_map, centre, places(_xy(centre), line.heading(s), self.wide)):
+                return False
+        return True
 
     def onward(
         self,
@@ -368,10 +299,15 @@ def _shape_plan(
     for s, wide in zip(stations_m, keep, strict=True):
         if plan and plan[-1][1] != wide:
             before = plan[-1][0]
-            if layer.lay(before, wide=wide, at_goal=False) is not None:
+            # spread out standing only where the formation then fits all the way on
+            if layer.can_change(before, to_wide=wide, at_goal=False) and (
+                not wide or layer.fits_along(before, s)
+            ):
                 plan.append((before, wide))
-            elif layer.lay(s, wide=not wide, at_goal=s == last) is not None:
+            elif layer.can_change(s, to_wide=wide, at_goal=s == last):
                 plan.append((s, not wide))
+            else:
+                raise ValueError(_no_room_to_change(layer.line.at(before), layer.line.at(s)))
         plan.append((s, wide))
     out = plan[:1]
     for (a, wide_a), (b, wide_b) in itertools.pairwise(plan):
@@ -422,7 +358,7 @@ def _fitting(
     if group_map is None:
         return [True] * len(stations_m)
     fits = [_fits(group_map, line.at(s), p) for s, p in zip(stations_m, laid_m, strict=True)]
-    samples = np.linspace(0.0, line.length_m, max(math.ceil(line.length_m / FIT_EVERY_M), 1))
+    samples = np.linspace(0.0, line.length_m, math.ceil(line.length_m / FIT_EVERY_M) + 1)
     free = [
         _fits(group_map, line.at(s), places(_xy(line.at(s)), line.heading(s), offsets))
         for s in samples
@@ -431,6 +367,33 @@ def _fitting(
         around = (samples >= stations_m[k - 1]) & (samples <= stations_m[k + 1])
         fits[k] = fits[k] and all(f for f, a in zip(free, around, strict=True) if a)
     return fits
+
+
+def _no_room_to_change(a_m: FloatArray, b_m: FloatArray) -> str:
+    return (
+        f"the group has no room to change its shape between ({a_m[0]:.2f}, {a_m[1]:.2f}) m and "
+        f"({b_m[0]:.2f}, {b_m[1]:.2f}) m: try a smaller spacing, a longer --step or another goal"
+    )
+
+
+def _centre_route(
+    start_m: FloatArray,
+    goal_xy_m: tuple[float, float],
+    goal_heading_rad: float | None,
+    group_map: GroupMap | None,
+) -> FloatArray:
+    """[m] N x 2: the centre's route, straight without a map; one shorter than MIN_ROUTE_M
+    (the goal where the centre is) is laid that long along the goal's heading (or east),
+    ending at the goal."""
+    if group_map is None:
+        route = np.vstack([start_m, np.asarray(goal_xy_m, dtype=np.float64)])
+    else:
+        route = group_map.route((float(start_m[0]), float(start_m[1])), goal_xy_m)
+    if float(np.hypot(*np.diff(route, axis=0).T).sum()) < MIN_ROUTE_M:
+        ahead = goal_heading_rad if goal_heading_rad is not None else 0.0
+        way_on = np.array([math.cos(ahead), math.sin(ahead)])
+        route = np.vstack([route[-1] - MIN_ROUTE_M * way_on, route[-1]])
+    return route
 
 
 def _xy(point: FloatArray) -> tuple[float, float]:

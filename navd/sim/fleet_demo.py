@@ -20,7 +20,7 @@ import numpy as np
 
 from navd.fleetctl.control import drive_group, fleet_view
 from navd.fleetctl.group import GroupGoal
-from navd.fleetctl.way import GroupMap
+from navd.fleetctl.group_map import GroupMap
 from navd.geometry.pose import Pose2
 from navd.sim.broker import LocalBroker
 from navd.sim.errors import SimError
@@ -29,7 +29,15 @@ from navd.sim.picture import fleet_picture
 from navd.sim.session import Session
 from navd.sim.world import World, from_shapes, office
 
-__all__ = ["MAX_ROBOTS", "OFFICE_ROBOTS", "hall", "office_with_beacons", "run_fleet_demo"]
+__all__ = [
+    "MAX_ROBOTS",
+    "OFFICE_ANCHORS",
+    "OFFICE_ROBOTS",
+    "hall",
+    "office_with_beacons",
+    "on_beacons",
+    "run_fleet_demo",
+]
 
 MAX_ROBOTS = 6  # each is a navd process and a simulator: more than a laptop wants
 OFFICE_ROBOTS = 3  # more do not fit a triangle 1.5 m apart in the office's rooms

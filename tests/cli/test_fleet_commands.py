@@ -16,7 +16,8 @@ from navd.sim.session import free_port
     [
         (["demo", "--fleet", "9"], 2, "--fleet takes 1 to 6 robots, got 9"),
         (["demo", "--fleet", "2", "--view"], 2, "drop --world, --view and --record"),
-        (["fleet", "goal", "nan", "1"], 2, "x, y must be finite"),
+        (["fleet", "goal", "nan", "1"], 2, "x, y and heading must be finite"),
+        (["fleet", "goal", "1", "1", "--heading", "inf"], 2, "x, y and heading must be finite"),
         (["fleet", "goal", "1", "1", "--spacing", "0"], 2, "spacing, step, speed and radius > 0"),
         (["fleet", "goal", "1", "1", "--radius", "-1"], 2, "spacing, step, speed and radius > 0"),
         (["fleet", "goal", "1", "1", "--map", "no-such-map.yaml"], 2, "--map: "),

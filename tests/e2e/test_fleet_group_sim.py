@@ -8,7 +8,6 @@ daemons keep their own clocks."""
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import json
 import math
 from pathlib import Path
@@ -19,11 +18,12 @@ import pytest
 
 from navd.fleetctl.control import drive_group, fleet_view
 from navd.fleetctl.group import GroupGoal
-from navd.fleetctl.way import GroupMap
+from navd.fleetctl.group_map import GroupMap
 from navd.geometry.pose import Pose2
 from navd.sim.fleet import fleet_sessions
+from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons
 from navd.sim.session import Session
-from navd.sim.world import from_shapes, office
+from navd.sim.world import from_shapes
 from tests.fleet.broker import Broker
 
 pytest.importorskip("aiomqtt", reason="aiomqtt missing")
@@ -74,9 +74,7 @@ async def test_three_robots_take_a_triangle_across_the_office_through_its_doors(
     # the built-in office: from the lower-left room through its 1 m door, the 1.5 m gap at the
     # corridor's corner and round a cabinet to the lower-right area; UWB-like beacons in the
     # corners (the office has none of its own)
-    corners = {"u1": (-0.5, -0.5), "u2": (10.5, -0.5), "u3": (10.5, 6.5), "u4": (-0.5, 6.5)}
-    world = dataclasses.replace(office(), beacons=tuple((b, x, y) for b, (x, y) in corners.items()))
-    beacons = {"known": {b: {"x_m": x, "y_m": y} for b, (x, y) in corners.items()}}
+    world = office_with_beacons()
     goal = GroupGoal(9.4, 1.5, heading_rad=0.0, formation="triangle", spacing_m=1.5)
     walls = GroupMap.of_grid(world.grid, (world.origin_x_m, world.origin_y_m), world.resolution_m)
     broker = Broker(tmp_path)
@@ -89,10 +87,10 @@ async def test_three_robots_take_a_triangle_across_the_office_through_its_doors(
     try:
         async with fleet_sessions(
             world, tmp_path, robots, broker.url,
-            overrides={**ON_BEACONS, "beacons": beacons}, sim_settings=SENSORS,
+            overrides=on_beacons(OFFICE_ANCHORS), sim_settings=SENSORS,
         ) as fleet:  # fmt: skip
             await _all_online(broker, fleet, 3)
-            summary = await drive_group(broker.url, goal, timeout_s=300.0, group_map=walls)
+            summary = await drive_group(broker.url, goal, timeout_s=420.0, group_map=walls)
             truth = np.array([(s.sim.body.x_m, s.sim.body.y_m) for s in fleet])
             collisions = [s.sim.body.collisions for s in fleet]
             ways = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]

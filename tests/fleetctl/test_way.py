@@ -4,6 +4,7 @@ refusals that name the place."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,8 @@ import pytest
 
 from navd.cli.fleet import DEFAULT_RADIUS_M as CLI_RADIUS_M
 from navd.fleetctl.group import GroupDrive, GroupGoal
-from navd.fleetctl.way import DEFAULT_RADIUS_M, GroupMap, GroupWay, lay_out
+from navd.fleetctl.group_map import DEFAULT_RADIUS_M, GroupMap
+from navd.fleetctl.way import GroupWay, lay_out
 from navd.sim.world import office
 from navd.slam.map_io import save_map
 from navd.slam.occupancy import OccupancyGrid
@@ -183,37 +185,25 @@ def test_the_shape_error_follows_the_way_through_a_change_of_shape() -> None:
     assert group.shape_error_m(6.0) > 0.1
 
 
-def test_in_a_column_the_robot_standing_on_the_next_ones_place_is_never_held() -> None:
-    walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M)
-    robots = [("navd", f"r{i}", float(x), float(y)) for i, (x, y) in enumerate(ROBOTS)]
-    goal = GroupGoal(11.0, 4.0, heading_rad=0.0, spacing_m=1.5, step_m=1.5)
-    group = GroupDrive("g", robots, goal, 0.0, group_map=walls)
-    shapes = group.way.shapes
-    k = next(k for k in range(1, len(shapes)) if shapes[k - 1] == shapes[k] == "column")
-    group.released = k
-    order = np.argsort(-group.way.stations_m[:, k])  # front first
-    front, follower = group.members[order[0]], group.members[order[1]]
-    # a column goes half its spacing at a time: the follower's place is 0.75 m behind where
-    # the front robot stands
-    assert np.hypot(*(follower.places[k] - front.places[k - 1])) == pytest.approx(0.75, abs=0.1)
+def test_a_robot_standing_on_a_slower_ones_place_is_never_held() -> None:
+    robots = [("navd", "a", 0.0, 0.0), ("navd", "b", 0.0, 1.5), ("navd", "c", 1.3, 0.75)]
+    group = GroupDrive("g", robots, GroupGoal(8.0, 0.75, spacing_m=1.5, step_m=2.0), 0.0)
+    group.released = 1
     for m in group.members:
-        m.reached = k - 1
-        x, y = m.places[k - 1]
+        m.reached = 0
+        x, y = m.places[0]
         group.on_position(m.serial, {"agvPosition": {"x": x, "y": y}}, heard_s=1.0)
-    x, y = front.places[k - 1] + 0.15 * (front.places[k] - front.places[k - 1]) / np.hypot(
-        *(front.places[k] - front.places[k - 1])
-    )
-    group.on_position(front.serial, {"agvPosition": {"x": x, "y": y}}, heard_s=1.0)
-    # 0.15 m ahead of the others, but within a metre of the follower's place: it goes on
-    assert front.serial not in {m.serial for m, _ in group.corrections(1.0)}
-    front.paused = True  # held before it came to stand there: let go
-    assert [(m.serial, a) for m, a in group.corrections(1.1)] == [(front.serial, "stopPause")]
-    # once clear of the follower's place, it waits for the others like anyone ahead
-    x, y = front.places[k - 1] + 1.2 * (front.places[k] - front.places[k - 1]) / np.hypot(
-        *(front.places[k] - front.places[k - 1])
-    )
-    group.on_position(front.serial, {"agvPosition": {"x": x, "y": y}}, heard_s=2.0)
-    assert [(m.serial, a) for m, a in group.corrections(2.0)] == [(front.serial, "startPause")]
+    a, b = (m for m in group.members if m.serial in ("a", "b"))
+    # a has driven most of its step, swerving onto b's place, which b has not left for
+    x, y = b.places[1] + [0.0, 0.2 * np.sign(a.places[1, 1] - b.places[1, 1])]
+    group.on_position(a.serial, {"agvPosition": {"x": x, "y": y}}, heard_s=1.0)
+    assert a.serial not in {m.serial for m, _ in group.corrections(1.0)}  # it goes on
+    a.paused = True  # held before it came to stand there: let go
+    assert [(m.serial, act) for m, act in group.corrections(1.1)] == [(a.serial, "stopPause")]
+    # back in its own lane, as far along: ahead of the others, and nobody's way: it waits
+    x, y = a.places[1]
+    group.on_position(a.serial, {"agvPosition": {"x": x - 0.3, "y": y}}, heard_s=2.0)
+    assert [(m.serial, act) for m, act in group.corrections(2.0)] == [(a.serial, "startPause")]
 
 
 def test_across_the_office_the_column_never_steps_back_and_goes_through_both_doors() -> None:
@@ -262,3 +252,49 @@ def test_a_column_place_has_no_heading_to_turn_to_but_a_formation_place_and_the_
             position = nodes[2 * (k + 1)]["nodePosition"]
             assert ("theta" in position) == (shape == "triangle" or k == group.steps - 1)
         assert nodes[2 * group.steps]["nodePosition"]["theta"] == pytest.approx(0.0)
+
+
+def test_a_goal_just_past_a_door_is_reached_in_a_column_that_spreads_out_there() -> None:
+    # a line 3 m wide fits at the goal, 0.75 m past the door, and fits just before the door:
+    # it must not spread out before the door and go through it abreast
+    walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M)
+    robots = np.array([[3.0, 3.5], [4.5, 3.5], [3.75, 5.0]])
+    way = lay_out(
+        robots, (8.0, 3.5), goal_heading_rad=0.0, formation="line", spacing_m=1.5, step_m=1.5,
+        group_map=walls,
+    )  # fmt: skip
+    assert way.shapes[-1] == "line"
+    for robot in way.places_m:  # each robot crosses the wall x = 6 in the door, in a column
+        for k in range(1, robot.shape[0]):
+            (x0, y0), (x1, y1) = robot[k - 1], robot[k]
+            if (x0 - 6.0) * (x1 - 6.0) < 0:
+                assert way.shapes[k] == "column" == way.shapes[k - 1]
+                assert 3.2 < y0 + (6.0 - x0) * (y1 - y0) / (x1 - x0) < 3.8
+
+
+@pytest.mark.parametrize("with_map", [False, True])
+def test_a_goal_where_the_group_is_turns_it_there_in_place(with_map: bool) -> None:
+    walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M) if with_map else None
+    robots = np.array([[2.0, 3.0], [2.0, 5.0], [3.5, 4.0]])
+    centre = robots.mean(axis=0)
+    way = lay_out(
+        robots, (float(centre[0]), float(centre[1])), goal_heading_rad=math.pi / 2,
+        formation="column", spacing_m=1.5, step_m=1.5, group_map=walls,
+    )  # fmt: skip
+    end = way.places_m[:, -1]
+    assert end.mean(axis=0) == pytest.approx(centre, abs=1e-3)
+    # a column 1.5 m apart along the goal's heading (north), not three robots on one spot
+    assert sorted(end[:, 1] - centre[1]) == pytest.approx([-1.5, 0.0, 1.5], abs=1e-3)
+    assert end[:, 0] == pytest.approx(np.full(3, centre[0]), abs=1e-3)
+    assert way.headings_rad[:, -1] == pytest.approx(np.full(3, math.pi / 2))
+
+
+def test_a_column_at_the_goal_lies_along_the_goals_heading() -> None:
+    walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M)
+    way = lay_out(
+        ROBOTS, (10.0, 4.0), goal_heading_rad=math.pi / 2, formation="column", spacing_m=1.5,
+        step_m=1.5, group_map=walls,
+    )  # fmt: skip
+    end = way.places_m[:, -1]
+    assert end[:, 0] == pytest.approx(np.full(3, 10.0), abs=1e-6)  # arrived going east,
+    assert sorted(end[:, 1]) == pytest.approx([2.5, 4.0, 5.5], abs=1e-6)  # lined up north
