@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from navd.planning._astar_kernels import segment_max_cost
 from navd.planning.costmap import (
     Costmap,
     CostmapSettings,
@@ -103,12 +104,15 @@ class GroupMap:
         out[np.flatnonzero(inside)[known]] = self.costmap.clearance_m[r[known], c[known]]
         return out
 
-    def sees(self, a_m: FloatArray, b_m: FloatArray, clear_m: float) -> bool:
-        """A robot can go straight from ``a_m`` to ``b_m`` [m] keeping ``clear_m`` from walls."""
-        length = float(np.hypot(*(b_m - a_m)))
-        count = max(math.ceil(length / (0.5 * self.costmap.frame.resolution_m)), 1) + 1
-        t = np.linspace(0.0, 1.0, count)[:, None]
-        return bool((self.clearance_m(a_m + t * (b_m - a_m)) >= clear_m).all())
+    def sees(self, a_m: FloatArray, b_m: FloatArray) -> bool:
+        """A robot's centre can go straight from ``a_m`` to ``b_m`` [m]: no cell on the way
+        is nearer a wall than ``radius_m``, unknown or off the map (the line of sight navd's
+        planner smooths its routes with)."""
+        frame = self.costmap.frame
+        (r0, c0), (r1, c1) = frame.cells_of(np.array([a_m, b_m]))
+        if not (frame.contains(int(r0), int(c0)) and frame.contains(int(r1), int(c1))):
+            return False
+        return math.isfinite(segment_max_cost(self.costmap.cost, r0, c0, r1, c1))
 
     def route(self, start_m: tuple[float, float], goal_m: tuple[float, float]) -> FloatArray:
         """[m] N x 2 route of the group's centre from ``start_m`` to ``goal_m``.

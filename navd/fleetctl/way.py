@@ -116,13 +116,8 @@ class GroupWay:
 
     def shape_summary(self) -> str:
         """The shapes in order, runs counted: "triangle x2, column x4, triangle x3"."""
-        runs: list[list[object]] = []
-        for shape in self.shapes:
-            if runs and runs[-1][0] == shape:
-                runs[-1][1] = int(str(runs[-1][1])) + 1
-            else:
-                runs.append([shape, 1])
-        return ", ".join(f"{shape} x{count}" for shape, count in runs)
+        runs = itertools.groupby(self.shapes)
+        return ", ".join(f"{shape} x{sum(1 for _ in run)}" for shape, run in runs)
 
 
 def lay_out(
@@ -147,17 +142,20 @@ def lay_out(
     line = _Polyline(route)
     steps = max(math.ceil(line.length_m / step_m), 1)
     stations = [k * line.length_m / steps for k in range(steps + 1)]
-    headings = [line.heading(s) if line.length_m > 1e-6 else 0.0 for s in stations]
-    if goal_heading_rad is not None:
-        headings[-1] = goal_heading_rad
+    end_heading = line.heading(line.length_m) if goal_heading_rad is None else goal_heading_rad
     wide = slots(formation, count, spacing_m)
     column = slots("column", count, spacing_m)
-    laid = [places(_xy(line.at(s)), h, wide) for s, h in zip(stations, headings, strict=True)]
-    fits = _fitting(group_map, line, stations, laid, wide)
-    keep = [formation != "column" and f for f in fits]
-    if steps >= 1 and keep[0] and not keep[1]:
+    layer = _Layer(line, group_map, wide, column, end_heading, explicit=goal_heading_rad)
+    # the formation is kept at a step where it fits there and, between the ends, all along
+    # the route from the step before to the step after
+    keep = [
+        formation != "column"
+        and layer.lay(s, wide=True, at_goal=k == steps) is not None
+        and (k in (0, steps) or layer.fits_along(stations[k - 1], stations[k + 1]))
+        for k, s in enumerate(stations)
+    ]
+    if keep[0] and not keep[1]:
         keep[0] = False  # the group forms up in the shape it sets off in
-    layer = _Layer(line, group_map, wide, column, headings[-1], explicit=goal_heading_rad)
     plan = _shape_plan(stations, keep, layer, COLUMN_STEP_SHARE * spacing_m)
     shapes: list[Formation] = []
     step_places: list[FloatArray] = []
@@ -247,10 +245,7 @@ class _Layer:
         if self.group_map is None:
             return True
         order = _regroup(old[0], new[0])
-        radius = self.group_map.radius_m
-        return all(
-            self.group_map.sees(a, new[0][j], radius) for a, j in zip(old[0], order, strict=True)
-        )
+        return all(self.group_map.sees(a, b) for a, b in zip(old[0], new[0][order], strict=True))
 
     def fits_along(self, a_m: float, b_m: float) -> bool:
         """The formation fits all along the route from ``a_m`` to ``b_m`` (tried every
@@ -336,37 +331,13 @@ def _column_stations(
     for at in tries:
         points = np.array([line.at(a) for a in at])
         off = [  # a place off the route's ends must be seen from its end, not behind a wall
-            group_map.sees(ends[int(a > 0)], p, radius)
+            group_map.sees(ends[int(a > 0)], p)
             for a, p in zip(at, points, strict=True)
             if a < 0 or a > line.length_m
         ]
         if (group_map.clearance_m(points) >= radius).all() and all(off):
             return [float(a) for a in at]
     return None
-
-
-def _fitting(
-    group_map: GroupMap | None,
-    line: _Polyline,
-    stations_m: list[float],
-    laid_m: list[FloatArray],
-    offsets: FloatArray,
-) -> list[bool]:
-    """Whether the formation ``offsets`` may be kept at each step: it fits there (laid as
-    ``laid_m``) and, between the ends, all along the route from the step before to the step
-    after (tried every FIT_EVERY_M). Everything fits without a map."""
-    if group_map is None:
-        return [True] * len(stations_m)
-    fits = [_fits(group_map, line.at(s), p) for s, p in zip(stations_m, laid_m, strict=True)]
-    samples = np.linspace(0.0, line.length_m, math.ceil(line.length_m / FIT_EVERY_M) + 1)
-    free = [
-        _fits(group_map, line.at(s), places(_xy(line.at(s)), line.heading(s), offsets))
-        for s in samples
-    ]
-    for k in range(1, len(stations_m) - 1):
-        around = (samples >= stations_m[k - 1]) & (samples <= stations_m[k + 1])
-        fits[k] = fits[k] and all(f for f, a in zip(free, around, strict=True) if a)
-    return fits
 
 
 def _no_room_to_change(a_m: FloatArray, b_m: FloatArray) -> str:
@@ -405,7 +376,7 @@ def _fits(group_map: GroupMap, centre_m: FloatArray, places_m: FloatArray) -> bo
     clear = group_map.radius_m + FIT_SLACK_M
     if not (group_map.clearance_m(places_m) >= clear).all():
         return False
-    return all(group_map.sees(centre_m, p, group_map.radius_m) for p in places_m)
+    return all(group_map.sees(centre_m, p) for p in places_m)
 
 
 def _regroup(from_m: FloatArray, to_m: FloatArray) -> npt.NDArray[np.int64]:

@@ -13,6 +13,7 @@ import dataclasses
 import json
 import math
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -94,35 +95,49 @@ async def _online(url: str, fleet: list[Session], count: int, limit_s: float) ->
     raise SimError(f"not all {count} robots came online with a position within {limit_s:g} s")
 
 
-async def _drive(
-    world: World, folder: Path, count: int, url: str, limit_s: float
-) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _Scene:
+    """Where the demo's robots drive: the world, their starts [m], the beacons they localize
+    on, the group's goal [m] and heading [rad], the map the group plans on (None: open
+    ground)."""
+
+    world: World
+    starts: list[tuple[float, float]]
+    anchors: dict[str, tuple[float, float]]
+    goal_xy_m: tuple[float, float]
+    heading_rad: float | None
+    walls: GroupMap | None
+
+
+def _scene(count: int) -> _Scene:
+    """The office crossing for up to OFFICE_ROBOTS robots, the hall for more."""
     if count <= OFFICE_ROBOTS:
-        robots = [(f"robot-{k + 1}", Pose2(x, y, 0.0)) for k, (x, y) in enumerate(OFFICE_STARTS)]
-        anchors, goal_xy = OFFICE_ANCHORS, OFFICE_GOAL
-        walls: GroupMap | None = GroupMap.of_grid(
-            world.grid, (world.origin_x_m, world.origin_y_m), world.resolution_m
-        )
-    else:
-        robots = [
-            (f"robot-{k + 1}", Pose2(1.5, 1.5 + k * 7.0 / max(count - 1, 1), 0.0))
-            for k in range(count)
-        ]
-        anchors, goal_xy, walls = ANCHORS, HALL_GOAL, None
+        world = office_with_beacons()
+        origin = (world.origin_x_m, world.origin_y_m)
+        walls = GroupMap.of_grid(world.grid, origin, world.resolution_m)
+        return _Scene(world, list(OFFICE_STARTS[:count]), OFFICE_ANCHORS, OFFICE_GOAL, 0.0, walls)
+    starts = [(1.5, 1.5 + k * 7.0 / max(count - 1, 1)) for k in range(count)]
+    return _Scene(hall(), starts, ANCHORS, HALL_GOAL, None, None)
+
+
+async def _drive(scene: _Scene, folder: Path, url: str, limit_s: float) -> dict[str, Any]:
+    robots = [(f"robot-{k + 1}", Pose2(x, y, 0.0)) for k, (x, y) in enumerate(scene.starts)]
+    overrides = on_beacons(scene.anchors)
     async with fleet_sessions(
-        world, folder, robots[:count], url, overrides=on_beacons(anchors), sim_settings=SENSORS
+        scene.world, folder, robots, url, overrides=overrides, sim_settings=SENSORS
     ) as fleet:
-        await _online(url, fleet, count, 60.0)
-        heading = 0.0 if walls is not None else None
-        goal = GroupGoal(*goal_xy, heading_rad=heading, formation="triangle", spacing_m=1.5)
-        summary = await drive_group(url, goal, timeout_s=limit_s, group_map=walls)
+        await _online(url, fleet, len(robots), 60.0)
+        goal = GroupGoal(
+            *scene.goal_xy_m, heading_rad=scene.heading_rad, formation="triangle", spacing_m=1.5
+        )
+        summary = await drive_group(url, goal, timeout_s=limit_s, group_map=scene.walls)
         truths = [np.array([(x, y) for _, x, y, _ in s.sim.truth]) for s in fleet]
         collisions = [s.sim.body.collisions for s in fleet]
     ends = np.array([t[-1] for t in truths])
     summary.update(
-        world=world.name,
+        world=scene.world.name,
         collisions=sum(collisions),
-        centre_error_m=round(math.dist(ends.mean(axis=0), goal_xy), 3),
+        centre_error_m=round(math.dist(ends.mean(axis=0), scene.goal_xy_m), 3),
         driven_m=[round(float(np.hypot(*np.diff(t, axis=0).T).sum()), 1) for t in truths],
         trajectories=[t.tolist() for t in truths],
     )
@@ -138,17 +153,16 @@ def run_fleet_demo(count: int, out: Path, *, limit_s: float = 300.0) -> dict[str
     if not 1 <= count <= MAX_ROBOTS:
         raise SimError(f"--fleet takes 1 to {MAX_ROBOTS} robots, got {count}")
     out.mkdir(parents=True, exist_ok=True)
-    world = office_with_beacons() if count <= OFFICE_ROBOTS else hall()
+    scene = _scene(count)
     with tempfile.TemporaryDirectory(prefix="navd-fleet-") as folder:
         broker = LocalBroker(Path(folder))
         broker.start()
         try:
-            summary = asyncio.run(_drive(world, Path(folder), count, broker.url, limit_s))
+            summary = asyncio.run(_drive(scene, Path(folder), broker.url, limit_s))
         finally:
             broker.stop()
     trajectories = [np.array(t) for t in summary.pop("trajectories")]
-    goal_xy = OFFICE_GOAL if count <= OFFICE_ROBOTS else HALL_GOAL
-    route = np.array(summary.pop("route_m"))
-    fleet_picture(world, trajectories, goal_xy, out / "fleet.png", route_m=route)
+    route = np.array(summary["route_m"])
+    fleet_picture(scene.world, trajectories, scene.goal_xy_m, out / "fleet.png", route_m=route)
     (out / "fleet_summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
