@@ -32,6 +32,7 @@ from navd.drivers.kinematics import (
     wheel_command,
     wheel_speeds,
 )
+from navd.drivers.serial_port import open_exclusive
 from navd.lifecycle.clock import ticks
 from navd.lifecycle.messages import (
     DeviceConnected,
@@ -202,11 +203,7 @@ class ChassisDriver(Module):
         settings = self.settings.value
         try:
             port = await asyncio.to_thread(
-                serial.Serial,
-                port=settings.port,
-                baudrate=settings.baudrate,
-                timeout=0,
-                write_timeout=0,
+                open_exclusive, settings.port, settings.baudrate, timeout=0, write_timeout=0
             )
         except (serial.SerialException, OSError, ValueError) as err:
             raise SerialPortError(f"cannot open {settings.port}: {err}") from err

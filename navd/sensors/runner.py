@@ -24,6 +24,7 @@ import serial
 
 from navd.drivers.client import Client, ClientError
 from navd.drivers.protocol.frames import Role, SensorFrame
+from navd.drivers.serial_port import open_exclusive
 from navd.logs import get_logger
 from navd.sensors.ld06 import PacketReader, ScanAssembler
 from navd.sensors.nmea import NmeaReader
@@ -218,7 +219,7 @@ class _Program:
 
     def open_device(self) -> bool:
         try:
-            self.device = serial.Serial(self.link.port, self.link.baud, timeout=0.1)
+            self.device = open_exclusive(self.link.port, self.link.baud, timeout=0.1)
         except (serial.SerialException, OSError) as err:
             self.trouble.begin("device_unavailable", port=self.link.port, error=str(err))
             return False

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import asyncio
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -21,8 +21,13 @@ WARM_UP_TIMEOUT_S = 300.0  # [s] numba kernels compiling with a cold cache on a 
 
 
 @asynccontextmanager
-async def running_daemon(**sections: dict[str, Any]) -> AsyncIterator[tuple[Daemon, int]]:
-    """A started daemon listening on a free port; yields it and the port."""
+async def running_daemon(
+    before_start: Callable[[Daemon], object] | None = None, **sections: dict[str, Any]
+) -> AsyncIterator[tuple[Daemon, int]]:
+    """A started daemon listening on a free port; yields it and the port.
+
+    ``before_start`` is given the daemon before it starts (to record what its start-up
+    publishes)."""
     sections.setdefault("tcp", {})
     sections["tcp"] = {"port": 0, **sections["tcp"]}
     sections["viz"] = {"port": 0, "page_port": 0, **sections.get("viz", {})}
@@ -30,6 +35,8 @@ async def running_daemon(**sections: dict[str, Any]) -> AsyncIterator[tuple[Daem
     sections["logging"] = {"level": "warning", **sections.get("logging", {})}
     config = parse_config(sections)
     daemon = Daemon(config, build_modules(config), handle_signals=False)
+    if before_start is not None:
+        before_start(daemon)
     task = asyncio.create_task(daemon.run())
     try:
         await asyncio.wait_for(daemon.ready.wait(), READY_TIMEOUT_S)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import serial
 
 from navd.lifecycle.messages import (
     ConfigChange,
@@ -332,3 +333,38 @@ async def test_what_is_written_speeds_up_within_the_limits_even_after_an_outage(
         stopped = loop.time()
         drive(daemon, 0.0, 0.0)
         await until(lambda: b"0 0\n" in stm32.since(stopped))
+
+
+async def test_a_port_another_program_holds_is_refused_by_name_and_taken_when_freed(
+    tmp_path: Path,
+) -> None:
+    link = tmp_path / "ttyNAVD"
+    stm32 = FakeStm32(link)
+    holder = serial.Serial(str(link), 115200, exclusive=True)  # say, a terminal left open
+    lost: list[DeviceLost] = []
+    connected: list[DeviceConnected] = []
+
+    def recorders(daemon: Any) -> None:
+        daemon.bus.subscribe(DeviceLost, lost.append, module="test-recorder")
+        daemon.bus.subscribe(DeviceConnected, connected.append, module="test-recorder")
+
+    try:
+        async with running_daemon(
+            recorders,
+            chassis={
+                "enabled": True,
+                "port": str(link),
+                "reconnect_initial_s": 0.05,
+                "reconnect_max_s": 0.1,
+            },
+        ):
+            await until(lambda: len(lost) == 1)
+            await asyncio.sleep(0.3)  # several more attempts: none writes a byte
+            assert stm32.lines == [] and connected == []
+            assert "ttyNAVD is in use by another program" in lost[0].reason
+            holder.close()
+            await until(lambda: len(connected) == 1 and len(stm32.lines) >= 1)
+            assert stm32.lines[0][1] == b"0 0\n"
+    finally:
+        holder.close()
+        stm32.unplug()

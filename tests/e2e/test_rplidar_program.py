@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tests.e2e.ptys import linked_pty
 from tests.e2e.test_viz_process import logged
 from tests.sensors.rplidar_emulator import RplidarEmulator
 from tests.sensors.test_rplidar import room
@@ -72,7 +73,7 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
     logged(daemon, "ready")
     tcp_port = logged(daemon, "listening")["port"]
     viewer = await FoxgloveClient.open(logged(daemon, "viz_listening")["port"])
-    master, slave = os.openpty()
+    master, slave, link = linked_pty(tmp_path)
     emulator = RplidarEmulator(room, model=0x18)  # an A1
     device = _SerialDevice(master, emulator)
     device.start()
@@ -80,7 +81,7 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
     log = log_path.open("w")
     navd = f"127.0.0.1:{tcp_port}"
     program = subprocess.Popen(
-        [*SENSOR, "--port", os.ttyname(slave), "--navd", navd, "--device-id", "lidar0"],
+        [*SENSOR, "--port", str(link), "--navd", navd, "--device-id", "lidar0"],
         stdout=log,
         stderr=subprocess.STDOUT,
     )
@@ -106,6 +107,7 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
         # The port vanishes (the USB adapter pulled out): said once, waited for.
         device.stop.set()
         device.join(2.0)
+        link.unlink()
         os.close(master)
         os.close(slave)
         time.sleep(2.0)

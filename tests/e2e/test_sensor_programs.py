@@ -22,6 +22,7 @@ from navd.lifecycle.messages import GpsFix, LaserScan
 from navd.sensors.ld06 import encode_packet
 from navd.viz.recording_reader import read_recording
 from navd.viz.recording_writer import recording_files
+from tests.e2e.ptys import linked_pty
 from tests.sensors.test_nmea import GGA
 
 pytestmark = pytest.mark.e2e
@@ -77,8 +78,8 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
 ) -> None:
     folder = tmp_path / "recorded"
     daemon, port = daemon_on_port(f'[record]\nenabled = true\ndir = "{folder}"\n')
-    master, slave = os.openpty()
-    device = os.ttyname(slave)
+    master, slave, link = linked_pty(tmp_path)
+    device = str(link)
     log = (tmp_path / "sensor.log").open("w")
     program = subprocess.Popen(
         [
@@ -112,6 +113,7 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
         assert seen is not None and seen.kind == role and seen.accepted > 2
         assert seen.rejected == 0
         # The port vanishes (a USB adapter pulled out): the program says so and waits.
+        link.unlink()
         os.close(master)
         os.close(slave)
         time.sleep(2.0)
