@@ -67,6 +67,36 @@ def test_a_near_goal_behind_the_robot_facing_away_is_driven_to_then_turned_on(
     assert max(math.hypot(px - goal[0], py - goal[1]) for px, py, _ in result.poses) < start + 0.1
 
 
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_goal_abeam_is_turned_to_on_the_spot_then_driven_to_and_turned_on(side: float) -> None:
+    # 0.45 m to the side, to be reached facing the way the robot faces now. The local planner
+    # alone turned ever slower as it came round, creeping forward (12 s to get there); the
+    # robot now turns on the spot at its top rate until it must brake, both ways.
+    cfg = config()
+    goal = NavGoal("g", 0.0, side * 0.45, 0.0)
+    result = drive(cfg, NO_WALLS, IDENTITY, goal, max_time_s=30, known_map=False)
+    assert result.state is GoalState.REACHED
+    period_s = 1.0 / cfg.planning.control_rate_hz
+    first_move = next(i for i, (v, _) in enumerate(result.commands) if v > 0.0)
+    # the route is 90 degrees off: no forward motion before the robot faces it within 20 deg
+    assert abs(math.remainder(result.poses[first_move][2] - side * math.pi / 2, math.tau)) < 0.35
+    assert first_move * period_s < 2.0  # a quarter turn, accelerating and braking
+    assert result.time_s < 7.0
+
+
+def test_the_last_turn_on_the_spot_does_not_slow_as_it_comes_round() -> None:
+    cfg = config()
+    result = drive(
+        cfg, NO_WALLS, IDENTITY, NavGoal("g", 1.0, 0.0, math.pi / 2), max_time_s=30, known_map=False
+    )
+    assert result.state is GoalState.REACHED
+    period_s = 1.0 / cfg.planning.control_rate_hz
+    arrived = next(i for i, (x, y, _) in enumerate(result.poses) if math.hypot(x - 1.0, y) <= 0.15)
+    # A quarter turn less the 0.2 rad tolerance at 1.5 rad/s top, braking at 1 rad/s^2:
+    # about 1.7 s; the local planner's own turn took 4 s.
+    assert (len(result.poses) - arrived) * period_s < 2.5
+
+
 def test_drives_through_the_room_without_touching_a_wall() -> None:
     cfg = config()
     result = drive(

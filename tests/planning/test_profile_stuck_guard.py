@@ -20,7 +20,7 @@ from navd.planning.guard import CollisionGuard, GuardSettings, guard_scale
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckMonitor, StuckPhase, StuckSettings
 
-PROFILE = VelocityProfile(0.5, 0.05, 0.5, 1.0, 1.0, (0.0, 0.5), (1.5, 0.8))
+PROFILE = VelocityProfile(0.5, 0.05, 0.5, 1.0, 1.0, (0.0, 0.5), (1.5, 0.8), 2.0)
 
 
 @pytest.mark.parametrize(
@@ -38,7 +38,7 @@ def test_speed_cap(remaining: float, moving: float, expected: float) -> None:
 
 
 def test_braking_distance_limits_the_cap_when_it_is_tighter() -> None:
-    gentle = VelocityProfile(2.0, 0.0, 0.5, 0.0, 0.0, (0.0,), (1.0,))
+    gentle = VelocityProfile(2.0, 0.0, 0.5, 0.0, 0.0, (0.0,), (1.0,), 2.0)
     assert gentle.speed_cap(1.0, 10.0) == pytest.approx(math.sqrt(2 * 0.5 * 1.0))
 
 
@@ -47,6 +47,22 @@ def test_braking_distance_limits_the_cap_when_it_is_tighter() -> None:
 )
 def test_yaw_rate_table_is_interpolated(v: float, w: float) -> None:
     assert PROFILE.yaw_rate_cap(v) == pytest.approx(w)
+
+
+@pytest.mark.parametrize(
+    ("error", "rate"),
+    [
+        (2.0, 1.5),  # far: the table's rate standing still
+        (-2.0, -1.5),  # the sign of the error
+        (0.5, 1.0),  # near: sqrt(a |e|) with a = 2 rad/s^2, braking at half of it
+        (-0.08, -0.4),
+        (0.0, 0.0),
+    ],
+)
+def test_a_turn_on_the_spot_runs_at_the_top_rate_until_it_must_brake(
+    error: float, rate: float
+) -> None:
+    assert PROFILE.turn_rate(error) == pytest.approx(rate)
 
 
 def test_stuck_monitor_phases_follow_the_configured_times() -> None:
