@@ -8,6 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
+from navd.planning._distance_kernels import any_within
 from navd.planning.dwa import PathField, path_field
 
 __all__ = ["Route"]
@@ -112,9 +113,10 @@ class Route:
             return last[4]
         here = self.cumulative[self.progress]
         stations = np.arange(here, min(here + ahead_m, self.length_m), STATION_STEP_M)
-        blocked = False
-        if stations.size > 0:
-            diff = self.point_at(stations)[:, None, :] - obstacles_m[None, :, :]
-            blocked = bool((np.einsum("ijk,ijk->ij", diff, diff) < radius_m**2).any())
+        blocked = stations.size > 0 and any_within(
+            np.ascontiguousarray(self.point_at(stations), dtype=np.float64),
+            np.ascontiguousarray(obstacles_m, dtype=np.float64),
+            float(radius_m),
+        )
         self._blocked = (self.progress, obstacles_m, radius_m, ahead_m, blocked)
         return blocked

@@ -37,6 +37,8 @@ def warm_up() -> None:
     nav.add_scan(IDENTITY, hits, np.empty((0, 2)), 0.1)  # with a plan, its rays mark and clear
     for k in range(3):
         nav.step(0.05 * k, IDENTITY)
+    assert nav.route is not None
+    nav.route.blocked(nav.map_layers.scan_points, 0.3, 1.0)  # asked by the planner's loop
     # The room above is inflated, so A* went cell by cell, its open list in buckets; an open
     # floor with no obstacle is searched by jumping.
     config = NavdConfig()

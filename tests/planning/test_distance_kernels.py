@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 
-from navd.planning._distance_kernels import distance_to
+from navd.planning._distance_kernels import any_within, distance_to
 
 
 @settings(max_examples=300, deadline=None)
@@ -33,3 +33,25 @@ def test_sparse_features_on_long_lines(shape: tuple[int, int]) -> None:
     mask = np.random.default_rng(sum(shape)).random(shape) < 0.002
     mask.flat[0] = True  # at least one
     np.testing.assert_array_equal(distance_to(mask), ndimage.distance_transform_edt(~mask))
+
+
+points = arrays(
+    np.float64,
+    st.tuples(st.integers(0, 12), st.just(2)),
+    elements=st.floats(-3.0, 3.0, allow_nan=False),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(points, points, st.floats(0.0, 2.0))
+def test_any_within_agrees_with_every_pair_compared(
+    a: np.ndarray, b: np.ndarray, radius: float
+) -> None:
+    pairs = ((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2) if a.size and b.size else []
+    assert any_within(a, b, radius) == bool(np.any(np.asarray(pairs) < radius**2))
+
+
+def test_any_within_is_strict_at_the_radius() -> None:
+    a = np.array([[0.0, 0.0]])
+    assert not any_within(a, np.array([[0.5, 0.0]]), 0.5)
+    assert any_within(a, np.array([[0.4999, 0.0], [9.0, 9.0]]), 0.5)

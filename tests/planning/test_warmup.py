@@ -1,7 +1,8 @@
 """The planning warm-up compiles what the planner then runs: in a fresh process, planning on
 an inflated room (the bucket search) and on open floor (jump point search), and replanning
-on each (the last route checked and continued), and the local planner on every kind of
-window, after it compiles nothing more, so a first goal never waits for the compiler."""
+on each (the last route checked and continued), the local planner on every kind of window
+and the route's blocked check, after it compiles nothing more, so a first goal never waits
+for the compiler."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ SCRIPT = textwrap.dedent(
     from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
     from navd.planning.global_planner import GlobalPlanner, SearchSettings
     from navd.planning.profile import VelocityProfile
+    from navd.planning.route import Route
     from navd.planning.warmup import warm_up
 
     modules = (
@@ -54,10 +56,12 @@ SCRIPT = textwrap.dedent(
                    Window(0.4, min_speed_mps=0.2)):
         local.choose(Pose2(0.0, 0.0, 0.1), (0.2, 0.1), wall[:, :2], route,
                      Pose2(2.0, 0.5, 0.0), window)
+    # the route's blocked check, on a scan's (read-only, strided) points
+    Route(np.array([[0.0, 0.0], [2.0, 0.5]])).blocked(wall[:, :2], 0.3, 1.0)
     after = {f.__name__: len(f.signatures) for f in kernels}
     names = ("bucket_astar", "trace_steps", "jump_point_search", "trace_back", "shortcut")
     dwa = ("window_samples", "snap_near", "rollouts", "chamfer_distance", "bucket_points")
-    for name in (*names, *dwa, "path_changed", "distance_to"):
+    for name in (*names, *dwa, "path_changed", "distance_to", "any_within"):
         assert warmed[name], (name, warmed)
     assert after == warmed, (warmed, after)
     print("ok")
