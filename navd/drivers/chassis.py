@@ -176,6 +176,7 @@ class ChassisDriver(Module):
                     )
                     self._publish_lost(str(err))
                     reported_down = True
+                self._close()  # opened but its first write failed: let go of the port's lock
                 # Real time, on either clock: a port comes back in the world, not in a
                 # simulation whose time may stand still until the wheels answer.
                 await asyncio.sleep(backoff)

@@ -176,12 +176,14 @@ async def drive_group(
     last was).
 
     Raises:
-        ValueError: no vehicle to drive, one asked for is not there, or no way for the group
-            on ``group_map`` (why, named).
+        ValueError: no vehicle to drive, one asked for is not there, robots on another map
+            than ``group_map``, or no way for the group on it (why, named).
     """
     view = await fleet_view(broker_url, interface)
     robots = _members(view, serials)
     maps = {v.serial: v.map_id for v in view.vehicles.values() if v.map_id is not None}
+    if group_map is not None:
+        group_map.check_robots_on_it({r[1]: maps[r[1]] for r in robots if r[1] in maps})
     group = GroupDrive(
         f"group-{uuid.uuid4().hex[:6]}",
         robots,

@@ -44,18 +44,23 @@ STUCK_CLEAR_RADIUS_M = 1.5
 # [rad] within approach_distance_m of a goal with a heading, the robot steers for that heading
 # only while the goal lies within this angle of it, seen from the robot: ahead along it. A goal
 # abeam or behind it is driven to facing the way, then turned on (steering for the goal's
-# heading with the goal abeam had the robot creep sideways: 15 s for 0.5 m, against 9 s).
+# heading with the goal abeam had the robot creep sideways).
 APPROACH_ALIGN_RAD = math.radians(45.0)
 # [rad] a turn on the spot aims the local planner at most this far ahead of the robot's
-# heading (beyond pi a heading reads as one the other way round)
+# heading: the local planner reads a heading nearer pi ahead as one the other way round when
+# the robot still turns the other way. Over the default 2 s horizon it caps a turn on the
+# spot at 1.25 rad/s (the yaw-rate table allows 1.5 standing).
 MAX_TURN_AIM_RAD = 2.5
 # A robot standing (below STANDING_MPS [m/s]) with its route more than TURN_FIRST_RAD off its
 # heading turns on the spot until it faces the route within ROUTE_FACED_RAD, as Nav2's
-# rotation shim does; the local planner's own turn toward it slows as the error shrinks and
-# crept forward meanwhile (4.5 s to turn 1.5 rad).
+# rotation shim does; the local planner's own turn toward it slowed as the error shrank, and
+# crept forward meanwhile (4.5 s to turn 1.5 rad). A turn on the spot that cannot go toward
+# the route at TURN_USEFUL_SHARE of the rate it wants (something in the way of the robot's
+# corners) is left to the local planner until the robot has moved.
 TURN_FIRST_RAD = math.radians(60.0)
 ROUTE_FACED_RAD = math.radians(15.0)
 STANDING_MPS = 0.02
+TURN_USEFUL_SHARE = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +126,7 @@ class Navigator:
         self._plan_reason: str | None = None
         self._stuck_replans = 0
         self._turning_first = False  # turning on the spot to face the route (see step)
+        self._turn_refused = False  # ... and it could not: not again until the robot moved
         self._last_error = ""
         self._fail_reason = ""
 
@@ -156,6 +162,7 @@ class Navigator:
         self._failing_since = None
         self._stuck_replans = 0
         self._turning_first = False
+        self._turn_refused = False
         self._plan_reason = "new goal"
         self.stuck.reset()
 
@@ -389,7 +396,7 @@ class Navigator:
                 backward=stuck.phase is StuckPhase.BACKING,
             )
         obstacles = self.map_layers.local_points(pose, s.local_radius_m, now)
-        turning = not aligning and self._faces_route_first(pose, carrot, stuck.phase)
+        turning = self._faces_route_first(pose, carrot, stuck.phase, aligning=aligning)
         choice = self._turn_toward(pose, carrot, obstacles, route) if turning else None
         if choice is None:  # (a turn on the spot that would touch something: not that way)
             choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
@@ -431,21 +438,37 @@ class Navigator:
     def _turn_toward(
         self, pose: Pose2, point: tuple[float, float], obstacles: FloatArray, route: Route
     ) -> DwaChoice | None:
-        """The local planner's turn on the spot toward ``point`` (None: it would collide)."""
+        """The local planner's turn on the spot toward ``point``; None, and no such turn again
+        until the robot has moved, if it cannot turn there usefully (see TURN_USEFUL_SHARE)."""
         toward = math.atan2(point[1] - pose.y, point[0] - pose.x)
         target, window = self._turn_on_the_spot(pose, toward, point)
-        return self.local.choose(pose, self._command, obstacles, route.field, target, window)
+        choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
+        wanted = self.profile.turn_rate(wrap_angle(toward - pose.yaw))
+        reachable = abs(self._command[1]) + self.local.settings.angular_accel_radps2 * (
+            self.local.settings.period_s
+        )
+        useful = TURN_USEFUL_SHARE * min(abs(wanted), reachable)
+        if choice is None or choice.angular_radps * math.copysign(1.0, wanted) < useful:
+            self._turning_first = False
+            self._turn_refused = True
+            return None
+        return choice
 
     def _faces_route_first(
-        self, pose: Pose2, carrot: tuple[float, float], phase: StuckPhase
+        self, pose: Pose2, carrot: tuple[float, float], phase: StuckPhase, *, aligning: bool
     ) -> bool:
         """Whether to turn on the spot toward the route before driving on (see
-        TURN_FIRST_RAD); never while stuck handling pushes or backs the robot."""
+        TURN_FIRST_RAD); never while stuck handling pushes or backs the robot, nor at the goal
+        (turning to its heading)."""
+        if aligning:
+            self._turning_first = False
+            return False
         off = angle_between(pose.yaw, math.atan2(carrot[1] - pose.y, carrot[0] - pose.x))
-        if self._turning_first:
-            keep = off > ROUTE_FACED_RAD
-        else:
-            keep = abs(self._command[0]) < STANDING_MPS and off > TURN_FIRST_RAD
+        standing = abs(self._command[0]) < STANDING_MPS
+        self._turn_refused = self._turn_refused and standing
+        if self._turn_refused:
+            return False
+        keep = off > ROUTE_FACED_RAD if self._turning_first else standing and off > TURN_FIRST_RAD
         self._turning_first = phase is StuckPhase.MOVING and keep
         return self._turning_first
 

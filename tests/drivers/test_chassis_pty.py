@@ -368,3 +368,21 @@ async def test_a_port_another_program_holds_is_refused_by_name_and_taken_when_fr
     finally:
         holder.close()
         stm32.unplug()
+
+
+async def test_a_port_whose_first_write_fails_is_let_go_and_opened_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real_write = serial.Serial.write
+    failures = [serial.SerialException("I/O error")]
+
+    def write_failing_once(self: serial.Serial, data: bytes) -> int | None:
+        if failures:
+            raise failures.pop()
+        return real_write(self, data)
+
+    monkeypatch.setattr(serial.Serial, "write", write_failing_once)
+    # the fixture waits for the first "0 0": it comes only if the failed port's lock was let go
+    async with chassis_daemon(tmp_path) as (_, stm32):
+        assert not failures
+        assert stm32.lines[0][1] == b"0 0\n"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ import pytest
 from navd.bench.room import WALLS
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
+from navd.planning.dwa import LocalPlanner
 from navd.planning.errors import GoalRefusedError
 from navd.planning.goal import GoalState, NavGoal
 from navd.planning.navigator import Navigator
@@ -92,9 +94,34 @@ def test_the_last_turn_on_the_spot_does_not_slow_as_it_comes_round() -> None:
     assert result.state is GoalState.REACHED
     period_s = 1.0 / cfg.planning.control_rate_hz
     arrived = next(i for i, (x, y, _) in enumerate(result.poses) if math.hypot(x - 1.0, y) <= 0.15)
-    # A quarter turn less the 0.2 rad tolerance at 1.5 rad/s top, braking at 1 rad/s^2:
-    # about 1.7 s; the local planner's own turn took 4 s.
+    # A quarter turn less the 0.2 rad tolerance at up to 1.25 rad/s (the aim's cap over the
+    # 2 s horizon), braking at 1 rad/s^2: under 2 s; the local planner's own turn took 4 s,
+    # never faster than 0.7 rad/s.
     assert (len(result.poses) - arrived) * period_s < 2.5
+    assert max(abs(w) for _, w in result.commands[arrived:]) >= 1.2
+
+
+def test_a_turn_on_the_spot_that_slows_against_walls_is_given_up_before_the_stuck_monitor(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A corridor too narrow for the rectangle to turn round in, the goal behind: its turn
+    # toward the route slows as its corners near the walls; once under half the rate it wants
+    # it is left to the local planner (before, it went on until the stuck monitor ended it).
+    turns: list[bool] = []
+    choose = LocalPlanner.choose
+
+    def spy(self: LocalPlanner, *args: Any) -> Any:
+        turns.append(args[-1].rotate_only)
+        return choose(self, *args)
+
+    monkeypatch.setattr(LocalPlanner, "choose", spy)
+    walls = np.array([(-4.0, 0.34, 4.0, 0.34), (-4.0, -0.34, 4.0, -0.34)])
+    cfg = config()
+    result = drive(cfg, walls, IDENTITY, NavGoal("g", -2.0, 0.0), max_time_s=8, known_map=False)
+    period_s = 1.0 / cfg.planning.control_rate_hz
+    tried = turns.index(False)  # the turn on the spot came first, then the usual choice
+    assert 0 < tried * period_s < cfg.planning.stuck_time_s - 1.0
+    assert result.min_clearance_m >= cfg.safety.collision_distance_m - 0.02
 
 
 def test_drives_through_the_room_without_touching_a_wall() -> None:
