@@ -61,6 +61,12 @@ def add_commands(commands: Commands) -> None:
         "ground)",
     )
     goal.add_argument(
+        "--map-id",
+        default=None,
+        help="the map the robots must say they are on (their slam.map_name); robots on "
+        "different maps are refused in any case",
+    )
+    goal.add_argument(
         "--radius",
         type=float,
         default=DEFAULT_RADIUS_M,
@@ -163,6 +169,7 @@ def _goal(args: argparse.Namespace) -> int:
                 timeout_s=args.timeout,
                 report=report,
                 group_map=group_map,
+                map_id=args.map_id,
             )
         )
     except ValueError as err:

@@ -14,7 +14,7 @@ import json
 import math
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import urlsplit
@@ -26,7 +26,7 @@ from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import GroupMap
 
-__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action"]
+__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action", "one_map"]
 
 # [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
 LISTEN_S = 1.5
@@ -166,6 +166,7 @@ async def drive_group(
     timeout_s: float = 600.0,
     report: Callable[[dict[str, Any]], None] = lambda _: None,
     group_map: GroupMap | None = None,
+    map_id: str | None = None,
 ) -> dict[str, Any]:
     """Drive ``goal`` with the vehicles ``serials`` (None: every ONLINE one with a position);
     ``report`` hears each step. On ``group_map`` the centre's way goes round walls and the
@@ -176,14 +177,14 @@ async def drive_group(
     last was).
 
     Raises:
-        ValueError: no vehicle to drive, one asked for is not there, robots on another map
-            than ``group_map``, or no way for the group on it (why, named).
+        ValueError: no vehicle to drive, one asked for is not there, robots on different maps
+            or on another than ``map_id`` (the one they report), or no way for the group on
+            ``group_map`` (why, named).
     """
     view = await fleet_view(broker_url, interface)
     robots = _members(view, serials)
     maps = {v.serial: v.map_id for v in view.vehicles.values() if v.map_id is not None}
-    if group_map is not None:
-        group_map.check_robots_on_it({r[1]: maps[r[1]] for r in robots if r[1] in maps})
+    one_map({r[1]: maps[r[1]] for r in robots if r[1] in maps}, map_id)
     group = GroupDrive(
         f"group-{uuid.uuid4().hex[:6]}",
         robots,
@@ -227,6 +228,24 @@ async def drive_group(
         members=[m.progress_report() for m in group.members],
     )
     return outcome
+
+
+def one_map(map_ids: Mapping[str, str], expected: str | None = None) -> None:
+    """Refuse a group whose robots (by serial, the ``agvPosition.mapId`` each reports, their
+    ``slam.map_name``) are not all on one map, or not on ``expected``: one group's way is laid
+    out on one map.
+
+    Raises:
+        ValueError: naming each robot's map.
+    """
+    maps = set(map_ids.values()) | ({expected} if expected is not None else set())
+    if len(maps) > 1:
+        said = ", ".join(f"{serial} on {map_ids[serial]!r}" for serial in sorted(map_ids))
+        wanted = f" (--map-id {expected!r})" if expected is not None else ""
+        raise ValueError(
+            f"the robots are not all on one map{wanted}: {said}; a robot reports its "
+            "slam.map_name (not the name of its slam.load_map file): set it alike on them"
+        )
 
 
 def _members(view: FleetView, serials: list[str] | None) -> list[tuple[str, str, float, float]]:

@@ -5,8 +5,7 @@ route (A* as navd's planner plans one)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -48,13 +47,10 @@ class GroupMap:
     Attributes:
         costmap: the inflated map (its ``clearance_m`` is each cell's distance to a wall).
         radius_m: [m] a robot's radius plus the margin it keeps.
-        name: the map's name, as the robots on it give it (``slam.map_name``, the stem of a
-            saved map's files); None for a grid that was never a file.
     """
 
     costmap: Costmap
     radius_m: float
-    name: str | None = None
 
     @classmethod
     def of_grid(
@@ -88,29 +84,9 @@ class GroupMap:
         """
         grid = load_map(yaml_path)
         occupied, unknown = static_layer(grid.occupancy_percent(), OCCUPIED_PCT)
-        walls = cls.of_grid(
+        return cls.of_grid(
             occupied, (grid.origin_x, grid.origin_y), grid.resolution, radius_m, unknown
         )
-        return replace(walls, name=Path(yaml_path).stem)
-
-    def check_robots_on_it(self, map_ids: Mapping[str, str]) -> None:
-        """Refuse robots that say they are on another map than this one (by serial, the
-        ``agvPosition.mapId`` each reports): the group's way would be laid out on walls they
-        are not among.
-
-        Raises:
-            ValueError: naming the robots, their map and this one.
-        """
-        elsewhere = sorted(
-            s for s, m in map_ids.items() if self.name is not None and m != self.name
-        )
-        if elsewhere:
-            theirs = sorted({map_ids[s] for s in elsewhere})
-            raise ValueError(
-                f"robots {', '.join(elsewhere)} are on map {', '.join(map(repr, theirs))}, not "
-                f"on {self.name!r} (the map file's name): give the map they drive on (their "
-                "slam.map_name)"
-            )
 
     def clearance_m(self, points_m: FloatArray) -> FloatArray:
         """[m] each point's distance to the nearest wall (0 off the map or in unknown)."""

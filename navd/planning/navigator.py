@@ -430,7 +430,11 @@ class Navigator:
         it is given the heading that the profile's turn rate reaches within the horizon.
         """
         rate = self.profile.turn_rate(wrap_angle(wanted_rad - pose.yaw))
-        reach = min(abs(rate) * self.local.settings.horizon_s, MAX_TURN_AIM_RAD)
+        horizon = self.local.settings.horizon_s
+        # A robot still turning the other way ends its horizon that far round already: the
+        # aim comes nearer, or it would read as a heading that way round.
+        against = min(math.copysign(1.0, rate) * self._command[1], 0.0) * horizon
+        reach = max(min(abs(rate) * horizon, MAX_TURN_AIM_RAD + against), 0.0)
         return Pose2(at[0], at[1], pose.yaw + math.copysign(reach, rate)), Window(
             0.0, rotate_only=True
         )
@@ -444,11 +448,14 @@ class Navigator:
         target, window = self._turn_on_the_spot(pose, toward, point)
         choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
         wanted = self.profile.turn_rate(wrap_angle(toward - pose.yaw))
-        reachable = abs(self._command[1]) + self.local.settings.angular_accel_radps2 * (
-            self.local.settings.period_s
-        )
-        useful = TURN_USEFUL_SHARE * min(abs(wanted), reachable)
-        if choice is None or choice.angular_radps * math.copysign(1.0, wanted) < useful:
+        side = math.copysign(1.0, wanted)
+        now_toward = side * self._command[1]  # [rad/s] negative: still turning the other way
+        step = self.local.settings.angular_accel_radps2 * self.local.settings.period_s
+        if now_toward < 0.0:  # still turning the other way: it must slow that turn
+            useful = now_toward + TURN_USEFUL_SHARE * step
+        else:
+            useful = TURN_USEFUL_SHARE * min(abs(wanted), now_toward + step)
+        if choice is None or side * choice.angular_radps < useful:
             self._turning_first = False
             self._turn_refused = True
             return None

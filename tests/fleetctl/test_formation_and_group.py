@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.fleetctl.control import instant_action
+from navd.fleetctl import control
+from navd.fleetctl.control import FleetView, Vehicle, instant_action, one_map
 from navd.fleetctl.formation import assign, places, shape_error, slots
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from tests.fleet.vda5050_schemas import check
@@ -163,3 +164,30 @@ def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
     at(r2, 0.5, 7.0)
     at(r3, 0.5, 7.0)
     assert [(m.serial, a) for m, a in group.corrections(7.0)] == [("r1", "stopPause")]
+
+
+def test_robots_on_different_maps_or_another_than_asked_are_refused_by_serial() -> None:
+    one_map({"r1": "office", "r2": "office"})
+    one_map({"r1": "office"}, "office")
+    one_map({})  # no robot says: nothing to compare
+    with pytest.raises(ValueError, match=r"r1 on 'office', r2 on 'map'.*slam\.map_name"):
+        one_map({"r1": "office", "r2": "map"})
+    with pytest.raises(ValueError, match=r"\(--map-id 'hall'\): r1 on 'office'"):
+        one_map({"r1": "office"}, "hall")
+
+
+async def test_a_group_goal_checks_the_robots_maps_before_any_order(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    view = FleetView("uagv")
+    for serial, map_id in (("r1", "office"), ("r2", "map")):
+        state = {"agvPosition": {"x": 1.0, "y": 2.0, "theta": 0.0, "mapId": map_id}}
+        view.vehicles[f"navd/{serial}"] = Vehicle("navd", serial, "ONLINE", state)
+
+    async def heard(*_: object) -> FleetView:
+        return view
+
+    monkeypatch.setattr(control, "fleet_view", heard)
+    # the broker is never reached: the port below has nobody listening
+    with pytest.raises(ValueError, match="not all on one map"):
+        await control.drive_group("mqtt://127.0.0.1:9", GroupGoal(5.0, 5.0))

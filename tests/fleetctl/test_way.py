@@ -161,12 +161,6 @@ def test_a_saved_map_gives_the_walls_of_its_grid(tmp_path: Path) -> None:
     probe = np.array([[1.0, 1.0], [6.0, 3.5], [10.0, 7.5], [6.0, 1.0]])
     assert loaded.clearance_m(probe) == pytest.approx(built.clearance_m(probe))
     assert CLI_RADIUS_M == DEFAULT_RADIUS_M  # `navd fleet goal --radius` defaults to the same
-    # the map's name is its files' (slam.map_name): robots on another are refused, by serial
-    assert loaded.name == "rooms" and built.name is None
-    loaded.check_robots_on_it({"r1": "rooms", "r2": "rooms"})
-    with pytest.raises(ValueError, match=r"robots r3 are on map 'hall', not on 'rooms'"):
-        loaded.check_robots_on_it({"r1": "rooms", "r3": "hall"})
-    built.check_robots_on_it({"r3": "hall"})  # a grid that was never a file: nothing to compare
 
 
 def test_the_shape_error_follows_the_way_through_a_change_of_shape() -> None:

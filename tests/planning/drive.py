@@ -83,8 +83,10 @@ def drive(
     max_time_s: float = 60.0,
     known_map: bool = True,
     map_box: tuple[float, float, float, float] = (-6.0, -4.0, 6.0, 4.0),
+    turning_radps: float = 0.0,
 ) -> Drive:
-    """Drive from ``start`` to ``goal`` among ``walls``; the map shows them if ``known_map``."""
+    """Drive from ``start`` to ``goal`` among ``walls``; the map shows them if ``known_map``.
+    The robot is turning on the spot at ``turning_radps`` when the goal comes."""
     nav = Navigator(NavigatorSettings.from_config(config))
     res = 0.05
     if known_map:
@@ -114,7 +116,7 @@ def drive(
                 nav.accept_plan(t, nav.plan(t, pose))
             except PlanningError as err:
                 nav.plan_failed(t, err)
-        step = nav.step(t, pose)
+        step = nav.step(t, pose, (0.0, turning_radps) if t == 0.0 else None)
         result.steps.append(step)
         result.state = step.state
         if step.state is not GoalState.ACTIVE:

@@ -86,6 +86,26 @@ def test_a_goal_abeam_is_turned_to_on_the_spot_then_driven_to_and_turned_on(side
     assert result.time_s < 7.0
 
 
+@pytest.mark.parametrize("turning", [-0.3, -1.0])
+def test_a_robot_turning_the_other_way_when_a_goal_comes_turns_round_to_it(
+    turning: float,
+) -> None:
+    # The route is up and to the left; the robot is still turning right (from its last
+    # goal). It stops that turn and turns left on the spot: it used to take the turn the
+    # other way for a goal to the left (aimed too far round) or give the turn up at once.
+    goal = NavGoal("g", -1.0, 1.0)
+    cfg = config()
+    still = drive(cfg, NO_WALLS, IDENTITY, goal, max_time_s=30, known_map=False)
+    result = drive(
+        cfg, NO_WALLS, IDENTITY, goal, max_time_s=30, known_map=False, turning_radps=turning
+    )
+    assert still.state is GoalState.REACHED and result.state is GoalState.REACHED
+    assert result.time_s <= still.time_s + 1.0
+    # it never turned right farther than stopping a turn of that rate takes (and a margin)
+    braking = turning**2 / (2 * cfg.robot.max_angular_accel_radps2)
+    assert min(p[2] for p in result.poses) > -(braking + 0.1)
+
+
 def test_the_last_turn_on_the_spot_does_not_slow_as_it_comes_round() -> None:
     cfg = config()
     result = drive(
