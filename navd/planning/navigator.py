@@ -361,8 +361,10 @@ class Navigator:
             self._plan_reason = "backed out"
         carrot = route.carrot(pose, s.lookahead_m)
         if aligning:
-            wanted = pose.yaw if goal.yaw_rad is None else goal.yaw_rad
-            target, window = self._turn_on_the_spot(pose, wanted, (goal.x_m, goal.y_m))
+            error = 0.0 if goal.yaw_rad is None else wrap_angle(goal.yaw_rad - pose.yaw)
+            target, window = self._turn_on_the_spot(
+                pose, self.profile.turn_rate(error), (goal.x_m, goal.y_m)
+            )
         else:
             # Near the goal, arrive facing its heading, but only if the goal lies ahead along
             # that heading: a goal behind it (reached facing away from the way in) would have
@@ -422,14 +424,14 @@ class Navigator:
         )
 
     def _turn_on_the_spot(
-        self, pose: Pose2, wanted_rad: float, at: tuple[float, float]
+        self, pose: Pose2, rate: float, at: tuple[float, float]
     ) -> tuple[Pose2, Window]:
-        """The local planner's target and window for turning on the spot to ``wanted_rad``.
+        """The local planner's target and window for turning on the spot at ``rate`` [rad/s]
+        (the profile's ``turn_rate``, signed).
 
         The local planner picks the turn whose horizon ends nearest the heading it is given:
-        it is given the heading that the profile's turn rate reaches within the horizon.
+        it is given the heading that rate reaches within the horizon.
         """
-        rate = self.profile.turn_rate(wrap_angle(wanted_rad - pose.yaw))
         horizon = self.local.settings.horizon_s
         # A robot still turning the other way ends its horizon that far round already: the
         # aim comes nearer, or it would read as a heading that way round.
@@ -445,9 +447,9 @@ class Navigator:
         """The local planner's turn on the spot toward ``point``; None, and no such turn again
         until the robot has moved, if it cannot turn there usefully (see TURN_USEFUL_SHARE)."""
         toward = math.atan2(point[1] - pose.y, point[0] - pose.x)
-        target, window = self._turn_on_the_spot(pose, toward, point)
-        choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
         wanted = self.profile.turn_rate(wrap_angle(toward - pose.yaw))
+        target, window = self._turn_on_the_spot(pose, wanted, point)
+        choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
         side = math.copysign(1.0, wanted)
         now_toward = side * self._command[1]  # [rad/s] negative: still turning the other way
         step = self.local.settings.angular_accel_radps2 * self.local.settings.period_s
