@@ -179,17 +179,18 @@ class SlamNode(Module):
             *(() if odometry is None else (odometry.settings,)),
         )
 
-    def _settings_changed(self, _old: SlamSettings, _new: SlamSettings) -> None:
+    def _settings_changed(self, _old: SlamSettings, new: SlamSettings) -> None:
         # The mapper is busy in a worker for up to a global search: never wait for it on the
         # event loop. The newest settings are applied by a job of their own (latest wins).
-        self.ctx.submit("slam_settings", self._apply_settings)
+        # The job is handed them: it may start before the holder is swapped.
+        self.ctx.submit("slam_settings", lambda: self._apply_settings(new))
 
-    def _apply_settings(self) -> None:
-        """Worker: swap the mapper's settings; rebuild kiss-icp (it is built with its
-        settings), letting the next scan start its motion prior afresh in the new odometry
-        frame."""
+    def _apply_settings(self, new: SlamSettings) -> None:
+        """Worker: swap the mapper's settings for ``new``; rebuild kiss-icp (it is built with
+        its settings), letting the next scan start its motion prior afresh in the new
+        odometry frame."""
         with self._lock:
-            old, new = self._in_force, self.settings.value
+            old = self._in_force
             if new.mapper != old.mapper:
                 self.mapper.configure(new.mapper)
             if new.odometry != old.odometry and self._scan_odometry is not None:

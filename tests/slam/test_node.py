@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 from navd.bench.room import cast
@@ -196,6 +197,28 @@ async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
         for measured, truth in zip(poses, path, strict=True):
             assert math.hypot(measured.x_m - truth.x, measured.y_m - truth.y) < 0.05
         await lidar.close()
+        await control.close()
+
+
+async def test_a_settings_change_holds_when_its_worker_starts_before_the_swap() -> None:
+    # The job that applies a change may run in a worker before the event loop has swapped
+    # the module's settings holder (a real race, seen once in CI): here it runs at once.
+    async with running_daemon() as (daemon, port):
+        (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
+        ran: list[str] = []
+
+        def at_once(slot: str, job: Callable[[], object]) -> None:
+            ran.append(slot)
+            job()
+
+        node.ctx.submit = at_once  # type: ignore[method-assign,assignment]
+        control = await connected(port, "control", "ui")
+        search_xy_m = node.mapper.settings.search_xy_m * 1.25
+        await control.request(ConfigFrame(changes={"slam.search_xy_m": search_xy_m}))
+        await control.receive_type(ConfigAppliedFrame)
+        assert ran == ["slam_settings"]
+        assert node.mapper.settings.search_xy_m == search_xy_m
+        assert node.settings_in_use()[0] == node.settings.value
         await control.close()
 
 
