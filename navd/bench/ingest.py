@@ -297,8 +297,13 @@ def _stop_all(
         viewer.kill()
     for client in clients:
         if client.stdin is not None:
-            client.stdin.close()
-        client.wait(10)
+            client.stdin.close()  # done: a client that has sent all ends with its input
+    for client in clients:
+        try:
+            client.wait(5)
+        except subprocess.TimeoutExpired:  # still streaming: the run was cut short
+            client.terminate()
+            client.wait(5)
     daemon.terminate()
     daemon.wait(10)
 

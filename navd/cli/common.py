@@ -14,7 +14,9 @@ from navd.config import NavdConfig, load_config
 __all__ = [
     "EXIT_CANCELED",
     "EXIT_FAILED",
+    "EXIT_INTERRUPTED",
     "EXIT_OK",
+    "EXIT_TERMINATED",
     "EXIT_USAGE",
     "Commands",
     "connect",
@@ -27,6 +29,8 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
 EXIT_CANCELED = 3  # ``navd goal --wait``: the goal was canceled
+EXIT_INTERRUPTED = 130  # ended by Ctrl-C (128 + SIGINT, as shells report it)
+EXIT_TERMINATED = 143  # ended by SIGTERM (128 + SIGTERM)
 
 Commands = Any  # argparse's sub-parsers action (its class is private)
 

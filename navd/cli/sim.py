@@ -130,11 +130,30 @@ def _sim(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     try:
         world = office() if args.world is None else load_world(args.world)
-        summary = run_sim(world, config, seed=args.seed, truth_path=args.truth, limit_s=args.limit)
+        summary = run_sim(
+            world,
+            config,
+            seed=args.seed,
+            truth_path=args.truth,
+            limit_s=args.limit,
+            waiting=lambda what: print(
+                f"navd sim: {what}; is `navd run --config {args.config}` running? "
+                "(the sensors keep trying)",
+                file=sys.stderr,
+                flush=True,
+            ),
+        )
     except SimError as err:
         print(f"navd sim: {err}", file=sys.stderr)
         return EXIT_FAILED
     print(json.dumps(summary, indent=2))
+    if not summary["sensors_connected"]:
+        print(
+            f"navd sim: navd at {summary['navd_address']} never answered: nothing was "
+            "simulated for it",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
     return EXIT_OK
 
 

@@ -11,6 +11,10 @@ With ``view`` the drive runs in real time with the operator page served on a fre
 address is printed (and opened in a browser where there is one), the goal waits a moment so
 the page shows the start, and after the drive the robot stays up for goals from the page
 until Ctrl-C.
+
+Ctrl-C or SIGTERM during the drive ends it as a timeout would: the goal is canceled, the map
+saved, the picture and summary written (``canceled``, "the demo was ended") and the daemon
+stopped; nothing is left running.
 """
 
 from __future__ import annotations
@@ -187,14 +191,23 @@ def run_demo(
                 lockstep=lockstep and not view,
                 hold_clock=True,
             ) as s:
-                if not view:
-                    return await _drive(s, world, limit_s, progress), s.sim
+                # Ctrl-C or SIGTERM (a timeout, systemd, kill) ends the drive: the goal is
+                # canceled, the map saved and the results written, and the daemon stopped.
                 with _ended_by_signals() as ended:
-                    await _open_page(f"http://127.0.0.1:{page_port}/")
+                    if view:
+                        await _open_page(f"http://127.0.0.1:{page_port}/")
                     result = await _drive(s, world, limit_s, progress, ended)
-                    await _stay_up(s, ended)
+                    if view:
+                        await _stay_up(s, ended)
                 return result, s.sim
 
+        if progress:
+            print(
+                "navd demo: starting navd (its first run on this machine compiles its kernels "
+                "once: about half a minute)",
+                file=sys.stderr,
+                flush=True,
+            )
         result, sim = asyncio.run(main())
         built = _load_built_map(work / "maps" / "demo.yaml")
     truth = np.array([(x, y, yaw) for _, x, y, yaw in sim.truth]).reshape(-1, 3)

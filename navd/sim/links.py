@@ -83,6 +83,8 @@ class SensorLinks:
     def __init__(self, settings: SimSettings) -> None:
         self.settings = settings
         self.connected: set[str] = set()
+        self.welcomed: set[str] = set()  # every device the daemon ever welcomed
+        self.last_refusal = ""  # why the last attempt failed (the daemon is not there...)
         self._readers: set[asyncio.Task[None]] = set()
 
     async def open(self, role: Role, device_id: str) -> AsyncClient:
@@ -96,6 +98,7 @@ class SensorLinks:
             s.host, s.port, role=role, device_id=device_id, token=s.token, timeout_s=HELLO_TIMEOUT_S
         )
         self.connected.add(device_id)
+        self.welcomed.add(device_id)
         return client
 
     async def open_sensor(self, role: Role, device_id: str) -> AsyncClient:
@@ -112,7 +115,8 @@ class SensorLinks:
         while True:
             try:
                 return await self.open_sensor(role, device_id)
-            except (ClientError, OSError):
+            except (ClientError, OSError) as err:
+                self.last_refusal = str(err) or type(err).__name__
                 await asyncio.sleep(retry_s)
 
     def closed(self, device_id: str) -> None:

@@ -15,6 +15,7 @@ import contextlib
 import os
 import signal
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,9 @@ from navd.sim.runner import Simulator
 from navd.sim.settings import SimSettings
 from navd.sim.world import World
 
-__all__ = ["run_sim", "write_truth"]
+__all__ = ["WAITING_S", "run_sim", "write_truth"]
+
+WAITING_S = 5.0  # [s] without a sensor welcomed, the caller is told what is wrong
 
 
 def _connect_host(listen_host: str) -> str:
@@ -38,6 +41,7 @@ def run_sim(
     seed: int = 0,
     truth_path: Path | None = None,
     limit_s: float | None = None,
+    waiting: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Play the robot in ``world`` for the daemon configured by ``config``.
 
@@ -47,9 +51,13 @@ def run_sim(
         seed: seeds every noise source.
         truth_path: where to write the ground truth CSV (time, x, y, yaw) at the end.
         limit_s: [s] stop after this much simulated time (None: until a signal).
+        waiting: told, once, what is wrong when no sensor has reached the daemon
+            ``WAITING_S`` after the start (the sensors keep trying meanwhile, as a robot's
+            do while navd starts).
 
     Returns:
-        A summary: simulated time, collisions, minimum clearance, wheel lines.
+        A summary: simulated time, collisions, minimum clearance, wheel lines, and the
+        sensors navd welcomed (none: it was never reached).
 
     Raises:
         SimError: the chassis link cannot be made, or the daemon refused or stopped
@@ -64,6 +72,7 @@ def run_sim(
         clock="lockstep" if config.lifecycle.clock == "simulated" else "real",
     )
     sim = Simulator(world, config, settings)
+    address = f"{settings.host}:{settings.port}"
 
     async def main() -> None:
         stop = asyncio.Event()
@@ -79,9 +88,17 @@ def run_sim(
                 stop.set()
 
             watcher = loop.create_task(watch())
+
+        async def unreached() -> None:
+            await asyncio.sleep(WAITING_S)
+            if not sim.links.welcomed and waiting is not None:
+                waiting(sim.links.last_refusal or f"no answer from navd at {address} yet")
+
+        checker = loop.create_task(unreached())
         try:
             await sim.run(stop)
         finally:
+            checker.cancel()
             if limit_s is not None:
                 watcher.cancel()
 
@@ -96,6 +113,9 @@ def run_sim(
         "min_clearance_m": round(sim.body.min_clearance_m, 3),
         "chassis_lines": sim.chassis_lines,
         "final_pose": [round(v, 4) for v in (sim.body.x_m, sim.body.y_m, sim.body.yaw_rad)],
+        "sensors_connected": sorted(sim.links.welcomed),
+        "last_refusal": sim.links.last_refusal if not sim.links.welcomed else "",
+        "navd_address": address,
     }
 
 

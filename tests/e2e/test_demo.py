@@ -4,14 +4,20 @@ real pseudo-terminal, sensors over real TCP) to a goal, and the results are writ
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 from PIL import Image
 
 from navd.sim.demo import run_demo
 from navd.sim.world import from_shapes
-from tests.e2e.conftest import run_navd
+from tests.e2e.conftest import REPO, run_navd
 
 # A 6 m x 3 m room with a box in the middle of the straight line to the goal.
 ROOM = {
@@ -47,3 +53,66 @@ def test_demo_refuses_a_bad_world_by_name(tmp_path: Path) -> None:
     result = run_navd("demo", "--world", str(world), "--out", str(tmp_path))
     assert result.returncode == 2
     assert "walls[0] must be 4 finite numbers" in result.stderr
+
+
+def _children(pid: int) -> list[int]:
+    listed = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    return [int(child) for child in listed.split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_sigterm_ends_the_demo_with_its_results_and_leaves_nothing_running(
+    tmp_path: Path,
+) -> None:
+    # A timeout, systemd or kill sends SIGTERM to the demo alone: it used to die at once and
+    # leave its daemon running (with three ports open) and its working folder behind.
+    world = tmp_path / "room.toml"
+    world.write_text(tomli_w.dumps(ROOM))
+    out = tmp_path / "out"
+    demo = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "navd",
+            "demo",
+            "--world",
+            str(world),
+            "--out",
+            str(out),
+            "--real-time",
+        ],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120.0  # a cold kernel cache compiles first
+        log = out / "demo.log"
+        while not (log.exists() and '"ready"' in log.read_text()):
+            assert demo.poll() is None and time.monotonic() < deadline, "the demo never started"
+            time.sleep(0.2)
+        time.sleep(2.0)  # driving
+        (daemon,) = _children(demo.pid)
+        config = Path(Path(f"/proc/{daemon}/cmdline").read_bytes().split(b"\0")[-2].decode())
+        assert config.name == "navd.toml" and config.parent.is_dir()
+        demo.send_signal(signal.SIGTERM)
+        out_text, err = demo.communicate(timeout=60)
+    finally:
+        if demo.poll() is None:
+            demo.kill()
+            demo.communicate()
+    assert demo.returncode == 1, err  # the goal was not reached
+    summary = json.loads((out / "summary.json").read_text())
+    assert json.loads(out_text) == summary
+    assert (summary["state"], summary["reason"]) == ("canceled", "the demo was ended")
+    assert (out / "demo.png").stat().st_size > 0
+    assert not _alive(daemon)
+    assert not config.parent.exists()
