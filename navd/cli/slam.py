@@ -122,6 +122,9 @@ def _load_kernels() -> None:
 
 
 def _replay(args: argparse.Namespace) -> int:
+    if not args.log.exists():
+        print(f"navd replay: {args.log}: no such file or folder", file=sys.stderr)
+        return EXIT_USAGE
     if _is_navd_recording(args.log):
         return _play(args)
     if args.out is None:

@@ -75,3 +75,13 @@ async def test_a_recording_cut_by_sigkill_opens_and_replays_to_its_last_chunk(
     # of work, so poses agree closely, not exactly
     assert report.pose_error_m is not None and report.pose_error_m[0] <= 0.05
     assert poses_at_kill[1] > 0.5  # the robot had moved
+
+
+def test_replaying_a_file_that_is_not_there_says_so_with_or_without_out(tmp_path: Path) -> None:
+    # Without --out it was called "not a navd recording", which sends a user looking at the
+    # file's format rather than its path.
+    missing = tmp_path / "drive.mcap"
+    for extra in ((), ("--out", str(tmp_path / "out"))):
+        result = navd("replay", str(missing), *extra, timeout_s=60.0)
+        assert result.returncode == 2
+        assert result.stderr.strip() == f"navd replay: {missing}: no such file or folder"
