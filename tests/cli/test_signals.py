@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 # A command whose handler blocks in a read of a pipe (as `navd bench ingest` waits on its
@@ -64,28 +66,21 @@ def _start(script: str) -> subprocess.Popen[str]:
     return process
 
 
-def test_sigterm_ends_a_command_blocked_in_a_read_through_its_clean_up() -> None:
-    process = _start(BLOCKING_COMMAND)
-    process.send_signal(signal.SIGTERM)
+@pytest.mark.parametrize(
+    ("script", "sig", "code", "said"),
+    [
+        (BLOCKING_COMMAND, signal.SIGTERM, 143, "SIGTERM"),  # blocked in a read of a pipe
+        (ASYNC_COMMAND, signal.SIGTERM, 143, "SIGTERM"),  # asyncio's task cancelled first
+        (BLOCKING_COMMAND, signal.SIGINT, 130, "Ctrl-C"),  # one line, no traceback
+    ],
+    ids=["sigterm-in-a-read", "sigterm-in-asyncio", "ctrl-c"],
+)
+def test_a_signal_ends_a_command_through_its_clean_up_with_one_line(
+    script: str, sig: signal.Signals, code: int, said: str
+) -> None:
+    process = _start(script)
+    process.send_signal(sig)
     out, err = process.communicate(timeout=10)
-    assert process.returncode == 143
+    assert process.returncode == code
     assert out.strip() == "cleaned up"
-    assert err.strip() == "navd barn: ended by SIGTERM"
-
-
-def test_sigterm_cancels_asyncio_work_which_cleans_up_before_the_exit() -> None:
-    process = _start(ASYNC_COMMAND)
-    process.send_signal(signal.SIGTERM)
-    out, err = process.communicate(timeout=10)
-    assert process.returncode == 143
-    assert out.strip() == "cleaned up"
-    assert err.strip() == "navd barn: ended by SIGTERM"
-
-
-def test_ctrl_c_says_so_in_one_line_without_a_traceback() -> None:
-    process = _start(BLOCKING_COMMAND)
-    process.send_signal(signal.SIGINT)
-    out, err = process.communicate(timeout=10)
-    assert process.returncode == 130
-    assert out.strip() == "cleaned up"
-    assert err.strip() == "navd barn: ended by Ctrl-C"
+    assert err.strip() == f"navd barn: ended by {said}"
