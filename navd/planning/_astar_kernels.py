@@ -43,6 +43,7 @@ __all__ = [
     "jump_point_search",
     "octile",
     "path_changed",
+    "route_costs_to_goal",
     "segment_changed",
     "segment_max_cost",
     "shortcut",
@@ -334,6 +335,27 @@ def uniform_costs(cost: npt.NDArray[np.float32]) -> bool:
         if math.isfinite(v) and v != 0.0:
             return False
     return True
+
+
+@njit(cache=True, nogil=True)
+def route_costs_to_goal(
+    cost: npt.NDArray[np.float32], cells: npt.NDArray[np.int64], cost_weight: float
+) -> FloatArray:
+    """[cells] Cost from each of an 8-connected route's N cells to its last, as A* weighs
+    steps: L * (1 + w * (c_a + c_b) / 2) for a step of length L from a to b (a uniform
+    grid's costs are not read: w = 0)."""
+    n = cells.shape[0]
+    to_goal = np.zeros(n)
+    total = 0.0
+    for i in range(n - 2, -1, -1):
+        r, c = cells[i, 0], cells[i, 1]
+        r1, c1 = cells[i + 1, 0], cells[i + 1, 1]
+        length = SQRT2 if r != r1 and c != c1 else 1.0
+        if cost_weight != 0.0:
+            length *= 1.0 + cost_weight * 0.5 * (float(cost[r, c]) + float(cost[r1, c1]))
+        total += length
+        to_goal[i] = total
+    return to_goal
 
 
 @njit(cache=True, nogil=True)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.planning._astar_kernels import path_changed
+from navd.planning._astar_kernels import path_changed, route_costs_to_goal
 from navd.planning.costmap import Costmap, GridFrame
 
 __all__ = ["RouteMemory", "remembered_route", "route_costs"]
@@ -73,13 +73,7 @@ class RouteMemory:
 def route_costs(cost: npt.NDArray[np.float32], cells: CellArray, cost_weight: float) -> FloatArray:
     """[cells] Cost from each of an 8-connected route's cells to its last, as A* weighs steps:
     L * (1 + w * (c_a + c_b) / 2) for a step of length L from a to b."""
-    if cells.shape[0] < 2:
-        return np.zeros(cells.shape[0])
-    steps = np.diff(cells, axis=0)
-    lengths = np.where(np.all(steps != 0, axis=1), SQRT2, 1.0)
-    c = cost[cells[:, 0], cells[:, 1]].astype(np.float64)
-    step_costs = lengths * (1.0 + cost_weight * 0.5 * (c[:-1] + c[1:]))
-    return np.concatenate([np.cumsum(step_costs[::-1])[::-1], [0.0]])
+    return route_costs_to_goal(cost, np.ascontiguousarray(cells, dtype=np.int64), cost_weight)
 
 
 def remembered_route(

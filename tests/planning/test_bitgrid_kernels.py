@@ -21,11 +21,15 @@ def unpack(words: np.ndarray, length: int) -> np.ndarray:
     return np.unpackbits(as_bytes, axis=1, bitorder="little")[:, :length].astype(bool)
 
 
-@pytest.mark.parametrize("shape", [(1, 1), (5, 70), (63, 62), (64, 130), (130, 64)])
+@pytest.mark.parametrize(
+    "shape", [(1, 1), (5, 70), (63, 62), (64, 130), (130, 64), (3, 300), (2, 191)]
+)
 def test_packed_free_cells_match_numpy_rows_columns_and_padding(shape) -> None:
     rng = np.random.default_rng(sum(shape))
     cost = rng.random(shape).astype(np.float32)
     cost[rng.random(shape) < 0.3] = np.inf
+    cost[rng.random(shape) < 0.05] = np.nan  # neither is a cost a cell can be crossed at
+    cost[rng.random(shape) < 0.05] = -np.inf
     rows, cols = shape
     rows_free, cols_free = pack_free_cells(cost)
     free = np.pad(np.isfinite(cost), 1)  # the padding reads as blocked
