@@ -88,6 +88,19 @@ def _row(node: int, cols: int, per_col: float) -> int:
     return r
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _open_floor(bits: npt.NDArray[np.uint32], node: int, cols: int) -> bool:
+    """Whether an inner cell and its 8 neighbours all cost exactly +0.0, read as the float32
+    costs' bit patterns: one test of nine words ORed together instead of eight tests of
+    finiteness and zero (a sixth of the search's time on the daemon's grids, where most
+    cells expanded are floor). -0.0 fails it and is told by the cell-by-cell tests."""
+    up = node - cols
+    down = node + cols
+    either = bits[up - 1] | bits[up] | bits[up + 1] | bits[node - 1] | bits[node]
+    either |= bits[node + 1] | bits[down - 1] | bits[down] | bits[down + 1]
+    return either == 0
+
+
 @njit(cache=True, nogil=True)
 def bucket_astar(
     cost: npt.NDArray[np.float32],
@@ -105,7 +118,7 @@ def bucket_astar(
     """A* from cell ``start`` to cell ``goal`` (flat indices row * cols + col).
 
     Args:
-        cost: rows x cols cell costs (>= 0), inf where blocked.
+        cost: rows x cols float32 cell costs (>= 0), inf where blocked, C-contiguous.
         start, goal: flat cell indices, both with finite cost.
         cost_weight: w in the step cost.
         g, mark: working arrays of rows * cols entries; ``g`` (route cost in cells) is valid
@@ -126,6 +139,7 @@ def bucket_astar(
     """
     rows, cols = cost.shape
     flat = cost.ravel()
+    bits = flat.view(np.uint32)
     goal_r = goal // cols
     goal_c = goal % cols
     per_col = 1.0 / cols
@@ -168,7 +182,11 @@ def bucket_astar(
         border = r == 0 or c == 0 or r == rows - 1 or c == cols - 1
         free = 0  # bit k: the neighbour k is on the grid and free
         floor = 0  # bit k: and costs nothing
+        if not border and _open_floor(bits, node, cols):
+            free = floor = 0xFF
         for k in range(8):
+            if floor == 0xFF:
+                break  # nine cells of floor, told at once
             if border and not (0 <= r + _DR[k] < rows and 0 <= c + _DC[k] < cols):
                 continue
             v = flat[node + offsets[k]]

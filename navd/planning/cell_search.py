@@ -111,7 +111,7 @@ class CellSearch:
         while True:
             memory = self._reserve(costmap.frame.rows * cols)
             g_cells, self.last_expanded = bucket_astar(
-                costmap.cost,
+                np.ascontiguousarray(costmap.cost, dtype=np.float32),
                 start_cell,
                 goal_cell,
                 cost_weight,

@@ -166,6 +166,8 @@ def floor_plans(draw: st.DrawFn) -> tuple[np.ndarray, tuple[int, int], tuple[int
             band = cost[max(r - 1, 0) : r + h + 1, max(c - 1, 0) : c + w + 1]
             band[np.isfinite(band)] = rng.random() + 0.1
         cost[r : r + h, c : c + w] = np.inf
+    # Some floor reads -0.0 (a costmap computed by subtraction can leave it): still floor.
+    cost[(cost == 0.0) & (rng.random((rows, cols)) < 0.1)] = -0.0
     free = np.argwhere(np.isfinite(cost))
     if free.shape[0] == 0:
         cost[0, 0] = 0.0
