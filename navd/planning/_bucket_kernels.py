@@ -98,7 +98,7 @@ def _open_floor(bits: npt.NDArray[np.uint32], node: int, cols: int) -> bool:
     down = node + cols
     either = bits[up - 1] | bits[up] | bits[up + 1] | bits[node - 1] | bits[node]
     either |= bits[node + 1] | bits[down - 1] | bits[down] | bits[down + 1]
-    return either == 0
+    return bool(either == 0)
 
 
 @njit(cache=True, nogil=True)
