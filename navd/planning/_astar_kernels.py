@@ -135,7 +135,7 @@ def _cell(lines: WordArray, r: int, c: int) -> bool:
     return bit_of(lines[r + 1], c + 1)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _jump_straight(
     rows_free: WordArray,
     cols_free: WordArray,
@@ -168,7 +168,7 @@ def _jump_straight(
     return (stop - here) * step
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _jump_diagonal(
     rows_free: WordArray,
     cols_free: WordArray,
@@ -206,7 +206,7 @@ def _direction(dr: int, dc: int) -> int:
     return int(_DIRECTION[(dr + 1) * 3 + dc + 1])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _pruned_directions(rows_free: WordArray, r: int, c: int, k: int) -> int:
     """Bit mask of the directions worth following from (r, c) entered by step k: every other
     neighbour is reached at least as cheaply without passing here."""

@@ -150,7 +150,7 @@ def _forced_backward(side: WordArray, w: int) -> np.uint64:
     return forced
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def scan_forward(free: WordArray, side_a: WordArray, side_b: WordArray, start: int) -> int:
     """The first padded position >= ``start`` on a line that is blocked or has a forced
     neighbour on ``side_a`` or ``side_b`` (moving towards higher positions)."""
@@ -164,7 +164,7 @@ def scan_forward(free: WordArray, side_a: WordArray, side_b: WordArray, start: i
     return 64 * w + _lowest_bit(stop)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def scan_backward(free: WordArray, side_a: WordArray, side_b: WordArray, start: int) -> int:
     """The last padded position <= ``start`` on a line that is blocked or has a forced
     neighbour on ``side_a`` or ``side_b`` (moving towards lower positions)."""
