@@ -26,7 +26,9 @@ usage() { sed -n '2,17p' "$0"; exit 2; }
 
 check_config() {
   [[ -f $1 ]] || die "config file $1 does not exist"
-  "$navd_local" config check "$1" >/dev/null || die "$1 is not a valid navd config (see above)"
+  # Keys and values only: the files it names (maps, masks) are the robot's, not this machine's.
+  "$navd_local" config check --keys-only "$1" >/dev/null \
+    || die "$1 is not a valid navd config (see above)"
 }
 
 push_config() {  # HOST FILE

@@ -3,10 +3,15 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from navd import __version__
 from navd.cli import main
+from navd.geometry.pose import IDENTITY
+from navd.geometry.scan import scan_points
+from navd.slam.map_io import save_map
+from navd.slam.occupancy import OccupancyGrid
 
 DEFAULT_FILE = Path(__file__).resolve().parents[1] / "config" / "navd.toml"
 
@@ -49,6 +54,41 @@ def test_check_rejects_a_bad_copy_naming_the_key(
 ) -> None:
     assert main(["config", "check", str(_broken_copy(tmp_path, old, new))]) == 2
     assert named in capsys.readouterr().err
+
+
+def test_check_reads_the_files_the_config_names_as_the_daemon_would(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    grid = OccupancyGrid(0.05)
+    grid.insert(
+        IDENTITY, scan_points(np.full(90, 2.0), -np.pi, np.pi / 45, range_min=0.1, range_max=8.0)
+    )
+    save_map(grid, tmp_path / "maps", "office")
+    (tmp_path / "maps" / "broken.yaml").write_text("image: nowhere.pgm\n")
+    monkeypatch.chdir(tmp_path)  # relative paths are read from where navd runs
+    path = tmp_path / "navd.toml"
+    path.write_text('[slam]\nload_map = "maps/office.yaml"\n')
+    assert main(["config", "check", str(path)]) == 0
+    assert capsys.readouterr().out.strip().endswith("navd.toml: ok")
+    path.write_text(
+        '[slam]\nload_map = "maps/broken.yaml"\n'
+        '[planning]\nkeep_out_mask = "zones/keep_out.yaml"\n'
+        '[fleet]\nbroker_url = "mqtts://broker:8883"\nca_file = "/no/such/ca.pem"\n'
+    )
+    assert main(["config", "check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "3 problems" in err
+    assert "slam.load_map: " in err and "broken.yaml" in err
+    assert "planning.keep_out_mask: " in err and "keep_out.yaml" in err
+    assert f"read from {tmp_path}" in err  # a relative path says where it was looked for
+    assert "fleet.ca_file: /no/such/ca.pem: cannot be read" in err
+    # A config for another machine: its keys alone; or its files read from where navd runs.
+    assert main(["config", "check", "--keys-only", str(path)]) == 0
+    path.write_text('[slam]\nload_map = "maps/office.yaml"\n')
+    monkeypatch.chdir(tmp_path / "maps")
+    assert main(["config", "check", str(path)]) == 2
+    assert f"read from {tmp_path / 'maps'}" in capsys.readouterr().err
+    assert main(["config", "check", str(path), "--from", str(tmp_path)]) == 0
 
 
 def test_dump_fills_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -21,7 +21,7 @@ from navd.cli.common import (
     connection_options,
     load,
 )
-from navd.config import ConfigError, dump_toml, load_config
+from navd.config import ConfigError, NavdConfig, dump_toml, load_config
 from navd.drivers.client import ClientError
 from navd.drivers.protocol.frames import ConfigFrame, ConfigGetFrame
 from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFrame
@@ -35,8 +35,26 @@ def add_commands(commands: Commands) -> None:
         "config", help="check or dump a config file; get or set the running daemon's keys"
     )
     actions = config.add_subparsers(dest="config_command", metavar="ACTION", required=True)
-    check = actions.add_parser("check", help="validate a config file")
+    check = actions.add_parser(
+        "check",
+        help="validate a config file: its keys and values, and the files it names (the map to "
+        "start on, zone masks, TLS files) read as navd would",
+    )
     check.add_argument("file", type=Path, help="TOML config file")
+    check.add_argument(
+        "--from",
+        dest="run_dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="the folder navd runs in, where it reads relative paths from (default: this one; "
+        "systemd's unit runs navd in /var/lib/navd)",
+    )
+    check.add_argument(
+        "--keys-only",
+        action="store_true",
+        help="check the keys and values, not the files (a config for another machine)",
+    )
     check.set_defaults(handler=_check)
     dump = actions.add_parser("dump", help="print the effective config as TOML, defaults filled in")
     dump.add_argument("--config", type=Path, help="TOML config file (default: built-in defaults)")
@@ -59,12 +77,60 @@ def add_commands(commands: Commands) -> None:
 
 def _check(args: argparse.Namespace) -> int:
     try:
-        load_config(args.file)
+        config = load_config(args.file)
     except ConfigError as err:
         print(err, file=sys.stderr)
         return EXIT_USAGE
+    problems = [] if args.keys_only else _file_problems(config, args.run_dir or Path.cwd())
+    if problems:
+        print(ConfigError(problems, source=str(args.file)), file=sys.stderr)
+        return EXIT_USAGE
     print(f"{args.file}: ok")
     return EXIT_OK
+
+
+def _file_problems(config: NavdConfig, here: Path) -> list[str]:
+    """What is wrong with the files the config names, read as the daemon would read them from
+    ``here``: the map to start on and the zone masks are loaded, the broker's TLS files
+    opened. One line per key, naming it (relative paths say which folder they were read
+    from: navd reads them from the folder it runs in)."""
+    from navd.planning.zones import ZoneError, load_zone_mask  # noqa: PLC0415 - check only
+    from navd.slam.errors import MapFileError  # noqa: PLC0415
+    from navd.slam.map_io import load_map_state  # noqa: PLC0415
+
+    def relative(name: str) -> str:
+        if Path(name).is_absolute():
+            return ""
+        return f" (a relative path: read from {here}; navd reads it from where it runs: --from DIR)"
+
+    problems = []
+    if config.slam.load_map is not None:
+        try:
+            load_map_state(here / config.slam.load_map)
+        except MapFileError as err:
+            problems.append(f"slam.load_map: {err}{relative(config.slam.load_map)}")
+    for key, name in (
+        ("planning.keep_out_mask", config.planning.keep_out_mask),
+        ("planning.speed_mask", config.planning.speed_mask),
+    ):
+        if name is not None:
+            try:
+                load_zone_mask(here / name)
+            except ZoneError as err:
+                problems.append(f"{key}: {err}{relative(name)}")
+    for key, name in (
+        ("fleet.ca_file", config.fleet.ca_file),
+        ("fleet.cert_file", config.fleet.cert_file),
+        ("fleet.key_file", config.fleet.key_file),
+    ):
+        if name is not None:
+            try:
+                (here / name).open("rb").close()
+            except OSError as err:
+                problems.append(
+                    f"{key}: {here / name}: cannot be read: {err.strerror}{relative(name)}"
+                )
+    return problems
 
 
 def _dump(args: argparse.Namespace) -> int:

@@ -68,20 +68,21 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
     Raises:
         ConfigError: the file cannot be read or parsed, or a field is wrong (named).
     """
+    source = f"mission file {path}"
     try:
         raw = path.read_bytes()[: MAX_FILE_BYTES + 1]
     except OSError as err:
-        raise ConfigError([f"{path}: cannot be read: {err.strerror}"]) from err
+        raise ConfigError([f"cannot be read: {err.strerror}"], source=source) from err
     if len(raw) > MAX_FILE_BYTES:
-        raise ConfigError([f"{path}: larger than {MAX_FILE_BYTES} bytes: not a mission"])
+        raise ConfigError([f"larger than {MAX_FILE_BYTES} bytes: not a mission"], source=source)
     try:
         text = raw.decode("utf-8")
         data: Any = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
     except (UnicodeDecodeError, tomllib.TOMLDecodeError, json.JSONDecodeError) as err:
         kind = "TOML" if path.suffix == ".toml" else "JSON"
-        raise ConfigError([f"{path}: not valid {kind}: {err}"]) from err
+        raise ConfigError([f"not valid {kind}: {err}"], source=source) from err
     if not isinstance(data, dict):
-        raise ConfigError([f"{path}: a mission is a table (an object) with steps"])
+        raise ConfigError(["a mission is a table (an object) with steps"], source=source)
     data = {k: v for k, v in data.items() if k != "type"}
     if mission_id is not None:
         data["mission_id"] = mission_id
@@ -92,7 +93,7 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
             f"{'.'.join(str(p) for p in e['loc']) or 'mission'}: {e['msg']}"
             for e in err.errors(include_url=False)
         ]
-        raise ConfigError(problems, source=str(path)) from err
+        raise ConfigError(problems, source=source) from err
 
 
 def mission_line(status: MissionStatusFrame) -> str:

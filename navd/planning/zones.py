@@ -87,7 +87,7 @@ def load_zone_mask(path: Path) -> ZoneMask:
         meta = read_map_yaml(path)
         pixels = read_image(path.parent / meta.image)
     except (RasterFileError, OSError) as err:
-        raise ZoneError(f"zone mask {path}: {err}") from err
+        raise ZoneError(f"zone mask: {err}") from err  # err names the file
     if not math.isclose(meta.origin[2], 0.0, abs_tol=1e-9):
         raise ZoneError(f"zone mask {path}: a rotated origin (yaw != 0) is not supported")
     values = occupancy_of(meta, pixels)

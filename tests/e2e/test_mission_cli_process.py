@@ -128,6 +128,9 @@ def test_a_file_that_is_not_a_mission_is_refused_by_name(tmp_path: Path) -> None
         assert named in result.stderr, (name, result.stderr)
     missing = run_navd("mission", "run", str(tmp_path / "nope.toml"), "--port", port)
     assert missing.returncode == 2 and "cannot be read" in missing.stderr
+    # Named as the mission file it is, not as a config.
+    assert f"mission file {tmp_path / 'nope.toml'}: 1 problem" in missing.stderr
+    assert "config" not in missing.stderr
 
 
 def test_without_a_daemon_each_command_says_so(tmp_path: Path) -> None:
