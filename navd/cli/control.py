@@ -22,14 +22,13 @@ from navd.config import ConfigError
 from navd.drivers.client import Client, ClientError
 from navd.drivers.protocol.frames import (
     CancelFrame,
-    Frame,
     GoalFrame,
     RecordFrame,
     SubscribeFrame,
 )
 from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 
-__all__ = ["add_commands", "format_status"]
+__all__ = ["add_commands", "format_status", "goal_line"]
 
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
 PROGRESS_PERIOD_S = 5.0  # [s] ``navd goal --wait`` writes a progress line this often to a file
@@ -52,11 +51,13 @@ def add_commands(commands: Commands) -> None:
         help="follow the goal to its end with a progress line; exit 0 reached, 1 failed, "
         "3 canceled",
     )
+    goal.add_argument("--json", action="store_true", help="print navd's answers as raw JSON frames")
     connection_options(goal)
     goal.set_defaults(handler=_goal)
 
     cancel = commands.add_parser("cancel", help="cancel the active goal")
     cancel.add_argument("--id", dest="goal_id", help="cancel only this goal")
+    cancel.add_argument("--json", action="store_true", help="print navd's answer as raw JSON")
     connection_options(cancel)
     cancel.set_defaults(handler=_cancel)
 
@@ -75,15 +76,17 @@ def add_commands(commands: Commands) -> None:
     status.set_defaults(handler=_status)
 
 
-def _request(args: argparse.Namespace, frame: Frame) -> int:
-    try:
-        with connect(args) as client:
-            ack = client.request(frame)
-    except (ClientError, ConfigError) as err:
-        print(f"navd {frame.type}: {err}", file=sys.stderr)
-        return EXIT_FAILED
-    print(ack.model_dump_json(exclude_none=True))
-    return EXIT_OK
+def goal_line(status: GoalStatusFrame) -> str:
+    """One readable line for a goal's progress: its state, what is left, and why."""
+    ended = status.state in ("reached", "failed", "canceled")
+    left = None if ended else status.distance_remaining
+    eta = None if ended else status.eta_s
+    return (
+        f"{status.goal_id}: {status.state}"
+        + (f", {left:.1f} m to go" if left is not None else "")
+        + (f", {eta:.0f} s" if eta is not None else "")
+        + (f" ({status.reason})" if status.reason else "")
+    )
 
 
 def _goal(args: argparse.Namespace) -> int:
@@ -94,13 +97,24 @@ def _goal(args: argparse.Namespace) -> int:
         where = ".".join(str(p) for p in problem["loc"]) or "goal"
         print(f"navd goal: {where}: {problem['msg']}", file=sys.stderr)
         return EXIT_USAGE
+    verdict: GoalStatusFrame | None
     try:
         with connect(args) as client:
             ack = client.request(frame)
-            print(ack.model_dump_json(exclude_none=True), flush=True)
-            verdict = (
-                _follow(client, ack.goal_id) if args.wait else _first_status(client, ack.goal_id)
+            heading = "" if frame.yaw is None else f", heading {frame.yaw:.2f} rad"
+            print(
+                ack.model_dump_json(exclude_none=True)
+                if args.json
+                else f"goal {ack.goal_id} sent: ({frame.x:.2f}, {frame.y:.2f}) m{heading}",
+                flush=True,
             )
+            if args.wait:
+                verdict = _follow(client, ack.goal_id)
+                print(verdict.model_dump_json() if args.json else goal_line(verdict))
+            else:
+                verdict = _first_status(client, ack.goal_id)
+                if verdict is not None and not args.json and verdict.state != "failed":
+                    print(goal_line(verdict))
     except (ClientError, ConfigError) as err:
         print(f"navd goal: {err}", file=sys.stderr)
         return EXIT_FAILED
@@ -130,19 +144,11 @@ def _follow(client: Client, goal_id: str | None) -> GoalStatusFrame:
         if status.state in ("reached", "failed", "canceled"):
             if terminal:
                 print(file=sys.stderr)
-            print(status.model_dump_json(), flush=True)
             return status
         now = time.monotonic()
         if terminal or now - shown_at >= PROGRESS_PERIOD_S:
             shown_at = now
-            left = status.distance_remaining
-            eta = status.eta_s
-            line = (
-                f"{goal_id}: {status.state}"
-                + (f", {left:.1f} m to go" if left is not None else "")
-                + (f", {eta:.0f} s" if eta is not None else "")
-                + (f" ({status.reason})" if status.reason else "")
-            )
+            line = goal_line(status)
             print(
                 f"\r{line:<70}" if terminal else line,
                 end="" if terminal else "\n",
@@ -165,7 +171,17 @@ def _first_status(client: Client, goal_id: str | None) -> GoalStatusFrame | None
 
 
 def _cancel(args: argparse.Namespace) -> int:
-    return _request(args, CancelFrame(goal_id=args.goal_id))
+    try:
+        with connect(args) as client:
+            ack = client.request(CancelFrame(goal_id=args.goal_id))
+    except (ClientError, ConfigError) as err:
+        print(f"navd cancel: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    if args.json:
+        print(ack.model_dump_json(exclude_none=True))
+    else:  # the daemon stops the goal if one is active (navd status shows it)
+        print("cancel accepted" if args.goal_id is None else f"cancel of {args.goal_id} accepted")
+    return EXIT_OK
 
 
 def _record(args: argparse.Namespace) -> int:

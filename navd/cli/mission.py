@@ -46,6 +46,7 @@ def add_commands(commands: Commands) -> None:
         action="store_true",
         help="follow it to its end, a line per step; exit 0 completed, 1 failed, 3 canceled",
     )
+    run.add_argument("--json", action="store_true", help="print navd's answer as raw JSON")
     connection_options(run)
     run.set_defaults(handler=_run)
     status = actions.add_parser("status", help="print where the mission is")
@@ -96,6 +97,15 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
         raise ConfigError(problems, source=source) from err
 
 
+def _size(mission: MissionFrame) -> str:
+    """ "3 steps", "1 step, 2 rounds", "4 steps, until canceled"."""
+    steps = len(mission.steps)
+    text = f"{steps} step{'s' if steps != 1 else ''}"
+    if mission.rounds == 0:
+        return text + ", until canceled"
+    return text if mission.rounds == 1 else f"{text}, {mission.rounds} rounds"
+
+
 def mission_line(status: MissionStatusFrame) -> str:
     """One readable line for a mission's status."""
     if status.state == "none":
@@ -125,7 +135,12 @@ def _run(args: argparse.Namespace) -> int:
     try:
         with connect(args) as client:
             ack = client.request(mission)
-            print(ack.model_dump_json(exclude_none=True), flush=True)
+            print(
+                ack.model_dump_json(exclude_none=True)
+                if args.json
+                else f"mission {ack.mission_id} sent: {_size(mission)}",
+                flush=True,
+            )
             if not args.wait:
                 return EXIT_OK
             last = _follow(client, ack.mission_id)

@@ -73,7 +73,7 @@ def test_a_mission_of_waits_runs_to_its_end_with_a_line_per_step(
     done = run_navd("mission", "run", str(file), "--wait", "--id", "w1", *at)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert '"mission_id":"w1"' in lines[0]  # the ack
+    assert lines[0] == "mission w1 sent: 1 step, 2 rounds"  # the ack
     assert sum("[step_done]" in line for line in lines) == 2
     assert "round 2/2" in lines[-1] and "completed" in lines[-1]
     assert "w1 completed" in run_navd("mission", "status", *at).stdout

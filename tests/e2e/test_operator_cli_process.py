@@ -168,11 +168,12 @@ async def test_goal_wait_exits_by_how_the_goal_ended(tmp_path: Path) -> None:
         reached = await _navd("goal", "2.0", "0.0", "--wait", "--id", "near", *at)
         out, err = await asyncio.wait_for(reached.communicate(), 120.0)
         assert reached.returncode == 0, err.decode()
-        assert json.loads(out.decode().splitlines()[-1])["state"] == "reached"
+        assert out.decode().splitlines() == ["goal near sent: (2.00, 0.00) m", "near: reached"]
         assert "near: active" in err.decode()  # the progress line
-        far = await _navd("goal", "5000", "0", "--wait", *at)
-        _, err = await asyncio.wait_for(far.communicate(), 60.0)
+        far = await _navd("goal", "5000", "0", "--wait", "--json", *at)
+        out, err = await asyncio.wait_for(far.communicate(), 60.0)
         assert far.returncode == 1 and "max_goal_distance_m" in err.decode()
+        assert json.loads(out.decode().splitlines()[-1])["state"] == "failed"
         canceled = await _navd("goal", "5.5", "0.0", "--wait", "--id", "away", *at)
         await asyncio.sleep(3.0)
         await s.control.request(CancelFrame(goal_id="away"))

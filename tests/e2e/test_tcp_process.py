@@ -135,7 +135,15 @@ def test_status_command_shows_devices(daemon_on_port: Any) -> None:
     assert "compass0(compass)" in result.stdout and "[idle]" in result.stdout
     goal = run_navd("goal", "1.5", "2", "--yaw", "0.3", "--id", "g7", "--port", str(port))
     assert goal.returncode == 0, goal.stderr
-    assert json.loads(goal.stdout) == {"type": "ack", "request": "goal", "goal_id": "g7"}
+    assert goal.stdout.splitlines()[0] == "goal g7 sent: (1.50, 2.00) m, heading 0.30 rad"
+    raw = run_navd("goal", "1", "2", "--id", "g8", "--json", "--port", str(port))
+    assert json.loads(raw.stdout.splitlines()[0]) == {
+        "type": "ack",
+        "request": "goal",
+        "goal_id": "g8",
+    }
+    canceled = run_navd("cancel", "--id", "g8", "--port", str(port))
+    assert canceled.returncode == 0 and canceled.stdout.strip() == "cancel of g8 accepted"
 
 
 def test_busy_port_is_a_clear_error_and_exit_1(daemon_on_port: Any, tmp_path: Any) -> None:
