@@ -185,22 +185,35 @@ def _cancel(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
-    """Ask for a recording to start or stop; then say what the daemon reports."""
+    """Ask for a recording to start or stop; then say what the daemon reports (the file it
+    writes, or the one it closed)."""
+    starting = args.action == "start"
     try:
         with connect(args) as client:
-            client.request(RecordFrame(action=args.action))
             client.request(SubscribeFrame(rate_hz=10))
+            before = client.receive_type(StatusFrame).recording
+            client.request(RecordFrame(action=args.action))
             for _ in range(RECORD_VERDICT_STATUSES):
                 frame = client.receive_type(StatusFrame)
-                if (frame.recording is not None) == (args.action == "start"):
+                if (frame.recording is not None) == starting:
                     break
     except (ClientError, ConfigError) as err:
         print(f"navd record: {err}", file=sys.stderr)
         return EXIT_FAILED
-    if args.action == "start" and frame.recording is None:
+    if starting and frame.recording is None:
         print("navd record: not recording; the daemon's log says why", file=sys.stderr)
         return EXIT_FAILED
-    print(f"recording to {frame.recording}" if frame.recording else "not recording")
+    if starting:
+        print(
+            f"recording to {frame.recording}"
+            if before is None
+            else f"already recording to {frame.recording}"
+        )
+    elif frame.recording is not None:
+        print(f"navd record: still recording to {frame.recording}", file=sys.stderr)
+        return EXIT_FAILED
+    else:
+        print("was not recording" if before is None else f"recording stopped: {before}")
     return EXIT_OK
 
 

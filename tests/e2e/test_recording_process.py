@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -85,3 +86,20 @@ def test_replaying_a_file_that_is_not_there_says_so_with_or_without_out(tmp_path
         result = navd("replay", str(missing), *extra, timeout_s=60.0)
         assert result.returncode == 2
         assert result.stderr.strip() == f"navd replay: {missing}: no such file or folder"
+
+
+def test_record_start_and_stop_say_which_file(daemon_on_port: Any, tmp_path: Path) -> None:
+    folder = tmp_path / "recordings"
+    _, port = daemon_on_port(f'[record]\ndir = "{folder}"\n')
+    at = ("--port", str(port))
+    idle = navd("record", "stop", *at, timeout_s=30.0)
+    assert (idle.returncode, idle.stdout.strip()) == (0, "was not recording")
+    started = navd("record", "start", *at, timeout_s=30.0)
+    assert started.returncode == 0, started.stderr
+    assert started.stdout.startswith(f"recording to {folder}")
+    file = started.stdout.strip().removeprefix("recording to ")
+    again = navd("record", "start", *at, timeout_s=30.0)
+    assert (again.returncode, again.stdout.strip()) == (0, f"already recording to {file}")
+    stopped = navd("record", "stop", *at, timeout_s=30.0)
+    assert (stopped.returncode, stopped.stdout.strip()) == (0, f"recording stopped: {file}")
+    assert Path(file) in recording_files(folder)
