@@ -32,6 +32,7 @@ __all__ = ["add_commands", "format_status", "goal_line"]
 
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
 PROGRESS_PERIOD_S = 5.0  # [s] ``navd goal --wait`` writes a progress line this often to a file
+HELD_CHECK_HZ = 2.0  # [Hz] status frames ``navd goal --wait`` reads for safety's holds
 RECORD_VERDICT_STATUSES = 10  # status frames ``navd record`` reads for the outcome (1 s)
 
 
@@ -100,6 +101,9 @@ def _goal(args: argparse.Namespace) -> int:
     verdict: GoalStatusFrame | None
     try:
         with connect(args) as client:
+            if args.wait:  # safety's reasons come in status frames; asked before the goal,
+                # as frames that come while a request waits for its answer are passed over
+                client.request(SubscribeFrame(rate_hz=HELD_CHECK_HZ))
             ack = client.request(frame)
             heading = "" if frame.yaw is None else f", heading {frame.yaw:.2f} rad"
             print(
@@ -132,23 +136,35 @@ def _goal(args: argparse.Namespace) -> int:
 
 def _follow(client: Client, goal_id: str | None) -> GoalStatusFrame:
     """Follow the goal to its end, showing its progress (rewritten in place on a terminal,
-    a line every PROGRESS_PERIOD_S otherwise); its last status."""
+    a line every PROGRESS_PERIOD_S otherwise) and, at once, whenever safety starts or stops
+    holding the robot and why (from the status frames subscribed to); its last status."""
     client.timeout_s = None  # a long drive: wait as long as it takes
     client.sock.settimeout(None)
     terminal = sys.stderr.isatty()
     shown_at = -math.inf
+    held: tuple[str, ...] = ()
+    last: GoalStatusFrame | None = None
     while True:
-        status = client.receive_type(GoalStatusFrame)
-        if status.goal_id != goal_id:
+        reply = client.receive()
+        if isinstance(reply, StatusFrame):
+            if tuple(reply.diagnostics.safety) == held:
+                continue
+            held = tuple(reply.diagnostics.safety)
+            if last is None:
+                continue
+            status, now = last, math.inf  # a change of hold is shown at once
+        elif isinstance(reply, GoalStatusFrame) and reply.goal_id == goal_id:
+            status = last = reply
+            if status.state in ("reached", "failed", "canceled"):
+                if terminal:
+                    print(file=sys.stderr)
+                return status
+            now = time.monotonic()
+        else:
             continue
-        if status.state in ("reached", "failed", "canceled"):
-            if terminal:
-                print(file=sys.stderr)
-            return status
-        now = time.monotonic()
         if terminal or now - shown_at >= PROGRESS_PERIOD_S:
-            shown_at = now
-            line = goal_line(status)
+            shown_at = time.monotonic()
+            line = goal_line(status) + (f" - held by safety: {'; '.join(held)}" if held else "")
             print(
                 f"\r{line:<70}" if terminal else line,
                 end="" if terminal else "\n",
