@@ -228,16 +228,22 @@ async def _open_page(url: str) -> None:
 
 @contextlib.contextmanager
 def _ended_by_signals() -> Iterator[asyncio.Event]:
-    """An event Ctrl-C (or SIGTERM) sets instead of interrupting, while inside."""
+    """An event Ctrl-C (or SIGTERM) sets instead of interrupting, while inside; the handlers
+    of before afterwards (the loop's removal would leave SIGTERM at the default, which ends
+    the process on the spot while the demo draws its picture)."""
     ended = asyncio.Event()
     loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    signals = (signal.SIGINT, signal.SIGTERM)
+    before = {sig: signal.getsignal(sig) for sig in signals}
+    for sig in signals:
         loop.add_signal_handler(sig, ended.set)
     try:
         yield ended
     finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in signals:
             loop.remove_signal_handler(sig)
+            if before[sig] is not None:  # None: set outside Python, nothing to put back
+                signal.signal(sig, before[sig])
 
 
 async def _stay_up(s: Session, ended: asyncio.Event) -> None:
