@@ -73,7 +73,8 @@ def test_check_reads_the_files_the_config_names_as_the_daemon_would(
     path.write_text(
         '[slam]\nload_map = "maps/broken.yaml"\n'
         '[planning]\nkeep_out_mask = "zones/keep_out.yaml"\n'
-        '[fleet]\nbroker_url = "mqtts://broker:8883"\nca_file = "/no/such/ca.pem"\n'
+        '[fleet]\nenabled = true\nbroker_url = "mqtts://broker:8883"\n'
+        'ca_file = "/no/such/ca.pem"\n'
     )
     assert main(["config", "check", str(path)]) == 2
     err = capsys.readouterr().err
@@ -82,6 +83,10 @@ def test_check_reads_the_files_the_config_names_as_the_daemon_would(
     assert "planning.keep_out_mask: " in err and "keep_out.yaml" in err
     assert f"read from {tmp_path}" in err  # a relative path says where it was looked for
     assert "fleet.ca_file: /no/such/ca.pem: cannot be read" in err
+    # The fleet off opens no TLS file (the daemon would not either).
+    path.write_text(path.read_text().replace("enabled = true", "enabled = false"))
+    assert main(["config", "check", str(path)]) == 2
+    assert "2 problems" in capsys.readouterr().err
     # A config for another machine: its keys alone; or its files read from where navd runs.
     assert main(["config", "check", "--keys-only", str(path)]) == 0
     path.write_text('[slam]\nload_map = "maps/office.yaml"\n')
@@ -89,6 +94,8 @@ def test_check_reads_the_files_the_config_names_as_the_daemon_would(
     assert main(["config", "check", str(path)]) == 2
     assert f"read from {tmp_path / 'maps'}" in capsys.readouterr().err
     assert main(["config", "check", str(path), "--from", str(tmp_path)]) == 0
+    assert main(["config", "check", str(path), "--from", str(tmp_path), "--keys-only"]) == 2
+    assert "--keys-only reads none" in capsys.readouterr().err
 
 
 def test_dump_fills_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

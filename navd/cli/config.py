@@ -81,6 +81,9 @@ def _check(args: argparse.Namespace) -> int:
     except ConfigError as err:
         print(err, file=sys.stderr)
         return EXIT_USAGE
+    if args.keys_only and args.run_dir is not None:
+        print("navd config check: --from reads files; --keys-only reads none", file=sys.stderr)
+        return EXIT_USAGE
     problems = [] if args.keys_only else _file_problems(config, args.run_dir or Path.cwd())
     if problems:
         print(ConfigError(problems, source=str(args.file)), file=sys.stderr)
@@ -92,8 +95,8 @@ def _check(args: argparse.Namespace) -> int:
 def _file_problems(config: NavdConfig, here: Path) -> list[str]:
     """What is wrong with the files the config names, read as the daemon would read them from
     ``here``: the map to start on and the zone masks are loaded, the broker's TLS files
-    opened. One line per key, naming it (relative paths say which folder they were read
-    from: navd reads them from the folder it runs in)."""
+    opened (with the fleet on). One line per key, naming it (relative paths say which
+    folder they were read from: navd reads them from the folder it runs in)."""
     from navd.planning.zones import ZoneError, load_zone_mask  # noqa: PLC0415 - check only
     from navd.slam.errors import MapFileError  # noqa: PLC0415
     from navd.slam.map_io import load_map_state  # noqa: PLC0415
@@ -118,11 +121,12 @@ def _file_problems(config: NavdConfig, here: Path) -> list[str]:
                 load_zone_mask(here / name)
             except ZoneError as err:
                 problems.append(f"{key}: {err}{relative(name)}")
-    for key, name in (
+    tls = (
         ("fleet.ca_file", config.fleet.ca_file),
         ("fleet.cert_file", config.fleet.cert_file),
         ("fleet.key_file", config.fleet.key_file),
-    ):
+    )
+    for key, name in tls if config.fleet.enabled else ():  # a fleet off opens none of them
         if name is not None:
             try:
                 (here / name).open("rb").close()

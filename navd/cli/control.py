@@ -33,7 +33,7 @@ __all__ = ["add_commands", "format_status", "goal_line"]
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
 PROGRESS_PERIOD_S = 5.0  # [s] ``navd goal --wait`` writes a progress line this often to a file
 HELD_CHECK_HZ = 2.0  # [Hz] status frames ``navd goal --wait`` reads for safety's holds
-RECORD_VERDICT_STATUSES = 10  # status frames ``navd record`` reads for the outcome (1 s)
+RECORD_VERDICT_STATUSES = 10  # status frames ``navd record start`` reads for the outcome (1 s)
 
 
 def add_commands(commands: Commands) -> None:
@@ -166,7 +166,7 @@ def _follow(client: Client, goal_id: str | None) -> GoalStatusFrame:
             shown_at = time.monotonic()
             line = goal_line(status) + (f" - held by safety: {'; '.join(held)}" if held else "")
             print(
-                f"\r{line:<70}" if terminal else line,
+                f"\r\x1b[K{line}" if terminal else line,  # the line before cleared
                 end="" if terminal else "\n",
                 file=sys.stderr,
                 flush=True,
@@ -209,7 +209,7 @@ def _record(args: argparse.Namespace) -> int:
             client.request(SubscribeFrame(rate_hz=10))
             before = client.receive_type(StatusFrame).recording
             client.request(RecordFrame(action=args.action))
-            for _ in range(RECORD_VERDICT_STATUSES):
+            for _ in range(_record_statuses(starting)):
                 frame = client.receive_type(StatusFrame)
                 if (frame.recording is not None) == starting:
                     break
@@ -226,11 +226,26 @@ def _record(args: argparse.Namespace) -> int:
             else f"already recording to {frame.recording}"
         )
     elif frame.recording is not None:
-        print(f"navd record: still recording to {frame.recording}", file=sys.stderr)
+        print(
+            f"navd record: still recording to {frame.recording} after the stop and the time "
+            "to close it; the daemon's log says why",
+            file=sys.stderr,
+        )
         return EXIT_FAILED
     else:
         print("was not recording" if before is None else f"recording stopped: {before}")
     return EXIT_OK
+
+
+def _record_statuses(starting: bool) -> int:
+    """Status frames (10 a second) to read for a record request's outcome: a stop waits
+    for the file to be closed, which the recorder gives its writer CLOSE_TIMEOUT_S for (a
+    long recording on a slow card)."""
+    if starting:
+        return RECORD_VERDICT_STATUSES
+    from navd.viz.recording_writer import CLOSE_TIMEOUT_S  # noqa: PLC0415 - stop only
+
+    return RECORD_VERDICT_STATUSES + math.ceil(10 * CLOSE_TIMEOUT_S)
 
 
 def _status(args: argparse.Namespace) -> int:

@@ -46,7 +46,11 @@ def add_commands(commands: Commands) -> None:
         action="store_true",
         help="follow it to its end, a line per step; exit 0 completed, 1 failed, 3 canceled",
     )
-    run.add_argument("--json", action="store_true", help="print navd's answer as raw JSON")
+    run.add_argument(
+        "--json",
+        action="store_true",
+        help="print navd's answer (and with --wait its reports) as raw JSON frames",
+    )
     connection_options(run)
     run.set_defaults(handler=_run)
     status = actions.add_parser("status", help="print where the mission is")
@@ -143,7 +147,7 @@ def _run(args: argparse.Namespace) -> int:
             )
             if not args.wait:
                 return EXIT_OK
-            last = _follow(client, ack.mission_id)
+            last = _follow(client, ack.mission_id, raw=args.json)
     except (ClientError, ConfigError) as err:
         print(f"navd mission run: {err}", file=sys.stderr)
         return EXIT_FAILED
@@ -155,8 +159,9 @@ def _run(args: argparse.Namespace) -> int:
     return EXIT_CANCELED if last.state == "canceled" else EXIT_OK
 
 
-def _follow(client: Client, mission_id: str | None) -> MissionStatusFrame:
-    """Print a line for each event of the mission until it ends; its last status."""
+def _follow(client: Client, mission_id: str | None, *, raw: bool) -> MissionStatusFrame:
+    """Print a line for each event of the mission until it ends (``raw``: its frame, as
+    JSON); its last status."""
     client.timeout_s = None  # a patrol may run for hours
     client.sock.settimeout(None)
     shown = math.nan
@@ -169,7 +174,7 @@ def _follow(client: Client, mission_id: str | None) -> MissionStatusFrame:
             if left is None or (not math.isnan(shown) and abs(left - shown) < 1.0):
                 continue  # a line for each metre driven, not for each planner tick
             shown = left
-        print(mission_line(status), flush=True)
+        print(status.model_dump_json() if raw else mission_line(status), flush=True)
         if status.state in ENDED:
             return status
 

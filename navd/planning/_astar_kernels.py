@@ -342,8 +342,8 @@ def route_costs_to_goal(
     cost: npt.NDArray[np.float32], cells: npt.NDArray[np.int64], cost_weight: float
 ) -> FloatArray:
     """[cells] Cost from each of an 8-connected route's N cells to its last, as A* weighs
-    steps: L * (1 + w * (c_a + c_b) / 2) for a step of length L from a to b (a uniform
-    grid's costs are not read: w = 0)."""
+    steps: L * (1 + w * (c_a + c_b) / 2) for a step of length L from a to b (with w = 0
+    the costs are not read)."""
     n = cells.shape[0]
     to_goal = np.zeros(n)
     total = 0.0
@@ -352,7 +352,8 @@ def route_costs_to_goal(
         r1, c1 = cells[i + 1, 0], cells[i + 1, 1]
         length = SQRT2 if r != r1 and c != c1 else 1.0
         if cost_weight != 0.0:
-            length *= 1.0 + cost_weight * 0.5 * (float(cost[r, c]) + float(cost[r1, c1]))
+            mean = 0.5 * (np.float64(cost[r, c]) + np.float64(cost[r1, c1]))  # not float32
+            length *= 1.0 + cost_weight * mean
         total += length
         to_goal[i] = total
     return to_goal

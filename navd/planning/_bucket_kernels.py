@@ -138,6 +138,8 @@ def bucket_astar(
 
     """
     rows, cols = cost.shape
+    if cost.itemsize != 4:
+        raise ValueError("bucket_astar reads float32 costs (their bit patterns)")
     flat = cost.ravel()
     bits = flat.view(np.uint32)
     goal_r = goal // cols

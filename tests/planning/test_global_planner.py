@@ -183,6 +183,24 @@ def test_astar_on_floor_plans_keeps_dijkstras_cost_jumping_or_not(case) -> None:
     assert_route_matches_dijkstra(case)
 
 
+def test_floor_that_reads_minus_zero_is_searched_as_floor() -> None:
+    # The bucket search tells open floor by the costs' bit patterns (+0.0 is all zeros);
+    # -0.0 is floor too: the same grid with it gives the same route and the same work.
+    rng = np.random.default_rng(7)
+    cost = np.zeros((60, 60), np.float32)
+    cost[rng.random((60, 60)) < 0.05] = np.inf
+    cost[20:24, 10:50] = 0.5  # a costly band, so the grid is searched cell by cell
+    cost[0, 0] = cost[59, 59] = 0.0
+    signed = cost.copy()
+    signed[(cost == 0.0) & (rng.random((60, 60)) < 0.5)] = -0.0
+    search = SearchSettings(cost_weight=2.0, smooth=False)
+    plain = GlobalPlanner().plan(costmap_of(cost), center((0, 0)), center((59, 59)), search)
+    minus = GlobalPlanner().plan(costmap_of(signed), center((0, 0)), center((59, 59)), search)
+    assert minus.cost == plain.cost
+    assert minus.cells_expanded == plain.cells_expanded
+    np.testing.assert_array_equal(minus.points_m, plain.points_m)
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_smoothed_path_never_crosses_an_inflated_cell(seed: int) -> None:

@@ -225,3 +225,27 @@ def test_a_reused_smoothed_route_never_crosses_a_blocked_cell() -> None:
         for a, b in itertools.pairwise(cells):
             assert np.isfinite(segment_max_cost(changed, a[0], a[1], b[0], b[1]))
     assert reused >= 10 and fresh >= 10, (reused, fresh)
+
+
+def route_costs_reference(cost: np.ndarray, cells: np.ndarray, w: float) -> np.ndarray:
+    """The costs to the goal in NumPy, step by step as the kernel should add them."""
+    if cells.shape[0] < 2:
+        return np.zeros(cells.shape[0])
+    steps = np.diff(cells, axis=0)
+    lengths = np.where(np.all(steps != 0, axis=1), math.sqrt(2.0), 1.0)
+    c = cost[cells[:, 0], cells[:, 1]].astype(np.float64)
+    step_costs = lengths * (1.0 + w * 0.5 * (c[:-1] + c[1:]))
+    return np.concatenate([np.cumsum(step_costs[::-1])[::-1], [0.0]])
+
+
+@pytest.mark.parametrize("cells", [0, 1, 2, 3, 200])
+@pytest.mark.parametrize("w", [0.0, 3.0])
+def test_route_costs_match_numpy_step_by_step(cells: int, w: float) -> None:
+    rng = np.random.default_rng(cells)
+    cost = rng.random((40, 40)).astype(np.float32)
+    steps = rng.integers(-1, 2, size=(max(cells - 1, 0), 2))
+    steps[np.all(steps == 0, axis=1)] = (1, 1)  # every step moves, some of them diagonally
+    route = (np.vstack([[[20, 20]], 20 + np.cumsum(steps, axis=0)])[:cells]) % 40
+    np.testing.assert_allclose(
+        route_costs(cost, route, w), route_costs_reference(cost, route, w), rtol=1e-12
+    )
