@@ -305,7 +305,7 @@ def test_aces_replay_holds_with_scans_lost_and_worse_wheels(tmp_path: Path, kind
     assert errors.translation_mean_m <= 2 * ACES_UNPERTURBED_M
 
 
-INTEL_BAG_UNPERTURBED_M = 0.0284  # measured with the defaults (docs/slam.md)
+INTEL_BAG_UNPERTURBED_M = 0.0270  # measured with the defaults on 4 December (docs/slam.md)
 
 
 def test_intel_replay_holds_with_3_cm_of_range_noise(tmp_path: Path) -> None:
