@@ -32,6 +32,7 @@ __all__ = ["add_commands", "format_status", "goal_line"]
 
 GOAL_VERDICT_S = 2.0  # [s] how long ``navd goal`` waits to hear whether the goal was taken
 PROGRESS_PERIOD_S = 5.0  # [s] ``navd goal --wait`` writes a progress line this often to a file
+GOAL_ENDS = ("reached", "failed", "canceled")  # a goal's last states
 HELD_CHECK_HZ = 2.0  # [Hz] status frames ``navd goal --wait`` reads for safety's holds
 RECORD_VERDICT_STATUSES = 10  # status frames ``navd record start`` reads for the outcome (1 s)
 
@@ -79,7 +80,7 @@ def add_commands(commands: Commands) -> None:
 
 def goal_line(status: GoalStatusFrame) -> str:
     """One readable line for a goal's progress: its state, what is left, and why."""
-    ended = status.state in ("reached", "failed", "canceled")
+    ended = status.state in GOAL_ENDS
     left = None if ended else status.distance_remaining
     eta = None if ended else status.eta_s
     return (
@@ -155,7 +156,7 @@ def _follow(client: Client, goal_id: str | None) -> GoalStatusFrame:
             status, now = last, math.inf  # a change of hold is shown at once
         elif isinstance(reply, GoalStatusFrame) and reply.goal_id == goal_id:
             status = last = reply
-            if status.state in ("reached", "failed", "canceled"):
+            if status.state in GOAL_ENDS:
                 if terminal:
                     print(file=sys.stderr)
                 return status

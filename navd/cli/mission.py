@@ -102,7 +102,7 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
 
 
 def _size(mission: MissionFrame) -> str:
-    """ "3 steps", "1 step, 2 rounds", "4 steps, until canceled"."""
+    """How long a mission is, in words: 3 steps; 1 step, 2 rounds; 4 steps, until canceled."""
     steps = len(mission.steps)
     text = f"{steps} step{'s' if steps != 1 else ''}"
     if mission.rounds == 0:

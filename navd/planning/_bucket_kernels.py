@@ -185,17 +185,16 @@ def bucket_astar(
         free = 0  # bit k: the neighbour k is on the grid and free
         floor = 0  # bit k: and costs nothing
         if not border and _open_floor(bits, node, cols):
-            free = floor = 0xFF
-        for k in range(8):
-            if floor == 0xFF:
-                break  # nine cells of floor, told at once
-            if border and not (0 <= r + _DR[k] < rows and 0 <= c + _DC[k] < cols):
-                continue
-            v = flat[node + offsets[k]]
-            if math.isfinite(v):
-                free |= 1 << k
-                if v == 0.0:
-                    floor |= 1 << k
+            free = floor = 0xFF  # nine cells of floor, told at once
+        else:
+            for k in range(8):
+                if border and not (0 <= r + _DR[k] < rows and 0 <= c + _DC[k] < cols):
+                    continue
+                v = flat[node + offsets[k]]
+                if math.isfinite(v):
+                    free |= 1 << k
+                    if v == 0.0:
+                        floor |= 1 << k
         if c_here == 0.0 and floor == 0xFF and node != start:
             follow = _NATURAL[mark[node] & 7]  # open floor: steps are lengths, prune as JPS
         else:
