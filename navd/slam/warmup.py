@@ -1,4 +1,5 @@
-"""Compile (or load from the cache) every SLAM kernel before the first live scan."""
+"""Compile (or load from the cache) every SLAM kernel, and load kiss-icp, before the first
+live scan."""
 
 from __future__ import annotations
 
@@ -6,25 +7,33 @@ import math
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper
+from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.settings import MapperSettings
 
 __all__ = ["warm_up"]
 
 
 def warm_up() -> None:
-    """Run two scans of a small square room through a throwaway mapper, then find the
-    second on the map (the global search of localization and loop closure)."""
+    """Run two scans of a small square room through a throwaway mapper and scan odometry,
+    then find the second on the map (the global search of localization and loop closure).
+
+    Scan odometry imports kiss-icp on first use: 20 ms of module code in the daemon (0.3 s in
+    a bare process) that holds the interpreter lock, so the event loop waits on it in turns
+    of up to 5 ms. Before, the first live scan did it (a profile of the daemon under the
+    nominal load caught it)."""
     angles = -math.pi + 2 * math.pi * np.arange(90) / 90
     # Distance to the walls of a 4 m square room seen from its centre.
     ranges = 2.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
     mapper = ScanMapper(MapperSettings.defaults(loop_closure=False))
+    odometry = ScanOdometry(
+        ScanOdometrySettings(voxel_size_m=0.1, max_range_m=10.0, min_range_m=0.1)
+    )
     for shift in (0.0, 0.05):
         scan = scan_points(
             ranges - shift, -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=10.0
         )
-        mapper.add(shift, scan, Pose2(shift, 0.0, 0.0))
+        mapper.add(shift, scan, odometry.register(scan.hits))
     relocalize(mapper.grid, scan.hits)

@@ -1,0 +1,48 @@
+"""The SLAM warm-up loads what a first live scan runs: in a fresh process, after it, scan
+odometry (kiss-icp, the motion prior without wheel odometry) and a mapper's first scans import
+no module, so a first scan never holds the interpreter lock for an import."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+SCRIPT = textwrap.dedent(
+    """
+    import math
+    import sys
+
+    import numpy as np
+
+    from navd.config import NavdConfig
+    from navd.geometry.scan import scan_points
+    from navd.slam.mapper import ScanMapper
+    from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
+    from navd.slam.settings import MapperSettings
+    from navd.slam.warmup import warm_up
+
+    warm_up()
+    before = set(sys.modules)
+    config = NavdConfig()
+    odometry = ScanOdometry(ScanOdometrySettings.from_config(config))
+    mapper = ScanMapper(MapperSettings.from_config(config))
+    angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+    ranges = 3.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
+    for k in range(3):
+        scan = scan_points(ranges - 0.03 * k, -math.pi, 2 * math.pi / 360,
+                           range_min=0.1, range_max=12.0)
+        mapper.add(0.1 * k, scan, odometry.register(scan.hits))
+    imported = sorted(set(sys.modules) - before)
+    assert not imported, f"a first scan imported {imported}"
+    print("ok")
+    """
+)
+
+
+def test_a_first_scan_after_the_warm_up_imports_nothing() -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.strip() == "ok"
