@@ -1,6 +1,7 @@
-"""The SLAM warm-up loads what a first live scan runs: in a fresh process, after it, scan
-odometry (kiss-icp, the motion prior without wheel odometry) and a mapper's first scans import
-no module, so a first scan never holds the interpreter lock for an import."""
+"""The SLAM warm-up loads what a first live scan and a first loop closure run: in a fresh
+process, after it, scan odometry (kiss-icp, the motion prior without wheel odometry), a
+mapper's first scans and a pose-graph solve import no module, so none of them holds the
+interpreter lock for an import in the daemon."""
 
 from __future__ import annotations
 
@@ -18,7 +19,9 @@ SCRIPT = textwrap.dedent(
     from navd.config import NavdConfig
     from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
+    from navd.geometry.pose import Pose2
     from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
+    from navd.slam.pose_graph import Edge, optimize
     from navd.slam.settings import MapperSettings
     from navd.slam.warmup import warm_up
 
@@ -33,6 +36,10 @@ SCRIPT = textwrap.dedent(
         scan = scan_points(ranges - 0.03 * k, -math.pi, 2 * math.pi / 360,
                            range_min=0.1, range_max=12.0)
         mapper.add(0.1 * k, scan, odometry.register(scan.hits))
+    side = Pose2(2.0, 0.0, math.pi / 2)
+    square = [Edge(k, (k + 1) % 4, side, (10.0, 10.0, 30.0)) for k in range(4)]
+    poses = np.array([[0.0, 0.0, 0.0], [2.1, 0.0, 1.5], [2.0, 2.2, 3.1], [-0.1, 2.0, -1.6]])
+    assert np.abs(optimize(poses, square)[2, :2] - [2.0, 2.0]).max() < 0.05
     imported = sorted(set(sys.modules) - before)
     assert not imported, f"a first scan imported {imported}"
     print("ok")
@@ -40,7 +47,7 @@ SCRIPT = textwrap.dedent(
 )
 
 
-def test_a_first_scan_after_the_warm_up_imports_nothing() -> None:
+def test_a_first_scan_and_loop_closure_after_the_warm_up_import_nothing() -> None:
     done = subprocess.run(
         [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=600, check=False
     )
