@@ -16,6 +16,7 @@ import math
 
 from navd.estimation.errors import GeoError
 from navd.estimation.estimator import Localization, StateEstimator
+from navd.estimation.geo import open_projections_here
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.warmup import warm_up
 from navd.lifecycle.messages import (
@@ -83,6 +84,10 @@ class EstimationNode(Module):
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
         self.ctx.warm_up(self._build, name="setup")
+        # GPS fixes are projected here, on the event loop; pyproj opens its database once per
+        # thread, so that is done now (about 2 ms, before the daemon is ready), not on the
+        # first fix.
+        open_projections_here()
         period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz  # needs a restart
         self.ctx.every(period_s, self._publish, name="publish")
         self.ctx.every(_BEACONS_EVERY_S, self._publish_beacons, name="beacons")

@@ -10,7 +10,6 @@ import numpy as np
 
 from navd.config import EstimationConfig
 from navd.estimation._ukf_kernels import propagate
-from navd.estimation.geo import GeoFrame
 from navd.estimation.history import Snapshot
 from navd.estimation.madgwick import MadgwickFilter
 from navd.estimation.motion_model import STATE_SIZE, ProcessNoise, Row
@@ -23,10 +22,9 @@ __all__ = ["warm_up"]
 def warm_up(config: EstimationConfig) -> None:
     """Run a throwaway Madgwick filter over a few samples (with and without a magnetometer)
     and read a window of them back; step a throwaway UKF without and with a measurement,
-    through the gate and past it; predict a state between events (the estimate); make a
-    geographic frame (pyproj's first transformer opens its database: 2.4 ms on the event loop
-    at the first GPS fix without a configured datum, against 0.3-0.5 ms for a frame after
-    it, whatever its zone; 1.4 MB)."""
+    through the gate and past it; predict a state between events (the estimate). (pyproj's
+    database is opened on the event loop instead, which projects the fixes: see
+    ``geo.open_projections_here``.)"""
     madgwick = MadgwickFilter(config)
     for k in range(4):
         stamp = 0.01 * k
@@ -51,4 +49,3 @@ def warm_up(config: EstimationConfig) -> None:
     # the estimate's prediction, on a history's read-only arrays (a type of their own)
     latest = Snapshot.of(0.0, np.zeros(STATE_SIZE), np.eye(STATE_SIZE))
     propagate(latest.x, latest.p, 0.04, ProcessNoise(1.0, 1.0).polynomial)
-    GeoFrame(0.0, 9.0, map_rotation_rad=0.0, zone=None, max_distance_m=1.0)

@@ -21,13 +21,13 @@ __all__ = ["warm_up"]
 def warm_up() -> None:
     """Run two scans of a small square room through a throwaway mapper and scan odometry,
     then find the second on the map (the global search of localization and loop closure) and
-    solve a three-pose loop (the pose graph's sparse solver: scipy.sparse.linalg, 16 ms to
-    import in the daemon and 3 MB, else at the first loop closure).
+    solve a three-pose loop.
 
-    Scan odometry imports kiss-icp on first use: 20 ms of module code in the daemon (0.3 s in
-    a bare process) that holds the interpreter lock, so the event loop waits on it in turns
-    of up to 5 ms. Before, the first live scan did it (a profile of the daemon under the
-    nominal load caught it)."""
+    Scan odometry imports kiss-icp and the pose graph imports scipy.sparse.linalg on first
+    use, holding the interpreter lock while they do; done here, no live scan or loop closure
+    pays for it (docs/performance.md, "The first message after an upgrade"). Each scan is the
+    room shrunk by ``shift`` rather than the robot moved: what they compile and load does not
+    depend on how far it is."""
     angles = -math.pi + 2 * math.pi * np.arange(90) / 90
     # Distance to the walls of a 4 m square room seen from its centre.
     ranges = 2.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
@@ -41,8 +41,11 @@ def warm_up() -> None:
         )
         mapper.add(shift, scan, odometry.register(scan.hits))
     relocalize(mapper.grid, scan.hits)
+    # A triangle: three 1 m sides, each turning 120 degrees, so the edges close exactly. The
+    # poses start off it so the solver iterates, and the closing edge is robust, as a loop
+    # closure's is, so the soft-L1 branch runs too.
     step = Pose2(1.0, 0.0, 2.0 * math.pi / 3.0)
-    weights = (20.0, 20.0, 50.0)
+    weights = (20.0, 20.0, 50.0)  # 1/sigma: 5 cm, 5 cm, 1.1 degrees
     loop = [Edge(0, 1, step, weights), Edge(1, 2, step, weights)]
     loop.append(Edge(2, 0, step, weights, robust=True))
     optimize(np.array([[0.0, 0.0, 0.0], [1.1, 0.0, 2.0], [0.5, 0.9, -2.2]]), loop)

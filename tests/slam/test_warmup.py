@@ -17,9 +17,9 @@ SCRIPT = textwrap.dedent(
     import numpy as np
 
     from navd.config import NavdConfig
+    from navd.geometry.pose import Pose2
     from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
-    from navd.geometry.pose import Pose2
     from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
     from navd.slam.pose_graph import Edge, optimize
     from navd.slam.settings import MapperSettings
