@@ -28,6 +28,7 @@ from navd.sim.sensors import SensorModels, SimSensor
 __all__ = ["Lockstep"]
 
 ACK_TIMEOUT_S = 60.0  # [s] real time a lockstep step may take the daemon
+STEP_TOLERANCE_S = 1e-9  # [s] a step time k * dt that rounds past ``until_s`` still counts
 FIRST_ACK_TIMEOUT_S = 600.0  # [s] the same for the first step: it waits for kernels to compile
 CHASSIS_READ_TIMEOUT_S = 5.0  # [s] real time for wheel lines the daemon says it wrote
 
@@ -60,8 +61,10 @@ class Lockstep:
         self._writers: dict[str, AsyncClient] = {}
         self._sent: Counter[str] = Counter()
 
-    async def run(self, stop: asyncio.Event) -> None:
-        """Drive the daemon's clock and the world together until ``stop`` is set.
+    async def run(self, stop: asyncio.Event, until_s: float | None = None) -> None:
+        """Drive the daemon's clock and the world together until ``stop`` is set or, with
+        ``until_s``, until the step at that simulated time [s] is done (the same last step
+        every run, however fast the machine).
 
         Raises:
             SimError: the daemon refused the clock, closed it, or did not answer a step.
@@ -75,6 +78,8 @@ class Lockstep:
         try:
             while not stop.is_set():
                 t = self.steps * dt
+                if until_s is not None and t > until_s + STEP_TOLERANCE_S:
+                    return
                 clock.send(ClockFrame(time=t, frames=dict(self._sent)))
                 try:
                     ack = await _clock_ack(

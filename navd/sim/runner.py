@@ -101,12 +101,13 @@ class Simulator:
         """Encoder lines per second; none when the daemon does not read them."""
         return 0.0 if self.config.chassis.feedback == "off" else self.settings.feedback_rate_hz
 
-    async def run(self, stop: asyncio.Event) -> None:
-        """Play the robot until ``stop`` is set."""
+    async def run(self, stop: asyncio.Event, until_s: float | None = None) -> None:
+        """Play the robot until ``stop`` is set or, on the lockstep clock, ``until_s`` [s] of
+        simulated time have run (on real time the caller watches the time and sets ``stop``)."""
         self.chassis.open()
         try:
             if self.lockstep is not None:
-                await self.lockstep.run(stop)
+                await self.lockstep.run(stop, until_s)
             else:
                 await self._run_real_time(stop)
         finally:

@@ -80,10 +80,13 @@ def run_sim(
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, stop.set)
         sim.release_clock()
-        if limit_s is not None:
+        # On simulated time the lockstep ends on the step at limit_s itself, so a run's summary
+        # is the same every time; real time is watched (to within 0.05 s).
+        watched = limit_s if sim.lockstep is None else None
+        if watched is not None:
 
             async def watch() -> None:
-                while sim.now() < limit_s:
+                while sim.now() < watched:
                     await asyncio.sleep(0.05)
                 stop.set()
 
@@ -96,10 +99,10 @@ def run_sim(
 
         checker = loop.create_task(unreached())
         try:
-            await sim.run(stop)
+            await sim.run(stop, until_s=limit_s)
         finally:
             checker.cancel()
-            if limit_s is not None:
+            if watched is not None:
                 watcher.cancel()
 
     asyncio.run(main())

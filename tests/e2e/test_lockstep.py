@@ -136,3 +136,40 @@ async def test_navd_sim_drives_navd_run_as_two_programs(tmp_path: Path) -> None:
     t, x, y, _ = (float(v) for v in rows[-1].split(","))
     assert t > 5.0
     assert math.hypot(x - 5.5, y) < 0.3
+
+
+NAVD_SIM = [sys.executable, "-m", "navd", "sim"]
+
+
+def test_navd_sim_on_simulated_time_stops_on_the_step_at_its_limit(tmp_path: Path) -> None:
+    # --limit on simulated time ends on the step at the limit itself, so the summary is the
+    # run's, not the machine's (a watch of the time in real time used to stop it a varying
+    # number of steps later).
+    world_path = tmp_path / "hall.toml"
+    world_path.write_text(tomli_w.dumps(HALL), encoding="utf-8")
+    config, _ = _config(tmp_path)
+    log = (tmp_path / "navd.log").open("wb")
+    daemon = subprocess.Popen(
+        [sys.executable, "-m", "navd", "run", "--config", str(config)],
+        cwd=REPO,
+        stdout=log,
+        stderr=log,
+    )
+    try:
+        sim = subprocess.run(
+            [*NAVD_SIM, "--config", str(config), "--world", str(world_path), "--limit", "3"],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=False,
+        )
+    finally:
+        daemon.terminate()
+        daemon.wait(timeout=30)
+        log.close()
+    assert sim.returncode == 0, sim.stderr
+    summary = json.loads(sim.stdout)
+    assert summary["clock"] == "lockstep"
+    assert summary["sim_time_s"] == 3.0
+    assert summary["chassis_lines"] > 0  # navd drove the wheels (with zeros: no goal)
