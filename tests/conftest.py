@@ -5,6 +5,8 @@ fails or passes on the code alone."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -19,6 +21,20 @@ from navd.lifecycle.supervision import Supervisor
 
 settings.register_profile("navd", derandomize=True, database=None)
 settings.load_profile("navd")
+
+
+def fresh_process_output(script: str, timeout_s: float = 300.0) -> str:
+    """What ``script`` prints when run by a new Python interpreter (so nothing this test
+    process imported or compiled counts); fails the test, with its stderr, if it fails."""
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done.stdout.strip()
 
 
 def velocity(linear: float = 0.1, angular: float = 0.0, t: float = 0.0) -> VelocityCommand:

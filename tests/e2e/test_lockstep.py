@@ -9,7 +9,7 @@ import math
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import pytest
 import tomli_w
@@ -22,6 +22,8 @@ from navd.sim.world import from_shapes
 from tests.e2e.conftest import REPO, free_port
 
 pytestmark = pytest.mark.e2e
+
+NAVD = [sys.executable, "-m", "navd"]
 
 # A hall with a pillar and a person crossing beyond it: a drive with something to decide.
 HALL = {
@@ -78,18 +80,20 @@ def _config(work: Path) -> tuple[Path, int]:
     return path, port
 
 
+def _start_navd(config: Path, log: BinaryIO) -> subprocess.Popen[bytes]:
+    """``navd run`` on ``config`` in its own process, its output into ``log``."""
+    return subprocess.Popen(
+        [*NAVD, "run", "--config", str(config)], cwd=REPO, stdout=log, stderr=log
+    )
+
+
 async def test_navd_sim_drives_navd_run_as_two_programs(tmp_path: Path) -> None:
     world_path = tmp_path / "hall.toml"
     world_path.write_text(tomli_w.dumps(HALL), encoding="utf-8")
     config, port = _config(tmp_path)
     truth = tmp_path / "truth.csv"
     log = (tmp_path / "navd.log").open("wb")
-    daemon = subprocess.Popen(
-        [sys.executable, "-m", "navd", "run", "--config", str(config)],
-        cwd=REPO,
-        stdout=log,
-        stderr=log,
-    )
+    daemon = _start_navd(config, log)
     sim = subprocess.Popen(
         [
             sys.executable,
@@ -138,9 +142,6 @@ async def test_navd_sim_drives_navd_run_as_two_programs(tmp_path: Path) -> None:
     assert math.hypot(x - 5.5, y) < 0.3
 
 
-NAVD_SIM = [sys.executable, "-m", "navd", "sim"]
-
-
 def test_navd_sim_on_simulated_time_stops_on_the_step_at_its_limit(tmp_path: Path) -> None:
     # --limit on simulated time ends on the step at the limit itself, so the summary is the
     # run's, not the machine's (a watch of the time in real time used to stop it a varying
@@ -149,15 +150,10 @@ def test_navd_sim_on_simulated_time_stops_on_the_step_at_its_limit(tmp_path: Pat
     world_path.write_text(tomli_w.dumps(HALL), encoding="utf-8")
     config, _ = _config(tmp_path)
     log = (tmp_path / "navd.log").open("wb")
-    daemon = subprocess.Popen(
-        [sys.executable, "-m", "navd", "run", "--config", str(config)],
-        cwd=REPO,
-        stdout=log,
-        stderr=log,
-    )
+    daemon = _start_navd(config, log)
     try:
         sim = subprocess.run(
-            [*NAVD_SIM, "--config", str(config), "--world", str(world_path), "--limit", "3"],
+            [*NAVD, "sim", "--config", str(config), "--world", str(world_path), "--limit", "3"],
             cwd=REPO,
             capture_output=True,
             text=True,

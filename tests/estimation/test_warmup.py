@@ -5,9 +5,9 @@ cache; the estimate's read-only arrays are a type of their own)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import textwrap
+
+from tests.conftest import fresh_process_output
 
 SCRIPT = textwrap.dedent(
     """
@@ -59,8 +59,4 @@ SCRIPT = textwrap.dedent(
 
 
 def test_the_warm_up_leaves_nothing_for_the_first_samples_to_compile() -> None:
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=300, check=False
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert done.stdout.strip() == "ok"
+    assert fresh_process_output(SCRIPT) == "ok"

@@ -5,9 +5,9 @@ interpreter lock for an import in the daemon."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import textwrap
+
+from tests.conftest import fresh_process_output
 
 SCRIPT = textwrap.dedent(
     """
@@ -48,8 +48,4 @@ SCRIPT = textwrap.dedent(
 
 
 def test_a_first_scan_and_loop_closure_after_the_warm_up_import_nothing() -> None:
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=600, check=False
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert done.stdout.strip() == "ok"
+    assert fresh_process_output(SCRIPT, timeout_s=600.0) == "ok"
