@@ -72,6 +72,30 @@ def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() 
     assert (closer.counts.checks, closer.counts.found) == (1, 1)
 
 
+def test_a_long_pass_is_searched_as_far_as_the_path_since_the_part_the_robot_is_back_at() -> None:
+    # The robot mapped the room, then stayed near it for 120 m (here seeing nothing, 5 m
+    # from the room's centre), left, and came back 2.5 m off. The pass ended only 24 m of
+    # path ago, but the part the robot is back at was driven 150 m ago: that sets the window.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    blind = ScanPoints(np.zeros((0, 2)), np.zeros((0, 2)))
+    stay = [
+        Keyframe(0.0, Pose2(-2.75 + 4.0 * abs(((i / 13.3) % 2.0) - 1.0), -5.3, 0.0), blind)
+        for i in range(400)
+    ]
+    assert path_lengths(np.array([tuple(f.pose) for f in stay]))[-1] > 110.0
+    drift = Pose2(1.5, -2.0, math.radians(4.0))
+    truth = _ellipse(12, turn0=1.0)
+    revisit = [Keyframe(0.0, drift.compose(t), _scan(t)) for t in truth]
+    keyframes = first + stay + _detour(stay[-1].pose, 20.0) + revisit
+    closer = LoopCloser(settings)
+    found = closer.search(keyframes, len(keyframes) - 1)
+    assert closer.counts.checks == 1  # the room and the stay near it are one pass
+    assert len(found) == 1
+    assert math.hypot(found[0].pose.x - truth[-1].x, found[0].pose.y - truth[-1].y) < 0.05
+    assert 0 <= found[0].old < len(first)
+
+
 def test_a_revisit_whose_scans_saw_nothing_is_not_searched_and_does_not_fail() -> None:
     # Back in the room, but the newest scans have no hits (an 8 m lidar in a wide hall):
     # there is nothing to match, and the search says so instead of failing on no points.
