@@ -45,7 +45,8 @@ __all__ = ["LoopCandidate", "LoopCloser", "LoopCounts"]
 
 FloatArray = npt.NDArray[np.float64]
 
-# The window grows by this share of the path driven since the old pass ([m] per m).
+# The window grows by this share of the path driven since the pass's keyframe nearest the
+# robot's estimate ([m] per m).
 LOOP_DRIFT_PER_M = 0.03
 # ... from at least this half-width [m].
 LOOP_MIN_WINDOW_M = 1.0
@@ -153,14 +154,16 @@ class LoopCloser:
         near = np.flatnonzero(distance <= s.loop_search_xy_m + LOOP_PASS_MARGIN_M)
         found = []
         for run in passes(near, LOOP_PASS_JOIN):
-            since_left = float(driven[k] - driven[run[-1]])
-            if since_left < LOOP_MIN_PATH_M or distance[run].min() > s.loop_search_radius_m:
+            since_left_m = float(driven[k] - driven[run[-1]])
+            if since_left_m < LOOP_MIN_PATH_M or distance[run].min() > s.loop_search_radius_m:
                 continue
-            # The drift to correct is the path driven since the part of the pass the robot
-            # is back at, not since the pass ended: a robot that stayed near for a long
-            # pass (aces: 414-977 s) comes back to its old part (613 s) 3 m off.
-            since = float(driven[k] - driven[run[np.argmin(distance[run])]])
-            window = min(s.loop_search_xy_m, max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * since))
+            # The drift to correct is the path driven since the part of the pass nearest the
+            # robot's (drifted) estimate, not since the pass ended: a robot that stayed near
+            # for a long pass (aces: 414-977 s) comes back to its old part (613 s) 3-4 m off.
+            since_nearest_m = float(driven[k] - driven[run[np.argmin(distance[run])]])
+            window = min(
+                s.loop_search_xy_m, max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * since_nearest_m)
+            )
             candidate = self._search_pass(keyframes, k, run, window)
             if candidate is not None:
                 found.append(candidate)

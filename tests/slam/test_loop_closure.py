@@ -72,28 +72,57 @@ def test_a_revisit_metres_off_after_a_long_detour_is_found_where_it_really_is() 
     assert (closer.counts.checks, closer.counts.found) == (1, 1)
 
 
-def test_a_long_pass_is_searched_as_far_as_the_path_since_the_part_the_robot_is_back_at() -> None:
-    # The robot mapped the room, then stayed near it for 120 m (here seeing nothing, 5 m
-    # from the room's centre), left, and came back 2.5 m off. The pass ended only 24 m of
-    # path ago, but the part the robot is back at was driven 150 m ago: that sets the window.
-    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
-    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
-    blind = ScanPoints(np.zeros((0, 2)), np.zeros((0, 2)))
-    stay = [
-        Keyframe(0.0, Pose2(-2.75 + 4.0 * abs(((i / 13.3) % 2.0) - 1.0), -5.3, 0.0), blind)
-        for i in range(400)
-    ]
-    assert path_lengths(np.array([tuple(f.pose) for f in stay]))[-1] > 110.0
+def _stay_near(length_m: float) -> list[Keyframe]:
+    """Keyframes 0.3 m apart driving back and forth along a 4 m line 5 m south of the room's
+    centre for ``length_m`` of steps (a little less path: the turns cut corners), seeing
+    nothing: near the room, but never in it."""
+    step_m, span_m = 0.3, 4.0
+    out = []
+    for i in range(round(length_m / step_m)):
+        along = (i * step_m) % (2 * span_m)
+        x = -2.75 + (along if along <= span_m else 2 * span_m - along)
+        out.append(
+            Keyframe(0.0, Pose2(x, -5.3, 0.0), ScanPoints(np.zeros((0, 2)), np.zeros((0, 2))))
+        )
+    return out
+
+
+def _revisit_after(before: list[Keyframe]) -> tuple[list[Keyframe], Pose2]:
+    """``before``, a 20 m detour, and 12 keyframes back in the room 2.5 m and 4 degrees off;
+    and the last one's true pose."""
     drift = Pose2(1.5, -2.0, math.radians(4.0))
     truth = _ellipse(12, turn0=1.0)
     revisit = [Keyframe(0.0, drift.compose(t), _scan(t)) for t in truth]
-    keyframes = first + stay + _detour(stay[-1].pose, 20.0) + revisit
+    return before + _detour(before[-1].pose, 20.0) + revisit, truth[-1]
+
+
+def test_a_long_pass_is_searched_as_far_as_the_path_since_its_part_nearest_the_robot() -> None:
+    # The robot mapped the room, stayed near it for 110 m of path (seeing nothing), left,
+    # and came back 2.5 m off. The pass (the room and the stay) was left 32 m of path ago:
+    # counted from there the window is 1 m. Its part nearest the robot, the room, was driven
+    # 150-170 m ago: counted from there the window is 4 m (the cap), and the room is found.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    room = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    keyframes, truth = _revisit_after(room + _stay_near(115.0))
     closer = LoopCloser(settings)
     found = closer.search(keyframes, len(keyframes) - 1)
     assert closer.counts.checks == 1  # the room and the stay near it are one pass
     assert len(found) == 1
-    assert math.hypot(found[0].pose.x - truth[-1].x, found[0].pose.y - truth[-1].y) < 0.05
-    assert 0 <= found[0].old < len(first)
+    assert math.hypot(found[0].pose.x - truth.x, found[0].pose.y - truth.y) < 0.05
+    assert 0 <= found[0].old < len(room)
+
+
+def test_a_long_pass_whose_nearest_part_was_driven_last_keeps_a_narrow_window() -> None:
+    # The same places in the other order: the stay first, the room last. The pass began
+    # 170 m ago, but the room, its part nearest the robot, was driven 25-45 m ago: the
+    # window stays under 1.4 m, and a 2.5 m jump after so little path is not believed.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    room = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    keyframes, truth = _revisit_after(_stay_near(115.0) + room)
+    closer = LoopCloser(settings)
+    found = closer.search(keyframes, len(keyframes) - 1)
+    assert closer.counts.checks == 1
+    assert all(math.hypot(f.pose.x - truth.x, f.pose.y - truth.y) > 1.0 for f in found)
 
 
 def test_a_revisit_whose_scans_saw_nothing_is_not_searched_and_does_not_fail() -> None:

@@ -1,7 +1,7 @@
-"""`navd replay --perturb` on a shared log: the defaults hold under a worse sensor (issue 19).
+"""The Intel lab replayed with range noise, over several draws of the noise (issue 19).
 
-Kept apart from test_logs_and_relations.py so the test run can give these replays a worker
-of their own.
+Kept apart from test_logs_and_relations.py (where the aces replays with lost scans and
+worse wheels are) so the test run can give these three replays a worker of their own.
 """
 
 from __future__ import annotations
@@ -16,20 +16,20 @@ from tests.datasets import dataset
 INTEL_BAG_UNPERTURBED_M = 0.0273  # measured with the defaults on 4 December (docs/slam.md)
 
 
-def test_intel_replay_holds_with_3_cm_of_range_noise_whatever_the_noise_draws(
-    tmp_path: Path,
-) -> None:
+def test_intel_replay_holds_with_3_cm_of_range_noise_over_three_draws(tmp_path: Path) -> None:
     # Range noise also spreads the heading errors the odometry's weight is learned from; it
-    # once lowered the weight until a fast turn slipped and the Intel lab was lost (3.7 m).
+    # once lowered the weight until a fast turn slipped and the Intel lab was 3.7 m off.
     # One draw of the noise says little on this log: a loop found a little earlier or later
-    # flips a run between holding and losing its way (the build before held seed 0 at 1.6
-    # times and lost seeds 3 and 4 at 3.8 and 3.7). Three draws: none lost (2.5 times), and
-    # the middle one within issue 19's two times.
+    # flips a run between holding and losing its way. Seeds 3 and 4 are the draws on which
+    # the build before the loop window's rule lost it (3.9 and 3.7 times its unperturbed
+    # 0.0270 m; seed 0, the one its test replayed, held at 1.6 times). This build: seed 0
+    # 2.1 times (over issue 19's 2), seeds 3 and 4 1.7 and 1.8 times. So: no draw beyond
+    # 2.5 times, and the middle one within 2 (docs/slam.md, "Perturbed logs").
     freiburg = dataset("freiburg_slam_benchmark")
     bag = freiburg / "bags_ros1" / "intel.orig.bag"
     relations = read_relations(freiburg / "relations" / "intel.relations")
     means = []
-    for seed in (0, 1, 2):
+    for seed in (0, 3, 4):
         out = tmp_path / f"seed{seed}"
         args = ["replay", str(bag), "--out", str(out), "--quiet", "--perturb", "noise"]
         assert main([*args, "--seed", str(seed)]) == 0
