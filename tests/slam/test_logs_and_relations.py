@@ -325,8 +325,9 @@ def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path
     _, before = read_tum(first / "trajectory.tum")
     x, y, _ = summary["found_at"]
     assert math.hypot(x - before[-1].x, y - before[-1].y) < 0.3
-    assert summary["loops_to_loaded"] >= 5  # 19 measured
-    # The second half is mapped as well as in one run (0.084 m over the whole log).
+    assert summary["loops_to_loaded"] >= 5  # 20 measured
+    # The second half is mapped nearly as well as in one run: 0.120 m measured, against
+    # 0.084 m over the whole log (alone, it misses the east-wing loop the whole log closes).
     stamps, poses = read_tum(second / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
     assert errors.used > 500
