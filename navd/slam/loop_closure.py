@@ -154,13 +154,14 @@ class LoopCloser:
         near = np.flatnonzero(distance <= s.loop_search_xy_m + LOOP_PASS_MARGIN_M)
         found = []
         for run in passes(near, LOOP_PASS_JOIN):
+            nearest = run[np.argmin(distance[run])]
             since_left_m = float(driven[k] - driven[run[-1]])
-            if since_left_m < LOOP_MIN_PATH_M or distance[run].min() > s.loop_search_radius_m:
+            if since_left_m < LOOP_MIN_PATH_M or distance[nearest] > s.loop_search_radius_m:
                 continue
             # The drift to correct is the path driven since the part of the pass nearest the
             # robot's (drifted) estimate, not since the pass ended: a robot that stayed near
             # for a long pass (aces: 414-977 s) comes back to its old part (613 s) 3-4 m off.
-            since_nearest_m = float(driven[k] - driven[run[np.argmin(distance[run])]])
+            since_nearest_m = float(driven[k] - driven[nearest])
             window = min(
                 s.loop_search_xy_m, max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * since_nearest_m)
             )
