@@ -4,18 +4,24 @@ Grids are indexed [row, col] = [y, x] in cells. The occupancy grid is stored in 
 (navd.slam.tiles); its kernels take the tiled array's parts. Every kernel has a NumPy twin,
 on a dense array, in tests/slam/grid_reference.py.
 
+- ``extent``, ``cells_and_box``: a scan's box in the world and its end cells, for
+  ``ray_update``.
 - ``ray_update``: log-odds update along each ray (Bresenham): every cell the ray crosses
   gets ``l_free``, the end cell of a ray that hit something gets ``l_occ``; values are
   clamped to [l_min, l_max].
 - ``smear``: the correlation grid of seed Appendix A: every occupied cell stamps a Gaussian
   kernel, keeping the maximum where stamps overlap.
 - ``sliding_max``: M[v, u] = max of the field over [v, v+f) x [u, u+f): an upper bound of the
-  field over a block of f x f translations (the levels of branch and bound).
+  field over a block of f x f translations (the levels of branch and bound); ``doubled_max``
+  makes the maximum over 2h cells from the one over h.
 - ``fine_scores``: the summed field under the scan points, rotated and moved, for a block
   of translations.
 - ``branch_and_bound``: the best (rotation, translation) over a whole window, less a pull
   toward the prior, best-first over blocks of translations bounded by the summed sliding
   maximum (the tracking matcher and the global search).
+- ``best_among``: the best summed field under the scan points, at one rotation, over the
+  translations a mask allows (the best rival of a match), best-first like
+  ``branch_and_bound``.
 - ``count_known``: how many world points lie within one cell of an observed cell
   (log-odds not 0).
 """
@@ -31,8 +37,12 @@ import numpy.typing as npt
 from navd.slam.tiles import TILE, TILE_MASK, TILE_SHIFT
 
 __all__ = [
+    "best_among",
     "branch_and_bound",
+    "cells_and_box",
     "count_known",
+    "doubled_max",
+    "extent",
     "fine_scores",
     "ray_update",
     "sliding_max",
@@ -65,6 +75,38 @@ def _read(index: I32Grid, tiles: Tiles, gy: int, gx: int) -> float:
     if t < 0:
         return 0.0
     return float(tiles[t, gy & TILE_MASK, gx & TILE_MASK])
+
+
+@nb.njit(cache=True, nogil=True)
+def extent(points: F64, x: float, y: float) -> tuple[float, float, float, float]:
+    """(min x, min y, max x, max y) [m] of ``points`` (N x 2) and the point (x, y)."""
+    lo_x = hi_x = x
+    lo_y = hi_y = y
+    for i in range(points.shape[0]):
+        lo_x, hi_x = min(lo_x, points[i, 0]), max(hi_x, points[i, 0])
+        lo_y, hi_y = min(lo_y, points[i, 1]), max(hi_y, points[i, 1])
+    return lo_x, lo_y, hi_x, hi_y
+
+
+@nb.njit(cache=True, nogil=True)
+def cells_and_box(
+    points: F64, origin_x: float, origin_y: float, res: float, col: int, row: int
+) -> tuple[IntArray, IntArray, int, int, int, int]:
+    """The cells (col, row) = floor((point - origin) / res) of ``points`` (N x 2 [m]), and
+    the box of those cells and the cell (col, row): (cols, rows, col min, col max, row min,
+    row max)."""
+    n = points.shape[0]
+    cols = np.empty(n, dtype=np.int64)
+    rows = np.empty(n, dtype=np.int64)
+    c0 = c1 = col
+    r0 = r1 = row
+    for i in range(n):
+        c = int(np.floor((points[i, 0] - origin_x) / res))
+        r = int(np.floor((points[i, 1] - origin_y) / res))
+        cols[i], rows[i] = c, r
+        c0, c1 = min(c0, c), max(c1, c)
+        r0, r1 = min(r0, r), max(r1, r)
+    return cols, rows, c0, c1, r0, r1
 
 
 @nb.njit(cache=True, nogil=True)
@@ -220,6 +262,28 @@ def sliding_max(field: FloatArray, f: int) -> FloatArray:
 
 
 @nb.njit(cache=True, nogil=True)
+def doubled_max(half: FloatArray, h: int) -> FloatArray:
+    """``sliding_max(field, 2h)`` from ``half = sliding_max(field, h)``: the maximum over
+    [u, u + 2h) is that over [u, u + h) and over [u + h, u + 2h) (clipped at the border)."""
+    rows, cols = half.shape
+    out = np.empty_like(half)
+    # One pass, row by row: (v, u), (v, u + h), (v + h, u), (v + h, u + h), clipped.
+    for v in range(rows):
+        below = v + h < rows
+        for u in range(cols):
+            m = half[v, u]
+            right = u + h < cols
+            if right and half[v, u + h] > m:
+                m = half[v, u + h]
+            if below:
+                m = max(m, half[v + h, u])
+                if right and half[v + h, u + h] > m:
+                    m = half[v + h, u + h]
+            out[v, u] = m
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def _project(px: F64, py: F64, c: float, s: float, tx: float, ty: float, k: int) -> tuple[int, int]:
     """Cell of point k rotated by (c, s) and moved by (tx, ty); all in cell units."""
     x = c * px[k] - s * py[k] + tx
@@ -247,6 +311,45 @@ def _block_bound(
         if 0 <= x < n_cols and 0 <= y < n_rows:
             total += bound[y, x]
     return np.float64(np.float32(total))
+
+
+@nb.njit(cache=True, nogil=True)
+def _quarter_bounds(
+    bound: FloatArray, cols: IntArray, rows: IntArray, dx: int, dy: int, half: int
+) -> tuple[float, float, float, float]:
+    """``_block_bound`` of the four ``half``-cell quarters of the block starting at (dx, dy)
+    (at dx, dx + half; dy, dy + half), in one pass over the points: each quarter's sum is
+    taken in the same order, so it equals ``_block_bound``'s to the bit."""
+    n_rows, n_cols = bound.shape
+    t00 = t10 = t01 = t11 = 0.0
+    for k in range(cols.size):
+        x0, y0 = cols[k] + dx, rows[k] + dy
+        x1, y1 = x0 + half, y0 + half
+        if x0 < 0 < x0 + half:
+            x0 = 0
+        if y0 < 0 < y0 + half:
+            y0 = 0
+        if x1 < 0 < x1 + half:
+            x1 = 0
+        if y1 < 0 < y1 + half:
+            y1 = 0
+        in_x0, in_x1 = 0 <= x0 < n_cols, 0 <= x1 < n_cols
+        if 0 <= y0 < n_rows:
+            if in_x0:
+                t00 += bound[y0, x0]
+            if in_x1:
+                t10 += bound[y0, x1]
+        if 0 <= y1 < n_rows:
+            if in_x0:
+                t01 += bound[y1, x0]
+            if in_x1:
+                t11 += bound[y1, x1]
+    return (
+        np.float64(np.float32(t00)),
+        np.float64(np.float32(t10)),
+        np.float64(np.float32(t01)),
+        np.float64(np.float32(t11)),
+    )
 
 
 @nb.njit(cache=True, nogil=True)
@@ -329,15 +432,85 @@ def branch_and_bound(
             return a, dx, dy, bound, expanded
         expanded += 1
         half = 1 << (level - 1)
-        for j in (0, half):
-            for i in (0, half):
-                cx, cy = dx + i, dy + j
-                if abs(cx) <= limit and abs(cy) <= limit:
-                    bound = _block_bound(bounds[level - 1], cols[a], rows[a], cx, cy, half)
-                    pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
-                    if bound - pull >= floor:
-                        heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
+        quarters = _quarter_bounds(bounds[level - 1], cols[a], rows[a], dx, dy, half)
+        for q in range(4):
+            cx, cy = dx + half * (q & 1), dy + half * (q >> 1)
+            if abs(cx) <= limit and abs(cy) <= limit:
+                bound = quarters[q]
+                pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
+                if bound - pull >= floor:
+                    heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
     return -1, 0, 0, 0.0, expanded
+
+
+@nb.njit(cache=True, nogil=True)
+def best_among(
+    bounds: tuple[FloatArray, ...],
+    px: F64,
+    py: F64,
+    c: float,
+    s: float,
+    tx: float,
+    ty: float,
+    allowed: npt.NDArray[np.bool_],
+) -> float:
+    """The highest summed field under the points, rotated by (c, s), over the translations
+    ``allowed`` marks: the same value as the largest of ``fine_scores`` over them.
+
+    Args:
+        bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
+        allowed: bool [2 * limit + 1, 2 * limit + 1], indexed [dy + limit, dx + limit]: the
+            translations (dx, dy) [cells] taken.
+
+    Returns:
+        The best summed field (float32-rounded), 0.0 if ``allowed`` marks none.
+
+    Blocks of translations are bounded by the summed sliding maximum and expanded
+    best-first; a block with no allowed translation is dropped, so the first single
+    translation taken off the queue is the best allowed one. A rival of a match lies outside
+    a disc around it, where the field's peak is: most of the window is never scored.
+    """
+    levels = len(bounds) - 1
+    top = 1 << levels
+    limit = (allowed.shape[0] - 1) // 2
+    n = allowed.shape[0]
+    # Summed-area table of the mask: whether a block holds an allowed translation, in O(1).
+    area = np.zeros((n + 1, n + 1), dtype=np.int64)
+    for j in range(n):
+        for i in range(n):
+            area[j + 1, i + 1] = area[j, i + 1] + area[j + 1, i] - area[j, i] + allowed[j, i]
+    cols = np.empty(px.size, dtype=np.int64)
+    rows = np.empty(px.size, dtype=np.int64)
+    for k in range(px.size):
+        cols[k], rows[k] = _project(px, py, c, s, tx, ty, k)
+    queue = [(0.0, 0, 0, 0)]
+    queue.pop()
+    for dy in range(-limit, limit + 1, top):
+        for dx in range(-limit, limit + 1, top):
+            if _holds(area, dx + limit, dy + limit, top):
+                bound = _block_bound(bounds[levels], cols, rows, dx, dy, top)
+                queue.append((-bound, levels, dx, dy))
+    heapq.heapify(queue)
+    while len(queue) > 0:
+        negative, level, dx, dy = heapq.heappop(queue)
+        if level == 0:
+            return -negative
+        half = 1 << (level - 1)
+        quarters = _quarter_bounds(bounds[level - 1], cols, rows, dx, dy, half)
+        for q in range(4):
+            cx, cy = dx + half * (q & 1), dy + half * (q >> 1)
+            if cx <= limit and cy <= limit and _holds(area, cx + limit, cy + limit, half):
+                heapq.heappush(queue, (-quarters[q], level - 1, cx, cy))
+    return 0.0
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _holds(area: IntArray, i0: int, j0: int, size: int) -> bool:
+    """True if the size x size block of the mask starting at column i0, row j0 (clipped)
+    holds a marked cell; ``area`` is the mask's summed-area table."""
+    n = area.shape[0] - 1
+    i1, j1 = min(i0 + size, n), min(j0 + size, n)
+    return bool(area[j1, i1] - area[j0, i1] - area[j1, i0] + area[j0, i0] > 0)
 
 
 @nb.njit(cache=True, nogil=True, inline="always")

@@ -34,6 +34,10 @@ from navd.slam.occupancy import FIELD_PEAK, LikelihoodField
 __all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]
 
 FloatArray = npt.NDArray[np.float64]
+# The coarsest blocks of translations ``rival_ratio`` bounds are 2**RIVAL_LEVELS cells on a
+# side: the matcher's own levels, whose bounds a field it searched holds already. Fixed: the
+# kernel is compiled for one number of levels (the warm-up's), never again on a live scan.
+RIVAL_LEVELS = 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -221,23 +225,14 @@ def rival_ratio(
     res = field.resolution
     px, py, tx, ty = field.in_cells(points, pose)
     limit = max(1, math.ceil(radius_m / res))
-    scores = k.fine_scores(
-        field.values,
-        px,
-        py,
-        math.cos(pose.yaw),
-        math.sin(pose.yaw),
-        tx,
-        ty,
-        -limit,
-        -limit,
-        2 * limit + 1,
-        2 * limit + 1,
-    )
-    own = float(scores[limit, limit])
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    own = float(k.fine_scores(field.values, px, py, c, s, tx, ty, 0, 0, 1, 1)[0, 0])
     if own <= 0.0:
         return 1.0
     offsets = np.arange(-limit, limit + 1) * res
     distance = np.hypot(offsets[None, :], offsets[:, None])
-    rivals = scores[(distance > exclude_m) & (distance <= radius_m)]
-    return float(rivals.max()) / own if rivals.size else 0.0
+    allowed = (distance > exclude_m) & (distance <= radius_m)
+    # Searched best-first over blocks (the field's bounds, as the matcher's): the window
+    # scored cell by cell took 6 ms a loop check at its 4.7 m median radius (Intel lab).
+    bounds = tuple(field.bound(1 << level) for level in range(RIVAL_LEVELS + 1))
+    return k.best_among(bounds, px, py, c, s, tx, ty, allowed) / own

@@ -61,13 +61,10 @@ class LikelihoodField:
         """
         cached = self._bounds.get(block)
         if cached is None:
-            if block % 2 == 0 and block > 2:
-                h = block // 2
-                half = self.bound(h)
-                cached = half.copy()
-                np.maximum(cached[:, :-h], half[:, h:], out=cached[:, :-h])
-                rows = cached.copy()
-                np.maximum(cached[:-h, :], rows[h:, :], out=cached[:-h, :])
+            if block == 1:
+                cached = self.values  # the maximum over one cell: the cell (never written)
+            elif block % 2 == 0:
+                cached = k.doubled_max(self.bound(block // 2), block // 2)
             else:
                 cached = k.sliding_max(self.values, block)
             self._bounds[block] = cached
@@ -264,28 +261,26 @@ class OccupancyGrid:
     def insert(self, pose: Pose2, scan: ScanPoints) -> None:
         """Ray-cast one scan taken at ``pose`` into the grid."""
         hits = pose.transform(scan.hits)
-        misses = pose.transform(scan.misses)
-        ends = np.vstack([hits, misses]) if misses.size else hits
-        self._cover(np.vstack([ends, [[pose.x, pose.y]]]))
+        ends = np.concatenate((hits, pose.transform(scan.misses))) if scan.misses.size else hits
+        self._cover(*k.extent(ends, pose.x, pose.y))
         self.revision += 1
         if ends.shape[0] == 0:
             return  # a blind scan (a covered lidar): the grid holds the pose, nothing more
-        cells = self.cells(ends)
-        start = self.cells(np.array([[pose.x, pose.y]]))[0]
+        res = self.resolution
+        # The cells as ``cells`` finds them, and the box of the rays' cells.
+        start_col = math.floor((pose.x - self.origin_x) / res)
+        start_row = math.floor((pose.y - self.origin_y) / res)
+        cols_x, rows_y, c0, c1, r0, r1 = k.cells_and_box(
+            ends, self.origin_x, self.origin_y, res, start_col, start_row
+        )
         flags = np.zeros(ends.shape[0], dtype=np.bool_)
         flags[: hits.shape[0]] = True
-        cols_x, rows_y = cells[:, 0].copy(), cells[:, 1].copy()
         # Every ray lies in the box around its start and ends: room for all tiles in it.
-        self.cells_store.reserve(
-            min(int(rows_y.min()), int(start[1])),
-            max(int(rows_y.max()), int(start[1])),
-            min(int(cols_x.min()), int(start[0])),
-            max(int(cols_x.max()), int(start[0])),
-        )
+        self.cells_store.reserve(r0, r1, c0, c1)
         k.ray_update(
             *self.cells_store.parts(),
-            int(start[0]),
-            int(start[1]),
+            start_col,
+            start_row,
             cols_x,
             rows_y,
             flags,
@@ -295,20 +290,26 @@ class OccupancyGrid:
             L_MAX,
         )
 
-    def _cover(self, points: npt.NDArray[np.float64]) -> None:
-        """Grow the grid (by whole chunks) until it holds ``points``."""
-        lo = points.min(axis=0)
-        hi = points.max(axis=0)
+    def _cover(self, lo_x: float, lo_y: float, hi_x: float, hi_y: float) -> None:
+        """Grow the grid (by whole chunks) until it holds the box from (lo_x, lo_y) to
+        (hi_x, hi_y) [m]."""
         res = self.resolution
+        if not self.empty:
+            rows, cols = self.shape
+            if (
+                lo_x >= self.origin_x
+                and lo_y >= self.origin_y
+                and hi_x < self.origin_x + cols * res
+                and hi_y < self.origin_y + rows * res
+            ):
+                return  # (most scans)
+        lo, hi = np.array([lo_x, lo_y]), np.array([hi_x, hi_y])
         if self.empty:
             new_lo = np.floor((lo - self.chunk_m / 2) / res) * res
             new_hi = np.ceil((hi + self.chunk_m / 2) / res) * res
         else:
-            rows, cols = self.shape
             old_lo = np.array([self.origin_x, self.origin_y])
             old_hi = old_lo + np.array([cols, rows]) * res
-            if np.all(lo >= old_lo) and np.all(hi < old_hi):
-                return
             grow_lo = np.where(lo < old_lo, self.chunk_m, 0.0)
             grow_hi = np.where(hi >= old_hi, self.chunk_m, 0.0)
             new_lo = old_lo - np.ceil(np.maximum(old_lo - lo, 0) / self.chunk_m) * grow_lo

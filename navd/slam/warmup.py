@@ -11,6 +11,7 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper
+from navd.slam.matcher import rival_ratio
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.settings import MapperSettings
@@ -20,8 +21,8 @@ __all__ = ["warm_up"]
 
 def warm_up() -> None:
     """Run two scans of a small square room through a throwaway mapper and scan odometry,
-    then find the second on the map (the global search of localization and loop closure) and
-    solve a three-pose loop.
+    then find the second on the map (the global search of localization and loop closure), ask
+    whether it fits elsewhere as well, and solve a three-pose loop.
 
     Scan odometry imports kiss-icp and the pose graph imports scipy.sparse.linalg on first
     use, holding the interpreter lock while they do; done here, no live scan or loop closure
@@ -40,7 +41,10 @@ def warm_up() -> None:
             ranges - shift, -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=10.0
         )
         mapper.add(shift, scan, odometry.register(scan.hits))
-    relocalize(mapper.grid, scan.hits)
+    found = relocalize(mapper.grid, scan.hits)
+    # How well the scan fits elsewhere (tracking's repair, the lost search, loop closure).
+    field = mapper.grid.likelihood_field(found.pose, 3.0, 0.05)
+    rival_ratio(field, scan.hits, found.pose, radius_m=1.0, exclude_m=0.3)
     # A triangle: three 1 m sides, each turning 120 degrees, so the edges close exactly. The
     # poses start off it so the solver iterates, and the closing edge is robust, as a loop
     # closure's is, so the soft-L1 branch runs too.

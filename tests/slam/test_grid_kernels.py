@@ -97,6 +97,69 @@ def test_scores_match_the_reference_and_blocks_bound_their_translations() -> Non
             assert ref.score(bound, px, py, c, s, tx, ty, dx0, dy0) >= block.max() - 1e-3
 
 
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_the_four_quarters_of_a_block_are_bounded_as_each_alone(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((40, 50)).astype(np.float32)
+    # Points near the field's low corner, so some quarters start before it and reach in.
+    cols = rng.integers(-12, 20, 60)
+    rows = rng.integers(-12, 20, 60)
+    for half in (1, 2, 4, 8):
+        bound = k.sliding_max(field, half)
+        for dx, dy in rng.integers(-10, 40, (12, 2)):
+            quarters = k._quarter_bounds(bound, cols, rows, int(dx), int(dy), half)
+            alone = [
+                k._block_bound(bound, cols, rows, int(dx) + i, int(dy) + j, half)
+                for j in (0, half)
+                for i in (0, half)
+            ]
+            assert list(quarters) == alone  # to the bit: the search's order does not move
+
+
+@pytest.mark.parametrize("seed", [14, 15, 16])
+def test_best_among_is_the_best_score_of_the_translations_allowed(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((60, 70)).astype(np.float32) ** 4
+    px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
+    c, s = math.cos(0.3), math.sin(0.3)
+    tx, ty, limit = 12.4, 50.6, 13  # some translations move points off the field
+    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    every = k.fine_scores(field, px, py, c, s, tx, ty, -limit, -limit, 2 * limit + 1, 2 * limit + 1)
+    offsets = np.arange(-limit, limit + 1)
+    distance = np.hypot(offsets[None, :], offsets[:, None])
+    ring = (distance > 4) & (distance <= limit)
+    scattered = rng.random(ring.shape) < 0.05
+    for allowed in (ring, scattered, np.ones_like(ring)):
+        best = k.best_among(bounds, px, py, c, s, tx, ty, allowed)
+        assert best == every[allowed].max()  # exact, as the window scored cell by cell
+        assert best == pytest.approx(
+            max(
+                ref.score(field, px, py, c, s, tx, ty, dx, dy)
+                for dy in offsets
+                for dx in offsets
+                if allowed[dy + limit, dx + limit]
+            ),
+            rel=1e-5,
+        )
+    assert k.best_among(bounds, px, py, c, s, tx, ty, np.zeros_like(ring)) == 0.0
+
+
+def test_a_scans_cells_and_box_are_the_cells_of_its_points() -> None:
+    rng = np.random.default_rng(17)
+    points = rng.uniform(-7.0, 9.0, (200, 2))
+    origin_x, origin_y, res = -3.21, 1.7, 0.05
+    cols, rows, c0, c1, r0, r1 = k.cells_and_box(points, origin_x, origin_y, res, 500, -600)
+    want = np.floor((points - np.array([origin_x, origin_y])) / res).astype(np.int64)
+    np.testing.assert_array_equal(cols, want[:, 0])
+    np.testing.assert_array_equal(rows, want[:, 1])
+    # the box holds the start cell (col 500, row -600) as well as the points' cells
+    assert (c0, c1, r0, r1) == (want[:, 0].min(), 500, -600, want[:, 1].max())
+    lo_x, lo_y, hi_x, hi_y = k.extent(points, 12.0, -0.5)
+    assert (lo_x, lo_y) == (points[:, 0].min(), points[:, 1].min())
+    assert (hi_x, hi_y) == (12.0, points[:, 1].max())
+    assert k.extent(points[:0], 1.5, -2.5) == (1.5, -2.5, 1.5, -2.5)
+
+
 @pytest.mark.parametrize("seed", [6, 7, 8])
 def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed: int) -> None:
     rng = np.random.default_rng(seed)
@@ -211,7 +274,7 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
     assert total == pytest.approx(raw, rel=1e-5)
 
 
-@pytest.mark.parametrize("block", [4, 8, 64])
+@pytest.mark.parametrize("block", [1, 2, 4, 8, 64])
 def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
     from navd.slam.occupancy import LikelihoodField
 

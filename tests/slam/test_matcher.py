@@ -165,3 +165,30 @@ def test_a_corridor_match_is_ambiguous_and_a_room_match_is_not() -> None:
     match = CorrelativeMatcher(search_xy_m=0.3, search_yaw_rad=0.35).match(FIELD, points, truth)
     room = rival_ratio(FIELD, points, match.pose, radius_m=1.0, exclude_m=0.3)
     assert room < 0.8
+
+
+@pytest.mark.parametrize(
+    ("pose", "radius_m", "exclude_m"),
+    [
+        (Pose2(0.1, -0.05, 0.05), 1.0, 0.3),
+        (Pose2(-2.0, 1.0, 0.8), 2.6, 0.6),
+        (Pose2(0, 0, 0), 0.2, 0.1),
+    ],
+)
+def test_rival_ratio_is_the_best_rival_of_the_whole_ring_over_the_pose_s_own_score(
+    pose: Pose2, radius_m: float, exclude_m: float
+) -> None:
+    a0, inc, r = cast(Pose2(0.12, -0.08, 0.05))
+    points = voxel_downsample(scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
+    px, py, tx, ty = FIELD.in_cells(points, pose)
+    limit = math.ceil(radius_m / FIELD.resolution)
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    window = k.fine_scores(
+        FIELD.values, px, py, c, s, tx, ty, -limit, -limit, 2 * limit + 1, 2 * limit + 1
+    )
+    offsets = np.arange(-limit, limit + 1) * FIELD.resolution
+    distance = np.hypot(offsets[None, :], offsets[:, None])
+    ring = window[(distance > exclude_m) & (distance <= radius_m)]
+    want = float(ring.max()) / float(window[limit, limit])
+    got = rival_ratio(FIELD, points, pose, radius_m=radius_m, exclude_m=exclude_m)
+    assert got == want
