@@ -79,12 +79,18 @@ def _read(index: I32Grid, tiles: Tiles, gy: int, gx: int) -> float:
 
 @nb.njit(cache=True, nogil=True)
 def extent(points: F64, x: float, y: float) -> tuple[float, float, float, float]:
-    """(min x, min y, max x, max y) [m] of ``points`` (N x 2) and the point (x, y)."""
+    """(min x, min y, max x, max y) [m] of ``points`` (N x 2) and the point (x, y); all four
+    NaN if any of them is not finite (the caller refuses the scan)."""
     lo_x = hi_x = x
     lo_y = hi_y = y
     for i in range(points.shape[0]):
-        lo_x, hi_x = min(lo_x, points[i, 0]), max(hi_x, points[i, 0])
-        lo_y, hi_y = min(lo_y, points[i, 1]), max(hi_y, points[i, 1])
+        px, py = points[i, 0], points[i, 1]
+        if not (np.isfinite(px) and np.isfinite(py)):
+            return np.nan, np.nan, np.nan, np.nan
+        lo_x, hi_x = min(lo_x, px), max(hi_x, px)
+        lo_y, hi_y = min(lo_y, py), max(hi_y, py)
+    if not (np.isfinite(x) and np.isfinite(y)):
+        return np.nan, np.nan, np.nan, np.nan
     return lo_x, lo_y, hi_x, hi_y
 
 
@@ -263,8 +269,9 @@ def sliding_max(field: FloatArray, f: int) -> FloatArray:
 
 @nb.njit(cache=True, nogil=True)
 def doubled_max(half: FloatArray, h: int) -> FloatArray:
-    """``sliding_max(field, 2h)`` from ``half = sliding_max(field, h)``: the maximum over
-    [u, u + 2h) is that over [u, u + h) and over [u + h, u + 2h) (clipped at the border)."""
+    """``sliding_max(field, 2h)`` from ``half = sliding_max(field, h)`` (h [cells]): the
+    maximum over [u, u + 2h) is that over [u, u + h) and over [u + h, u + 2h) (clipped at
+    the border)."""
     rows, cols = half.shape
     out = np.empty_like(half)
     # One pass, row by row: (v, u), (v, u + h), (v + h, u), (v + h, u + h), clipped.
@@ -459,6 +466,9 @@ def best_among(
 
     Args:
         bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
+        px, py: scan points in the robot frame, in cell units.
+        c, s: cosine and sine of the rotation.
+        tx, ty: the pose's position in cells of the field.
         allowed: bool [2 * limit + 1, 2 * limit + 1], indexed [dy + limit, dx + limit]: the
             translations (dx, dy) [cells] taken.
 

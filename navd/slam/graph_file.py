@@ -76,6 +76,13 @@ def graph_arrays(graph: MapGraph) -> dict[str, npt.NDArray[np.generic]]:
     return {PREFIX + name: value for name, value in arrays.items()}
 
 
+def _require_finite(what: str, values: npt.NDArray[np.generic]) -> None:
+    """Raise MapFileError if ``values`` (the graph's ``what``) hold NaN or infinity: a scan
+    drawn from them could not be placed on the grid."""
+    if not np.all(np.isfinite(values)):
+        raise MapFileError(f"the map's graph has {what} that are not finite (NaN or inf)")
+
+
 def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph | None:
     """The graph in ``data`` (a state file's arrays), or None if it holds none.
 
@@ -94,6 +101,7 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
     poses = np.asarray(get("pose"), dtype=np.float64)
     if poses.ndim != 2 or poses.shape[1] != 3:
         raise MapFileError(f"the map's graph has keyframe poses of shape {poses.shape}, not N x 3")
+    _require_finite("keyframe poses", poses)
     n = poses.shape[0]
     stamps, mapped, has_scan = get("stamp"), get("mapped"), get("has_scan")
     hit_end, miss_end, view = get("hit_end"), get("miss_end"), get("view")
@@ -104,6 +112,7 @@ def graph_from_arrays(data: Mapping[str, npt.NDArray[np.generic]]) -> MapGraph |
     for name, points in (("hits", hits), ("misses", misses)):
         if points.ndim != 2 or points.shape[1] != 2:
             raise MapFileError(f"the map's graph has {name} of shape {points.shape}, not N x 2")
+        _require_finite(name, points)
     if hit_end.shape != (n,) or miss_end.shape != (n,) or view.shape != (n, 4):
         raise MapFileError(f"the map's graph has {n} keyframes but scan offsets that disagree")
     for ends in (hit_end, miss_end):

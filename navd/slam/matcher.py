@@ -35,8 +35,9 @@ __all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]
 
 FloatArray = npt.NDArray[np.float64]
 # The coarsest blocks of translations ``rival_ratio`` bounds are 2**RIVAL_LEVELS cells on a
-# side: the matcher's own levels, whose bounds a field it searched holds already. Fixed: the
-# kernel is compiled for one number of levels (the warm-up's), never again on a live scan.
+# side: the matcher's own levels, whose bounds a field it searched holds already (a field
+# made for the check alone, as the lost search's, makes three). Fixed: the kernel is
+# compiled for one number of levels (the warm-up's), never again on a live scan.
 RIVAL_LEVELS = 3
 
 

@@ -52,8 +52,14 @@ class LikelihoodField:
     resolution: float
     _bounds: dict[int, F32] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # The kernels take the values and their bounds as one tuple of C-ordered float32
+        # arrays (``bound(1)`` is ``values`` itself): another layout would be compiled anew.
+        self.values = np.ascontiguousarray(self.values, dtype=np.float32)
+
     def bound(self, block: int) -> F32:
-        """The sliding maximum over ``block`` x ``block`` cells (cached).
+        """The sliding maximum over ``block`` x ``block`` cells (cached; ``bound(1)`` is
+        ``values`` itself, so neither may be written).
 
         An even block comes from the half-size one: the maximum over [u, u + 2h) is that of
         [u, u + h) and [u + h, u + 2h), so a search over all powers of two costs one pass per
@@ -62,7 +68,7 @@ class LikelihoodField:
         cached = self._bounds.get(block)
         if cached is None:
             if block == 1:
-                cached = self.values  # the maximum over one cell: the cell (never written)
+                cached = self.values  # the maximum over one cell is the cell
             elif block % 2 == 0:
                 cached = k.doubled_max(self.bound(block // 2), block // 2)
             else:
@@ -262,7 +268,13 @@ class OccupancyGrid:
         """Ray-cast one scan taken at ``pose`` into the grid."""
         hits = pose.transform(scan.hits)
         ends = np.concatenate((hits, pose.transform(scan.misses))) if scan.misses.size else hits
-        self._cover(*k.extent(ends, pose.x, pose.y))
+        box = k.extent(ends, float(pose.x), float(pose.y))
+        if not math.isfinite(sum(box)):
+            raise ValueError(
+                f"a scan at {tuple(pose)} holds a point or pose that is not finite (NaN or "
+                "infinite): it cannot be drawn into the grid"
+            )
+        self._cover(*box)
         self.revision += 1
         if ends.shape[0] == 0:
             return  # a blind scan (a covered lidar): the grid holds the pose, nothing more

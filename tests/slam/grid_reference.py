@@ -62,6 +62,36 @@ def score(field, px, py, c, s, tx, ty, dx, dy, size=1):  # type: ignore[no-untyp
     return float(field[rows[inside], cols[inside]].sum())
 
 
+def best_among(field, px, py, c, s, tx, ty, allowed):  # type: ignore[no-untyped-def]
+    """The best score over the translations ``allowed`` marks (0.0 if none)."""
+    limit = (allowed.shape[0] - 1) // 2
+    scores = [
+        score(field, px, py, c, s, tx, ty, dx - limit, dy - limit)
+        for dy, dx in zip(*np.nonzero(allowed), strict=True)
+    ]
+    return max(scores, default=0.0)
+
+
+def extent(points, x, y):  # type: ignore[no-untyped-def]
+    every = np.vstack([points, [[x, y]]])
+    if not np.isfinite(every).all():
+        return (np.nan,) * 4
+    return (*every.min(axis=0), *every.max(axis=0))
+
+
+def cells_and_box(points, origin_x, origin_y, res, col, row):  # type: ignore[no-untyped-def]
+    cells = np.floor((points - np.array([origin_x, origin_y])) / res).astype(np.int64)
+    every = np.vstack([cells, [[col, row]]])
+    return (
+        cells[:, 0],
+        cells[:, 1],
+        every[:, 0].min(),
+        every[:, 0].max(),
+        every[:, 1].min(),
+        every[:, 1].max(),
+    )
+
+
 def count_known(logodds, cols_x, rows_y):  # type: ignore[no-untyped-def]
     padded = np.pad(logodds != 0.0, 1)  # off the grid: unobserved
     count = 0

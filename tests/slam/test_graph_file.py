@@ -177,6 +177,20 @@ def test_a_graph_whose_arrays_disagree_is_refused_by_name(tmp_path: Path) -> Non
         ("graph_pose", arrays["graph_pose"][:, :2], "not N x 3"),
         ("graph_hits", arrays["graph_hits"].ravel(), "not N x 2"),
         ("graph_hit_end", arrays["graph_hit_end"][::-1], "not increasing"),
+        (
+            "graph_hits",
+            np.where(
+                np.arange(len(arrays["graph_hits"]))[:, None] == 7, np.nan, arrays["graph_hits"]
+            ),
+            "hits that are not finite",
+        ),
+        (
+            "graph_pose",
+            np.where(
+                np.arange(len(arrays["graph_pose"]))[:, None] == 3, np.inf, arrays["graph_pose"]
+            ),
+            "poses that are not finite",
+        ),
     ):
         with state.open("wb") as f:
             np.savez(f, **{**arrays, name: broken})

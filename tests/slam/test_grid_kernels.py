@@ -123,41 +123,50 @@ def test_best_among_is_the_best_score_of_the_translations_allowed(seed: int) -> 
     px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
     c, s = math.cos(0.3), math.sin(0.3)
     tx, ty, limit = 12.4, 50.6, 13  # some translations move points off the field
+    # The field peaks under the points at the pose itself (as at a match), inside the disc
+    # the ring leaves out: a search that ignored the mask would return that peak.
+    for i in range(px.size):
+        col, row = _cell_of(px[i], py[i], c, s, tx, ty)
+        if 0 <= col < field.shape[1] and 0 <= row < field.shape[0]:
+            field[row, col] = 1.0
     bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
     every = k.fine_scores(field, px, py, c, s, tx, ty, -limit, -limit, 2 * limit + 1, 2 * limit + 1)
     offsets = np.arange(-limit, limit + 1)
     distance = np.hypot(offsets[None, :], offsets[:, None])
     ring = (distance > 4) & (distance <= limit)
+    assert every.max() > every[ring].max()  # the peak is left out
     scattered = rng.random(ring.shape) < 0.05
     for allowed in (ring, scattered, np.ones_like(ring)):
         best = k.best_among(bounds, px, py, c, s, tx, ty, allowed)
         assert best == every[allowed].max()  # exact, as the window scored cell by cell
-        assert best == pytest.approx(
-            max(
-                ref.score(field, px, py, c, s, tx, ty, dx, dy)
-                for dy in offsets
-                for dx in offsets
-                if allowed[dy + limit, dx + limit]
-            ),
-            rel=1e-5,
-        )
+        twin = ref.best_among(field, px, py, c, s, tx, ty, allowed)
+        assert best == pytest.approx(twin, rel=1e-5)
     assert k.best_among(bounds, px, py, c, s, tx, ty, np.zeros_like(ring)) == 0.0
 
 
-def test_a_scans_cells_and_box_are_the_cells_of_its_points() -> None:
-    rng = np.random.default_rng(17)
+def _cell_of(px: float, py: float, c: float, s: float, tx: float, ty: float) -> tuple[int, int]:
+    """The cell a point falls in, as the kernels project it (rounded to the nearest)."""
+    return math.floor(c * px - s * py + tx + 0.5), math.floor(s * px + c * py + ty + 0.5)
+
+
+@pytest.mark.parametrize("seed", [17, 18])
+def test_a_scans_cells_and_box_match_the_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
     points = rng.uniform(-7.0, 9.0, (200, 2))
     origin_x, origin_y, res = -3.21, 1.7, 0.05
-    cols, rows, c0, c1, r0, r1 = k.cells_and_box(points, origin_x, origin_y, res, 500, -600)
-    want = np.floor((points - np.array([origin_x, origin_y])) / res).astype(np.int64)
-    np.testing.assert_array_equal(cols, want[:, 0])
-    np.testing.assert_array_equal(rows, want[:, 1])
-    # the box holds the start cell (col 500, row -600) as well as the points' cells
-    assert (c0, c1, r0, r1) == (want[:, 0].min(), 500, -600, want[:, 1].max())
-    lo_x, lo_y, hi_x, hi_y = k.extent(points, 12.0, -0.5)
-    assert (lo_x, lo_y) == (points[:, 0].min(), points[:, 1].min())
-    assert (hi_x, hi_y) == (12.0, points[:, 1].max())
+    for col, row in ((500, -600), (0, 0)):  # a start cell outside the points' box, and inside
+        got = k.cells_and_box(points, origin_x, origin_y, res, col, row)
+        want = ref.cells_and_box(points, origin_x, origin_y, res, col, row)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        assert got[2:] == want[2:]
+    for x, y in ((12.0, -0.5), (1.0, 1.0)):
+        assert k.extent(points, x, y) == ref.extent(points, x, y)
     assert k.extent(points[:0], 1.5, -2.5) == (1.5, -2.5, 1.5, -2.5)
+    broken = points.copy()
+    broken[3, 1] = np.nan
+    assert all(math.isnan(v) for v in k.extent(broken, 0.0, 0.0))
+    assert all(math.isnan(v) for v in k.extent(points, math.inf, 0.0))
 
 
 @pytest.mark.parametrize("seed", [6, 7, 8])
@@ -274,13 +283,23 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
     assert total == pytest.approx(raw, rel=1e-5)
 
 
-@pytest.mark.parametrize("block", [1, 2, 4, 8, 64])
-def test_field_bounds_built_by_doubling_equal_the_kernel(block: int) -> None:
+@pytest.mark.parametrize("block", [2, 4, 8, 64])
+def test_field_bounds_built_by_doubling_equal_the_reference(block: int) -> None:
     from navd.slam.occupancy import LikelihoodField
 
     values = np.random.default_rng(block).random((97, 130)).astype(np.float32)
     field = LikelihoodField(values, 0.0, 0.0, 0.05)
-    np.testing.assert_array_equal(field.bound(block), k.sliding_max(values, block))
+    np.testing.assert_array_equal(field.bound(block), ref.sliding_max(values, block))
+    assert field.bound(1) is field.values  # the bound over one cell is the field, uncopied
+
+
+def test_a_field_given_in_another_layout_is_kept_c_ordered_float32() -> None:
+    from navd.slam.occupancy import LikelihoodField
+
+    values = np.random.default_rng(3).random((40, 60))[:, ::2]  # float64, strided
+    field = LikelihoodField(values, 0.0, 0.0, 0.05)
+    assert field.values.dtype == np.float32 and field.values.flags.c_contiguous
+    np.testing.assert_array_equal(field.bound(4), ref.sliding_max(values.astype(np.float32), 4))
 
 
 def test_count_known_matches_the_reference_on_and_off_the_grid() -> None:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.tiles import TILE
 from navd.slam.voxel import voxel_downsample
@@ -91,3 +91,22 @@ def test_a_scan_that_saw_nothing_is_inserted_without_marking_a_cell() -> None:
     assert not grid.to_array().any()
     col, row = grid.cells(np.array([[3.0, -2.0]]))[0]
     assert 0 <= row < grid.shape[0] and 0 <= col < grid.shape[1]
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_a_scan_with_a_point_that_is_not_finite_is_refused_and_the_grid_kept() -> None:
+    grid = OccupancyGrid(0.05)
+    room = scan_points(np.full(90, 2.0), -math.pi, math.pi / 45, range_min=0.1, range_max=10.0)
+    grid.insert(Pose2(0.0, 0.0, 0.0), room)
+    before = grid.to_array()
+    hits = room.hits.copy()
+    hits[5] = (np.nan, 1.0)
+    for scan, pose in (
+        (ScanPoints(hits, room.misses), Pose2(0.0, 0.0, 0.0)),
+        (ScanPoints(room.hits, np.array([[np.inf, 0.0]])), Pose2(0.0, 0.0, 0.0)),
+        (room, Pose2(float("nan"), 0.0, 0.0)),
+    ):
+        with pytest.raises(ValueError, match="not finite"):
+            grid.insert(pose, scan)
+    np.testing.assert_array_equal(grid.to_array(), before)
+    assert grid.revision == 1
