@@ -11,9 +11,9 @@ on a dense array, in tests/slam/grid_reference.py.
   clamped to [l_min, l_max].
 - ``smear``: the correlation grid of seed Appendix A: every occupied cell stamps a Gaussian
   kernel, keeping the maximum where stamps overlap.
-- ``sliding_max``: M[v, u] = max of the field over [v, v+f) x [u, u+f): an upper bound of the
-  field over a block of f x f translations (the levels of branch and bound); ``doubled_max``
-  makes the maximum over 2h cells from the one over h.
+- ``doubled_max``: the sliding maximum M[v, u] = max of the field over [v, v+2h) x
+  [u, u+2h), an upper bound of the field over a block of 2h x 2h translations (the levels of
+  branch and bound), made from the one over h x h.
 - ``fine_scores``: the summed field under the scan points, rotated and moved, for a block
   of translations.
 - ``branch_and_bound``: the best (rotation, translation) over a whole window, less a pull
@@ -45,7 +45,6 @@ __all__ = [
     "extent",
     "fine_scores",
     "ray_update",
-    "sliding_max",
     "smear",
 ]
 
@@ -245,33 +244,10 @@ def smear(
 
 
 @nb.njit(cache=True, nogil=True)
-def sliding_max(field: FloatArray, f: int) -> FloatArray:
-    """M[v, u] = max(field[v:v+f, u:u+f]) (clipped at the border)."""
-    rows, cols = field.shape
-    horizontal = np.empty_like(field)
-    for v in range(rows):
-        for u in range(cols):
-            m = field[v, u]
-            for i in range(1, f):
-                if u + i < cols and field[v, u + i] > m:
-                    m = field[v, u + i]
-            horizontal[v, u] = m
-    out = np.empty_like(field)
-    for v in range(rows):
-        for u in range(cols):
-            m = horizontal[v, u]
-            for j in range(1, f):
-                if v + j < rows and horizontal[v + j, u] > m:
-                    m = horizontal[v + j, u]
-            out[v, u] = m
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def doubled_max(half: FloatArray, h: int) -> FloatArray:
-    """``sliding_max(field, 2h)`` from ``half = sliding_max(field, h)`` (h [cells]): the
-    maximum over [u, u + 2h) is that over [u, u + h) and over [u + h, u + 2h) (clipped at
-    the border)."""
+    """The sliding maximum over 2h x 2h cells (clipped at the border) from ``half``, the one
+    over h x h (h [cells]; the field itself for h = 1): the maximum over [u, u + 2h) is that
+    over [u, u + h) and over [u + h, u + 2h)."""
     rows, cols = half.shape
     out = np.empty_like(half)
     # One pass, row by row: (v, u), (v, u + h), (v + h, u), (v + h, u + h), clipped.
@@ -377,7 +353,8 @@ def branch_and_bound(
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
     Args:
-        bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
+        bounds: the field's sliding maxima over 2**L cells for L = 0 .. levels
+            (``LikelihoodField.bound``); ``bounds[0]`` is the field.
         px, py: scan points in the robot frame, in cell units.
         cosines, sines: the rotations tried.
         tx, ty: the prior position in cells of the field.
@@ -465,7 +442,8 @@ def best_among(
     ``allowed`` marks: the same value as the largest of ``fine_scores`` over them.
 
     Args:
-        bounds: ``sliding_max(field, 2**L)`` for L = 0 .. levels; ``bounds[0]`` is the field.
+        bounds: the field's sliding maxima over 2**L cells for L = 0 .. levels
+            (``LikelihoodField.bound``); ``bounds[0]`` is the field.
         px, py: scan points in the robot frame, in cell units.
         c, s: cosine and sine of the rotation.
         tx, ty: the pose's position in cells of the field.

@@ -58,21 +58,24 @@ class LikelihoodField:
         self.values = np.ascontiguousarray(self.values, dtype=np.float32)
 
     def bound(self, block: int) -> F32:
-        """The sliding maximum over ``block`` x ``block`` cells (cached; ``bound(1)`` is
-        ``values`` itself, so neither may be written).
+        """The sliding maximum over ``block`` x ``block`` cells, a power of two (cached;
+        ``bound(1)`` is ``values`` itself, so neither may be written).
 
-        An even block comes from the half-size one: the maximum over [u, u + 2h) is that of
+        Each comes from the one half its size: the maximum over [u, u + 2h) is that of
         [u, u + h) and [u + h, u + 2h), so a search over all powers of two costs one pass per
         level instead of ``block`` per level.
+
+        Raises:
+            ValueError: ``block`` is not a power of two.
         """
         cached = self._bounds.get(block)
         if cached is None:
+            if block < 1 or block & (block - 1):
+                raise ValueError(f"a field's bound is over a power of two cells, not {block}")
             if block == 1:
                 cached = self.values  # the maximum over one cell is the cell
-            elif block % 2 == 0:
-                cached = k.doubled_max(self.bound(block // 2), block // 2)
             else:
-                cached = k.sliding_max(self.values, block)
+                cached = k.doubled_max(self.bound(block // 2), block // 2)
             self._bounds[block] = cached
         return cached
 

@@ -71,9 +71,10 @@ def test_smear_matches_the_reference_including_window_edges() -> None:
 
 
 @pytest.mark.parametrize("f", [1, 2, 4, 5])
-def test_sliding_max_matches_the_reference(f: int) -> None:
+def test_doubled_max_matches_the_reference(f: int) -> None:
     field = np.random.default_rng(f).random((23, 31)).astype(np.float32)
-    np.testing.assert_array_equal(k.sliding_max(field, f), ref.sliding_max(field, f))
+    half = field if f == 1 else ref.sliding_max(field, f)
+    np.testing.assert_array_equal(k.doubled_max(half, f), ref.sliding_max(field, 2 * f))
 
 
 def test_scores_match_the_reference_and_blocks_bound_their_translations() -> None:
@@ -89,7 +90,7 @@ def test_scores_match_the_reference_and_blocks_bound_their_translations() -> Non
             want = ref.score(field, px, py, np.cos(0.07), np.sin(0.07), tx, ty, -3 + i, -2 + j)
             assert fine[j, i] == pytest.approx(want, rel=1e-5)
     starts = np.array([(dx, dy) for dy in (-8, -4, 0, 4) for dx in (-8, -4, 0, 4)])
-    bound = k.sliding_max(field, f)
+    bound = ref.sliding_max(field, f)
     for angle in angles:
         c, s = np.cos(angle), np.sin(angle)
         for dx0, dy0 in starts:
@@ -105,7 +106,7 @@ def test_the_four_quarters_of_a_block_are_bounded_as_each_alone(seed: int) -> No
     cols = rng.integers(-12, 20, 60)
     rows = rng.integers(-12, 20, 60)
     for half in (1, 2, 4, 8):
-        bound = k.sliding_max(field, half)
+        bound = ref.sliding_max(field, half)
         for dx, dy in rng.integers(-10, 40, (12, 2)):
             quarters = k._quarter_bounds(bound, cols, rows, int(dx), int(dy), half)
             alone = [
@@ -129,7 +130,7 @@ def test_best_among_is_the_best_score_of_the_translations_allowed(seed: int) -> 
         col, row = _cell_of(px[i], py[i], c, s, tx, ty)
         if 0 <= col < field.shape[1] and 0 <= row < field.shape[0]:
             field[row, col] = 1.0
-    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    bounds = tuple(ref.sliding_max(field, 2**level) for level in range(4))
     every = k.fine_scores(field, px, py, c, s, tx, ty, -limit, -limit, 2 * limit + 1, 2 * limit + 1)
     offsets = np.arange(-limit, limit + 1)
     distance = np.hypot(offsets[None, :], offsets[:, None])
@@ -176,7 +177,7 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
     angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
     tx, ty, limit = 35.2, 29.7, 6
-    bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
+    bounds = tuple(ref.sliding_max(field, 2**level) for level in range(3))
     no_pull = np.zeros(angles.size)
     a, dx, dy, total, _ = k.branch_and_bound(
         bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0, -math.inf, 1.0
@@ -201,7 +202,7 @@ def test_a_floor_gives_up_a_search_below_it_early_and_leaves_one_above_it_unchan
     px, py = rng.uniform(-15, 15, 40), rng.uniform(-15, 15, 40)
     angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
     tx, ty, limit = 35.2, 29.7, 6
-    bounds = tuple(k.sliding_max(field, 2**level) for level in range(3))
+    bounds = tuple(ref.sliding_max(field, 2**level) for level in range(3))
     no_pull = np.zeros(angles.size)
     c, s = np.cos(angles), np.sin(angles)
 
@@ -228,7 +229,7 @@ def test_a_floor_with_a_pull_keeps_the_pulled_optimum(seed: int) -> None:
     angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
     turn_cost = 5.0 * angles**2 * 40
     tx, ty, limit, per_cell2 = 35.2, 29.7, 6, 0.3
-    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    bounds = tuple(ref.sliding_max(field, 2**level) for level in range(4))
     c, s = np.cos(angles), np.sin(angles)
 
     def search(floor: float) -> tuple[int, int, int, float, int]:
@@ -254,7 +255,7 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
     angles = np.array([-0.2, -0.1, 0.0, 0.1, 0.2])
     turn_cost = 5.0 * angles**2 * 40
     tx, ty, limit = 35.2, 29.7, 6
-    bounds = tuple(k.sliding_max(field, 2**level) for level in range(4))
+    bounds = tuple(ref.sliding_max(field, 2**level) for level in range(4))
     a, dx, dy, total, _ = k.branch_and_bound(
         bounds,
         px,
@@ -291,6 +292,8 @@ def test_field_bounds_built_by_doubling_equal_the_reference(block: int) -> None:
     field = LikelihoodField(values, 0.0, 0.0, 0.05)
     np.testing.assert_array_equal(field.bound(block), ref.sliding_max(values, block))
     assert field.bound(1) is field.values  # the bound over one cell is the field, uncopied
+    with pytest.raises(ValueError, match="power of two cells, not 3"):
+        field.bound(3)
 
 
 def test_a_field_given_in_another_layout_is_kept_c_ordered_float32() -> None:
