@@ -83,8 +83,8 @@ class SlamConfig(Section):
         20.0,
         gt=0,
         le=50,
-        description="[m] largest half-width of the loop closure search window (it grows by 3 % "
-        "of the path driven since the old pass, from 1 m)",
+        description="[m] largest half-width of the loop closure search window (it grows by 6 % "
+        "of the shortest path through the pose graph to the old pass, from 2 m)",
     )
     loop_min_score: float = Field(
         0.65, gt=0, le=1, description="[ratio] match score a loop closure must reach"

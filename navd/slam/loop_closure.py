@@ -5,18 +5,23 @@ corridors), so the search window must grow with the path driven since the old pa
 wide window in a building of corridors finds many places that look alike. The search:
 
 1. Old keyframes near the current pose are split into passes (runs of consecutive
-   keyframes); each pass is searched on its own, in a window that grows with the path driven
-   since the pass's keyframe nearest the robot (``LOOP_DRIFT_PER_M`` of it, capped by
-   ``loop_search_xy_m``). Passes left moments ago (less than ``LOOP_MIN_PATH_M``) have
-   drifted too little to correct.
+   keyframes); each pass is searched on its own, in a window that grows with the drift
+   possible between the robot and the pass's keyframe nearest it: ``LOOP_DRIFT_PER_M`` of
+   the shortest path between the two through the pose graph (loops already closed are short
+   cuts), from ``LOOP_MIN_WINDOW_M``, capped by ``loop_search_xy_m``. A pass whose nearest
+   keyframe the robot left moments ago (less than ``LOOP_MIN_PATH_M`` of path) has drifted
+   too little to correct. That is the nearest keyframe, not the pass's last: in a corridor
+   driven out and back, the way out and the way back join at the far end into one pass that
+   ends only ``loop_min_gap`` keyframes ago.
 2. Coarse: the last few keyframes' scans together (a few metres of travel: a corridor with
    its side doors, not one view of bare walls) are matched onto a coarse map of the pass over
    the whole window, by the multi-level branch and bound of ``global_search`` (exact at
    its cell and angle steps, and cheap however wide the window). The search is given
    ``LOOP_COARSE_MIN_SCORE`` as its floor, so a pass with nothing that good in it (most of
-   them) is given up early. The match must be unambiguous over the whole window: no
-   translation farther than ``LOOP_COARSE_EXCLUDE_M`` may score more than
-   ``LOOP_MAX_RIVAL_RATIO`` of it.
+   them) is given up early. The match must be unambiguous over the window and beyond, as
+   far as the robot could have drifted by its tracking alone (``LOOP_LOOKALIKE_PER_M`` of
+   the path since the pass's nearest keyframe): no translation farther than
+   ``LOOP_COARSE_EXCLUDE_M`` may score more than ``LOOP_MAX_RIVAL_RATIO`` of it.
 3. Fine: the keyframe's own scan is matched onto the full-resolution map of the pass near the
    coarse pose; it must reach ``loop_min_score`` and be unambiguous within
    ``LOOP_RIVAL_RADIUS_M``.
@@ -38,6 +43,7 @@ from navd.slam.global_search import global_search
 from navd.slam.keyframe import Keyframe
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import OccupancyGrid
+from navd.slam.pose_graph import Edge, graph_distances
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -45,12 +51,21 @@ __all__ = ["LoopCandidate", "LoopCloser", "LoopCounts"]
 
 FloatArray = npt.NDArray[np.float64]
 
-# The window grows by this share of the path driven since the pass's keyframe nearest the
-# robot's estimate ([m] per m).
-LOOP_DRIFT_PER_M = 0.03
+# The window grows by this share of the shortest path through the pose graph between the
+# robot and the pass's keyframe nearest it ([m] per m). (aces, a corridor driven out and
+# back: 2 m apart after 35 m.)
+LOOP_DRIFT_PER_M = 0.06
 # ... from at least this half-width [m].
-LOOP_MIN_WINDOW_M = 1.0
-# Passes fewer metres of path ago than this are not searched (too little drift to correct).
+LOOP_MIN_WINDOW_M = 2.0
+# A coarse match must be unambiguous over a wider square than the window: as far as the
+# robot could have drifted by its tracking alone, this share of the path driven since the
+# pass's nearest keyframe ([m] per m, at least the window, capped by ``loop_search_xy_m``).
+# Loops closed since narrow the window, not the place a look-alike may lie in. (Intel with
+# 3 cm of range noise, seed 3: checked over the window alone, a match 16 degrees off in a
+# 2 m window went in, and the map was lost at the end, 0.124 m; checked over this, 0.041 m.)
+LOOP_LOOKALIKE_PER_M = 0.03
+# A pass whose nearest keyframe is fewer metres of path ago than this is not searched (too
+# little drift to correct).
 LOOP_MIN_PATH_M = 15.0
 # Old keyframes within the window plus this of the current pose make up a pass's map [m].
 LOOP_PASS_MARGIN_M = 2.0
@@ -136,8 +151,9 @@ class LoopCloser:
             reach_m=settings.max_range_m / 2,
         )
 
-    def search(self, keyframes: list[Keyframe], k: int) -> list[LoopCandidate]:
-        """Loop closures for keyframe ``k`` (one per old pass at most)."""
+    def search(self, keyframes: list[Keyframe], edges: list[Edge], k: int) -> list[LoopCandidate]:
+        """Loop closures for keyframe ``k`` (one per old pass at most), given the pose graph's
+        ``edges`` so far."""
         s = self.settings
         current = keyframes[k]
         if current.scan is None or k <= s.loop_min_gap:
@@ -153,31 +169,40 @@ class LoopCloser:
             return []
         near = np.flatnonzero(distance <= s.loop_search_xy_m + LOOP_PASS_MARGIN_M)
         found = []
+        linked = graph_distances(edges, k + 1, k)
         for run in passes(near, LOOP_PASS_JOIN):
+            # The drift to correct is from the part of the pass nearest the robot's (drifted)
+            # estimate, not from where the pass ended: a robot that stayed near for a long pass
+            # (aces: 414-977 s) comes back to its old part (613 s) 3-4 m off.
             nearest = run[np.argmin(distance[run])]
-            since_left_m = float(driven[k] - driven[run[-1]])
-            if since_left_m < LOOP_MIN_PATH_M or distance[nearest] > s.loop_search_radius_m:
-                continue
-            # The drift to correct is the path driven since the part of the pass nearest the
-            # robot's (drifted) estimate, not since the pass ended: a robot that stayed near
-            # for a long pass (aces: 414-977 s) comes back to its old part (613 s) 3-4 m off.
             since_nearest_m = float(driven[k] - driven[nearest])
+            if since_nearest_m < LOOP_MIN_PATH_M or distance[nearest] > s.loop_search_radius_m:
+                continue
             window = min(
-                s.loop_search_xy_m, max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * since_nearest_m)
+                s.loop_search_xy_m,
+                max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest])),
             )
-            candidate = self._search_pass(keyframes, k, run, window)
+            alike = max(window, min(s.loop_search_xy_m, LOOP_LOOKALIKE_PER_M * since_nearest_m))
+            candidate = self._search_pass(keyframes, k, run, window, alike)
             if candidate is not None:
                 found.append(candidate)
         return found
 
     def _search_pass(
-        self, keyframes: list[Keyframe], k: int, run: npt.NDArray[np.int64], window_m: float
+        self,
+        keyframes: list[Keyframe],
+        k: int,
+        run: npt.NDArray[np.int64],
+        window_m: float,
+        alike_m: float,
     ) -> LoopCandidate | None:
+        """The pass ``run``'s loop closure for keyframe ``k``: searched within ``window_m``,
+        unambiguous within ``alike_m`` [m, half-widths]."""
         s = self.settings
         self.counts.checks += 1
         current = keyframes[k]
         assert current.scan is not None
-        coarse = self._coarse_match(keyframes, k, run, window_m)
+        coarse = self._coarse_match(keyframes, k, run, window_m, alike_m)
         if coarse is None:
             return None
         # The fine map: the old keyframes around the one nearest the coarse pose.
@@ -203,9 +228,15 @@ class LoopCloser:
         return LoopCandidate(j, k, match.pose, match.score)
 
     def _coarse_match(
-        self, keyframes: list[Keyframe], k: int, run: npt.NDArray[np.int64], window_m: float
+        self,
+        keyframes: list[Keyframe],
+        k: int,
+        run: npt.NDArray[np.int64],
+        window_m: float,
+        alike_m: float,
     ) -> Pose2 | None:
-        """Where the newest keyframes' scans fit the pass's coarse map within the window."""
+        """Where the newest keyframes' scans fit the pass's coarse map within the window,
+        if no other place within ``alike_m`` fits nearly as well."""
         s = self.settings
         current = keyframes[k]
         resolution = s.resolution_m * LOOP_COARSE_FACTOR
@@ -216,7 +247,7 @@ class LoopCloser:
             if frame.scan is not None:
                 grid.insert(frame.pose, frame.scan)
         field = grid.likelihood_field(
-            current.pose, s.max_range_m + window_m, resolution * LOOP_COARSE_BLUR_CELLS
+            current.pose, s.max_range_m + alike_m, resolution * LOOP_COARSE_BLUR_CELLS
         )
         query = _query_points(keyframes, k, resolution)
         if query.shape[0] < LOOP_MIN_QUERY_POINTS:
@@ -232,7 +263,7 @@ class LoopCloser:
         )
         if score < LOOP_COARSE_MIN_SCORE:
             return None
-        rival = rival_ratio(field, query, pose, radius_m=window_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
+        rival = rival_ratio(field, query, pose, radius_m=alike_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
         if rival > LOOP_MAX_RIVAL_RATIO:
             self.counts.ambiguous += 1
             return None

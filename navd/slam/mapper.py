@@ -357,7 +357,7 @@ class ScanMapper:
     def _close_loop(self, k: int) -> None:
         """Tie keyframe ``k`` to the old passes it revisits; re-solve if it is off them."""
         unsettled = False
-        for loop in self.loops.search(self.keyframes, k):
+        for loop in self.loops.search(self.keyframes, self.edges, k):
             z = self.keyframes[loop.old].pose.between(loop.pose)
             self.edges.append(Edge(loop.old, k, z, EDGE_WEIGHTS, robust=True))
             off = self.keyframes[k].pose.between(loop.pose)

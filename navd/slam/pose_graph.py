@@ -21,6 +21,7 @@ cost, else the damping grows.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ import numpy.typing as npt
 from navd.geometry.angles import wrap_angles
 from navd.geometry.pose import Pose2
 
-__all__ = ["Edge", "optimize"]
+__all__ = ["Edge", "graph_distances", "optimize"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -113,6 +114,27 @@ def _jacobian_blocks(
     d_i[:, 0, 2] = cz * rel_y - sz * rel_x
     d_i[:, 1, 2] = -sz * rel_y - cz * rel_x
     return d_i * g.w[:, :, None], d_j * g.w[:, :, None]
+
+
+def graph_distances(edges: list[Edge], count: int, source: int) -> FloatArray:
+    """[m] the shortest path from pose ``source`` to each of the first ``count`` poses, over
+    the graph's edges, each as long as its translation; inf where no path leads.
+
+    A loop edge is short (it ties a pose to the old one beside it), so a place the graph has
+    already tied to the robot's recent path is near it here however far the robot drove
+    since. Edges to poses from ``count`` on are left out.
+    """
+    from scipy.sparse import coo_matrix  # noqa: PLC0415 (as in optimize: loaded when used)
+    from scipy.sparse.csgraph import dijkstra  # noqa: PLC0415
+
+    ii = np.fromiter((e.i for e in edges), np.int64, len(edges))
+    jj = np.fromiter((e.j for e in edges), np.int64, len(edges))
+    # A zero length would read as no edge in a sparse matrix.
+    length = np.fromiter((max(math.hypot(e.z.x, e.z.y), 1e-9) for e in edges), float, len(edges))
+    inside = (ii < count) & (jj < count)
+    matrix = coo_matrix((length[inside], (ii[inside], jj[inside])), shape=(count, count))
+    out: FloatArray = dijkstra(matrix.tocsr(), directed=False, indices=source)
+    return out
 
 
 def optimize(poses: FloatArray, edges: list[Edge], max_iterations: int = 100) -> FloatArray:

@@ -13,7 +13,7 @@ from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper
 from navd.slam.matcher import rival_ratio
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
-from navd.slam.pose_graph import Edge, optimize
+from navd.slam.pose_graph import Edge, graph_distances, optimize
 from navd.slam.settings import MapperSettings
 
 __all__ = ["warm_up"]
@@ -53,3 +53,5 @@ def warm_up() -> None:
     loop = [Edge(0, 1, step, weights), Edge(1, 2, step, weights)]
     loop.append(Edge(2, 0, step, weights, robust=True))
     optimize(np.array([[0.0, 0.0, 0.0], [1.1, 0.0, 2.0], [0.5, 0.9, -2.2]]), loop)
+    # The loop search's window: how far each keyframe is through the graph.
+    graph_distances(loop, 3, 2)

@@ -8,7 +8,14 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
-from navd.slam.pose_graph import Edge, _graph, _jacobian_blocks, _residuals, optimize
+from navd.slam.pose_graph import (
+    Edge,
+    _graph,
+    _jacobian_blocks,
+    _residuals,
+    graph_distances,
+    optimize,
+)
 
 W = (20.0, 20.0, 50.0)
 
@@ -138,3 +145,16 @@ def test_the_analytic_jacobian_matches_finite_differences() -> None:
                 down[node, c] -= h
                 numeric = (_residuals(up, g)[0][k] - _residuals(down, g)[0][k]) / (2 * h)
                 np.testing.assert_allclose(analytic[:, c], numeric, atol=1e-5)
+
+
+def test_graph_distances_take_the_shortest_way_loop_edges_included() -> None:
+    # Ten poses 1 m apart on a line, the last tied back to the first by a 0.5 m loop edge,
+    # and a pose 10 that only a later pose 11 would reach.
+    chain = [Edge(i, i + 1, Pose2(1.0, 0.0, 0.0), W) for i in range(9)]
+    loop = Edge(0, 9, Pose2(0.3, 0.4, 0.0), W, robust=True)
+    later = Edge(10, 11, Pose2(2.0, 0.0, 0.0), W)
+    reach = graph_distances([*chain, loop, later], 11, 9)
+    # Back along the chain, or across the loop and on from the first pose, whichever is less.
+    expected = [min(9.0 - i, 0.5 + i) for i in range(10)]
+    np.testing.assert_allclose(reach[:10], expected)
+    assert reach.shape == (11,) and math.isinf(reach[10])

@@ -22,7 +22,7 @@ SCRIPT = textwrap.dedent(
     from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
     from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
-    from navd.slam.pose_graph import Edge, optimize
+    from navd.slam.pose_graph import Edge, graph_distances, optimize
     from navd.slam.settings import MapperSettings
     from navd.slam import _grid_kernels
     from navd.slam.global_search import relocalize
@@ -58,6 +58,7 @@ SCRIPT = textwrap.dedent(
     square = [Edge(k, (k + 1) % 4, side, (10.0, 10.0, 30.0)) for k in range(4)]
     poses = np.array([[0.0, 0.0, 0.0], [2.1, 0.0, 1.5], [2.0, 2.2, 3.1], [-0.1, 2.0, -1.6]])
     assert np.abs(optimize(poses, square)[2, :2] - [2.0, 2.0]).max() < 0.05
+    assert graph_distances(square, 4, 0)[2] == 4.0  # the loop search's window
     imported = sorted(set(sys.modules) - before)
     assert not imported, f"a first scan or graph solve imported {imported}"
     after = {f.__name__: len(f.signatures) for f in kernels}
