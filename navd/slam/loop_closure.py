@@ -32,6 +32,7 @@ graph (robust: a wrong one that slipped through pulls less than a right one).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,7 +58,7 @@ FloatArray = npt.NDArray[np.float64]
 LOOP_DRIFT_PER_M = 0.06
 # ... from at least this half-width [m].
 LOOP_MIN_WINDOW_M = 2.0
-# A coarse match must be unambiguous over a wider square than the window: as far as the
+# A coarse match must be unambiguous over a wider disc than the window: as far as the
 # robot could have drifted by its tracking alone, this share of the path driven since the
 # pass's nearest keyframe ([m] per m, at least the window, capped by ``loop_search_xy_m``).
 # Loops closed since narrow the window, not the place a look-alike may lie in. (Intel with
@@ -80,7 +81,7 @@ LOOP_COARSE_ANGLE_STEP_RAD = math.radians(0.5)
 # The coarse query: this many newest keyframes' scans together.
 LOOP_QUERY_KEYFRAMES = 10
 # Coarse match: at least this score, and no rival beyond LOOP_COARSE_EXCLUDE_M [m] within
-# the window scoring more than LOOP_MAX_RIVAL_RATIO of it.
+# the look-alike radius (above) scoring more than LOOP_MAX_RIVAL_RATIO of it.
 LOOP_COARSE_MIN_SCORE = 0.5
 LOOP_COARSE_EXCLUDE_M = 0.6
 # A coarse query with fewer points than this is not searched (nothing to match).
@@ -151,9 +152,16 @@ class LoopCloser:
             reach_m=settings.max_range_m / 2,
         )
 
-    def search(self, keyframes: list[Keyframe], edges: list[Edge], k: int) -> list[LoopCandidate]:
-        """Loop closures for keyframe ``k`` (one per old pass at most), given the pose graph's
-        ``edges`` so far."""
+    def search(
+        self, keyframes: list[Keyframe], edges: Sequence[Edge], k: int
+    ) -> list[LoopCandidate]:
+        """Loop closures for keyframe ``k`` (one per old pass at most).
+
+        Args:
+            keyframes: every keyframe so far, ``k`` among them.
+            edges: the pose graph's edges so far (the window follows its shortest paths).
+            k: the index of the keyframe to find on the old passes.
+        """
         s = self.settings
         current = keyframes[k]
         if current.scan is None or k <= s.loop_min_gap:
@@ -169,7 +177,7 @@ class LoopCloser:
             return []
         near = np.flatnonzero(distance <= s.loop_search_xy_m + LOOP_PASS_MARGIN_M)
         found = []
-        linked = graph_distances(edges, k + 1, k)
+        linked: FloatArray | None = None  # [m] through the graph, once a pass needs it
         for run in passes(near, LOOP_PASS_JOIN):
             # The drift to correct is from the part of the pass nearest the robot's (drifted)
             # estimate, not from where the pass ended: a robot that stayed near for a long pass
@@ -178,6 +186,8 @@ class LoopCloser:
             since_nearest_m = float(driven[k] - driven[nearest])
             if since_nearest_m < LOOP_MIN_PATH_M or distance[nearest] > s.loop_search_radius_m:
                 continue
+            if linked is None:
+                linked = graph_distances(edges, k + 1, k)
             window = min(
                 s.loop_search_xy_m,
                 max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest])),

@@ -22,6 +22,7 @@ cost, else the damping grows.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,23 +117,39 @@ def _jacobian_blocks(
     return d_i * g.w[:, :, None], d_j * g.w[:, :, None]
 
 
-def graph_distances(edges: list[Edge], count: int, source: int) -> FloatArray:
-    """[m] the shortest path from pose ``source`` to each of the first ``count`` poses, over
-    the graph's edges, each as long as its translation; inf where no path leads.
+def graph_distances(edges: Sequence[Edge], count: int, source: int) -> FloatArray:
+    """[m] the shortest path from pose ``source`` to each of the first ``count`` poses.
 
     A loop edge is short (it ties a pose to the old one beside it), so a place the graph has
     already tied to the robot's recent path is near it here however far the robot drove
-    since. Edges to poses from ``count`` on are left out.
+    since.
+
+    Args:
+        edges: the graph's edges, each as long as its translation, either way; edges to
+            poses from ``count`` on are left out, and of two edges between the same poses
+            the shorter counts.
+        count: how many poses (0 .. count - 1).
+        source: the pose the paths start at.
+
+    Returns:
+        ``count`` path lengths [m]: 0 at ``source``, inf where no path leads.
     """
     from scipy.sparse import coo_matrix  # noqa: PLC0415 (as in optimize: loaded when used)
     from scipy.sparse.csgraph import dijkstra  # noqa: PLC0415
 
     ii = np.fromiter((e.i for e in edges), np.int64, len(edges))
     jj = np.fromiter((e.j for e in edges), np.int64, len(edges))
-    # A zero length would read as no edge in a sparse matrix.
-    length = np.fromiter((max(math.hypot(e.z.x, e.z.y), 1e-9) for e in edges), float, len(edges))
+    length = np.fromiter((math.hypot(e.z.x, e.z.y) for e in edges), float, len(edges))
     inside = (ii < count) & (jj < count)
-    matrix = coo_matrix((length[inside], (ii[inside], jj[inside])), shape=(count, count))
+    lo, hi, length = np.minimum(ii, jj)[inside], np.maximum(ii, jj)[inside], length[inside]
+    # One entry per pair of poses, the shortest (a sparse matrix adds up duplicates), and
+    # never exactly 0 (to keep a loop edge of no length from reading as no edge).
+    order = np.lexsort((length, hi, lo))
+    lo, hi, length = lo[order], hi[order], length[order]
+    first = np.ones(lo.size, dtype=np.bool_)
+    first[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+    weights = np.maximum(length[first], 1e-9)
+    matrix = coo_matrix((weights, (lo[first], hi[first])), shape=(count, count))
     out: FloatArray = dijkstra(matrix.tocsr(), directed=False, indices=source)
     return out
 

@@ -307,14 +307,17 @@ ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.060, 0.0261
 
 
 @pytest.mark.parametrize(
-    ("log", "kind"),
-    [("aces", "drop"), ("intel_dump", "odometry")],
+    ("log", "kind", "times"),
+    [("aces", "drop", 2.0), ("intel_dump", "odometry", 2.0), ("aces", "odometry", 2.1)],
 )
-def test_replays_hold_with_scans_lost_and_worse_wheels(tmp_path: Path, log: str, kind: str) -> None:
-    # A tenth of the scans dropped (aces), or wheels 5 % long whose heading drifts 2 degrees
-    # a minute (the Intel lab's text dump): the defaults stay within twice the unperturbed
-    # error (issue 19's bar). (aces with those wheels: 1.99 times, too near the bar for a
-    # test that must not flip on a last bit; docs/slam.md, "Perturbed logs".)
+def test_replays_hold_with_scans_lost_and_worse_wheels(
+    tmp_path: Path, log: str, kind: str, times: float
+) -> None:
+    # A tenth of the scans dropped, or wheels 5 % long whose heading drifts 2 degrees a
+    # minute: the defaults stay within twice the unperturbed error (issue 19's bar). aces
+    # with those wheels is measured at 1.99 times (0.1196 m), too near the bar for a test
+    # that must not flip on a last bit: it is held to 2.1 times, which a lost map (0.3 m
+    # and more) still breaks (docs/slam.md, "Perturbed logs").
     freiburg = dataset("freiburg_slam_benchmark")
     if log == "aces":
         source = freiburg / "bags_ros1" / "aces.orig.bag"
@@ -327,7 +330,7 @@ def test_replays_hold_with_scans_lost_and_worse_wheels(tmp_path: Path, log: str,
     stamps, poses = read_tum(tmp_path / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / f"{name}.relations"))
     assert errors.used > 1000
-    assert errors.translation_mean_m <= 2 * unperturbed
+    assert errors.translation_mean_m <= times * unperturbed
 
 
 def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path) -> None:
@@ -349,7 +352,7 @@ def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path
     _, before = read_tum(first / "trajectory.tum")
     x, y, _ = summary["found_at"]
     assert math.hypot(x - before[-1].x, y - before[-1].y) < 0.3
-    assert summary["loops_to_loaded"] >= 5  # 20 measured
+    assert summary["loops_to_loaded"] >= 5  # 21 measured
     # The second half is mapped nearly as well as in one run: 0.068 m measured, against
     # 0.060 m over the whole log (0.120 and 0.084 m with the loop window of the morning of
     # 4 December: the second half alone missed the east-wing loop the whole log closes).

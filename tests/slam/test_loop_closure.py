@@ -142,10 +142,11 @@ def test_a_long_pass_whose_nearest_part_was_driven_last_keeps_a_narrow_window() 
 
 
 def test_a_place_passed_again_in_one_unbroken_pass_is_searched() -> None:
-    # Two laps of the room in one go, the second 0.6 m and 2 degrees off. The old keyframes
-    # near the robot are one pass, the whole first lap up to the newest ``loop_min_gap``
-    # keyframes, and it ends only 12 m of path ago; its part nearest the robot was driven a
-    # lap (21 m) ago, so it is searched (the way out and back of a dead-end corridor).
+    # A lap of the room and 30 keyframes more in one go, those 0.6 m off on both axes and 2
+    # degrees. The old keyframes near the robot are one pass, the whole way round up to the
+    # newest ``loop_min_gap`` keyframes, and it ends only 12 m of path ago; its part nearest
+    # the robot was driven a lap (21 m) ago, so it is searched (as the way out and back of a
+    # dead-end corridor is).
     settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
     lap = _ellipse(100)
     drift = Pose2(0.6, -0.6, math.radians(2.0))
@@ -162,8 +163,8 @@ def test_a_place_passed_again_in_one_unbroken_pass_is_searched() -> None:
 def test_a_pass_the_graph_already_ties_to_the_robot_is_searched_in_a_narrow_window() -> None:
     # The revisit of the first test, 3 m off after a 120 m detour: alone the window is 4 m
     # (the cap) and the room is found. With a loop edge tying the revisit's first keyframe
-    # to the room, the room is 4 m away through the graph, the window is 2 m, and a 3 m jump
-    # is not believed.
+    # to the room, the room's keyframe nearest the robot is at most 14 m away through the
+    # graph, the window is 2 m (its least), and a 3 m jump is not believed.
     settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
     room = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
     keyframes, truth = _revisit_after(room)

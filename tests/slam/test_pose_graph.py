@@ -158,3 +158,14 @@ def test_graph_distances_take_the_shortest_way_loop_edges_included() -> None:
     expected = [min(9.0 - i, 0.5 + i) for i in range(10)]
     np.testing.assert_allclose(reach[:10], expected)
     assert reach.shape == (11,) and math.isinf(reach[10])
+
+
+def test_graph_distances_take_the_shorter_of_two_edges_and_an_edge_of_no_length() -> None:
+    # A pose found again by a loop edge of no length, and two edges between the same poses
+    # (a found pose after a load and a loop onto the same old keyframe): the shorter counts,
+    # either way round, and a sparse matrix's summing of duplicates must not show.
+    chain = [Edge(0, 1, Pose2(1.0, 0.0, 0.0), W), Edge(1, 2, Pose2(1.0, 0.0, 0.0), W)]
+    twice = [Edge(0, 3, Pose2(3.0, 0.0, 0.0), W), Edge(3, 0, Pose2(0.0, 1.0, 0.0), W)]
+    found = Edge(2, 4, Pose2(0.0, 0.0, 0.0), W, robust=True)
+    reach = graph_distances([*chain, *twice, found], 5, 0)
+    np.testing.assert_allclose(reach, [0.0, 1.0, 2.0, 1.0, 2.0], atol=1e-6)
