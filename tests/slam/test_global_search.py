@@ -11,7 +11,7 @@ from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k
-from navd.slam.global_search import global_search, relocalize
+from navd.slam.global_search import COARSE_MAX_CELLS, _coarse_factor, global_search, relocalize
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.voxel import voxel_downsample
 
@@ -110,3 +110,14 @@ def test_the_robot_is_found_anywhere_in_the_room(truth: Pose2) -> None:
     assert abs(math.remainder(found.pose.yaw - truth.yaw, 2 * math.pi)) < math.radians(2.0)
     near = relocalize(GRID, _points(truth), guess=truth.compose(Pose2(0.4, -0.3, 0.26)))
     assert math.hypot(near.pose.x - truth.x, near.pose.y - truth.y) < 0.05
+
+
+def test_a_wide_search_is_coarsened_as_little_as_its_memory_allows() -> None:
+    # Coarsened 2 times if the field (and so each of its bounds) then holds at most
+    # COARSE_MAX_CELLS cells: finer cells tell look-alike places apart. Larger fields are
+    # coarsened 4 times, so a 244 m x 432 m map searched whole stays within memory.
+    half_cells_at_2 = math.sqrt(COARSE_MAX_CELLS * 4) / 2  # a field of the cap at 2
+    assert _coarse_factor(621.0) == 2  # the Intel lab's whole map at 5 cm
+    assert _coarse_factor(half_cells_at_2 - 0.5) == 2
+    assert _coarse_factor(half_cells_at_2 + 0.5) == 4
+    assert _coarse_factor(4320.0) == 4  # fr-clinic's whole map

@@ -183,12 +183,11 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
     assert errors.translation_mean_m <= 0.029
     assert errors.rotation_mean_deg <= 0.5
     # Localization on the saved map, for every 500th scan: from a 0.5 m / 15 degree wrong
-    # start, and from nothing. Measured (27 scans): 26 and 21 found; the build before this
-    # December's loop window rule, 26 and 23. From a wrong start a corridor scan can be found
-    # along it (scan 7000: 0.15 m, and 3.4 degrees where two passes drew the corridor a little
-    # apart). From nothing, the search on the map coarsened four times picks a room that
-    # looks the same (scan 12000: 1.5 m and 88 degrees off, 0.65 against the true pose's
-    # 0.97 at full resolution): only the coarse search's best is refined.
+    # start, and from nothing. Measured (27 scans): 26 and 25 found. From nothing, a search
+    # on the map coarsened 4 times (20 cm cells) found 21: look-alike rooms scored as well
+    # as the true place there (scan 12000: 1.5 m and 88 degrees off). The two scans missed
+    # from nothing, and the one from a wrong start, are found 0.13-0.17 m off, where two
+    # passes drew the place a little apart (scan 7000: 0.15 m and 3 degrees).
     grid = load_map(tmp_path / "map.yaml")
     from_guess = from_nothing = samples = 0
     for index, scan in enumerate(open_log(log)):
@@ -213,7 +212,7 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
         from_nothing += _near(anywhere.pose, truth, 0.15)
     assert samples == 27
     assert from_guess >= 25
-    assert from_nothing >= 19
+    assert from_nothing >= 24
 
 
 def _near(found: Pose2, truth: Pose2, tolerance_m: float) -> bool:
