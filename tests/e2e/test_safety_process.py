@@ -80,7 +80,11 @@ def test_far_goals_fail_at_once_with_the_reason_and_the_next_goal_is_planned(
             )
             assert isinstance(status, StatusFrame)
             lag_p99_ms = status.diagnostics.loop_lag_p99_ms
-            assert lag_p99_ms is not None and lag_p99_ms <= 20.0
+            # A far goal planned on the event loop would stall it for seconds (a grid of
+            # 200 000 cells a side). The window is the daemon's first seconds, whose lag is
+            # a few ms alone; with the test suite's other worker on the same two cores it
+            # once reached 41 ms.
+            assert lag_p99_ms is not None and lag_p99_ms <= 100.0
             ui.send(GoalFrame(x=1.0, y=0.5, goal_id="near"))
             route = first(ui, lambda f: isinstance(f, PathFrame) and f.goal_id == "near", 10.0)
             assert isinstance(route, PathFrame) and len(route.points) >= 2
