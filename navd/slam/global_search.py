@@ -25,13 +25,13 @@ __all__ = ["global_search", "relocalize"]
 FloatArray = npt.NDArray[np.float64]
 # A search window wider than this [m] (half-width) is searched on a coarser grid first:
 # coarsened 2 times if that leaves the field at most COARSE_MAX_CELLS cells (the field and
-# its six bounds, 4 bytes a cell each: 56 MB at most), else 4 times (a 244 m x 432 m map,
-# whole: 4.7 million cells). A grid coarser than needed makes look-alike places score
-# alike: on the Intel lab's map coarsened 4 times (20 cm cells), scores of 0.95-0.99 are
-# found all over it, and for some scans the true place is not even among the best eight
-# the search gives (it scores 1.0 on cells aligned with it, but the search's cells are
-# not); refining its best then misses. Coarsened 2 times, 25 of 27 scans are found from
-# nothing, against 21.
+# its six bounds, 4 bytes a cell each: 56 MB), else 4 times, with no cap then (a
+# 244 m x 432 m map searched whole: 4.7 million cells, 131 MB). A grid coarser than needed
+# makes look-alike places score alike: on the Intel lab's map coarsened 4 times (20 cm
+# cells), scores of 0.95-0.99 are found all over it, and for some scans the true place is
+# not even among the best eight the search gives (it scores 1.0 on cells aligned with it,
+# but the search's cells are not); refining its best then misses. Coarsened 2 times, 25 of
+# 27 scans are found from nothing, against 21.
 COARSE_ABOVE_M, COARSE_FACTORS, COARSE_MAX_CELLS = 10.0, (2, 4), 2_000_000
 # ... and then at full resolution this near what it found [m], [rad].
 REFINE_XY_M, REFINE_YAW_RAD = 0.5, math.radians(3.0)
@@ -102,8 +102,8 @@ def relocalize(
     be larger than that plus the search window). A window wider than ``COARSE_ABOVE_M`` (the
     whole map, say) is searched first on a coarser grid (``COARSE_FACTORS``), then within
     ``REFINE_XY_M`` and ``REFINE_YAW_RAD`` of what that found at full resolution: the field
-    and its bounds take a fraction of the memory (a 244 m x 432 m map at 5 cm would need
-    seven 170 MB arrays) and the search a fraction of the time.
+    and its bounds take a fraction of the memory (a 244 m x 432 m map at 5 cm, searched
+    whole, would need seven arrays of 300 MB) and the search a fraction of the time.
     """
     if guess is None:
         center, half = grid.whole()

@@ -37,9 +37,10 @@ __all__ = ["Found", "LostSearch", "fit_on_map"]
 FloatArray = npt.NDArray[np.float64]
 
 WINDOWS_M = (4.0, 8.0, 16.0)  # [m] half-widths of the searches around the last good pose
-# A whole-map search holds its field and six bounds on a grid coarsened four times (about
-# 2.8 bytes per map cell while it runs, 140 MB for 50 million): only on maps up to this many
-# cells (fr-clinic's 244 m x 432 m at 5 cm is 40 million); larger ones in the windows.
+# A whole-map search holds its field and six bounds on a coarsened grid (``relocalize``:
+# at most 56 MB on a map coarsened twice; on a larger map, coarsened four times, about 2.8
+# bytes per map cell, 140 MB for 50 million): only on maps up to this many cells
+# (fr-clinic's 244 m x 432 m at 5 cm is 40 million); larger ones in the windows.
 WHOLE_MAP_MAX_CELLS = 50_000_000
 CONFIRM_M, CONFIRM_RAD = 0.15, math.radians(5.0)  # two searches agree this closely
 KNOWN_FRACTION, MIN_KNOWN_POINTS = 0.5, 10  # share and count of points on mapped ground

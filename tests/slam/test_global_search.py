@@ -11,6 +11,7 @@ from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k
+from navd.slam import global_search as global_search_module
 from navd.slam.global_search import COARSE_MAX_CELLS, _coarse_factor, global_search, relocalize
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.voxel import voxel_downsample
@@ -112,12 +113,39 @@ def test_the_robot_is_found_anywhere_in_the_room(truth: Pose2) -> None:
     assert math.hypot(near.pose.x - truth.x, near.pose.y - truth.y) < 0.05
 
 
-def test_a_wide_search_is_coarsened_as_little_as_its_memory_allows() -> None:
+@pytest.mark.parametrize(
+    ("half_cells", "factor"),
+    [
+        (621.0, 2),  # the Intel lab's whole map at 5 cm
+        (math.sqrt(COARSE_MAX_CELLS * 4) / 2 - 0.5, 2),  # just within the cap, coarsened 2 times
+        (math.sqrt(COARSE_MAX_CELLS * 4) / 2 + 0.5, 4),  # just over it
+        (4320.0, 4),  # fr-clinic's whole map: 4 times, so it stays within memory
+    ],
+)
+def test_a_wide_search_is_coarsened_as_little_as_its_memory_allows(
+    half_cells: float, factor: int
+) -> None:
     # Coarsened 2 times if the field (and so each of its bounds) then holds at most
-    # COARSE_MAX_CELLS cells: finer cells tell look-alike places apart. Larger fields are
-    # coarsened 4 times, so a 244 m x 432 m map searched whole stays within memory.
-    half_cells_at_2 = math.sqrt(COARSE_MAX_CELLS * 4) / 2  # a field of the cap at 2
-    assert _coarse_factor(621.0) == 2  # the Intel lab's whole map at 5 cm
-    assert _coarse_factor(half_cells_at_2 - 0.5) == 2
-    assert _coarse_factor(half_cells_at_2 + 0.5) == 4
-    assert _coarse_factor(4320.0) == 4  # fr-clinic's whole map
+    # COARSE_MAX_CELLS cells: finer cells tell look-alike places apart.
+    assert _coarse_factor(half_cells) == factor
+
+
+@pytest.mark.parametrize(("max_cells", "factor"), [(COARSE_MAX_CELLS, 2), (40_000, 4)])
+def test_the_whole_room_is_searched_as_finely_as_the_cap_allows(
+    monkeypatch: pytest.MonkeyPatch, max_cells: int, factor: int
+) -> None:
+    # The room searched whole: a field 22 m across, 440 x 440 cells at 5 cm, so 48 400 cells
+    # coarsened 2 times; over a cap of 40 000 it is coarsened 4 times. Found either way.
+    monkeypatch.setattr(global_search_module, "COARSE_MAX_CELLS", max_cells)
+    factors: list[int] = []
+    coarsened = OccupancyGrid.coarsened
+
+    def spy(grid: OccupancyGrid, by: int) -> OccupancyGrid:
+        factors.append(by)
+        return coarsened(grid, by)
+
+    monkeypatch.setattr(OccupancyGrid, "coarsened", spy)
+    truth = Pose2(2.0, -2.5, 2.5)
+    found = relocalize(GRID, _points(truth))
+    assert factors == [factor]
+    assert math.hypot(found.pose.x - truth.x, found.pose.y - truth.y) < 0.05
