@@ -17,8 +17,9 @@ on a dense array, in tests/slam/grid_reference.py.
 - ``fine_scores``: the summed field under the scan points, rotated and moved, for a block
   of translations.
 - ``branch_and_bound``: the best (rotation, translation) over a whole window, less a pull
-  toward the prior, best-first over blocks of translations bounded by the summed sliding
-  maximum (the tracking matcher and the global search).
+  toward the prior (stronger along the scan's weak axis), best-first over blocks of
+  translations bounded by the summed sliding maximum (the tracking matcher and the global
+  search).
 - ``best_among``: the best summed field under the scan points, at one rotation, over the
   translations a mask allows (the best rival of a match), best-first like
   ``branch_and_bound``.
@@ -349,6 +350,9 @@ def branch_and_bound(
     per_cell2: float,
     floor: float,
     cell_max: float,
+    weak_x: float,
+    weak_y: float,
+    weak_cell2: float,
 ) -> tuple[int, int, int, float, int]:
     """The best rotation and translation within ``limit`` cells, by best-first search.
 
@@ -368,6 +372,10 @@ def branch_and_bound(
             optimum as without a floor.
         cell_max: the largest value a cell of the field can hold, so that ``cell_max`` times
             the points bounds every translation of a rotation not yet projected.
+        weak_x, weak_y: a unit direction in the field (the scan's weak axis; anything when
+            ``weak_cell2`` is 0).
+        weak_cell2: what each squared cell of translation from the prior along that
+            direction costs on top of ``per_cell2`` (same units).
 
     Returns:
         (rotation index, dx, dy, summed field under the points, blocks expanded) of the
@@ -375,9 +383,10 @@ def branch_and_bound(
         there was nothing to search, or nothing reached ``floor``.
 
     A queue entry is (-(bound - pull), level, rotation, dx, dy, bound) for the 2^level x
-    2^level block of translations starting at (dx, dy), the pull taken at the block's
-    translation nearest the prior (so it stays a bound); ties are broken by the rest of the
-    tuple, so the result does not depend on the order blocks were queued in.
+    2^level block of translations starting at (dx, dy), the pull's two parts each taken at
+    the block's translation least pulled by it (so their sum stays a bound); ties are
+    broken by the rest of the tuple, so the result does not depend on the order blocks were
+    queued in.
 
     A rotation starts as one entry bounded by ``cell_max`` per point less its turn cost, at
     the coarsest level and a dx before any block's (so it comes first among the entries it
@@ -408,7 +417,7 @@ def branch_and_bound(
             for dy in range(-limit, limit + 1, top):
                 for dx in range(-limit, limit + 1, top):
                     bound = _block_bound(bounds[levels], cols[a], rows[a], dx, dy, top)
-                    pull = turn_cost[a] + per_cell2 * _nearest2(dx, dy, top)
+                    pull = turn_cost[a] + _pull(dx, dy, top, per_cell2, weak_x, weak_y, weak_cell2)
                     if bound - pull >= floor:
                         heapq.heappush(queue, (pull - bound, levels, a, dx, dy, bound))
             continue
@@ -421,7 +430,7 @@ def branch_and_bound(
             cx, cy = dx + half * (q & 1), dy + half * (q >> 1)
             if abs(cx) <= limit and abs(cy) <= limit:
                 bound = quarters[q]
-                pull = turn_cost[a] + per_cell2 * _nearest2(cx, cy, half)
+                pull = turn_cost[a] + _pull(cx, cy, half, per_cell2, weak_x, weak_y, weak_cell2)
                 if bound - pull >= floor:
                     heapq.heappush(queue, (pull - bound, level - 1, a, cx, cy, bound))
     return -1, 0, 0, 0.0, expanded
@@ -499,6 +508,36 @@ def _holds(area: IntArray, i0: int, j0: int, size: int) -> bool:
     n = area.shape[0] - 1
     i1, j1 = min(i0 + size, n), min(j0 + size, n)
     return bool(area[j1, i1] - area[j0, i1] - area[j1, i0] + area[j0, i0] > 0)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _pull(
+    dx: int, dy: int, size: int, per_cell2: float, ux: float, uy: float, along_cell2: float
+) -> float:
+    """The least translation pull over the size x size block starting at (dx, dy):
+    ``per_cell2`` per squared cell from the prior, plus ``along_cell2`` per squared cell
+    along the unit direction (ux, uy), each at its own least over the block."""
+    pull = per_cell2 * _nearest2(dx, dy, size)
+    if along_cell2 > 0.0:
+        pull += along_cell2 * _nearest_along2(dx, dy, size, ux, uy)
+    return pull
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _nearest_along2(dx: int, dy: int, size: int, ux: float, uy: float) -> float:
+    """Squared least distance [cells^2] along the unit direction (ux, uy) from the prior
+    (0, 0) to a translation of the size x size block starting at (dx, dy): 0 if the block
+    straddles the line through the prior across that direction. (The distance along it is
+    linear, so its least and most over the block lie at corners.)"""
+    x1, y1 = dx + size - 1, dy + size - 1
+    c00, c10 = ux * dx + uy * dy, ux * x1 + uy * dy
+    c01, c11 = ux * dx + uy * y1, ux * x1 + uy * y1
+    low = min(c00, c10, c01, c11)
+    high = max(c00, c10, c01, c11)
+    if low <= 0.0 <= high:
+        return 0.0
+    nearest = min(abs(low), abs(high))
+    return nearest * nearest
 
 
 @nb.njit(cache=True, nogil=True, inline="always")

@@ -75,6 +75,9 @@ def global_search(
         0.0,
         -math.inf if min_score == -math.inf else min_score * points.shape[0],
         FIELD_PEAK,
+        1.0,
+        0.0,
+        0.0,  # nor along any axis
     )
     if a < 0:
         return center, 0.0, expanded

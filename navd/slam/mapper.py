@@ -91,6 +91,7 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
         search_yaw_rad=s.search_yaw_rad,
         reach_m=s.max_range_m / 2,
         prior_weight_per_m2=s.prior_weight_per_m2,
+        prior_axis_weight_per_m2=s.prior_axis_weight_per_m2,
         prior_weight_per_rad2=s.prior_weight_per_rad2 or 0.0,
     )
 

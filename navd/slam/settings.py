@@ -32,6 +32,7 @@ class MapperSettings:
     loop_search_xy_m: float
     loop_min_score: float
     prior_weight_per_m2: float
+    prior_axis_weight_per_m2: float
     prior_weight_per_rad2: float | None  # None: learned (navd.slam.heading_trust)
     loop_search_yaw_rad: float = 0.5
     loop_min_gap: int = 40
@@ -61,6 +62,7 @@ class MapperSettings:
             loop_search_xy_m=slam.loop_search_xy_m,
             loop_min_score=slam.loop_min_score,
             prior_weight_per_m2=slam.prior_weight_per_m2,
+            prior_axis_weight_per_m2=slam.prior_axis_weight_per_m2,
             prior_weight_per_rad2=slam.prior_weight_per_rad2,
         )
 

@@ -180,7 +180,21 @@ def test_branch_and_bound_matches_the_reference_and_the_exhaustive_optimum(seed:
     bounds = tuple(ref.sliding_max(field, 2**level) for level in range(3))
     no_pull = np.zeros(angles.size)
     a, dx, dy, total, _ = k.branch_and_bound(
-        bounds, px, py, np.cos(angles), np.sin(angles), tx, ty, limit, no_pull, 0.0, -math.inf, 1.0
+        bounds,
+        px,
+        py,
+        np.cos(angles),
+        np.sin(angles),
+        tx,
+        ty,
+        limit,
+        no_pull,
+        0.0,
+        -math.inf,
+        1.0,
+        1.0,
+        0.0,
+        0.0,
     )
     assert (a, dx, dy) == ref.branch_and_bound(bounds, px, py, angles, tx, ty, limit)[:3]
     exhaustive = {
@@ -207,7 +221,9 @@ def test_a_floor_gives_up_a_search_below_it_early_and_leaves_one_above_it_unchan
     c, s = np.cos(angles), np.sin(angles)
 
     def search(floor: float) -> tuple[int, int, int, float, int]:
-        return k.branch_and_bound(bounds, px, py, c, s, tx, ty, limit, no_pull, 0.0, floor, 1.0)
+        return k.branch_and_bound(
+            bounds, px, py, c, s, tx, ty, limit, no_pull, 0.0, floor, 1.0, 1.0, 0.0, 0.0
+        )
 
     free = search(-math.inf)
     best = free[3]
@@ -234,7 +250,7 @@ def test_a_floor_with_a_pull_keeps_the_pulled_optimum(seed: int) -> None:
 
     def search(floor: float) -> tuple[int, int, int, float, int]:
         return k.branch_and_bound(
-            bounds, px, py, c, s, tx, ty, limit, turn_cost, per_cell2, floor, 1.0
+            bounds, px, py, c, s, tx, ty, limit, turn_cost, per_cell2, floor, 1.0, 1.0, 0.0, 0.0
         )
 
     free = search(-math.inf)
@@ -245,9 +261,14 @@ def test_a_floor_with_a_pull_keeps_the_pulled_optimum(seed: int) -> None:
 
 
 @pytest.mark.parametrize("seed", [6, 7, 8])
-@pytest.mark.parametrize("per_cell2", [0.02, 0.3])
+@pytest.mark.parametrize(
+    ("per_cell2", "weak_angle", "weak_cell2"),
+    # (the weak-axis cases fail if a block's pull along the axis is taken at its first corner,
+    # not at its least)
+    [(0.02, 0.0, 0.0), (0.3, 0.0, 0.0), (0.02, 0.5, 0.5), (0.02, -2.5, 0.5), (0.0, 3.0, 3.0)],
+)
 def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull(
-    seed: int, per_cell2: float
+    seed: int, per_cell2: float, weak_angle: float, weak_cell2: float
 ) -> None:
     rng = np.random.default_rng(seed)
     field = rng.random((60, 70)).astype(np.float32) ** 4
@@ -269,11 +290,17 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
         per_cell2,
         -math.inf,
         1.0,
+        math.cos(weak_angle),
+        math.sin(weak_angle),
+        weak_cell2,
     )
+    # The translation's pull: per_cell2 per squared cell, and weak_cell2 more per squared
+    # cell along the direction at weak_angle.
     pulled = {
         (b, x, y): ref.score(field, px, py, np.cos(angle), np.sin(angle), tx, ty, x, y)
         - turn_cost[b]
         - per_cell2 * (x * x + y * y)
+        - weak_cell2 * (x * math.cos(weak_angle) + y * math.sin(weak_angle)) ** 2
         for b, angle in enumerate(angles)
         for y in range(-limit, limit + 1)
         for x in range(-limit, limit + 1)
@@ -343,5 +370,8 @@ def test_a_tie_between_rotations_goes_to_the_first_as_when_every_rotation_is_que
         0.0,
         -math.inf,
         1.0,
+        1.0,
+        0.0,
+        0.0,
     )
     assert (a, dx, dy, total) == (0, 0, 0, 1.0)

@@ -178,7 +178,8 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
     stamps, poses = read_tum(tmp_path / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "intel.relations"))
     assert errors.used == 2984
-    # With the defaults (loop closure on): 0.0261 m measured; GMapping 0.070 m, graph mapping
+    # With the defaults (loop closure on): 0.0275 m measured (0.0261 m before the odometry
+    # pulled harder along corridors); GMapping 0.070 m, graph mapping
     # 0.031 m, Cartographer 0.0229 m.
     assert errors.translation_mean_m <= 0.029
     assert errors.rotation_mean_deg <= 0.5
@@ -232,11 +233,12 @@ def test_aces_replay_with_the_defaults_closes_its_loops(tmp_path: Path) -> None:
     relations = read_relations(freiburg / "relations" / "aces.relations")
     errors = evaluate(stamps, poses, relations)
     assert errors.used == 1279
-    # 0.060 m measured with the defaults (0.084 m while the way out and back of a dead-end
-    # corridor was one pass searched from its end, in a window of 3 % of the path; 0.185 m
-    # before loop closure was on by default); GMapping 0.060 m, the issue's target 0.040 m
-    # is not met yet (docs/slam.md).
-    assert errors.translation_mean_m <= 0.075
+    # 0.0388 m measured with the defaults (0.060 m before the odometry pulled harder along a
+    # corridor, 0.084 m while the way out and back of a dead-end corridor was one pass
+    # searched from its end, 0.185 m before loop closure was on by default); GMapping
+    # 0.060 m, Cartographer 0.0375 m, issue 19's target 0.040 m. Held to 0.042 m so that a
+    # last bit computed otherwise elsewhere cannot flip it; the build before breaks it.
+    assert errors.translation_mean_m <= 0.042
     assert errors.rotation_mean_deg <= 0.6
     # Most of the building is right: the median relation is within 5 cm.
     each = sorted(evaluate(stamps, poses, [r]).translation_mean_m for r in relations)
@@ -303,21 +305,21 @@ def test_replay_with_scan_odometry_needs_no_wheels(tmp_path: Path) -> None:
 
 
 # Measured with the defaults (the tests above bound them).
-ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.060, 0.0261
+ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.0388, 0.0275
 
 
 @pytest.mark.parametrize(
     ("log", "kind", "times"),
-    [("aces", "drop", 2.0), ("intel_dump", "odometry", 2.0), ("aces", "odometry", 2.1)],
+    [("aces", "drop", 2.0), ("intel_dump", "odometry", 2.0), ("aces", "range8", 2.0)],
 )
 def test_replays_hold_with_scans_lost_and_worse_wheels(
     tmp_path: Path, log: str, kind: str, times: float
 ) -> None:
-    # A tenth of the scans dropped, or wheels 5 % long whose heading drifts 2 degrees a
-    # minute: the defaults stay within twice the unperturbed error (issue 19's bar). aces
-    # with those wheels is measured at 1.99 times (0.1196 m), too near the bar for a test
-    # that must not flip on a last bit: it is held to 2.1 times, which a lost map (0.3 m
-    # and more) still breaks (docs/slam.md, "Perturbed logs").
+    # A tenth of the scans dropped, wheels 5 % long whose heading drifts 2 degrees a minute,
+    # or a lidar that sees 8 m: the defaults stay within twice the unperturbed error (issue
+    # 19's bar). Measured: aces 0.0403 and 0.0408 m, the dump 0.0297 m (docs/slam.md,
+    # "Perturbed logs"); aces with an 8 m lidar gave 0.277 m before the odometry pulled
+    # harder along corridors.
     freiburg = dataset("freiburg_slam_benchmark")
     if log == "aces":
         source = freiburg / "bags_ros1" / "aces.orig.bag"
@@ -352,10 +354,11 @@ def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path
     _, before = read_tum(first / "trajectory.tum")
     x, y, _ = summary["found_at"]
     assert math.hypot(x - before[-1].x, y - before[-1].y) < 0.3
-    assert summary["loops_to_loaded"] >= 5  # 21 measured
-    # The second half is mapped nearly as well as in one run: 0.068 m measured, against
-    # 0.060 m over the whole log (0.120 and 0.084 m with the loop window of the morning of
-    # 4 December: the second half alone missed the east-wing loop the whole log closes).
+    assert summary["loops_to_loaded"] >= 5  # 34 measured
+    # The second half is mapped nearly as well as in one run: 0.0412 m measured, against
+    # 0.0388 m over the whole log (0.068 and 0.060 m before the odometry pulled harder along
+    # corridors; 0.120 and 0.084 m with the loop window of the morning of 4 December: the
+    # second half alone missed the east-wing loop the whole log closes).
     stamps, poses = read_tum(second / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
     assert errors.used > 500

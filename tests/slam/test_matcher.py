@@ -15,6 +15,7 @@ from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
 
@@ -152,6 +153,64 @@ def test_in_a_corridor_the_prior_decides_along_it_and_the_walls_across_it() -> N
     # Without the pull, x is whichever of the equal scores the search met first.
     free = CorrelativeMatcher(search_xy_m=0.6, search_yaw_rad=0.1).match(CORRIDOR, points, prior)
     assert abs(free.pose.x - prior.x) > 0.1
+
+
+def test_a_step_into_a_corridor_not_yet_mapped_is_kept_along_it_by_the_defaults() -> None:
+    # The map is the corridor as seen from x = -4 .. 0 m (walls drawn to x = 8 m); the robot
+    # has stepped 0.2 m on, and its scan's far ends reach 0.2 m of wall the map lacks.
+    # Moved back by the step, those points fall on drawn walls: the scan fits better there.
+    grid = OccupancyGrid(0.05)
+    a0, inc, r = _corridor(0.0)
+    for x in np.arange(-4.0, 0.01, 0.2):
+        grid.insert(
+            Pose2(float(x), 0.0, 0.0), scan_points(r, a0, inc, range_min=0.1, range_max=30.0)
+        )
+    truth = Pose2(0.2, 0.0, 0.0)
+    field = grid.likelihood_field(truth, 10.0, 0.05)
+    points = _corridor_points(0.0)
+    settings = MapperSettings.defaults()
+    assert settings.prior_axis_weight_per_m2 > 0.0
+
+    def matched(axis_weight: float) -> Pose2:
+        return (
+            CorrelativeMatcher(
+                search_xy_m=settings.search_xy_m,
+                search_yaw_rad=settings.search_yaw_rad,
+                prior_weight_per_m2=settings.prior_weight_per_m2,
+                prior_axis_weight_per_m2=axis_weight,
+            )
+            .match(field, points, truth)
+            .pose
+        )  # the wheels got the step right
+
+    # With the plain pull the step is lost: the match slips back toward the map's end.
+    assert matched(0.0).x < truth.x - 0.1
+    # With the default pull along the corridor (its weak axis) the wheels' step holds.
+    held = matched(settings.prior_axis_weight_per_m2)
+    assert abs(held.x - truth.x) < 0.02
+    assert abs(held.y) < 0.03
+
+
+def test_the_pull_along_the_weak_axis_leaves_a_room_match_alone() -> None:
+    # In a room the surfaces hold every direction: the extra pull is off, the match the same.
+    truth = Pose2(0.12, -0.08, 0.05)
+    a0, inc, r = cast(truth)
+    points = voxel_downsample(scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
+    prior = Pose2(0.0, 0.0, 0.0)
+
+    def matched(axis_weight: float) -> Pose2:
+        return (
+            CorrelativeMatcher(
+                search_xy_m=0.3,
+                search_yaw_rad=0.2,
+                prior_weight_per_m2=0.5,
+                prior_axis_weight_per_m2=axis_weight,
+            )
+            .match(FIELD, points, prior)
+            .pose
+        )
+
+    assert matched(40.0) == matched(0.0)
 
 
 def test_a_corridor_match_is_ambiguous_and_a_room_match_is_not() -> None:

@@ -1,0 +1,75 @@
+"""The direction a scan pins the robot down least: along a corridor seen down its length.
+
+A scan matched onto a map is held in place by its surfaces: a wall holds the pose across
+it, not along it. Each short segment between neighbouring points (a piece of surface) has a
+unit normal n; summed over the scan, the outer products n nᵀ make a 2 x 2 matrix whose
+eigenvalues say how much of the surface holds each direction. In a corridor its smaller
+eigenvalue, along the corridor, is a small share of the larger (a wall's doors and the far
+end are all that hold it); in a room both are alike.
+
+Along the weak direction a scan matched onto the map built so far slips back toward the
+map's end: the newest part of the corridor, which only this scan has seen, fits the map
+better moved back onto walls drawn already (a corridor 2 m wide, a step of 0.2 m: the
+whole step lost, ``tests/slam/test_matcher.py``). The tracking matcher lets the odometry
+pull harder along it (``slam.prior_axis_weight_per_m2``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["WeakAxis", "weak_axis"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# Neighbouring points farther apart than this [m] are not one surface (a door, a corner
+# seen past, the jump from a near wall to a far one): twice the matcher's 0.1 m voxels
+# and some, a wall seen at a slant included.
+SURFACE_GAP_M = 0.3
+# A scan with fewer surface segments than this has no weak axis (too little to tell).
+MIN_SEGMENTS = 10
+
+
+@dataclass(frozen=True, slots=True)
+class WeakAxis:
+    """The direction a scan's surfaces hold least.
+
+    Attributes:
+        x, y: unit vector of the direction, in the scan's frame (its sign means nothing).
+        ratio: [1] how much the surfaces hold it, as a share of the direction across it
+            (the smaller eigenvalue over the larger): near 0 in a corridor, near 1 in a room.
+    """
+
+    x: float
+    y: float
+    ratio: float
+
+    def rotated(self, yaw: float) -> WeakAxis:
+        """The same axis in a frame where the scan's frame is turned by ``yaw`` [rad]."""
+        c, s = math.cos(yaw), math.sin(yaw)
+        return WeakAxis(c * self.x - s * self.y, s * self.x + c * self.y, self.ratio)
+
+
+def weak_axis(points: FloatArray) -> WeakAxis | None:
+    """The weak axis of a scan's points (N x 2 [m], in beam order), or None if fewer than
+    ``MIN_SEGMENTS`` neighbouring pairs lie within ``SURFACE_GAP_M`` of each other."""
+    if points.shape[0] < 2:
+        return None
+    steps = np.diff(points, axis=0)
+    length = np.hypot(steps[:, 0], steps[:, 1])
+    surface = (length > 0.0) & (length <= SURFACE_GAP_M)
+    if np.count_nonzero(surface) < MIN_SEGMENTS:
+        return None
+    # the normal of a step (dx, dy) is (-dy, dx) / length
+    nx = -steps[surface, 1] / length[surface]
+    ny = steps[surface, 0] / length[surface]
+    xx, xy, yy = float(nx @ nx), float(nx @ ny), float(ny @ ny)
+    # eigenvalues of [[xx, xy], [xy, yy]] and the smaller one's eigenvector
+    mean, half_gap = 0.5 * (xx + yy), math.hypot(0.5 * (xx - yy), xy)
+    small, large = mean - half_gap, mean + half_gap
+    angle = 0.5 * math.atan2(2.0 * xy, xx - yy) + 0.5 * math.pi  # across the strong one
+    return WeakAxis(math.cos(angle), math.sin(angle), max(0.0, small) / large)
