@@ -512,23 +512,25 @@ def _holds(area: IntArray, i0: int, j0: int, size: int) -> bool:
 
 @nb.njit(cache=True, nogil=True, inline="always")
 def _pull(
-    dx: int, dy: int, size: int, per_cell2: float, ux: float, uy: float, along_cell2: float
+    dx: int, dy: int, size: int, per_cell2: float, weak_x: float, weak_y: float, weak_cell2: float
 ) -> float:
-    """The least translation pull over the size x size block starting at (dx, dy):
-    ``per_cell2`` per squared cell from the prior, plus ``along_cell2`` per squared cell
-    along the unit direction (ux, uy), each at its own least over the block."""
+    """A lower bound of the translation pull over the size x size block starting at (dx, dy):
+    ``per_cell2`` per squared cell from the prior plus ``weak_cell2`` per squared cell along
+    the unit direction (weak_x, weak_y), each part taken at its own least over the block (so
+    the sum is at most the pull of any translation in it)."""
     pull = per_cell2 * _nearest2(dx, dy, size)
-    if along_cell2 > 0.0:
-        pull += along_cell2 * _nearest_along2(dx, dy, size, ux, uy)
+    if weak_cell2 > 0.0:
+        pull += weak_cell2 * _nearest_along2(dx, dy, size, weak_x, weak_y)
     return pull
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
 def _nearest_along2(dx: int, dy: int, size: int, ux: float, uy: float) -> float:
-    """Squared least distance [cells^2] along the unit direction (ux, uy) from the prior
-    (0, 0) to a translation of the size x size block starting at (dx, dy): 0 if the block
-    straddles the line through the prior across that direction. (The distance along it is
-    linear, so its least and most over the block lie at corners.)"""
+    """A lower bound [cells^2] of the squared distance along the unit direction (ux, uy)
+    from the prior (0, 0) to the translations of the size x size block starting at
+    (dx, dy): the least over the block's rectangle, 0 if the rectangle straddles the line
+    through the prior across that direction. (The distance along it is linear, so its
+    least and most over the rectangle lie at corners.)"""
     x1, y1 = dx + size - 1, dy + size - 1
     c00, c10 = ux * dx + uy * dy, ux * x1 + uy * dy
     c01, c11 = ux * dx + uy * y1, ux * x1 + uy * y1

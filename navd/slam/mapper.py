@@ -92,6 +92,7 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
         reach_m=s.max_range_m / 2,
         prior_weight_per_m2=s.prior_weight_per_m2,
         prior_axis_weight_per_m2=s.prior_axis_weight_per_m2,
+        point_spacing_m=s.voxel_size_m,
         prior_weight_per_rad2=s.prior_weight_per_rad2 or 0.0,
     )
 

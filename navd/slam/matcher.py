@@ -104,6 +104,8 @@ class CorrelativeMatcher:
         prior_axis_weight_per_m2: [1/m^2] mean score lost per squared metre from the prior
             along the scan's weak axis, on top of ``prior_weight_per_m2`` (scaled down as
             the axis is held more firmly; see the module docstring).
+        point_spacing_m: [m] the spacing of the points matched (the voxel size they were
+            thinned to), for telling surfaces from gaps in the weak axis.
     """
 
     def __init__(
@@ -118,6 +120,7 @@ class CorrelativeMatcher:
         prior_weight_per_m2: float = 0.0,
         prior_weight_per_rad2: float = 0.0,
         prior_axis_weight_per_m2: float = 0.0,
+        point_spacing_m: float = 0.1,
     ) -> None:
         self.search_xy_m = search_xy_m
         self.search_yaw_rad = search_yaw_rad
@@ -128,6 +131,7 @@ class CorrelativeMatcher:
         self.prior_weight_per_m2 = prior_weight_per_m2
         self.prior_weight_per_rad2 = prior_weight_per_rad2
         self.prior_axis_weight_per_m2 = prior_axis_weight_per_m2
+        self.point_spacing_m = point_spacing_m
 
     def match(self, field: LikelihoodField, points: FloatArray, prior: Pose2) -> Match:
         """The best pose of ``points`` (robot frame, N x 2 [m]) near ``prior``."""
@@ -170,7 +174,7 @@ class CorrelativeMatcher:
         the extra pull along it [1/m^2] (0: none, the axis then means nothing)."""
         if self.prior_axis_weight_per_m2 <= 0.0:
             return 1.0, 0.0, 0.0
-        axis = weak_axis(points)
+        axis = weak_axis(points, self.point_spacing_m)
         if axis is None:
             return 1.0, 0.0, 0.0
         share = max(0.0, 1.0 - axis.ratio / WEAK_AXIS_RATIO)

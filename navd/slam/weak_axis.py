@@ -26,10 +26,10 @@ __all__ = ["WeakAxis", "weak_axis"]
 
 FloatArray = npt.NDArray[np.float64]
 
-# Neighbouring points farther apart than this [m] are not one surface (a door, a corner
-# seen past, the jump from a near wall to a far one): twice the matcher's 0.1 m voxels
-# and some, a wall seen at a slant included.
-SURFACE_GAP_M = 0.3
+# Neighbouring points farther apart than this many times their spacing (the voxel size the
+# scan was thinned to) are not one surface (a door, a corner seen past, the jump from a near
+# wall to a far one): 0.3 m at the default 0.1 m voxels, a wall seen at a slant included.
+SURFACE_GAP_SPACINGS = 3.0
 # A scan with fewer surface segments than this has no weak axis (too little to tell).
 MIN_SEGMENTS = 10
 
@@ -54,14 +54,22 @@ class WeakAxis:
         return WeakAxis(c * self.x - s * self.y, s * self.x + c * self.y, self.ratio)
 
 
-def weak_axis(points: FloatArray) -> WeakAxis | None:
-    """The weak axis of a scan's points (N x 2 [m], in beam order), or None if fewer than
-    ``MIN_SEGMENTS`` neighbouring pairs lie within ``SURFACE_GAP_M`` of each other."""
+def weak_axis(points: FloatArray, spacing_m: float) -> WeakAxis | None:
+    """The weak axis of a scan's points.
+
+    Args:
+        points: N x 2 [m], in beam order (as ``voxel_downsample`` keeps them).
+        spacing_m: [m] the points' spacing along a surface (the voxel size they were thinned
+            to); neighbours up to ``SURFACE_GAP_SPACINGS`` times it apart make a surface.
+
+    Returns:
+        The axis, or None if fewer than ``MIN_SEGMENTS`` neighbouring pairs make a surface.
+    """
     if points.shape[0] < 2:
         return None
     steps = np.diff(points, axis=0)
-    length = np.hypot(steps[:, 0], steps[:, 1])
-    surface = (length > 0.0) & (length <= SURFACE_GAP_M)
+    length = np.hypot(steps[:, 0], steps[:, 1])  # NaN compares false: never a surface
+    surface = (length > 0.0) & (length <= SURFACE_GAP_SPACINGS * spacing_m)
     if np.count_nonzero(surface) < MIN_SEGMENTS:
         return None
     # the normal of a step (dx, dy) is (-dy, dx) / length

@@ -311,6 +311,28 @@ def test_branch_and_bound_with_a_pull_finds_the_exhaustive_optimum_less_the_pull
     assert total == pytest.approx(raw, rel=1e-5)
 
 
+@pytest.mark.parametrize("angle", [0.0, 0.5, 0.9273, math.pi / 2, 2.2, -2.5, 3.0])
+def test_the_pull_along_an_axis_is_bounded_from_below_over_every_block(angle: float) -> None:
+    # Over every block the search may queue (sizes 1 to 8, any side of the prior): never
+    # more than the least of its translations' pulls along the axis (or the search would
+    # drop the optimum), and that least where the block does not straddle the line through
+    # the prior across the axis. (0.9273 rad: (0.6, 0.8), where the block [2..5] x [-5..-2]
+    # straddles the line through (4, -3) while its translation nearest the prior does not.)
+    ux, uy = math.cos(angle), math.sin(angle)
+    for size in (1, 2, 4, 8):
+        for dy in range(-12, 8):
+            for dx in range(-12, 8):
+                along = [
+                    ux * x + uy * y for y in range(dy, dy + size) for x in range(dx, dx + size)
+                ]
+                least = min(a * a for a in along)
+                bound = k._nearest_along2(dx, dy, size, ux, uy)
+                assert bound <= least + 1e-9
+                if min(along) > 0.0 or max(along) < 0.0:
+                    assert bound == pytest.approx(least)
+    assert k._nearest_along2(2, -5, 4, 0.6, 0.8) == 0.0
+
+
 @pytest.mark.parametrize("block", [2, 4, 8, 64])
 def test_field_bounds_built_by_doubling_equal_the_reference(block: int) -> None:
     from navd.slam.occupancy import LikelihoodField

@@ -309,17 +309,17 @@ ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.0388, 0.0275
 
 
 @pytest.mark.parametrize(
-    ("log", "kind", "times"),
-    [("aces", "drop", 2.0), ("intel_dump", "odometry", 2.0), ("aces", "range8", 2.0)],
+    ("log", "kind"),
+    [("aces", "drop"), ("aces", "odometry"), ("aces", "range8"), ("intel_dump", "odometry")],
 )
-def test_replays_hold_with_scans_lost_and_worse_wheels(
-    tmp_path: Path, log: str, kind: str, times: float
+def test_replays_hold_with_scans_lost_worse_wheels_and_a_shorter_lidar(
+    tmp_path: Path, log: str, kind: str
 ) -> None:
     # A tenth of the scans dropped, wheels 5 % long whose heading drifts 2 degrees a minute,
     # or a lidar that sees 8 m: the defaults stay within twice the unperturbed error (issue
-    # 19's bar). Measured: aces 0.0403 and 0.0408 m, the dump 0.0297 m (docs/slam.md,
-    # "Perturbed logs"); aces with an 8 m lidar gave 0.277 m before the odometry pulled
-    # harder along corridors.
+    # 19's bar). Measured: aces 0.0403, 0.0397 and 0.0408 m, the dump 0.0297 m (docs/slam.md,
+    # "Perturbed logs"); aces with worse wheels and with an 8 m lidar gave 0.120 and 0.277 m
+    # before the odometry pulled harder along corridors.
     freiburg = dataset("freiburg_slam_benchmark")
     if log == "aces":
         source = freiburg / "bags_ros1" / "aces.orig.bag"
@@ -332,7 +332,7 @@ def test_replays_hold_with_scans_lost_and_worse_wheels(
     stamps, poses = read_tum(tmp_path / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / f"{name}.relations"))
     assert errors.used > 1000
-    assert errors.translation_mean_m <= times * unperturbed
+    assert errors.translation_mean_m <= 2.0 * unperturbed
 
 
 def test_a_second_run_on_the_first_halfs_map_closes_loops_onto_it(tmp_path: Path) -> None:

@@ -155,40 +155,49 @@ def test_in_a_corridor_the_prior_decides_along_it_and_the_walls_across_it() -> N
     assert abs(free.pose.x - prior.x) > 0.1
 
 
-def test_a_step_into_a_corridor_not_yet_mapped_is_kept_along_it_by_the_defaults() -> None:
-    # The map is the corridor as seen from x = -4 .. 0 m (walls drawn to x = 8 m); the robot
-    # has stepped 0.2 m on, and its scan's far ends reach 0.2 m of wall the map lacks.
-    # Moved back by the step, those points fall on drawn walls: the scan fits better there.
+# (at 2.3 rad a pull turned the wrong way, and at 1.5 rad one not turned into the map's frame,
+# lies across the corridor: the match slips as without it)
+@pytest.mark.parametrize(("heading", "step"), [(0.0, 0.2), (2.3, 0.27), (1.5, 0.27)])
+def test_a_step_along_a_corridor_is_kept_by_the_defaults(heading: float, step: float) -> None:
+    # The map is the corridor as drawn from -4 .. 0 m along it, every 0.2 m (walls to 8 m);
+    # the robot has gone ``step`` further. Moved back toward where the map was drawn from,
+    # the scan fits better: its far ends onto wall drawn already, its cells onto those of
+    # the same view drawn at 0 m. The corridor runs at ``heading`` in the map, the robot
+    # facing along it.
+    c, s = math.cos(heading), math.sin(heading)
     grid = OccupancyGrid(0.05)
     a0, inc, r = _corridor(0.0)
-    for x in np.arange(-4.0, 0.01, 0.2):
-        grid.insert(
-            Pose2(float(x), 0.0, 0.0), scan_points(r, a0, inc, range_min=0.1, range_max=30.0)
-        )
-    truth = Pose2(0.2, 0.0, 0.0)
+    for along in np.arange(-4.0, 0.01, 0.2):
+        pose = Pose2(float(along) * c, float(along) * s, heading)
+        grid.insert(pose, scan_points(r, a0, inc, range_min=0.1, range_max=30.0))
+    truth = Pose2(step * c, step * s, heading)
     field = grid.likelihood_field(truth, 10.0, 0.05)
     points = _corridor_points(0.0)
     settings = MapperSettings.defaults()
     assert settings.prior_axis_weight_per_m2 > 0.0
 
-    def matched(axis_weight: float) -> Pose2:
-        return (
+    def matched(axis_weight: float) -> tuple[float, float]:
+        """(along, across) the corridor [m] of the match, the wheels' step right."""
+        pose = (
             CorrelativeMatcher(
                 search_xy_m=settings.search_xy_m,
                 search_yaw_rad=settings.search_yaw_rad,
                 prior_weight_per_m2=settings.prior_weight_per_m2,
                 prior_axis_weight_per_m2=axis_weight,
+                point_spacing_m=settings.voxel_size_m,
             )
             .match(field, points, truth)
             .pose
-        )  # the wheels got the step right
+        )
+        return pose.x * c + pose.y * s, -pose.x * s + pose.y * c
 
-    # With the plain pull the step is lost: the match slips back toward the map's end.
-    assert matched(0.0).x < truth.x - 0.1
+    # With the plain pull the match slips back (measured: the whole 0.2 m step at heading
+    # 0; 0.073 and 0.052 m of the 0.27 m at 2.3 and 1.5 rad).
+    assert matched(0.0)[0] < step - 0.04
     # With the default pull along the corridor (its weak axis) the wheels' step holds.
-    held = matched(settings.prior_axis_weight_per_m2)
-    assert abs(held.x - truth.x) < 0.02
-    assert abs(held.y) < 0.03
+    along, across = matched(settings.prior_axis_weight_per_m2)
+    assert abs(along - step) < 0.02
+    assert abs(across) < 0.03
 
 
 def test_the_pull_along_the_weak_axis_leaves_a_room_match_alone() -> None:
@@ -210,6 +219,7 @@ def test_the_pull_along_the_weak_axis_leaves_a_room_match_alone() -> None:
             .pose
         )
 
+    # (the room's surfaces hold the weaker direction 0.96 as much as the stronger)
     assert matched(40.0) == matched(0.0)
 
 

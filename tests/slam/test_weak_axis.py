@@ -11,8 +11,11 @@ import pytest
 from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
+from navd.slam.matcher import WEAK_AXIS_RATIO
 from navd.slam.voxel import voxel_downsample
 from navd.slam.weak_axis import MIN_SEGMENTS, weak_axis
+
+VOXEL_M = 0.1  # the default slam.voxel_size_m
 
 
 def _corridor_scan(heading: float) -> npt.NDArray[np.float64]:
@@ -26,12 +29,12 @@ def _corridor_scan(heading: float) -> npt.NDArray[np.float64]:
     hits = scan_points(
         ranges, float(angles[0]), float(angles[1] - angles[0]), range_min=0.1, range_max=30.0
     ).hits
-    return voxel_downsample(hits, 0.1)
+    return voxel_downsample(hits, VOXEL_M)
 
 
 @pytest.mark.parametrize("heading", [0.0, 0.4, math.pi / 2, -2.0])
 def test_a_corridor_is_weak_along_its_length(heading: float) -> None:
-    axis = weak_axis(_corridor_scan(heading))
+    axis = weak_axis(_corridor_scan(heading), VOXEL_M)
     assert axis is not None
     # nothing but the two walls: nothing holds the scan along them
     assert axis.ratio < 0.02
@@ -41,10 +44,10 @@ def test_a_corridor_is_weak_along_its_length(heading: float) -> None:
 
 def test_a_room_seen_whole_has_no_weak_axis_to_speak_of() -> None:
     a0, inc, ranges = cast(Pose2(0.3, -0.2, 0.4))
-    points = voxel_downsample(scan_points(ranges, a0, inc, range_min=0.1, range_max=30.0).hits, 0.1)
-    axis = weak_axis(points)
+    hits = scan_points(ranges, a0, inc, range_min=0.1, range_max=30.0).hits
+    axis = weak_axis(voxel_downsample(hits, VOXEL_M), VOXEL_M)
     assert axis is not None
-    assert axis.ratio > 0.5  # the matcher adds nothing there (its WEAK_AXIS_RATIO)
+    assert axis.ratio > WEAK_AXIS_RATIO  # the matcher adds no pull there
 
 
 def test_a_square_holds_both_directions_alike() -> None:
@@ -57,24 +60,34 @@ def test_a_square_holds_both_directions_alike() -> None:
             np.column_stack([np.full(41, -2.0), side[::-1]]),
         ]
     )
-    axis = weak_axis(square)
+    axis = weak_axis(square, VOXEL_M)
     assert axis is not None
     assert axis.ratio == pytest.approx(1.0, abs=0.05)
 
 
 def test_the_axis_turns_with_the_frame() -> None:
-    axis = weak_axis(_corridor_scan(0.0))
+    axis = weak_axis(_corridor_scan(0.3), VOXEL_M)
     assert axis is not None
-    turned = axis.rotated(math.pi / 2)
-    assert abs(turned.y) == pytest.approx(1.0, abs=1e-3)
+    turned = axis.rotated(0.4)  # not a right angle: turned the wrong way it lies along -0.1
+    along = abs(turned.x * math.cos(0.7) + turned.y * math.sin(0.7))
+    assert along == pytest.approx(1.0, abs=1e-3)
     assert turned.ratio == axis.ratio
 
 
 def test_too_few_surface_segments_give_no_axis() -> None:
     # Points a metre apart are no surface: a sparse scan, a few far posts.
     posts = np.column_stack([np.arange(30.0), np.zeros(30)])
-    assert weak_axis(posts) is None
+    assert weak_axis(posts, VOXEL_M) is None
+    # ... unless the points were thinned that coarsely: then they are a wall along x
+    wall = weak_axis(posts, 1.0)
+    assert wall is not None and abs(wall.x) == pytest.approx(1.0)
     few = np.column_stack([0.1 * np.arange(MIN_SEGMENTS), np.zeros(MIN_SEGMENTS)])
-    assert weak_axis(few) is None  # MIN_SEGMENTS points make one segment fewer
-    assert weak_axis(np.zeros((0, 2))) is None
-    assert weak_axis(np.zeros((1, 2))) is None
+    assert weak_axis(few, VOXEL_M) is None  # MIN_SEGMENTS points make one segment fewer
+    enough = np.column_stack([0.1 * np.arange(MIN_SEGMENTS + 1), np.zeros(MIN_SEGMENTS + 1)])
+    assert weak_axis(enough, VOXEL_M) is not None
+    assert weak_axis(np.zeros((0, 2)), VOXEL_M) is None
+    assert weak_axis(np.zeros((1, 2)), VOXEL_M) is None
+    # Readings that are not numbers or repeat a point are no surface either.
+    broken = enough.copy()
+    broken[3] = np.nan
+    assert weak_axis(broken, VOXEL_M) is None  # two segments lost: fewer than needed
