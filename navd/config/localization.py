@@ -64,9 +64,9 @@ class SlamConfig(Section):
         ge=0,
         le=1000,
         description="[1/m^2] more trust in the odometry along the direction a scan's walls hold "
-        "least (a corridor's length, where matches slip back toward the end of the map): added "
-        "to prior_weight_per_m2 along it, in full where the walls hold nothing along it, "
-        "tapering to nothing where they hold half as much as across it (0: off)",
+        "least (a corridor's length, where matches are drawn back toward where the map was drawn "
+        "from): added to prior_weight_per_m2 along it, in full where the walls hold nothing "
+        "along it, tapering to nothing where they hold half as much as across it (0: off)",
     )
     prior_weight_per_rad2: float | None = Field(
         None,

@@ -19,9 +19,9 @@ whichever equal score the search met first. Along the scan's weak axis
 (``navd.slam.weak_axis``: a corridor's length) the pull is stronger by up to
 ``prior_axis_weight_per_m2 * d_along^2``: in full where the scan's surfaces hold nothing
 along it, tapering to nothing where they hold ``WEAK_AXIS_RATIO`` of what they hold across.
-There a scan matched onto the map built so far slips back toward the map's end (its newest
-part fits drawn walls better moved back), and the wheels, not the walls, know how far the
-robot went.
+There a scan matched onto the map built so far is drawn back toward where the map was
+drawn from (``navd.slam.weak_axis`` says why), and the wheels, not the walls, know how far
+the robot went.
 """
 
 from __future__ import annotations

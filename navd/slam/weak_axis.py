@@ -7,11 +7,11 @@ eigenvalues say how much of the surface holds each direction. In a corridor its 
 eigenvalue, along the corridor, is a small share of the larger (a wall's doors and the far
 end are all that hold it); in a room both are alike.
 
-Along the weak direction a scan matched onto the map built so far slips back toward the
-map's end: the newest part of the corridor, which only this scan has seen, fits the map
-better moved back onto walls drawn already (a corridor 2 m wide, a step of 0.2 m: the
-whole step lost, ``tests/slam/test_matcher.py``). The tracking matcher lets the odometry
-pull harder along it (``slam.prior_axis_weight_per_m2``).
+Along the weak direction a scan matched onto the map built so far is drawn back toward
+where the map was drawn from: its far ends fit better moved back onto walls drawn already,
+and its cells onto those of the same view drawn a step ago (a corridor 2 m wide drawn every
+0.2 m: a 0.2 m step lost whole, ``tests/slam/test_matcher.py``). The tracking matcher lets
+the odometry pull harder along it (``slam.prior_axis_weight_per_m2``).
 """
 
 from __future__ import annotations
