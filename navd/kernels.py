@@ -41,6 +41,7 @@ KERNEL_MODULES = (
     "navd.estimation._madgwick_kernels",
     "navd.estimation._ukf_kernels",
     "navd.slam._grid_kernels",
+    "navd.slam._odometry_kernels",
     "navd.planning._astar_kernels",
     "navd.planning._bitgrid_kernels",
     "navd.planning._bucket_kernels",

@@ -81,7 +81,7 @@ def add_commands(commands: Commands) -> None:
         "--odometry",
         choices=("log", "scan", "none"),
         default="log",
-        help="motion prior: the log's odometry (default), kiss-icp scan odometry, or none",
+        help="motion prior: the log's odometry (default), scan odometry (ICP), or none",
     )
     replay.add_argument("--quiet", action="store_true", help="no progress line")
     replay.set_defaults(handler=_replay)

@@ -2,7 +2,7 @@
 inserted into the occupancy grid at keyframes.
 
 The prediction is the last pose moved by the odometry since the last scan (wheel odometry,
-or scan odometry from kiss-icp); without odometry, the last pose. The map the scan is matched
+or scan odometry, ``odometry.py``); without odometry, the last pose. The map the scan is matched
 onto is a likelihood field of the occupancy grid around the prediction, rebuilt when the
 grid changed or the robot left its window. A match is judged on the scan points that land
 on mapped ground: scans whose fit there is below ``min_score`` keep the predicted pose and

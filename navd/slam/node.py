@@ -3,7 +3,7 @@
 Each LaserScan becomes a job in the ``scan_match`` worker slot (latest wins: when matching
 falls behind, older scans are dropped and counted, never queued). The job matches the scan
 onto the map around the pose predicted by wheel odometry (integrated here) or, without
-wheels, by scan odometry (kiss-icp), inserts it at
+wheels, by scan odometry (ICP onto a local map), inserts it at
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
 ``MAP_PERIOD_S`` after the map changed, a ``MapUpdate`` (and once per ``MAP_PERIOD_S`` the
 tracking counts, ``SlamTracking``). Maps are saved on request (a
@@ -69,7 +69,7 @@ class SlamSettings:
 
     Attributes:
         mapper: what the mapper runs on.
-        odometry: what kiss-icp runs on (without wheel odometry).
+        odometry: what scan odometry runs on (without wheel odometry).
         mounts: where each lidar sits.
         map_dir, map_name: where maps are saved, and their default name.
         save_on_shutdown: save the map when the daemon stops.
@@ -129,7 +129,7 @@ class SlamNode(Module):
         self.ctx = ctx
         self._finder = Finder(ctx)
         self.settings = ctx.settings(SlamSettings, self._settings_changed)
-        # What the mapper and kiss-icp were built with: a change is applied between scans,
+        # What the mapper and scan odometry were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.
         self._in_force = self.settings.value
         self._enabled = ctx.startup_config.slam.enabled
@@ -186,7 +186,7 @@ class SlamNode(Module):
         self.ctx.submit("slam_settings", lambda: self._apply_settings(new))
 
     def _apply_settings(self, new: SlamSettings) -> None:
-        """Worker: swap the mapper's settings for ``new``; rebuild kiss-icp (it is built with
+        """Worker: swap the mapper's settings for ``new``; rebuild scan odometry (it is built with
         its settings), letting the next scan start its motion prior afresh in the new
         odometry frame."""
         with self._lock:
@@ -230,7 +230,7 @@ class SlamNode(Module):
                     return ()  # the other lidars' sweeps of this round are still to come
                 stamp, points, odom = gathered.stamp, gathered.points, gathered.odom
             if odom is None:
-                # No wheel odometry: scan odometry (kiss-icp) is the motion prior.
+                # No wheel odometry: scan odometry is the motion prior.
                 if self._scan_odometry is None:
                     self._scan_odometry = ScanOdometry(settings.odometry)
                 odom = self._scan_odometry.register(points.hits)

@@ -176,8 +176,8 @@ def replay(
     """Run SLAM over ``scans`` and write the results into ``out_dir``.
 
     Args:
-        odometry: the motion prior: "log" (the log's odometry), "scan" (kiss-icp on the
-            scans themselves) or "none" (the last pose).
+        odometry: the motion prior: "log" (the log's odometry), "scan" (scan odometry on
+            the scans themselves) or "none" (the last pose).
         start_map: a saved map to go on mapping (the robot found on it by the first scan).
 
     Raises:

@@ -1,5 +1,5 @@
-"""Compile (or load from the cache) every SLAM kernel, and load kiss-icp and the pose graph's
-sparse solver, before the first live scan."""
+"""Compile (or load from the cache) every SLAM kernel, and load the pose graph's sparse
+solver, before the first live scan."""
 
 from __future__ import annotations
 
@@ -24,11 +24,10 @@ def warm_up() -> None:
     then find the second on the map (the global search of localization and loop closure), ask
     whether it fits elsewhere as well, and solve a three-pose loop.
 
-    Scan odometry imports kiss-icp and the pose graph imports scipy.sparse.linalg on first
-    use, holding the interpreter lock while they do; done here, no live scan or loop closure
-    pays for it (docs/performance.md, "The first message after an upgrade"). Each scan is the
-    room shrunk by ``shift`` rather than the robot moved: what they compile and load does not
-    depend on how far it is."""
+    The pose graph imports scipy.sparse.linalg on first use, holding the interpreter lock
+    while it does; done here, no loop closure pays for it (docs/performance.md, "The first
+    message after an upgrade"). Each scan is the room shrunk by ``shift`` rather than the
+    robot moved: what they compile and load does not depend on how far it is."""
     angles = -math.pi + 2 * math.pi * np.arange(90) / 90
     # Distance to the walls of a 4 m square room seen from its centre.
     ranges = 2.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))
@@ -41,6 +40,7 @@ def warm_up() -> None:
             ranges - shift, -math.pi, 2 * math.pi / 90, range_min=0.1, range_max=10.0
         )
         mapper.add(shift, scan, odometry.register(scan.hits))
+    odometry.compact()  # which registration does only once its map's table fills up
     found = relocalize(mapper.grid, scan.hits)
     # How well the scan fits elsewhere (tracking's repair, the lost search, loop closure).
     field = mapper.grid.likelihood_field(found.pose, 3.0, 0.05)

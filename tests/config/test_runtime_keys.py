@@ -125,7 +125,7 @@ async def test_every_runtime_key_reaches_the_part_that_uses_it(tmp_path: Path) -
             poses = record(daemon, PoseMeasurement)
             lidar = await connected(port, "lidar", "lidar0")
             control = await connected(port, "control", "ui")
-            for i in range(3):  # kiss-icp odometry exists once scans came without wheels
+            for i in range(3):  # scan odometry exists once scans came without wheels
                 lidar.send(room_scan(1.0 + 0.1 * i))
                 await until(lambda n=i: len(poses) > n, timeout_s=10.0)
             await until(

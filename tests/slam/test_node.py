@@ -182,7 +182,7 @@ async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
         for i, truth in enumerate(path[:4]):
             lidar.send(_frame(truth, 10.0 + 0.1 * i))
             await until(lambda n=i: len(poses) > n, timeout_s=10.0)
-        first = node._scan_odometry  # no wheel odometry: kiss-icp is the motion prior
+        first = node._scan_odometry  # no wheel odometry: scan odometry is the motion prior
         assert first is not None and first.settings.voxel_size_m == 0.1
         await control.request(ConfigFrame(changes={"slam.voxel_size_m": 0.2}))
         await control.receive_type(ConfigAppliedFrame)

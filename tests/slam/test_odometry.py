@@ -1,4 +1,5 @@
-"""Scan odometry with kiss-icp on the synthetic room, and its input guards."""
+"""Scan odometry on the synthetic room: a drive, a turn the constant-velocity guess misses,
+the local map's forgetting, and the input guards."""
 
 from __future__ import annotations
 
@@ -10,6 +11,8 @@ import pytest
 from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
+from navd.slam import _odometry_kernels as kernels
+from navd.slam import odometry as odometry_module
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 
 
@@ -37,3 +40,50 @@ def test_bad_input_is_refused_or_skipped_never_a_crash() -> None:
     assert odometry.register(np.zeros((0, 2))) == Pose2(0.0, 0.0, 0.0)
     assert odometry.register(np.full((50, 2), np.nan)) == Pose2(0.0, 0.0, 0.0)
     assert odometry.skipped == 2
+
+
+def _drive(odometry: ScanOdometry, steps: list[Pose2]) -> tuple[Pose2, Pose2]:
+    """Register the room's scans along ``steps`` (each relative to the last); the estimate
+    and the truth, both relative to the start."""
+    start = truth = Pose2(-3.5, -1.0, 0.2)
+    pose = odometry.register(_scan(start))
+    for step in steps:
+        truth = truth.compose(step)
+        pose = odometry.register(_scan(truth))
+    return pose, start.between(truth)
+
+
+def _scan(pose: Pose2) -> np.ndarray:
+    a0, inc, r = cast(pose)
+    return scan_points(r, a0, inc, range_min=0.1, range_max=30.0).hits
+
+
+def test_a_turn_started_between_two_scans_is_followed(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Straight at 5 cm a scan, then turning on the spot at 12 degrees a scan: the first scan
+    # of the turn is 12 degrees off the constant-velocity guess, too far for ICP alone.
+    steps = [Pose2(0.05, 0.0, 0.0)] * 20 + [Pose2(0.0, 0.0, math.radians(12.0))] * 15
+    pose, moved = _drive(_odometry(), steps)
+    assert math.hypot(pose.x - moved.x, pose.y - moved.y) < 0.05
+    assert abs(pose.yaw - moved.yaw) < math.radians(1.0)
+    # The yaw search is what follows it: without it the turn is lost.
+    monkeypatch.setattr(odometry_module, "YAW_SPAN_RAD", 0.0)
+    pose, moved = _drive(_odometry(), steps)
+    assert abs(pose.yaw - moved.yaw) > math.radians(5.0)
+
+
+def test_the_map_forgets_what_is_out_of_range_and_its_table_stays_small() -> None:
+    odometry = ScanOdometry(
+        ScanOdometrySettings(voxel_size_m=0.1, max_range_m=3.0, min_range_m=0.1)
+    )
+    # Back and forth along the room, 5 m each way, 8 times: far more voxels seen than kept.
+    leg = [Pose2(0.05, 0.0, 0.0)] * 100 + [Pose2(0.0, 0.0, math.radians(7.5))] * 24
+    _drive(odometry, leg * 8)
+    kept = odometry.voxels
+    assert kept > 0
+    keys = odometry._keys
+    live = keys > kernels.TOMBSTONE
+    first = odometry._points[live, 0]
+    # Every voxel left has its first point within range of where the robot ended.
+    assert np.all(np.hypot(*(first - tuple(odometry.pose)[:2]).T) <= 3.0)
+    # The dropped voxels' slots were reclaimed rather than the table grown.
+    assert keys.shape[0] == odometry_module.INITIAL_SLOTS

@@ -1,5 +1,5 @@
 """The SLAM warm-up loads what a first live scan and a first loop closure run: in a fresh
-process, after it, scan odometry (kiss-icp, the motion prior without wheel odometry), a
+process, after it, scan odometry (the motion prior without wheel odometry), a
 mapper's first scans (one with rays that saw nothing), a rival check, a search near a guess
 and a pose-graph solve import no module and compile no grid kernel, so none of them holds
 the interpreter lock for an import or a compile in the daemon."""
