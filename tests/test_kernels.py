@@ -52,7 +52,7 @@ def test_every_module_of_the_daemon_that_defines_a_kernel_is_listed() -> None:
 
 def test_every_kernel_of_the_daemon_lets_the_event_loop_run_meanwhile() -> None:
     # A kernel that kept the interpreter lock would stall the event loop for as long as it
-    # runs in a worker (as kiss-icp's C++ did, 0.5-3 ms a scan).
+    # runs in a worker (as kiss-icp's C++ did, up to 6 ms at a time).
     holding = [
         name
         for name, dispatcher in kernels._dispatchers()

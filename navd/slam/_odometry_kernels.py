@@ -186,7 +186,8 @@ def align(
     tolerance: float,
 ) -> tuple[FloatArray, int, int, float]:
     """The pose (x [m], y [m], yaw [rad]) that lays ``source`` (N x 2, robot frame [m]) on
-    the map, by Gauss-Newton from ``guess``: each step pairs every point with its nearest
+    the map, by Gauss-Newton from ``guess`` (its yaw need not be wrapped; the result's is,
+    once a step ran): each step pairs every point with its nearest
     map point within ``gate_m`` and weights the pair by the Geman-McClure kernel of scale
     ``kernel_m`` (``(k² / (k² + r²))²``, r the pair's distance). Stops when a step moves
     less than ``tolerance`` (metres and radians together), or after ``max_iterations``.
@@ -220,15 +221,18 @@ def align(
             w = k2 / (k2 + d2)
             w *= w
             rx, ry = px - qx, py - qy
-            # Jacobian rows: d(px)/d(tx, ty, dyaw) = (1, 0, -py), d(py)/... = (0, 1, px)
+            # The step turns about the robot, not the odometry frame's origin (which may be
+            # kilometres away): with a = p - (x, y), the Jacobian rows are
+            # d(px)/d(tx, ty, dyaw) = (1, 0, -ay) and d(py)/... = (0, 1, ax).
+            ax, ay = px - x, py - y
             h00 += w
-            h02 -= w * py
+            h02 -= w * ay
             h11 += w
-            h12 += w * px
-            h22 += w * (px * px + py * py)
+            h12 += w * ax
+            h22 += w * (ax * ax + ay * ay)
             g0 += w * rx
             g1 += w * ry
-            g2 += w * (px * ry - py * rx)
+            g2 += w * (ax * ry - ay * rx)
         if pairs < 3:
             break
         # Solve H d = -g for the symmetric 3 x 3 H (h01 is zero) by cofactors.
@@ -244,8 +248,7 @@ def align(
         tx = -(c00 * g0 + c01 * g1 + c02 * g2) / det
         ty = -(c01 * g0 + c11 * g1 + c12 * g2) / det
         dyaw = -(c02 * g0 + c12 * g1 + c22 * g2) / det
-        cd, sd = math.cos(dyaw), math.sin(dyaw)
-        x, y = cd * x - sd * y + tx, sd * x + cd * y + ty
+        x, y = x + tx, y + ty
         yaw = math.atan2(math.sin(yaw + dyaw), math.cos(yaw + dyaw))
         if math.sqrt(tx * tx + ty * ty + dyaw * dyaw) < tolerance:
             break

@@ -6,8 +6,8 @@ correspondence gate that adapts to how far the guesses have been off, a robust k
 map of small voxels that forgets what is beyond the sensor's range. The kernels are navd's
 own (``_odometry_kernels``) and release the interpreter lock for the whole registration: the
 event loop goes on while a worker registers a scan. (kiss-icp itself, which navd used here
-before, keeps the lock through its C++: 0.5-3 ms a scan during which the daemon's loop could
-not run; docs/performance.md.)
+before, keeps the lock through its C++: up to 6 ms at a time, during which the daemon's loop
+could not run; docs/performance.md.)
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
+from navd.geometry.angles import wrap_angle
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.slam import _odometry_kernels as kernels
 
@@ -32,7 +33,9 @@ TOLERANCE = 1e-4  # [m and rad] a step smaller than this ends the registration
 YAW_SPAN_RAD = math.radians(15.0)  # the yaw searched around the guess before ICP
 YAW_COARSE_STEP_RAD = math.radians(1.5)
 YAW_FINE_STEP_RAD = math.radians(0.5)
-YAW_FINE_SPAN_RAD = math.radians(0.5)  # around the coarse search's best: half its step, and more
+# Around the coarse search's best, which is within half its step (0.75 degrees) of the yaw it
+# scored: ICP mends what the fine steps leave.
+YAW_FINE_SPAN_RAD = math.radians(0.5)
 INITIAL_SLOTS = 4096  # the map table's first length (a power of two)
 
 
@@ -109,7 +112,7 @@ class ScanOdometry:
         turned = Pose2(guess.x, guess.y, coarse)
         yaw = self._best_yaw(source, turned, YAW_FINE_SPAN_RAD, YAW_FINE_STEP_RAD, fine=True)
         found = self._align(source, Pose2(guess.x, guess.y, yaw), sigma)
-        pose = Pose2(float(found[0]), float(found[1]), float(found[2]))
+        pose = Pose2(float(found[0]), float(found[1]), wrap_angle(float(found[2])))
         self._learn(guess.between(pose))
         self._add(frame, found)
         self._delta = self._pose.between(pose)

@@ -71,19 +71,56 @@ def test_a_turn_started_between_two_scans_is_followed(monkeypatch: pytest.Monkey
     assert abs(pose.yaw - moved.yaw) > math.radians(5.0)
 
 
-def test_the_map_forgets_what_is_out_of_range_and_its_table_stays_small() -> None:
-    odometry = ScanOdometry(
-        ScanOdometrySettings(voxel_size_m=0.1, max_range_m=3.0, min_range_m=0.1)
-    )
-    # Back and forth along the room, 5 m each way, 8 times: far more voxels seen than kept.
+def _lapping(odometry: ScanOdometry) -> tuple[Pose2, Pose2]:
+    """Back and forth along the room, 5 m each way, 8 times (40 m, 8 half turns)."""
     leg = [Pose2(0.05, 0.0, 0.0)] * 100 + [Pose2(0.0, 0.0, math.radians(7.5))] * 24
-    _drive(odometry, leg * 8)
-    kept = odometry.voxels
-    assert kept > 0
+    return _drive(odometry, leg * 8)
+
+
+def _forgetful() -> ScanOdometry:
+    """Odometry that sees 6 m: the room's far end (12 m long) drops out of its map."""
+    return ScanOdometry(ScanOdometrySettings(voxel_size_m=0.1, max_range_m=6.0, min_range_m=0.1))
+
+
+def _table_is_consistent(odometry: ScanOdometry) -> None:
     keys = odometry._keys
-    live = keys > kernels.TOMBSTONE
-    first = odometry._points[live, 0]
+    assert odometry._filled == np.count_nonzero(keys != kernels.EMPTY)
+    assert 2 * odometry._filled <= keys.shape[0]
+
+
+def test_the_map_forgets_what_is_out_of_range_and_keeps_tracking() -> None:
+    odometry = _forgetful()
+    pose, moved = _lapping(odometry)
+    assert math.hypot(pose.x - moved.x, pose.y - moved.y) < 0.1
+    assert abs(pose.yaw - moved.yaw) < math.radians(1.0)
+    live = odometry._keys > kernels.TOMBSTONE
+    assert 0 < np.count_nonzero(live) == odometry.voxels
     # Every voxel left has its first point within range of where the robot ended.
-    assert np.all(np.hypot(*(first - tuple(odometry.pose)[:2]).T) <= 3.0)
-    # The dropped voxels' slots were reclaimed rather than the table grown.
-    assert keys.shape[0] == odometry_module.INITIAL_SLOTS
+    first = odometry._points[live, 0]
+    assert np.all(np.hypot(*(first - (pose.x, pose.y)).T) <= 6.0)
+    _table_is_consistent(odometry)
+
+
+def test_a_table_that_fills_up_is_compacted_and_grown_without_changing_a_pose(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    roomy = _forgetful()
+    expected = _lapping(roomy)
+    # A small first table: it fills with voxels and the dropped ones' tombstones, so it is
+    # compacted (and grown) along the way; lookups through tombstones must hold meanwhile.
+    monkeypatch.setattr(odometry_module, "INITIAL_SLOTS", 256)
+    cramped = _forgetful()
+    compactions = 0
+    original = cramped.compact
+
+    def counted(incoming: int = 0) -> None:
+        nonlocal compactions
+        compactions += 1
+        _table_is_consistent(cramped)
+        original(incoming)
+        _table_is_consistent(cramped)
+
+    monkeypatch.setattr(cramped, "compact", counted)
+    assert _lapping(cramped) == expected
+    assert compactions >= 3
+    _table_is_consistent(cramped)

@@ -56,7 +56,7 @@ def test_thinning_keeps_the_first_point_of_each_voxel_as_the_slam_filter_does() 
 
 def test_the_map_table_keeps_every_point_it_took_through_drops_and_rehashes() -> None:
     rng = np.random.default_rng(4)
-    keys, points, counts = _table()
+    keys, points, counts = _table(1024)  # some 300 voxels: probes run past others
     scan = rng.uniform(-4.0, 4.0, (300, 2))
     added = kernels.insert_points(keys, points, counts, VOXEL_M, scan, np.zeros(3), 0.0)
     cells = {tuple(c) for c in np.floor(scan / VOXEL_M).astype(int)}
@@ -72,6 +72,18 @@ def test_the_map_table_keeps_every_point_it_took_through_drops_and_rehashes() ->
     assert np.all(np.hypot(kept[:, 0] - 1.0, kept[:, 1]) <= 3.0)
     far = scan[np.hypot(scan[:, 0] - 1.0, scan[:, 1]) > 3.0]
     assert len(kept) + len(far) == len(scan)
+    # Lookups go on past the tombstones: every point kept is found, none dropped is.
+    for x, y in kept:
+        assert kernels.nearest(keys, points, counts, VOXEL_M, x, y, 0.0)[2] == 0.0
+    for x, y in far:
+        d2 = kernels.nearest(keys, points, counts, VOXEL_M, x, y, 0.0)[2]
+        assert d2 != 0.0 or np.any(np.all(kept == (x, y), axis=1))
+    # A voxel dropped and seen again is a new voxel, in a free slot: still found once.
+    again = far[:5]
+    assert kernels.insert_points(keys, points, counts, VOXEL_M, again, np.zeros(3), 0.0) == 5
+    for x, y in again:
+        assert kernels.nearest(keys, points, counts, VOXEL_M, x, y, 0.0)[2] == 0.0
+    kept = np.concatenate([kept, again])
     # A rehash into a smaller table keeps exactly the live voxels, and lookups still work.
     into = _table(512)
     copied = kernels.rehash(keys, points, counts, *into)
