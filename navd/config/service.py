@@ -37,6 +37,16 @@ class LifecycleConfig(Section):
     worker_threads: int = Field(
         2, ge=1, le=16, **restart("[threads] worker threads for heavy jobs (scan matching, A*)")
     )
+    switch_interval_ms: float = Field(
+        1.0,
+        ge=0.1,
+        le=100,
+        **restart(
+            "[ms] longest a thread running Python keeps the interpreter while another waits "
+            "for it (Python's switch interval, 5 ms by its default): a worker's job then holds "
+            "the event loop up for at most about this long"
+        ),
+    )
     transition_timeout_s: float = Field(
         5.0, gt=0, le=120, description="[s] longest a module may take to start or stop"
     )

@@ -12,6 +12,7 @@ import asyncio
 import contextlib
 import gc
 import signal
+import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -165,6 +166,10 @@ class Daemon:
             Exception: whatever a module raised while starting.
         """
         loop = asyncio.get_running_loop()
+        # Set for the process while the daemon runs (and given back after, for a process
+        # that runs daemons in turn, such as the tests).
+        switch_interval_s = sys.getswitchinterval()
+        sys.setswitchinterval(self.config_service.current.lifecycle.switch_interval_ms / 1e3)
         self._install_signals(loop)
         set_level(self.logging.value.level)  # the level in force is the config's, from here on
         self._started_s = self.clock.now()
@@ -200,6 +205,7 @@ class Daemon:
             self.workers.close()
             self._remove_signals(loop)
             self.notifier.close()
+            sys.setswitchinterval(switch_interval_s)
             _log.info("stopped", reason=self._shutdown_reason, stop_errors=len(errors))
 
     def _context(self, name: str) -> ModuleContext:

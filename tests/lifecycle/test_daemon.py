@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import sys
 import time
 from pathlib import Path
 
@@ -209,3 +210,19 @@ async def test_loop_lag_is_measured(config: NavdConfig) -> None:
     assert daemon.status().loop_lag_max_ms >= 50.0
     daemon.request_shutdown("done")
     await task
+
+
+async def test_the_switch_interval_is_the_configs_while_the_daemon_runs() -> None:
+    # A worker running Python hands the interpreter to the waiting event loop after at most
+    # this long; the process's own interval comes back when the daemon stops.
+    before = sys.getswitchinterval()
+    daemon = Daemon(
+        parse_config({"lifecycle": {"switch_interval_ms": 0.7}}),
+        clock=SimClock(),
+        handle_signals=False,
+    )
+    task = await _started(daemon)
+    assert sys.getswitchinterval() == pytest.approx(0.0007)
+    daemon.request_shutdown("done")
+    await task
+    assert sys.getswitchinterval() == before
