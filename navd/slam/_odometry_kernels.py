@@ -2,7 +2,7 @@
 plane.
 
 The method is KISS-ICP's (Vizzo et al., "KISS-ICP: In Defense of Point-to-Point ICP", RA-L
-2023), written here for 2D scans: a scan thinned to one point per voxel is aligned to the
+2023), written here for 2D scans: a scan thinned to one point per 1.5 voxels is aligned to the
 local map from a constant-velocity guess, each point paired with the nearest map point in
 its 3 x 3 neighbouring voxels within a gate, the pairs weighted by a Geman-McClure kernel;
 then the scan, thinned less, is added to the map, and voxels beyond the sensor's range are
@@ -187,8 +187,8 @@ def align(
 ) -> tuple[FloatArray, int, int, float]:
     """The pose (x [m], y [m], yaw [rad]) that lays ``source`` (N x 2, robot frame [m]) on
     the map, by Gauss-Newton from ``guess`` (its yaw need not be wrapped; the result's is,
-    once a step ran): each step pairs every point with its nearest
-    map point within ``gate_m`` and weights the pair by the Geman-McClure kernel of scale
+    once a step ran): each step pairs every point with its nearest map point within
+    ``gate_m`` and weights the pair by the Geman-McClure kernel of scale
     ``kernel_m`` (``(k² / (k² + r²))²``, r the pair's distance). Stops when a step moves
     less than ``tolerance`` (metres and radians together), or after ``max_iterations``.
 
@@ -204,7 +204,7 @@ def align(
     for _ in range(max_iterations):
         iterations += 1
         c, s = math.cos(yaw), math.sin(yaw)
-        # The normal equations of the step (tx, ty, dyaw) applied on the left of the pose.
+        # The normal equations of the step: the robot moved by (tx, ty), turned by dyaw.
         h00 = h01 = h02 = h11 = h12 = h22 = 0.0
         g0 = g1 = g2 = 0.0
         pairs = 0
