@@ -22,6 +22,7 @@ from navd.config import NavdConfig
 from navd.geometry.angles import wrap_angle
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.slam import _odometry_kernels as kernels
+from navd.slam.voxel import voxel_downsample
 
 __all__ = ["MIN_POINTS", "ScanOdometry", "ScanOdometrySettings"]
 
@@ -101,8 +102,8 @@ class ScanOdometry:
             self.skipped += 1
             return self._pose
         voxel = settings.voxel_size_m
-        frame = kernels.thin(np.ascontiguousarray(kept, dtype=np.float64), 0.5 * voxel)
-        source = kernels.thin(frame, 1.5 * voxel)
+        frame = voxel_downsample(kept, 0.5 * voxel)
+        source = voxel_downsample(frame, 1.5 * voxel)
         sigma = self._sigma()
         guess = self._pose.compose(self._delta)
         # ICP pairs a point only with map points in the voxels around it, so it cannot mend
