@@ -47,6 +47,7 @@ __all__ = [
     "fine_scores",
     "ray_update",
     "smear",
+    "smear_cells",
 ]
 
 FloatArray = npt.NDArray[np.float32]
@@ -133,12 +134,17 @@ def ray_update(
     l_occ: float,
     l_min: float,
     l_max: float,
+    keep: int,
 ) -> None:
     """Free the cells from (x0, y0) to each end (exclusive); mark hit ends occupied. The
-    grid is the tiled array of the first seven arguments (TiledArray.parts)."""
+    grid is the tiled array of the first seven arguments (TiledArray.parts). A hit's ray
+    stops freeing ``keep`` cells before its end (Chebyshev): on cells finer than the
+    lidar's noise, a ray grazing a wall would otherwise free the wall's cells beside its
+    own end."""
     cells = tiles.reshape(-1)  # tile t's cell (a, b) is at t * TILE² + a * TILE + b
     for k in range(ends_x.size):
         x1, y1 = ends_x[k], ends_y[k]
+        stop = keep if hits[k] else 0
         dx = abs(x1 - x0)
         dy = -abs(y1 - y0)
         sx = 1 if x0 < x1 else -1
@@ -153,7 +159,7 @@ def ray_update(
         # rectangle and a ray's cells lie between its ends): its cells need no check. The
         # same walk with a check follows, for a ray with an end off the grid.
         if 0 <= x0 < cols and 0 <= y0 < rows and 0 <= x1 < cols and 0 <= y1 < rows:
-            while gx != gx1 or gy != gy1:
+            while max(abs(gx1 - gx), abs(gy1 - gy)) > stop:
                 if gy >> TILE_SHIFT != tile_r or gx >> TILE_SHIFT != tile_c:
                     tile_r, tile_c = gy >> TILE_SHIFT, gx >> TILE_SHIFT
                     # _tile_to_write written out: called, even inlined, it made this walk
@@ -173,7 +179,7 @@ def ray_update(
                 if e2 <= dx:
                     err += dx
                     gy += sy
-        while gx != gx1 or gy != gy1:  # (a ray inside the grid has ended here)
+        while max(abs(gx1 - gx), abs(gy1 - gy)) > stop:  # (a ray inside the grid ended here)
             if 0 <= gx - off_c < cols and 0 <= gy - off_r < rows:
                 if gy >> TILE_SHIFT != tile_r or gx >> TILE_SHIFT != tile_c:
                     tile_r, tile_c = gy >> TILE_SHIFT, gx >> TILE_SHIFT
@@ -192,6 +198,23 @@ def ray_update(
             t = _tile_to_write(index, used, gy, gx)
             v = tiles[t, gy & TILE_MASK, gx & TILE_MASK] + l_occ
             tiles[t, gy & TILE_MASK, gx & TILE_MASK] = min(v, l_max)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _stamp(kernel: FloatArray, field: FloatArray, fy: int, fx: int) -> None:
+    """field = max(field, kernel) over the kernel's square centred on field cell (fy, fx),
+    the part inside the field."""
+    f_rows, f_cols = field.shape
+    r = kernel.shape[0] // 2
+    for ky in range(-r, r + 1):
+        y = fy + ky
+        if y < 0 or y >= f_rows:
+            continue
+        for kx in range(-r, r + 1):
+            x = fx + kx
+            if 0 <= x < f_cols:
+                w = kernel[ky + r, kx + r]
+                field[y, x] = max(field[y, x], w)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -217,7 +240,6 @@ def smear(
     must be zeroed by the caller.
     """
     f_rows, f_cols = field.shape
-    r = kernel.shape[0] // 2
     g0, g1 = max(row0, 0) + off_r, min(row0 + f_rows, rows) + off_r  # tile numbering
     h0, h1 = max(col0, 0) + off_c, min(col0 + f_cols, cols) + off_c
     if g0 >= g1 or h0 >= h1:
@@ -230,18 +252,41 @@ def smear(
             for gy in range(max(g0, tr * TILE), min(g1, (tr + 1) * TILE)):
                 fy = gy - off_r - row0
                 for gx in range(max(h0, tc * TILE), min(h1, (tc + 1) * TILE)):
-                    if tiles[t, gy & TILE_MASK, gx & TILE_MASK] <= threshold:
-                        continue
-                    fx = gx - off_c - col0
-                    for ky in range(-r, r + 1):
-                        y = fy + ky
-                        if y < 0 or y >= f_rows:
-                            continue
-                        for kx in range(-r, r + 1):
-                            x = fx + kx
-                            if 0 <= x < f_cols:
-                                w = kernel[ky + r, kx + r]
-                                field[y, x] = max(field[y, x], w)
+                    if tiles[t, gy & TILE_MASK, gx & TILE_MASK] > threshold:
+                        _stamp(kernel, field, fy, gx - off_c - col0)
+
+
+@nb.njit(cache=True, nogil=True)
+def smear_cells(
+    index: I32Grid,
+    tiles: Tiles,
+    used: IntArray,
+    off_r: int,
+    off_c: int,
+    rows: int,
+    cols: int,
+    threshold: float,
+    cells: npt.NDArray[np.int64],
+    row0: int,
+    col0: int,
+    kernel: FloatArray,
+    field: FloatArray,
+) -> None:
+    """``smear`` of the listed grid cells only (N x 2 (col, row)): each one inside the
+    field's window and above ``threshold`` stamps ``kernel`` into ``field`` (whose cell
+    (0, 0) is the grid's (row0, col0)); the field is not zeroed first."""
+    f_rows, f_cols = field.shape
+    for i in range(cells.shape[0]):
+        col, row = cells[i, 0], cells[i, 1]
+        if not (0 <= row < rows and 0 <= col < cols):
+            continue
+        if not (0 <= row - row0 < f_rows and 0 <= col - col0 < f_cols):
+            continue
+        gy, gx = row + off_r, col + off_c
+        t = index[gy >> TILE_SHIFT, gx >> TILE_SHIFT]
+        if t < 0 or tiles[t, gy & TILE_MASK, gx & TILE_MASK] <= threshold:
+            continue
+        _stamp(kernel, field, row - row0, col - col0)
 
 
 @nb.njit(cache=True, nogil=True)

@@ -22,6 +22,7 @@ import numpy.typing as npt
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
 from navd.slam.doubt import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, Doubt
+from navd.slam.fine_map import FineMap, fine_keep_cells, fine_refiner, refine_pose
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
@@ -81,8 +82,19 @@ FOUND_WEIGHTS = (1 / 0.1, 1 / 0.1, 1 / 0.035)
 # its walls where the map has open floor, or none at all.
 LOST_KNOWN_FRACTION = 0.25
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
+# The fine map's field reaches this far [m] beyond the scans' range and the refinement's
+# window, and is drawn anew when the robot has moved this far from its centre.
+FINE_FIELD_MARGIN_M = 1.0
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
+
+
+def _fine_map(s: MapperSettings) -> FineMap | None:
+    """The fine map poses are refined on, if the settings ask for one: its cells finer than
+    the map's, and keyframes that keep their scans (loop closure on) to draw it from."""
+    if not s.loop_closure or s.match_resolution_m >= s.resolution_m:
+        return None
+    return FineMap(s.match_resolution_m, s.max_range_m / 2, fine_keep_cells(s))
 
 
 def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
@@ -107,6 +119,11 @@ class ScanMapper:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
+        self.fine = _fine_map(s)
+        self.refiner = fine_refiner(s)
+        # The reported pose of the last scan in the frame of the tracked one (the fine map's
+        # refinement; identity without one).
+        self._refinement = Pose2(0.0, 0.0, 0.0)
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
@@ -128,11 +145,16 @@ class ScanMapper:
         self._field: LikelihoodField | None = None
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
+        self._fine_field: LikelihoodField | None = None  # the fine map's, for ``_refined``
+        self._fine_grid: OccupancyGrid | None = None  # the fine map's grid it was drawn from
+        self._fine_revision = -1
+        self._fine_center = Pose2(0.0, 0.0, 0.0)
 
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
+        self.refiner = fine_refiner(settings)
         self.loops.configure(settings)
         self._field = None
         self.doubt.configure(settings)
@@ -156,6 +178,8 @@ class ScanMapper:
         self._anchors = []
         self._new_session = True
         self._field = None
+        if self.fine is not None:
+            self.fine.clear()
 
     def graph(self) -> MapGraph:
         """What the map was built from, for a save (a snapshot: the keyframes are frozen,
@@ -236,9 +260,11 @@ class ScanMapper:
 
     def add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None = None) -> ScanResult:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
+        self._refinement = Pose2(0.0, 0.0, 0.0)
         result = self._add(stamp, scan, odom)
         if self.settings.keep_trajectory:
-            self._anchor(result.pose if self.pose is None else self.pose)
+            tracked = result.pose if self.pose is None else self.pose
+            self._anchor(tracked.compose(self._refinement))
         return result
 
     def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
@@ -316,8 +342,11 @@ class ScanMapper:
         self.pose = pose
         if not doubtful:
             self.last_good = pose
+        # Reported refined on the fine map; tracked and mapped as matched (see fine_map).
+        refined = self._refined(points, pose)
         keyframe = self._insert(stamp, pose, scan)
-        return ScanResult(pose, match.covariance, match.score, True, keyframe)
+        reported = self._reported(pose, refined)
+        return ScanResult(reported, match.covariance, match.score, True, keyframe)
 
     def _insert(self, stamp: float, pose: Pose2, scan: ScanPoints, mapped: bool = True) -> bool:
         """Make a keyframe if the robot moved far enough since the last; True if it did and
@@ -338,6 +367,8 @@ class ScanMapper:
             self.edges.append(self._edge_to(pose))
         self._new_session = False
         self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
+        if self.fine is not None:
+            self.fine.add(self.keyframes)
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
         lost = self._weak_run >= LOST_RUN
@@ -397,6 +428,45 @@ class ScanMapper:
             if frame.scan is not None and frame.mapped:
                 self.grid.insert(frame.pose, frame.scan)
         self.grid.revision = revision
+        if self.fine is not None:
+            self.fine.clear()
+
+    def _reported(self, matched: Pose2, refined: Pose2) -> Pose2:
+        """The pose to report for a scan matched at ``matched`` and refined to ``refined``:
+        moved with the robot if a loop closure re-solved the graph meanwhile."""
+        self._refinement = matched.between(refined)
+        if self.pose is matched or self.pose is None:
+            return refined
+        return self.pose.compose(self._refinement)
+
+    def _refined(self, points: FloatArray, pose: Pose2) -> Pose2:
+        """``pose`` (a match on the map) refined on the fine map (see ``fine_map``); as it
+        is without a fine map, or over a loaded map (no keyframes to draw it finer)."""
+        fine = self.fine
+        if fine is None or self._base is not None:
+            return pose
+        s = self.settings
+        # Drawn anew when the robot has moved on or the fine map was (a re-solve, its
+        # budget); brought up to date with each keyframe drawn between (see
+        # ``FineMap.update``). Drawn anew at every keyframe instead, the Intel lab's replay
+        # took 42.7 s against 38.5 s; only when the robot moved, its dump gave 0.0255 m
+        # and aces 0.0401 m.
+        moved = np.hypot(pose.x - self._fine_center.x, pose.y - self._fine_center.y)
+        if (
+            self._fine_field is None
+            or self._fine_grid is not fine.grid
+            or moved > FINE_FIELD_MARGIN_M
+        ):
+            radius = s.max_range_m + s.resolution_m + FINE_FIELD_MARGIN_M
+            self._fine_field = fine.field(self.keyframes, pose, radius, s.blur_sigma_m)
+            self._fine_grid = fine.grid  # (drawn anew if it had grown too large)
+            self._fine_revision = fine.grid.revision
+            self._fine_center = pose
+        elif self._fine_revision != fine.grid.revision:
+            self._fine_field = fine.update(self.keyframes, pose, self._fine_field, s.blur_sigma_m)
+            self._fine_revision = fine.grid.revision
+        assert self._fine_field is not None
+        return refine_pose(self.refiner, self._fine_field, points, pose)
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""

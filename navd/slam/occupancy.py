@@ -117,11 +117,14 @@ class OccupancyGrid:
     Args:
         resolution: [m] cell size.
         chunk_m: [m] how much the grid grows at a time.
+        keep_cells: a ray that hit stops freeing this many cells before its end (see
+            ``_grid_kernels.ray_update``; 0: every cell up to the end).
     """
 
-    def __init__(self, resolution: float, chunk_m: float = 10.0) -> None:
+    def __init__(self, resolution: float, chunk_m: float = 10.0, keep_cells: int = 0) -> None:
         self.resolution = resolution
         self.chunk_m = chunk_m
+        self.keep_cells = keep_cells
         self.cells_store = TiledArray()
         self.origin_x = 0.0
         self.origin_y = 0.0
@@ -185,6 +188,7 @@ class OccupancyGrid:
         """An independent grid with the same cells, frame and revision."""
         grid = self._of(self.cells_store.copy(), self.origin_x, self.origin_y, self.resolution)
         grid.chunk_m, grid.revision = self.chunk_m, self.revision
+        grid.keep_cells = self.keep_cells
         return grid
 
     @property
@@ -303,6 +307,7 @@ class OccupancyGrid:
             L_OCC,
             L_MIN,
             L_MAX,
+            self.keep_cells,
         )
 
     def _cover(self, lo_x: float, lo_y: float, hi_x: float, hi_y: float) -> None:
@@ -339,13 +344,25 @@ class OccupancyGrid:
             self.cells_store.grow(rows, cols, off_r, off_c)
         self.origin_x, self.origin_y = float(new_lo[0]), float(new_lo[1])
 
-    def likelihood_field(self, center: Pose2, radius_m: float, sigma_m: float) -> LikelihoodField:
-        """The blurred occupied cells within ``radius_m`` of ``center`` (a square window)."""
+    def likelihood_field(
+        self, center: Pose2, radius_m: float, sigma_m: float, out: F32 | None = None
+    ) -> LikelihoodField:
+        """The blurred occupied cells within ``radius_m`` of ``center`` (a square window).
+
+        Args:
+            out: an array to draw it in if it has the window's shape (float32, C order);
+                a field made again and again (every keyframe) then allocates nothing.
+        """
         res = self.resolution
         half = math.ceil(radius_m / res)
         col, row = self.cells(np.array([[center.x, center.y]]))[0]
         col0, row0 = int(col) - half, int(row) - half
-        values = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.float32)
+        shape = (2 * half + 1, 2 * half + 1)
+        if out is not None and out.shape == shape and out.flags.c_contiguous:
+            values = out
+            values.fill(0.0)
+        else:
+            values = np.zeros(shape, dtype=np.float32)
         k.smear(
             *self.cells_store.parts(),
             OCCUPIED_LOGODDS,
@@ -355,6 +372,27 @@ class OccupancyGrid:
             values,
         )
         return LikelihoodField(values, self.origin_x + col0 * res, self.origin_y + row0 * res, res)
+
+    def stamp_points(self, field: LikelihoodField, points: F64, sigma_m: float) -> LikelihoodField:
+        """``field`` (drawn from this grid by ``likelihood_field`` with ``sigma_m``) with the
+        cells under ``points`` (map frame, N x 2 [m]) that are occupied now stamped in, as
+        ``likelihood_field`` stamps every occupied cell: after a scan is inserted, its hits
+        are the only cells that can have become occupied, so stamping them brings the field up
+        to date but for the cells the scan freed (still stamped, until the field is drawn
+        anew). Drawn into ``field``'s array; returned as a new field (no bounds cached)."""
+        res = self.resolution
+        col0 = round((field.origin_x - self.origin_x) / res)
+        row0 = round((field.origin_y - self.origin_y) / res)
+        k.smear_cells(
+            *self.cells_store.parts(),
+            OCCUPIED_LOGODDS,
+            self.cells(points),
+            row0,
+            col0,
+            gaussian_kernel(sigma_m, res),
+            field.values,
+        )
+        return LikelihoodField(field.values, field.origin_x, field.origin_y, res)
 
     def occupancy_percent(self, rows: slice = slice(None)) -> npt.NDArray[np.int8]:
         """ROS OccupancyGrid values of ``rows`` (a step-1 slice; all by default): -1 unknown,

@@ -17,10 +17,12 @@ def line_cells(x0: int, y0: int, x1: int, y1: int) -> list[tuple[int, int]]:
     return cells
 
 
-def ray_update(logodds, x0, y0, ends_x, ends_y, hits, l_free, l_occ, l_min, l_max):  # type: ignore[no-untyped-def]
+def ray_update(logodds, x0, y0, ends_x, ends_y, hits, l_free, l_occ, l_min, l_max, keep=0):  # type: ignore[no-untyped-def]
     rows, cols = logodds.shape
     for x1, y1, hit in zip(ends_x, ends_y, hits, strict=True):
         for x, y in line_cells(x0, y0, int(x1), int(y1)):
+            if hit and max(abs(int(x1) - x), abs(int(y1) - y)) <= keep:
+                continue  # a hit's ray leaves the cells within ``keep`` of its end alone
             if 0 <= x < cols and 0 <= y < rows:
                 logodds[y, x] = max(logodds[y, x] + l_free, l_min)
         if hit and 0 <= x1 < cols and 0 <= y1 < rows:

@@ -30,8 +30,8 @@ def _grown_store(rows: int, cols: int) -> TiledArray:
     return store
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_ray_update_matches_the_reference(seed: int) -> None:
+@pytest.mark.parametrize(("seed", "keep"), [(1, 0), (2, 0), (3, 0), (4, 1), (5, 2)])
+def test_ray_update_matches_the_reference(seed: int, keep: int) -> None:
     # rays from the middle of a grid of 4 x 4 tiles to ends in and around it: they cross
     # tile boundaries and the grid's edges
     rng = np.random.default_rng(seed)
@@ -44,10 +44,9 @@ def test_ray_update_matches_the_reference(seed: int) -> None:
     hits = rng.random(len(rays)) < 0.7
     got = _grown_store(200, 200)
     want = np.zeros((200, 200), dtype=np.float32)
-    k.ray_update(
-        *got.parts(), 100, 100, ends[:, 0].copy(), ends[:, 1].copy(), hits, -0.4, 0.85, -2.0, 3.5
-    )
-    ref.ray_update(want, 100, 100, ends[:, 0], ends[:, 1], hits, -0.4, 0.85, -2.0, 3.5)
+    ends_x, ends_y = ends[:, 0].copy(), ends[:, 1].copy()
+    k.ray_update(*got.parts(), 100, 100, ends_x, ends_y, hits, -0.4, 0.85, -2.0, 3.5, keep)
+    ref.ray_update(want, 100, 100, ends[:, 0], ends[:, 1], hits, -0.4, 0.85, -2.0, 3.5, keep)
     dense = got.window(0, 200, 0, 200)
     np.testing.assert_allclose(dense, want, atol=1e-6)
     assert dense.min() >= -2.0 and dense.max() <= 3.5
@@ -68,6 +67,28 @@ def test_smear_matches_the_reference_including_window_edges() -> None:
     field = np.zeros((130, 135), dtype=np.float32)
     k.smear(*store.parts(), 0.0, 25, -5, kernel, field)  # hangs over the left and top edges
     np.testing.assert_allclose(field, ref.smear(grid, 0.0, 25, -5, kernel, (130, 135)))
+
+
+def test_smear_of_listed_cells_is_smear_of_the_occupied_ones_among_them() -> None:
+    rng = np.random.default_rng(5)
+    grid = np.where(rng.random((150, 170)) < 0.02, 1.0, -1.0).astype(np.float32)
+    grid[:, 64:128] = 0.0  # a column of tiles never written
+    kernel = gaussian_kernel(0.05, 0.05)
+    store = TiledArray.from_dense(grid)
+    rows, cols = np.mgrid[-3:153, -3:173]  # every cell, and some off the grid
+    cells = np.column_stack([cols.ravel(), rows.ravel()]).astype(np.int64)
+    field = np.zeros((130, 135), dtype=np.float32)
+    k.smear_cells(*store.parts(), 0.0, cells[rng.permutation(len(cells))], 25, -5, kernel, field)
+    np.testing.assert_array_equal(field, ref.smear(grid, 0.0, 25, -5, kernel, (130, 135)))
+    # half the occupied cells listed: the field of a grid holding only those
+    rows, cols = np.nonzero(grid > 0.0)
+    occupied = np.column_stack([cols, rows]).astype(np.int64)
+    half = occupied[rng.random(len(occupied)) < 0.5]
+    only = np.full_like(grid, -1.0)
+    only[half[:, 1], half[:, 0]] = 1.0
+    field[:] = 0.0
+    k.smear_cells(*store.parts(), 0.0, half, 25, -5, kernel, field)
+    np.testing.assert_array_equal(field, ref.smear(only, 0.0, 25, -5, kernel, (130, 135)))
 
 
 @pytest.mark.parametrize("f", [1, 2, 4, 5])

@@ -178,10 +178,11 @@ def test_intel_replay_beats_gmapping_on_the_published_relations(tmp_path: Path) 
     stamps, poses = read_tum(tmp_path / "trajectory.tum")
     errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "intel.relations"))
     assert errors.used == 2984
-    # With the defaults (loop closure on): 0.0275 m measured (0.0261 m before the odometry
-    # pulled harder along corridors); GMapping 0.070 m, graph mapping
-    # 0.031 m, Cartographer 0.0229 m.
-    assert errors.translation_mean_m <= 0.029
+    # With the defaults (loop closure on): 0.0248 m measured (0.0275 m before the reported
+    # pose was refined on the fine map, 0.0261 m before the odometry pulled harder along
+    # corridors); issue 19's target 0.025 m, GMapping 0.070 m, graph mapping 0.031 m,
+    # Cartographer 0.0229 m. Held to 0.0255 m: without the refinement it fails.
+    assert errors.translation_mean_m <= 0.0255
     assert errors.rotation_mean_deg <= 0.5
     # Localization on the saved map, for every 500th scan: from a 0.5 m / 15 degree wrong
     # start, and from nothing. Measured (27 scans): 26 and 25 found. From nothing, a search
@@ -305,7 +306,7 @@ def test_replay_with_scan_odometry_needs_no_wheels(tmp_path: Path) -> None:
 
 
 # Measured with the defaults (the tests above bound them).
-ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.0388, 0.0275
+ACES_UNPERTURBED_M, INTEL_DUMP_UNPERTURBED_M = 0.0388, 0.0248
 
 
 @pytest.mark.parametrize(
