@@ -138,6 +138,13 @@ class SlamConfig(Section):
                 f"slam.resolution_m ({self.resolution_m}): a pose is refined on the map's "
                 "cells or finer ones"
             )
+        if self.match_resolution_m is not None and not self.loop_closure:
+            raise ValueError(
+                f"slam.match_resolution_m ({self.match_resolution_m}) is set but "
+                "slam.loop_closure is false: the fine map is drawn from the keyframes' scans, "
+                "which only loop closure keeps; remove match_resolution_m or turn "
+                "loop_closure on"
+            )
         return self
 
 

@@ -23,11 +23,20 @@ against 0.0399 m; with the whole extra pull, the Intel lab 0.0256 against 0.0253
 Memory: a whole building at 2.5 cm holds four times the cells of the map (fr-clinic: 180 MB
 more). This map draws only the keyframes within half the lidar's range of the robot (their
 scans hold the walls near it finely; those of keyframes up to the field's 13 m gave the
-same poses to 0.1 mm on the Intel lab and fr-clinic, and redrew the Intel lab's fine map
-so often that its replay took 66 s instead of 43), keeps what it drew while the robot
-moves on, and is drawn anew with only what is near when it has grown past ``max_tiles``
-tiles. After a re-solve of the pose graph the mapper clears it and it is drawn again, near
-the robot, at the new poses.
+same poses to 0.1 mm on the Intel lab and fr-clinic, and redrew the fine map so often that
+the Intel lab's replay took half as long again), keeps what it drew while the robot moves
+on, and is drawn anew with only what is near when it has grown past ``max_tiles`` tiles
+(checked when a keyframe is added and when a field is drawn; an update in between may pass
+it by what the keyframes newly in reach add). After a re-solve of the pose graph the mapper
+clears it and it is drawn again, near the robot, at the new poses. Drawn anew, it draws one
+keyframe per place (``THIN_CELL_M``, ``THIN_YAW_RAD``), the newest; every new keyframe is
+drawn as it comes.
+
+Cost: the field the refinement reads (1045 x 1045 cells at the defaults) is drawn anew only
+when the mapper asks (the robot has moved 1 m, or this map was drawn anew), and brought up
+to date with each new keyframe's hits in between (``update``). Each field handed out shares
+its cells with the next: ``field`` and ``update`` write into the last one's array, so a
+field is good until the next call.
 """
 
 from __future__ import annotations
@@ -50,7 +59,7 @@ __all__ = ["MAX_TILES", "FineMap", "fine_keep_cells", "fine_refiner", "refine_po
 
 # Tiles this map may grow to before it is drawn anew around the robot (64 x 64 float32
 # cells, 16 KB each: 6 MB). fr-clinic's replay peaked at 292 MB with 384, 302 MB with 512
-# and 308 MB with 1024 when keyframes up to 13 m off were drawn (target 300; 287 MB with
+# and 308 MB with 1024 when keyframes up to 13 m off were drawn (target 300; 285 MB with
 # 384 and those within 6 m); with 256 it redrew so often that it took a quarter longer.
 MAX_TILES = 384
 # The refinement's search: headings within this of the match [rad] (0.29 degrees, about
@@ -116,8 +125,9 @@ class FineMap:
         self.max_tiles = max_tiles
         self.grid = OccupancyGrid(resolution_m, keep_cells=keep_cells)
         self.redraws = 0  # times it was drawn anew to stay within max_tiles
-        # Per keyframe known so far: its position [m], whether it can be drawn, and whether
-        # it is drawn.
+        # Per keyframe known so far: its position [m], whether it can be drawn, whether it
+        # is drawn, whether it was left out as one of a place drawn already (``_thin``),
+        # and its heading [rad].
         self._xy = np.zeros((0, 2))
         self._usable = np.zeros(0, dtype=bool)
         self._drawn = np.zeros(0, dtype=bool)
@@ -138,14 +148,11 @@ class FineMap:
         self._yaw = np.zeros(0)
 
     def _empty(self) -> None:
-        old = self.grid.cells_store
+        """A new, empty grid (its revision past the old one's, so a field of the old grid
+        reads as stale), every keyframe to be drawn again."""
         revision = self.grid.revision + 1
         self.grid = OccupancyGrid(self.resolution_m, keep_cells=self.keep_cells)
-        self.grid.revision = revision  # a field of the old grid is stale
-        # The new grid's tiles go where the old ones were (zeroed): allocated afresh, and
-        # grown by doubling, they left the heap fragmented.
-        old.tiles[: int(old.used[0])] = 0.0
-        self.grid.cells_store.tiles = old.tiles
+        self.grid.revision = revision
         self._drawn[:] = False
         self._skipped[:] = False
         self._pending = []
@@ -166,9 +173,10 @@ class FineMap:
         radius_m: float,
         sigma_m: float,
     ) -> LikelihoodField:
-        """The likelihood field within ``radius_m`` of ``center`` (see
-        ``OccupancyGrid.likelihood_field``), every keyframe within ``reach_m`` of the centre
-        drawn first."""
+        """The likelihood field within ``radius_m`` [m] of ``center`` (see
+        ``OccupancyGrid.likelihood_field``; ``sigma_m`` [m] its blur), every keyframe within
+        ``reach_m`` of the centre drawn first (one per place if the map was drawn anew).
+        Drawn in the last field's array: that field is no longer good."""
         self._learn(keyframes)
         xy = self._xy
         close = np.hypot(xy[:, 0] - center.x, xy[:, 1] - center.y) <= self.reach_m
@@ -179,8 +187,8 @@ class FineMap:
             missing = np.flatnonzero(close & self._usable)
         for i in self._thin(missing):  # in the order they were made, as the map draws them
             self._draw(keyframes, int(i))
-        # Drawn in the last field's array: a new one at every keyframe left the heap
-        # fragmented (fr-clinic's peak 317 MB against 300).
+        # Drawn in the last field's array: a new array for each left the heap fragmented
+        # (fr-clinic's peak 317 MB against 300, when a field was drawn at every keyframe).
         field = self.grid.likelihood_field(center, radius_m, sigma_m, out=self._values)
         self._values = field.values
         self._pending = []
@@ -193,11 +201,13 @@ class FineMap:
         field: LikelihoodField,
         sigma_m: float,
     ) -> LikelihoodField:
-        """``field`` (the last from ``field``, with ``sigma_m``) brought up to date: the
-        keyframes within ``reach_m`` of ``center`` not drawn yet are drawn, and the hits of
-        every keyframe drawn since are stamped in (``OccupancyGrid.stamp_points``: cells a
-        keyframe freed stay stamped until the field is drawn anew). About 0.1 ms a keyframe
-        where drawing the Intel lab's 1045 x 1045 cells anew took 2.6 ms.
+        """``field`` (the last from ``field``, with ``sigma_m`` [m]) brought up to date: the
+        keyframes within ``reach_m`` of ``center`` not drawn yet are drawn (one per place),
+        and the hits of every keyframe drawn since are stamped in
+        (``OccupancyGrid.stamp_points``: cells a keyframe freed stay stamped until the field
+        is drawn anew). About 0.1 ms a keyframe where drawing the Intel lab's 1045 x 1045
+        cells anew took 2.6 ms. Stamped into ``field``'s array; returned as a new field
+        (no bounds cached), or ``field`` itself if nothing was drawn since.
 
         The grid must be the one ``field`` was drawn from: after ``clear``, or a redraw
         within ``max_tiles``, draw the field anew instead.
@@ -214,6 +224,8 @@ class FineMap:
         return self.grid.stamp_points(field, hits, sigma_m)
 
     def _draw(self, keyframes: Sequence[Keyframe], index: int) -> None:
+        """Draw keyframe ``index`` if it can be and is not yet; note its hits [m] for the
+        next ``update``."""
         frame = keyframes[index]
         if self._usable[index] and not self._drawn[index]:
             assert frame.scan is not None

@@ -367,7 +367,7 @@ class ScanMapper:
             self.edges.append(self._edge_to(pose))
         self._new_session = False
         self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
-        if self.fine is not None:
+        if self.fine is not None and self._base is None:  # (not used over a base map)
             self.fine.add(self.keyframes)
         self.counts.keyframes += 1
         k = len(self.keyframes) - 1
@@ -441,7 +441,8 @@ class ScanMapper:
 
     def _refined(self, points: FloatArray, pose: Pose2) -> Pose2:
         """``pose`` (a match on the map) refined on the fine map (see ``fine_map``); as it
-        is without a fine map, or over a loaded map (no keyframes to draw it finer)."""
+        is without a fine map, or over a base map (one loaded without its keyframes' scans:
+        what lies under it cannot be drawn finer)."""
         fine = self.fine
         if fine is None or self._base is not None:
             return pose
@@ -449,8 +450,8 @@ class ScanMapper:
         # Drawn anew when the robot has moved on or the fine map was (a re-solve, its
         # budget); brought up to date with each keyframe drawn between (see
         # ``FineMap.update``). Drawn anew at every keyframe instead, the Intel lab's replay
-        # took 42.7 s against 38.5 s; only when the robot moved, its dump gave 0.0255 m
-        # and aces 0.0401 m.
+        # took 36.9 s against 34.1 s; drawn only when the robot moved and not brought up to
+        # date between, its dump gave 0.0255 m and aces 0.0401 m (docs/slam.md).
         moved = np.hypot(pose.x - self._fine_center.x, pose.y - self._fine_center.y)
         if (
             self._fine_field is None

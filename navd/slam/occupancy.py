@@ -59,7 +59,8 @@ class LikelihoodField:
 
     def bound(self, block: int) -> F32:
         """The sliding maximum over ``block`` x ``block`` cells, a power of two (cached;
-        ``bound(1)`` is ``values`` itself, so neither may be written).
+        ``bound(1)`` is ``values`` itself, so neither may be written: the fine map, which
+        stamps into a field's values, hands out a new field with nothing cached).
 
         Each comes from the one half its size: the maximum over [u, u + 2h) is that of
         [u, u + h) and [u + h, u + 2h), so a search over all powers of two costs one pass per
@@ -350,8 +351,9 @@ class OccupancyGrid:
         """The blurred occupied cells within ``radius_m`` of ``center`` (a square window).
 
         Args:
-            out: an array to draw it in if it has the window's shape (float32, C order);
-                a field made again and again (every keyframe) then allocates nothing.
+            out: an array to draw it in if it has the window's shape (float32, C order;
+                otherwise a new one is made); a field drawn again and again (the fine map's)
+                then allocates nothing. A field whose array it was is no longer good.
         """
         res = self.resolution
         half = math.ceil(radius_m / res)

@@ -24,7 +24,7 @@ from navd.slam.fine_map import (
 )
 from navd.slam.keyframe import Keyframe
 from navd.slam.mapper import ScanMapper
-from navd.slam.occupancy import OccupancyGrid
+from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -54,6 +54,12 @@ def test_a_match_resolution_coarser_than_the_map_is_refused_by_name() -> None:
         NavdConfig.model_validate({"slam": {"resolution_m": 0.05, "match_resolution_m": 0.1}})
     assert "slam.match_resolution_m (0.1)" in str(err.value)
     assert "slam.resolution_m (0.05)" in str(err.value)
+
+
+def test_a_match_resolution_without_loop_closure_is_refused_by_name() -> None:
+    with pytest.raises(ValidationError, match=r"slam.match_resolution_m \(0.025\) is set but"):
+        NavdConfig.model_validate({"slam": {"loop_closure": False, "match_resolution_m": 0.025}})
+    NavdConfig.model_validate({"slam": {"loop_closure": False}})  # unset: no fine map, fine
 
 
 def test_a_position_refined_on_the_fine_map_is_nearer_than_on_the_map() -> None:
@@ -204,14 +210,53 @@ def test_a_field_brought_up_to_date_is_the_field_drawn_anew_but_near_cells_freed
     assert (updated.origin_x, updated.origin_y) == (want.origin_x, want.origin_y)
     assert not np.array_equal(updated.values, first)  # the new walls are in
 
-    res, reach = 0.025, 4  # the kernel's half-width: ceil(2 sigma / res) cells
-    freed = occupied_before - _occupied(want_grid)
-    near_freed = np.zeros(want.values.shape, dtype=bool)
-    c0, r0 = round(want.origin_x / res), round(want.origin_y / res)
-    for col, row in freed:
-        r, c = row - r0, col - c0
-        near_freed[max(r - reach, 0) : r + reach + 1, max(c - reach, 0) : c + reach + 1] = True
+    near_freed = _near(occupied_before - _occupied(want_grid), want)
     assert 0 < near_freed.mean() < 0.05
+    np.testing.assert_array_equal(updated.values[~near_freed], want.values[~near_freed])
+    assert (updated.values >= want.values).all()
+
+
+def _near(cells: set[tuple[int, int]], field: LikelihoodField, reach: int = 4) -> np.ndarray:
+    """Which cells of ``field`` lie within ``reach`` cells (the kernel's half-width at
+    2.5 cm and a 5 cm blur) of any of ``cells`` ((col, row) of the world's lattice)."""
+    res = field.resolution
+    near = np.zeros(field.values.shape, dtype=bool)
+    c0, r0 = round(field.origin_x / res), round(field.origin_y / res)
+    for col, row in cells:
+        r, c = row - r0, col - c0
+        near[max(r - reach, 0) : r + reach + 1, max(c - reach, 0) : c + reach + 1] = True
+    return near
+
+
+def test_an_update_after_the_grid_grew_and_a_keyframe_came_into_reach_is_the_redraw() -> None:
+    # The second keyframe lies beyond the fine map's reach of the first field's centre and
+    # sees through a door opened in the west wall down a corridor 7 m long (the grid grows
+    # west: its origin moves); the update is asked from nearer it, so it is drawn then, and
+    # stamped where its hits are.
+    west = np.flatnonzero((WALLS[:, 0] == -6) & (WALLS[:, 2] == -6))
+    door = np.array(
+        [(-6, -4, -6, -1), (-6, 1, -6, 4), (-6, -1, -13, -1), (-6, 1, -13, 1), (-13, -1, -13, 1)]
+    )
+    far_wall = np.vstack([np.delete(WALLS, west, axis=0), door])
+    a, b = Pose2(2.0, -2.0, 0.0), Pose2(-5.5, 0.0, 0.0)
+    frames = [Keyframe(0.0, a, _scan(a)), Keyframe(1.0, b, _scan(b, far_wall))]
+    fine = FineMap(0.025, 5.0, 1)
+    center = Pose2(0.0, -1.0, 0.0)  # b 5.6 m off
+    before = fine.field(frames, center, 14.0, 0.05)
+    first = before.values.copy()
+    origin = (fine.grid.origin_x, fine.grid.origin_y)
+    assert fine.update(frames, center, before, 0.05) is before  # b is out of reach
+    occupied_before = _occupied(fine.grid)
+    updated = fine.update(frames, Pose2(-1.0, 0.0, 0.0), before, 0.05)  # b 4.5 m off
+    assert fine.grid.origin_x < origin[0]
+    want_grid = OccupancyGrid(0.025, keep_cells=1)
+    for f in frames:
+        want_grid.insert(f.pose, f.scan)  # type: ignore[arg-type]
+    want = want_grid.likelihood_field(center, 14.0, 0.05)
+    assert (updated.origin_x, updated.origin_y) == (want.origin_x, want.origin_y)
+    assert not np.array_equal(updated.values, first)  # b's walls are in
+    near_freed = _near(occupied_before - _occupied(want_grid), want)
+    assert near_freed.mean() < 0.05
     np.testing.assert_array_equal(updated.values[~near_freed], want.values[~near_freed])
     assert (updated.values >= want.values).all()
 
