@@ -27,6 +27,17 @@ wide window in a building of corridors finds many places that look alike. The se
    ``LOOP_RIVAL_RADIUS_M``.
 The result is an edge from the old keyframe nearest the match to the new one, for the pose
 graph (robust: a wrong one that slipped through pulls less than a right one).
+
+4. Far: a pass the robot may have drifted from by more than ``loop_search_xy_m`` (the window
+   the path asks for is wider than the cap) and that holds nothing above the coarse floor
+   within the cap (no look-alike either) is searched again out to ``LOOP_FAR_FACTOR`` times
+   the cap, for every ``LOOP_FAR_EVERY``-th keyframe. A match found there is held, not
+   used, until a far match at least ``LOOP_CONFIRM_GAP`` keyframes later (and at most
+   ``LOOP_CONFIRM_KEYFRAMES``) is found where the first match and the tracking between
+   them put it (within ``LOOP_CONFIRM_XY_M`` and ``LOOP_CONFIRM_YAW_RAD``); then both are
+   used. fr-clinic with an 8 m lidar comes back to its first corridors 24.5 m and 11.5
+   degrees off after 1000 s; a 30 m cap alone closed that loop but let a wrong one into
+   the unperturbed log.
 """
 
 from __future__ import annotations
@@ -93,6 +104,17 @@ LOOP_SUBMAP_KEYFRAMES = 10
 # A fine match must be unambiguous: no translation within LOOP_RIVAL_RADIUS_M but beyond
 # LOOP_RIVAL_EXCLUDE_M of it may score more than LOOP_MAX_RIVAL_RATIO of its score.
 LOOP_RIVAL_RADIUS_M, LOOP_RIVAL_EXCLUDE_M, LOOP_MAX_RIVAL_RATIO = 1.0, 0.3, 0.9
+# Far loops (step 4): searched out to this times ``loop_search_xy_m``; confirmed by a second
+# far match within this many keyframes that agrees with the first to these [m], [rad].
+LOOP_FAR_FACTOR = 1.5
+LOOP_CONFIRM_KEYFRAMES = 40
+# ... at least this many keyframes after the first (their coarse queries share at most half
+# their scans; each fine match is of its own keyframe's scan). Far searches are run only for
+# every LOOP_FAR_EVERY-th keyframe: each costs about 60 ms (fr-clinic; 397 of them, one per
+# keyframe, took its replay from 44 s to 69 s).
+LOOP_CONFIRM_GAP = LOOP_QUERY_KEYFRAMES // 2
+LOOP_FAR_EVERY = LOOP_CONFIRM_GAP
+LOOP_CONFIRM_XY_M, LOOP_CONFIRM_YAW_RAD = 0.5, math.radians(2.0)
 
 
 @dataclass
@@ -102,6 +124,8 @@ class LoopCounts:
     checks: int = 0
     found: int = 0
     ambiguous: int = 0
+    far_held: int = 0  # far matches held for a second (step 4)
+    far_confirmed: int = 0  # ... and confirmed by one
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,6 +165,12 @@ class LoopCloser:
 
     def __init__(self, settings: MapperSettings) -> None:
         self.counts = LoopCounts()
+        # Far matches waiting for a second (step 4), each with its pose relative to its old
+        # keyframe (a re-solve of the graph meanwhile moves both alike).
+        self.held: list[tuple[LoopCandidate, Pose2]] = []
+        # Whether the last pass searched held nothing above the coarse floor in its window
+        # (not a look-alike, not a query that saw nothing): only then is it searched farther.
+        self._window_empty = False
         self.configure(settings)
 
     def configure(self, settings: MapperSettings) -> None:
@@ -188,15 +218,43 @@ class LoopCloser:
                 continue
             if linked is None:
                 linked = graph_distances(edges, k + 1, k)
-            window = min(
-                s.loop_search_xy_m,
-                max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest])),
-            )
+            wanted = max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest]))
+            window = min(s.loop_search_xy_m, wanted)
             alike = max(window, min(s.loop_search_xy_m, LOOP_LOOKALIKE_PER_M * since_nearest_m))
             candidate = self._search_pass(keyframes, k, run, window, alike)
             if candidate is not None:
                 found.append(candidate)
+            elif self._window_empty and wanted > s.loop_search_xy_m and k % LOOP_FAR_EVERY == 0:
+                far_cap = LOOP_FAR_FACTOR * s.loop_search_xy_m
+                far_window = min(far_cap, wanted)
+                far_alike = max(far_window, min(far_cap, LOOP_LOOKALIKE_PER_M * since_nearest_m))
+                far = self._search_pass(keyframes, k, run, far_window, far_alike)
+                if far is not None:
+                    found.extend(self._confirmed(keyframes, far))
         return found
+
+    def _confirmed(self, keyframes: list[Keyframe], far: LoopCandidate) -> list[LoopCandidate]:
+        """The far match ``far`` and the held one it confirms, if it confirms one (step 4 of
+        the module docstring); otherwise nothing, and ``far`` is held in turn."""
+        k = far.new
+        self.held = [h for h in self.held if 0 < k - h[0].new <= LOOP_CONFIRM_KEYFRAMES]
+        for entry in self.held:
+            held, on_old = entry
+            if k - held.new < LOOP_CONFIRM_GAP:
+                continue
+            # Where the held match and the tracking since put keyframe k on the old map.
+            then = keyframes[held.old].pose.compose(on_old)  # held.pose, as the graph is now
+            predicted = then.compose(keyframes[held.new].pose.between(keyframes[k].pose))
+            off = predicted.between(far.pose)
+            if math.hypot(off.x, off.y) <= LOOP_CONFIRM_XY_M and abs(off.yaw) <= (
+                LOOP_CONFIRM_YAW_RAD
+            ):
+                self.held.remove(entry)
+                self.counts.far_confirmed += 1
+                return [LoopCandidate(held.old, held.new, then, held.score), far]
+        self.held.append((far, keyframes[far.old].pose.between(far.pose)))
+        self.counts.far_held += 1
+        return []
 
     def _search_pass(
         self,
@@ -210,6 +268,7 @@ class LoopCloser:
         unambiguous within ``alike_m`` [m, half-widths]."""
         s = self.settings
         self.counts.checks += 1
+        self._window_empty = False
         current = keyframes[k]
         assert current.scan is not None
         coarse = self._coarse_match(keyframes, k, run, window_m, alike_m)
@@ -272,6 +331,7 @@ class LoopCloser:
             min_score=LOOP_COARSE_MIN_SCORE,  # most passes hold no match: given up early
         )
         if score < LOOP_COARSE_MIN_SCORE:
+            self._window_empty = True
             return None
         rival = rival_ratio(field, query, pose, radius_m=alike_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
         if rival > LOOP_MAX_RIVAL_RATIO:

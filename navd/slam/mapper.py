@@ -177,6 +177,7 @@ class ScanMapper:
             self.keyframes, self.edges = list(graph.keyframes), list(graph.edges)
         self._anchors = []
         self._new_session = True
+        self.loops.held = []  # (their keyframe indices were of the keyframes replaced)
         self._field = None
         if self.fine is not None:
             self.fine.clear()
@@ -220,6 +221,8 @@ class ScanMapper:
             "loop_checks": self.loops.counts.checks,
             "loops_found": self.loops.counts.found,
             "loops_ambiguous": self.loops.counts.ambiguous,
+            "loops_far_held": self.loops.counts.far_held,
+            "loops_far_confirmed": self.loops.counts.far_confirmed,
             "graph_optimizations": c.optimizations,
             "heading_prior_weight_per_rad2": round(self.matcher.prior_weight_per_rad2, 3),
         }

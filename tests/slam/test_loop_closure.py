@@ -11,7 +11,13 @@ from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe
-from navd.slam.loop_closure import LoopCandidate, LoopCloser, passes, path_lengths
+from navd.slam.loop_closure import (
+    LOOP_FAR_EVERY,
+    LoopCandidate,
+    LoopCloser,
+    passes,
+    path_lengths,
+)
 from navd.slam.mapper import ScanMapper
 from navd.slam.pose_graph import Edge
 from navd.slam.settings import MapperSettings
@@ -272,3 +278,78 @@ def test_new_settings_reach_the_loop_search() -> None:
     )
     assert mapper.loops.settings.loop_search_xy_m == 8.0
     assert mapper.loops.fine.reach_m == 15.0  # half the longest range: the rotation step
+
+
+def _far_revisit(jump: Pose2) -> tuple[list[Keyframe], int, list[Pose2]]:
+    """The room mapped, a 120 m detour, and 24 keyframes back in it 2.4-2.6 m off on each
+    axis and 4 degrees (the last 14 of them moved by ``jump`` more, as a tracking slip
+    would); the index of the first keyframe back and their true poses."""
+    first = [Keyframe(0.0, p, _scan(p)) for p in _ellipse(70)]
+    detour = _detour(first[-1].pose, 120.0)
+    drift = Pose2(2.6, -2.4, math.radians(4.0))
+    truth = _ellipse(24, turn0=1.0)
+    back = [Keyframe(0.0, drift.compose(t), _scan(t)) for t in truth[:10]]
+    back += [Keyframe(0.0, jump.compose(drift.compose(t)), _scan(t)) for t in truth[10:]]
+    return first + detour + back, len(first) + len(detour), truth
+
+
+def _search_at(closer: LoopCloser, keyframes: list[Keyframe], k: int) -> list[LoopCandidate]:
+    """Keyframe ``k`` searched for, with the keyframes up to it tied by their chain alone."""
+    return closer.search(keyframes[: k + 1], _chain(keyframes[: k + 1]), k)
+
+
+def test_a_revisit_beyond_the_window_cap_is_used_once_a_second_match_agrees() -> None:
+    # The cap is 2 m, the robot is back 2.4-2.6 m off on each axis after 120 m of path (the
+    # path asks for a window of 8 m): the match beyond the cap is held until a keyframe 5
+    # later is found where the first match and the tracking between them put it; then both
+    # are returned. Only every fifth keyframe is searched beyond the cap.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
+    keyframes, start, truth = _far_revisit(Pose2(0.0, 0.0, 0.0))
+    assert start % LOOP_FAR_EVERY == 0
+    closer = LoopCloser(settings)
+    assert _search_at(closer, keyframes, start + 5) == []
+    assert (closer.counts.far_held, closer.counts.far_confirmed) == (1, 0)
+    assert _search_at(closer, keyframes, start + 7) == []
+    assert closer.counts.far_held == 1  # not searched beyond the cap
+    found = _search_at(closer, keyframes, start + 10)
+    assert [f.new for f in found] == [start + 5, start + 10]
+    for loop in found:
+        t = truth[loop.new - start]
+        assert math.hypot(loop.pose.x - t.x, loop.pose.y - t.y) < 0.05
+        assert 0 <= loop.old < 70
+    assert closer.counts.far_confirmed == 1
+
+
+def test_a_far_match_the_tracking_since_disagrees_with_confirms_nothing() -> None:
+    # As above, but between the two matches the tracking slipped 0.67 m: the second match is
+    # not where the first and the tracking put it, so neither is used; both are held.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
+    keyframes, start, _ = _far_revisit(Pose2(0.6, 0.3, 0.0))
+    closer = LoopCloser(settings)
+    assert _search_at(closer, keyframes, start + 5) == []
+    assert _search_at(closer, keyframes, start + 20) == []  # its query all after the slip
+    assert (closer.counts.far_held, closer.counts.far_confirmed) == (2, 0)
+
+
+def test_a_held_far_match_is_confirmed_and_returned_as_the_graph_has_moved_it() -> None:
+    # Between the two matches a re-solve moved every keyframe alike: the held match is
+    # compared, and returned, where the graph has moved its old keyframe to.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
+    keyframes, start, truth = _far_revisit(Pose2(0.0, 0.0, 0.0))
+    closer = LoopCloser(settings)
+    assert _search_at(closer, keyframes, start + 5) == []
+    move = Pose2(0.4, -0.3, 0.05)
+    moved = [Keyframe(f.stamp, move.compose(f.pose), f.scan, f.mapped) for f in keyframes]
+    found = _search_at(closer, moved, start + 10)
+    assert [f.new for f in found] == [start + 5, start + 10]
+    for loop in found:
+        t = move.compose(truth[loop.new - start])
+        assert math.hypot(loop.pose.x - t.x, loop.pose.y - t.y) < 0.05
+
+
+def test_within_the_cap_a_loop_is_used_at_once_and_nothing_is_held() -> None:
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=4.0)
+    keyframes, start, _ = _far_revisit(Pose2(0.0, 0.0, 0.0))
+    closer = LoopCloser(settings)
+    assert [f.new for f in _search_at(closer, keyframes, start + 1)] == [start + 1]
+    assert closer.counts.far_held == 0 and closer.held == []
