@@ -31,13 +31,16 @@ graph (robust: a wrong one that slipped through pulls less than a right one).
 4. Far: a pass the robot may have drifted from by more than ``loop_search_xy_m`` (the window
    the path asks for is wider than the cap) and that holds nothing above the coarse floor
    within the cap (no look-alike either) is searched again out to ``LOOP_FAR_FACTOR`` times
-   the cap, for every ``LOOP_FAR_EVERY``-th keyframe. A match found there is held, not
-   used, until a far match at least ``LOOP_CONFIRM_GAP`` keyframes later (and at most
-   ``LOOP_CONFIRM_KEYFRAMES``) is found where the first match and the tracking between
-   them put it (within ``LOOP_CONFIRM_XY_M`` and ``LOOP_CONFIRM_YAW_RAD``); then both are
-   used. fr-clinic with an 8 m lidar comes back to its first corridors 24.5 m and 11.5
-   degrees off after 1000 s; a 30 m cap alone closed that loop but let a wrong one into
-   the unperturbed log.
+   the cap, at keyframes whose index is a multiple of ``LOOP_FAR_EVERY_KEYFRAMES``: every
+   15th while tracking (the mapper searches for loops at every third keyframe), every 5th
+   while lost (at every keyframe). A match found there is held, not used, until a far match
+   on the same old pass at least ``LOOP_CONFIRM_GAP`` and at most
+   ``LOOP_CONFIRM_KEYFRAMES`` keyframes later is found where the first match and the
+   tracking between them put it (within ``LOOP_CONFIRM_XY_M`` and
+   ``LOOP_CONFIRM_YAW_RAD``); then both are used, each tying its own new keyframe to the
+   old pass. fr-clinic with an 8 m lidar comes back to its first corridors 24.5 m and 11.5
+   degrees off after 1000 s, lost; a 30 m cap alone closed that loop but let a wrong one
+   into the unperturbed log.
 """
 
 from __future__ import annotations
@@ -109,11 +112,11 @@ LOOP_RIVAL_RADIUS_M, LOOP_RIVAL_EXCLUDE_M, LOOP_MAX_RIVAL_RATIO = 1.0, 0.3, 0.9
 LOOP_FAR_FACTOR = 1.5
 LOOP_CONFIRM_KEYFRAMES = 40
 # ... at least this many keyframes after the first (their coarse queries share at most half
-# their scans; each fine match is of its own keyframe's scan). Far searches are run only for
-# every LOOP_FAR_EVERY-th keyframe: each costs about 60 ms (fr-clinic; 397 of them, one per
-# keyframe, took its replay from 44 s to 69 s).
+# their scans; each fine match is of its own keyframe's scan). Far searches run only at
+# keyframes whose index is a multiple of LOOP_FAR_EVERY_KEYFRAMES: each costs about 60 ms
+# (fr-clinic; 397 of them, at every keyframe searched, took its replay from 44 s to 69 s).
 LOOP_CONFIRM_GAP = LOOP_QUERY_KEYFRAMES // 2
-LOOP_FAR_EVERY = LOOP_CONFIRM_GAP
+LOOP_FAR_EVERY_KEYFRAMES = LOOP_CONFIRM_GAP
 LOOP_CONFIRM_XY_M, LOOP_CONFIRM_YAW_RAD = 0.5, math.radians(2.0)
 
 
@@ -224,7 +227,11 @@ class LoopCloser:
             candidate = self._search_pass(keyframes, k, run, window, alike)
             if candidate is not None:
                 found.append(candidate)
-            elif self._window_empty and wanted > s.loop_search_xy_m and k % LOOP_FAR_EVERY == 0:
+            elif (
+                self._window_empty
+                and wanted > s.loop_search_xy_m
+                and k % LOOP_FAR_EVERY_KEYFRAMES == 0
+            ):
                 far_cap = LOOP_FAR_FACTOR * s.loop_search_xy_m
                 far_window = min(far_cap, wanted)
                 far_alike = max(far_window, min(far_cap, LOOP_LOOKALIKE_PER_M * since_nearest_m))
@@ -237,10 +244,14 @@ class LoopCloser:
         """The far match ``far`` and the held one it confirms, if it confirms one (step 4 of
         the module docstring); otherwise nothing, and ``far`` is held in turn."""
         k = far.new
-        self.held = [h for h in self.held if 0 < k - h[0].new <= LOOP_CONFIRM_KEYFRAMES]
+        self.held = [h for h in self.held if 0 <= k - h[0].new <= LOOP_CONFIRM_KEYFRAMES]
         for entry in self.held:
             held, on_old = entry
             if k - held.new < LOOP_CONFIRM_GAP:
+                continue
+            # On the same old pass: its keyframes passed at about the pace of the new ones
+            # (twice it, and a submap's reach either way, allowed).
+            if abs(far.old - held.old) > 2 * (k - held.new) + LOOP_SUBMAP_KEYFRAMES:
                 continue
             # Where the held match and the tracking since put keyframe k on the old map.
             then = keyframes[held.old].pose.compose(on_old)  # held.pose, as the graph is now

@@ -394,9 +394,10 @@ class ScanMapper:
         """Tie keyframe ``k`` to the old passes it revisits; re-solve if it is off them."""
         unsettled = False
         for loop in self.loops.search(self.keyframes, self.edges, k):
+            # (k, or for a far loop confirmed now, the earlier keyframe of the held match)
             z = self.keyframes[loop.old].pose.between(loop.pose)
-            self.edges.append(Edge(loop.old, k, z, EDGE_WEIGHTS, robust=True))
-            off = self.keyframes[k].pose.between(loop.pose)
+            self.edges.append(Edge(loop.old, loop.new, z, EDGE_WEIGHTS, robust=True))
+            off = self.keyframes[loop.new].pose.between(loop.pose)
             if math.hypot(off.x, off.y) >= LOOP_SETTLED_M or abs(off.yaw) >= LOOP_SETTLED_RAD:
                 unsettled = True
         if unsettled:

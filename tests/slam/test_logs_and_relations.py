@@ -326,7 +326,7 @@ def test_replays_hold_with_scans_lost_worse_wheels_and_a_shorter_lidar(
     # A tenth of the scans dropped, wheels 5 % long whose heading drifts 2 degrees a minute,
     # or a lidar that sees 8 m: the defaults stay within twice the unperturbed error (issue
     # 19's bar). Measured: aces 0.0401, 0.0409 and 0.0411 m, the dump 0.0269 m, fr-clinic
-    # 0.120 m (docs/slam.md, "Perturbed logs"; fr-clinic with an 8 m lidar was 1.18 m before
+    # 0.112 m (docs/slam.md, "Perturbed logs"; fr-clinic with an 8 m lidar was 1.18 m before
     # loops beyond the window cap were searched and confirmed); aces with worse wheels and
     # with an 8 m lidar gave 0.120 and 0.277 m before the odometry pulled harder along
     # corridors.

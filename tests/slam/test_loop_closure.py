@@ -6,13 +6,14 @@ import itertools
 import math
 
 import numpy as np
+import pytest
 
 from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import (
-    LOOP_FAR_EVERY,
+    LOOP_FAR_EVERY_KEYFRAMES,
     LoopCandidate,
     LoopCloser,
     passes,
@@ -305,7 +306,7 @@ def test_a_revisit_beyond_the_window_cap_is_used_once_a_second_match_agrees() ->
     # are returned. Only every fifth keyframe is searched beyond the cap.
     settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
     keyframes, start, truth = _far_revisit(Pose2(0.0, 0.0, 0.0))
-    assert start % LOOP_FAR_EVERY == 0
+    assert start % LOOP_FAR_EVERY_KEYFRAMES == 0
     closer = LoopCloser(settings)
     assert _search_at(closer, keyframes, start + 5) == []
     assert (closer.counts.far_held, closer.counts.far_confirmed) == (1, 0)
@@ -320,11 +321,17 @@ def test_a_revisit_beyond_the_window_cap_is_used_once_a_second_match_agrees() ->
     assert closer.counts.far_confirmed == 1
 
 
-def test_a_far_match_the_tracking_since_disagrees_with_confirms_nothing() -> None:
-    # As above, but between the two matches the tracking slipped 0.67 m: the second match is
-    # not where the first and the tracking put it, so neither is used; both are held.
+@pytest.mark.parametrize(
+    "slip",
+    [Pose2(0.6, 0.3, 0.0), Pose2(0.0, 0.0, math.radians(3.5))],
+    ids=["0.67 m", "3.5 degrees"],
+)
+def test_a_far_match_the_tracking_since_disagrees_with_confirms_nothing(slip: Pose2) -> None:
+    # As above, but between the two matches the tracking slipped (0.67 m, or 3.5 degrees
+    # about the room's centre: 0.2 m or less where the robot is): the second match is not
+    # where the first and the tracking put it, so neither is used; both are held.
     settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
-    keyframes, start, _ = _far_revisit(Pose2(0.6, 0.3, 0.0))
+    keyframes, start, _ = _far_revisit(slip)
     closer = LoopCloser(settings)
     assert _search_at(closer, keyframes, start + 5) == []
     assert _search_at(closer, keyframes, start + 20) == []  # its query all after the slip
@@ -353,3 +360,45 @@ def test_within_the_cap_a_loop_is_used_at_once_and_nothing_is_held() -> None:
     closer = LoopCloser(settings)
     assert [f.new for f in _search_at(closer, keyframes, start + 1)] == [start + 1]
     assert closer.counts.far_held == 0 and closer.held == []
+
+
+def test_a_far_match_on_another_old_pass_confirms_nothing() -> None:
+    # Two far matches that agree in the map but lie on old keyframes 50 apart, five new
+    # keyframes apart: not one old pass passed again, so no confirmation.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0, loop_search_xy_m=2.0)
+    frames = [Keyframe(0.0, Pose2(0.3 * i, 0.0, 0.0), None, mapped=False) for i in range(120)]
+    closer = LoopCloser(settings)
+    shift = Pose2(25.0, 1.0, 0.1)  # where the far matches put the robot, from its estimate
+    first = LoopCandidate(10, 100, shift.compose(frames[100].pose), 0.8)
+    assert closer._confirmed(frames, first) == []
+    elsewhere = LoopCandidate(60, 105, shift.compose(frames[105].pose), 0.8)
+    assert closer._confirmed(frames, elsewhere) == []
+    same_pass = LoopCandidate(16, 110, shift.compose(frames[110].pose), 0.8)
+    assert [c.new for c in closer._confirmed(frames, same_pass)] == [100, 110]
+
+
+def test_a_confirmed_far_loop_ties_each_match_to_its_own_keyframe() -> None:
+    # The mapper gets the held match (an earlier keyframe) and the new one together: each
+    # edge goes from the old keyframe to the keyframe that was matched, measured as matched.
+    settings = MapperSettings.defaults(loop_closure=True, max_range_m=12.0)
+    mapper = ScanMapper(settings)
+    mapper.keyframes = [
+        Keyframe(float(i), Pose2(0.3 * i, 0.0, 0.0), None, mapped=False) for i in range(60)
+    ]
+    mapper.edges = _chain(mapper.keyframes)
+    held = LoopCandidate(3, 50, Pose2(1.0, 0.5, 0.02), 0.8)
+    far = LoopCandidate(5, 59, Pose2(3.6, 0.6, 0.03), 0.8)
+    chain = len(mapper.edges)
+    old = {i: mapper.keyframes[i].pose for i in (3, 5)}
+
+    class Found:
+        def search(self, *args: object) -> list[LoopCandidate]:
+            return [held, far]
+
+    mapper.loops = Found()  # type: ignore[assignment]
+    mapper._close_loop(59)
+    loops = mapper.edges[chain:]
+    assert [(e.i, e.j) for e in loops] == [(3, 50), (5, 59)]
+    for edge, loop in zip(loops, (held, far), strict=True):
+        want = old[loop.old].between(loop.pose)
+        assert (edge.z.x, edge.z.y, edge.z.yaw) == pytest.approx((want.x, want.y, want.yaw))
