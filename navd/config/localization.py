@@ -28,10 +28,10 @@ class SlamConfig(Section):
         le=1,
         examples=[0.025],
         **restart(
-            "[m] cell size of the fine map each matched scan's reported pose is refined on: "
-            "the keyframes near the robot drawn again at this cell, the match searched again "
-            "within one map cell (tracking and the map go on from the match itself; unset: "
-            "half of resolution_m; equal to it: no refinement; needs loop_closure)"
+            "[m] cell size of the fine map a replay's trajectory is refined on: the keyframes "
+            "near the robot drawn again at this cell, each match searched again within one "
+            "map cell (tracking, the map and the daemon's pose go on from the match itself; "
+            "unset: half of resolution_m; equal to it: no refinement; needs loop_closure)"
         ),
     )
     voxel_size_m: float = Field(

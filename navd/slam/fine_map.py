@@ -7,9 +7,10 @@ with two others into a grid of the bench room, put up to 2.5 cm off its pose and
 again within a map cell, comes back 2.8 cm from its pose on average on 5 cm cells and 1.1
 cm on 2.5 cm cells (tests/slam/test_fine_map.py).
 
-What it changes: only the pose reported for each matched scan (the trajectory a replay
-writes, the pose the daemon publishes). Tracking, the map, the keyframes and the loop
-closures go on from the match on the map exactly as without it. Feeding the refined pose
+What it changes: only the pose reported for each matched scan, which is the trajectory a
+replay writes (the daemon does not refine: ``refinement.FineRefinement.of`` says why).
+Tracking, the map, the keyframes and the loop closures go on from the match on the map
+exactly as without it. Feeding the refined pose
 back into tracking was measured first (docs/slam.md, "Finer cells for the Intel lab"): it
 gave the Intel lab 0.0227 m but lost four of fr-clinic's five perturbed runs.
 

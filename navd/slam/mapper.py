@@ -22,7 +22,6 @@ import numpy.typing as npt
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
 from navd.slam.doubt import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, Doubt
-from navd.slam.fine_map import FineMap, fine_keep_cells, fine_refiner, refine_pose
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
@@ -30,6 +29,7 @@ from navd.slam.loop_closure import LoopCloser
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
+from navd.slam.refinement import FineRefinement
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -82,19 +82,8 @@ FOUND_WEIGHTS = (1 / 0.1, 1 / 0.1, 1 / 0.035)
 # its walls where the map has open floor, or none at all.
 LOST_KNOWN_FRACTION = 0.25
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
-# The fine map's field reaches this far [m] beyond the scans' range and the refinement's
-# window, and is drawn anew when the robot has moved this far from its centre.
-FINE_FIELD_MARGIN_M = 1.0
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
-
-
-def _fine_map(s: MapperSettings) -> FineMap | None:
-    """The fine map poses are refined on, if the settings ask for one: its cells finer than
-    the map's, and keyframes that keep their scans (loop closure on) to draw it from."""
-    if not s.loop_closure or s.match_resolution_m >= s.resolution_m:
-        return None
-    return FineMap(s.match_resolution_m, s.max_range_m / 2, fine_keep_cells(s))
 
 
 def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
@@ -119,8 +108,7 @@ class ScanMapper:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
-        self.fine = _fine_map(s)
-        self.refiner = fine_refiner(s)
+        self.fine = FineRefinement.of(s)
         # The reported pose of the last scan in the frame of the tracked one (the fine map's
         # refinement; identity without one).
         self._refinement = Pose2(0.0, 0.0, 0.0)
@@ -145,16 +133,13 @@ class ScanMapper:
         self._field: LikelihoodField | None = None
         self._field_revision = -1
         self._field_center = Pose2(0.0, 0.0, 0.0)
-        self._fine_field: LikelihoodField | None = None  # the fine map's, for ``_refined``
-        self._fine_grid: OccupancyGrid | None = None  # the fine map's grid it was drawn from
-        self._fine_revision = -1
-        self._fine_center = Pose2(0.0, 0.0, 0.0)
 
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
-        self.refiner = fine_refiner(settings)
+        if self.fine is not None:
+            self.fine.configure(settings)
         self.loops.configure(settings)
         self._field = None
         self.doubt.configure(settings)
@@ -447,31 +432,9 @@ class ScanMapper:
         """``pose`` (a match on the map) refined on the fine map (see ``fine_map``); as it
         is without a fine map, or over a base map (one loaded without its keyframes' scans:
         what lies under it cannot be drawn finer)."""
-        fine = self.fine
-        if fine is None or self._base is not None:
+        if self.fine is None or self._base is not None:
             return pose
-        s = self.settings
-        # Drawn anew when the robot has moved on or the fine map was (a re-solve, its
-        # budget); brought up to date with each keyframe drawn between (see
-        # ``FineMap.update``). Drawn anew at every keyframe instead, the Intel lab's replay
-        # took 36.9 s against 34.1 s; drawn only when the robot moved and not brought up to
-        # date between, its dump gave 0.0255 m and aces 0.0401 m (docs/slam.md).
-        moved = np.hypot(pose.x - self._fine_center.x, pose.y - self._fine_center.y)
-        if (
-            self._fine_field is None
-            or self._fine_grid is not fine.grid
-            or moved > FINE_FIELD_MARGIN_M
-        ):
-            radius = s.max_range_m + s.resolution_m + FINE_FIELD_MARGIN_M
-            self._fine_field = fine.field(self.keyframes, pose, radius, s.blur_sigma_m)
-            self._fine_grid = fine.grid  # (drawn anew if it had grown too large)
-            self._fine_revision = fine.grid.revision
-            self._fine_center = pose
-        elif self._fine_revision != fine.grid.revision:
-            self._fine_field = fine.update(self.keyframes, pose, self._fine_field, s.blur_sigma_m)
-            self._fine_revision = fine.grid.revision
-        assert self._fine_field is not None
-        return refine_pose(self.refiner, self._fine_field, points, pose)
+        return self.fine.refine(self.keyframes, points, pose)
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""

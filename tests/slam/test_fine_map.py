@@ -43,10 +43,13 @@ def _keyframes(poses: list[Pose2]) -> list[Keyframe]:
 def test_the_defaults_refine_on_cells_half_the_map_s() -> None:
     assert SETTINGS.match_resolution_m == pytest.approx(SETTINGS.resolution_m / 2)
     assert fine_keep_cells(SETTINGS) == 1
-    assert ScanMapper(SETTINGS).fine is not None
-    same = MapperSettings.defaults(match_resolution_m=SETTINGS.resolution_m)
+    replay = dataclasses.replace(SETTINGS, keep_trajectory=True)
+    assert ScanMapper(replay).fine is not None
+    assert ScanMapper(SETTINGS).fine is None  # the daemon keeps no trajectory (refinement)
+    same = dataclasses.replace(replay, match_resolution_m=SETTINGS.resolution_m)
     assert ScanMapper(same).fine is None  # no second map: matched on the map alone
-    assert ScanMapper(MapperSettings.defaults(loop_closure=False)).fine is None
+    no_loops = MapperSettings.defaults(loop_closure=False, keep_trajectory=True)
+    assert ScanMapper(no_loops).fine is None
 
 
 def test_a_match_resolution_coarser_than_the_map_is_refused_by_name() -> None:
@@ -68,7 +71,8 @@ def test_a_position_refined_on_the_fine_map_is_nearer_than_on_the_map() -> None:
     rng = np.random.default_rng(3)
     errors: dict[float, list[float]] = {0.05: [], 0.025: []}
     for _ in range(20):
-        truth = Pose2(*rng.uniform(-1.0, 1.0, 2), rng.uniform(-0.5, 0.5))
+        x, y = rng.uniform(-1.0, 1.0, 2)
+        truth = Pose2(float(x), float(y), float(rng.uniform(-0.5, 0.5)))
         off = rng.uniform(-0.025, 0.025, 2)
         start = Pose2(truth.x + off[0], truth.y + off[1], truth.yaw)
         points = voxel_downsample(_scan(truth).hits, SETTINGS.voxel_size_m)

@@ -282,7 +282,7 @@ def test_fr_clinic_replay_with_the_defaults_closes_its_loops_in_300_mb(tmp_path:
     relations = read_relations(freiburg / "relations" / "fr-clinic.relations")
     errors = evaluate(stamps, poses, relations)
     assert errors.used == 2820
-    # 0.137 m measured (2.73 m with the defaults before); scan matching 0.434 m, graph
+    # 0.126 m measured (2.73 m with the defaults before); scan matching 0.434 m, graph
     # mapping 0.143 m, Cartographer 0.108 m (Kümmerle et al. 2009, Hess et al. 2016).
     assert errors.translation_mean_m <= 0.15
     # The loops are closed: relations whose stamps lie 600 s or more apart (across the

@@ -1,0 +1,90 @@
+"""When the refinement's field is drawn anew and when it is brought up to date."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navd.bench.room import cast
+from navd.geometry.pose import Pose2
+from navd.geometry.scan import ScanPoints, scan_points
+from navd.slam.keyframe import Keyframe
+from navd.slam.refinement import FIELD_MARGIN_M, FineRefinement
+from navd.slam.settings import MapperSettings
+from navd.slam.voxel import voxel_downsample
+
+SETTINGS = MapperSettings.defaults(keep_trajectory=True)  # a replay's
+
+
+def _scan(pose: Pose2) -> ScanPoints:
+    angle_min, increment, ranges = cast(pose, beams=720)
+    return scan_points(ranges, angle_min, increment, range_min=0.1, range_max=12.0)
+
+
+class _Counted(FineRefinement):
+    """A refinement that counts the fine map's fields drawn anew and brought up to date."""
+
+    def __init__(self, settings: MapperSettings) -> None:
+        super().__init__(settings)
+        self.drawn = self.updated = 0
+        field, update = self.map.field, self.map.update
+
+        def counted_field(*args, **kwargs):  # type: ignore[no-untyped-def]
+            self.drawn += 1
+            return field(*args, **kwargs)
+
+        def counted_update(*args, **kwargs):  # type: ignore[no-untyped-def]
+            self.updated += 1
+            return update(*args, **kwargs)
+
+        self.map.field = counted_field  # type: ignore[method-assign]
+        self.map.update = counted_update  # type: ignore[method-assign]
+
+
+def test_a_replay_refines_and_the_daemon_or_no_loop_closure_or_finer_cells_does_not() -> None:
+    assert isinstance(FineRefinement.of(SETTINGS), FineRefinement)
+    assert not MapperSettings.defaults().keep_trajectory  # the daemon's
+    assert FineRefinement.of(MapperSettings.defaults()) is None
+    no_loops = MapperSettings.defaults(loop_closure=False, keep_trajectory=True)
+    assert FineRefinement.of(no_loops) is None
+    coarse = MapperSettings.defaults(match_resolution_m=SETTINGS.resolution_m, keep_trajectory=True)
+    assert FineRefinement.of(coarse) is None
+
+
+def test_the_field_is_brought_up_to_date_between_moves_and_drawn_anew_after_one() -> None:
+    refinement = _Counted(SETTINGS)
+    keyframes: list[Keyframe] = []
+
+    def step(pose: Pose2, keyframe: bool) -> Pose2:
+        if keyframe:
+            keyframes.append(Keyframe(float(len(keyframes)), pose, _scan(pose)))
+            refinement.add(keyframes)
+        points = voxel_downsample(_scan(pose).hits, SETTINGS.voxel_size_m)
+        return refinement.refine(keyframes, points, pose)
+
+    start = Pose2(-2.0, -1.0, 0.3)
+    step(start, keyframe=True)
+    assert (refinement.drawn, refinement.updated) == (1, 0)
+    step(start, keyframe=False)  # nothing new: the same field
+    assert (refinement.drawn, refinement.updated) == (1, 0)
+    step(Pose2(-1.7, -1.0, 0.3), keyframe=True)  # a keyframe 0.3 m on: stamped in
+    assert (refinement.drawn, refinement.updated) == (1, 1)
+    step(Pose2(-2.0 + FIELD_MARGIN_M + 0.1, -1.0, 0.3), keyframe=True)  # moved on: anew
+    assert (refinement.drawn, refinement.updated) == (2, 1)
+    refinement.clear()  # as after a re-solve: the fine map is drawn anew, and so the field
+    step(Pose2(-0.8, -1.0, 0.3), keyframe=False)
+    assert (refinement.drawn, refinement.updated) == (3, 1)
+
+
+def test_a_refined_pose_stays_within_a_map_cell_of_the_match_and_nears_the_truth() -> None:
+    refinement = FineRefinement(SETTINGS)
+    truth = Pose2(0.5, -1.2, 0.4)
+    keyframes = [Keyframe(0.0, truth, _scan(truth))]
+    refinement.add(keyframes)
+    points = voxel_downsample(_scan(truth).hits, SETTINGS.voxel_size_m)
+    start = Pose2(truth.x + 0.03, truth.y - 0.02, truth.yaw)
+    refined = refinement.refine(keyframes, points, start)
+    assert math.hypot(refined.x - start.x, refined.y - start.y) <= 1.5 * SETTINGS.resolution_m
+    assert math.hypot(refined.x - truth.x, refined.y - truth.y) < math.hypot(0.03, 0.02)
+    assert np.isfinite([refined.x, refined.y, refined.yaw]).all()
