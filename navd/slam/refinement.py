@@ -57,9 +57,9 @@ class FineRefinement:
 
         The daemon keeps no trajectory, and refines nothing: the pose it publishes is the
         match itself. Published refined, the pose made the simulated kidnap of
-        tests/e2e/test_scenarios.py fail in about half its runs (the robot found again on
-        the hall's twin of where it was put down; none of 5 runs failed without it), and
-        why was not found (docs/slam.md, pipeline step 6)."""
+        tests/e2e/test_scenarios.py fail in 7 of 10 runs (the robot found again on the
+        hall's twin of where it was put down; 5 of 5 passed without it), and why was not
+        found (docs/slam.md, pipeline step 6)."""
         if not settings.keep_trajectory or not settings.loop_closure:
             return None
         if settings.match_resolution_m >= settings.resolution_m:
