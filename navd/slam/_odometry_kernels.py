@@ -184,7 +184,7 @@ def align(
     kernel_m: float,
     max_iterations: int,
     tolerance: float,
-) -> tuple[FloatArray, int, int, float]:
+) -> tuple[FloatArray, int, int]:
     """The pose (x [m], y [m], yaw [rad]) that lays ``source`` (N x 2, robot frame [m]) on
     the map, by Gauss-Newton from ``guess`` (its yaw need not be wrapped; the result's is,
     once a step ran): each step pairs every point with its nearest map point within
@@ -192,15 +192,12 @@ def align(
     ``kernel_m`` (``(k² / (k² + r²))²``, r the pair's distance). Stops when a step moves
     less than ``tolerance`` (metres and radians together), or after ``max_iterations``.
 
-    Returns the pose, the iterations run, the pairs of the last step (0: nothing to align
-    to; the guess comes back) and how well the last step's pose fits: each point scores
-    ``1 - d² / voxel²`` for its pair d [m] away within a voxel.
+    Returns the pose, the iterations run and the pairs of the last step (0: nothing to
+    align to; the guess comes back).
     """
     x, y, yaw = guess[0], guess[1], guess[2]
     k2 = kernel_m * kernel_m
-    v2 = voxel_m * voxel_m
     iterations = pairs = 0
-    fit = 0.0
     for _ in range(max_iterations):
         iterations += 1
         c, s = math.cos(yaw), math.sin(yaw)
@@ -208,7 +205,6 @@ def align(
         h00 = h01 = h02 = h11 = h12 = h22 = 0.0
         g0 = g1 = g2 = 0.0
         pairs = 0
-        fit = 0.0
         for i in range(source.shape[0]):
             px = c * source[i, 0] - s * source[i, 1] + x
             py = s * source[i, 0] + c * source[i, 1] + y
@@ -216,8 +212,6 @@ def align(
             if d2 == math.inf:
                 continue
             pairs += 1
-            if d2 < v2:
-                fit += 1.0 - d2 / v2
             w = k2 / (k2 + d2)
             w *= w
             rx, ry = px - qx, py - qy
@@ -252,7 +246,7 @@ def align(
         yaw = math.atan2(math.sin(yaw + dyaw), math.cos(yaw + dyaw))
         if math.sqrt(tx * tx + ty * ty + dyaw * dyaw) < tolerance:
             break
-    return np.array([x, y, yaw]), iterations, pairs, fit
+    return np.array([x, y, yaw]), iterations, pairs
 
 
 @njit(cache=True, nogil=True)

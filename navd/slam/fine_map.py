@@ -178,14 +178,12 @@ class FineMap:
         ``OccupancyGrid.likelihood_field``; ``sigma_m`` [m] its blur), every keyframe within
         ``reach_m`` of the centre drawn first (one per place if the map was drawn anew).
         Drawn in the last field's array: that field is no longer good."""
-        self._learn(keyframes)
-        xy = self._xy
-        close = np.hypot(xy[:, 0] - center.x, xy[:, 1] - center.y) <= self.reach_m
-        missing = np.flatnonzero(close & self._usable & ~self._drawn & ~self._skipped)
+        close = self._close(keyframes, center)
+        missing = np.flatnonzero(close & ~self._drawn & ~self._skipped)
         if missing.size and self.grid.cells_store.used[0] > self.max_tiles:
             self._empty()
             self.redraws += 1
-            missing = np.flatnonzero(close & self._usable)
+            missing = np.flatnonzero(close)
         for i in self._thin(missing):  # in the order they were made, as the map draws them
             self._draw(keyframes, int(i))
         # Drawn in the last field's array: a new array for each left the heap fragmented
@@ -213,16 +211,22 @@ class FineMap:
         The grid must be the one ``field`` was drawn from: after ``clear``, or a redraw
         within ``max_tiles``, draw the field anew instead.
         """
-        self._learn(keyframes)
-        xy = self._xy
-        close = np.hypot(xy[:, 0] - center.x, xy[:, 1] - center.y) <= self.reach_m
-        for i in self._thin(np.flatnonzero(close & self._usable & ~self._drawn & ~self._skipped)):
+        close = self._close(keyframes, center)
+        for i in self._thin(np.flatnonzero(close & ~self._drawn & ~self._skipped)):
             self._draw(keyframes, int(i))
         if not self._pending:
             return field
         hits = np.concatenate(self._pending)
         self._pending = []
         return self.grid.stamp_points(field, hits, sigma_m)
+
+    def _close(self, keyframes: Sequence[Keyframe], center: Pose2) -> npt.NDArray[np.bool_]:
+        """Which keyframes (all made so far, learnt first) can be drawn and lie within
+        ``reach_m`` of ``center``."""
+        self._learn(keyframes)
+        xy = self._xy
+        near = np.hypot(xy[:, 0] - center.x, xy[:, 1] - center.y) <= self.reach_m
+        return near & self._usable
 
     def _draw(self, keyframes: Sequence[Keyframe], index: int) -> None:
         """Draw keyframe ``index`` if it can be and is not yet; note its hits [m] for the

@@ -124,7 +124,7 @@ class ScanOdometry:
         self, source: npt.NDArray[np.float64], guess: Pose2, sigma: float
     ) -> npt.NDArray[np.float64]:
         """ICP from ``guess``: the pose found (x [m], y [m], yaw [rad])."""
-        found, _, _, _ = kernels.align(
+        found, _, _ = kernels.align(
             source,
             self._keys,
             self._points,

@@ -57,24 +57,29 @@ def test_ray_update_matches_the_reference(seed: int, keep: int) -> None:
     np.testing.assert_array_equal(got.index >= 0, written)
 
 
-def test_smear_matches_the_reference_including_window_edges() -> None:
-    rng = np.random.default_rng(4)
+def _scattered(seed: int) -> tuple[np.ndarray, TiledArray]:
+    """A 150 x 170 log-odds grid with 2 % of its cells occupied, the rest free but for a
+    column of tiles never written; and its tiled store."""
+    rng = np.random.default_rng(seed)
     grid = np.where(rng.random((150, 170)) < 0.02, 1.0, -1.0).astype(np.float32)
-    grid[:, 64:128] = 0.0  # a column of tiles never written
-    kernel = gaussian_kernel(0.05, 0.05)
+    grid[:, 64:128] = 0.0
     store = TiledArray.from_dense(grid)
     assert (store.index < 0).any()
+    return grid, store
+
+
+def test_smear_matches_the_reference_including_window_edges() -> None:
+    grid, store = _scattered(4)
+    kernel = gaussian_kernel(0.05, 0.05)
     field = np.zeros((130, 135), dtype=np.float32)
     k.smear(*store.parts(), 0.0, 25, -5, kernel, field)  # hangs over the left and top edges
     np.testing.assert_allclose(field, ref.smear(grid, 0.0, 25, -5, kernel, (130, 135)))
 
 
 def test_smear_of_listed_cells_is_smear_of_the_occupied_ones_among_them() -> None:
+    grid, store = _scattered(5)
     rng = np.random.default_rng(5)
-    grid = np.where(rng.random((150, 170)) < 0.02, 1.0, -1.0).astype(np.float32)
-    grid[:, 64:128] = 0.0  # a column of tiles never written
     kernel = gaussian_kernel(0.05, 0.05)
-    store = TiledArray.from_dense(grid)
     rows, cols = np.mgrid[-3:153, -3:173]  # every cell, and some off the grid
     cells = np.column_stack([cols.ravel(), rows.ravel()]).astype(np.int64)
     field = np.zeros((130, 135), dtype=np.float32)

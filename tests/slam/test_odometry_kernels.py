@@ -166,7 +166,7 @@ def test_icp_lands_a_displaced_scan_on_the_map() -> None:
     truth = (0.4, 0.25, math.radians(-4.0))
     source = kernels.thin(_seen_from(_room(), truth), 0.15)
     guess = np.array([0.35, 0.31, math.radians(-3.0)])  # 8 cm and 1 degree off
-    pose, iterations, pairs, _ = kernels.align(source, *table, VOXEL_M, guess, 0.3, 0.1, 100, 1e-6)
+    pose, iterations, pairs = kernels.align(source, *table, VOXEL_M, guess, 0.3, 0.1, 100, 1e-6)
     assert np.hypot(pose[0] - truth[0], pose[1] - truth[1]) < 0.005
     assert abs(pose[2] - truth[2]) < math.radians(0.2)
     assert 1 < iterations < 100
@@ -176,6 +176,6 @@ def test_icp_lands_a_displaced_scan_on_the_map() -> None:
 def test_icp_returns_the_guess_when_there_is_nothing_to_align_to() -> None:
     empty = _table()
     guess = np.array([1.0, 2.0, 0.5])
-    pose, _, pairs, _ = kernels.align(_room(), *empty, VOXEL_M, guess, 0.3, 0.1, 100, 1e-6)
+    pose, _, pairs = kernels.align(_room(), *empty, VOXEL_M, guess, 0.3, 0.1, 100, 1e-6)
     assert pairs == 0
     np.testing.assert_array_equal(pose, guess)

@@ -96,32 +96,11 @@ def test_tiles_read_from_a_file_in_fortran_order_are_written_to_as_any() -> None
     for each in (again, store):
         each.reserve(0, 99, 0, 99)
     cells = np.array([5, 70], dtype=np.int64)
-    k.ray_update(
-        *again.parts(),
-        50,
-        50,
-        cells,
-        cells[::-1].copy(),
-        np.ones(2, bool),
-        -0.4,
-        0.85,
-        -2.0,
-        3.5,
-        0,
-    )
-    k.ray_update(
-        *store.parts(),
-        50,
-        50,
-        cells,
-        cells[::-1].copy(),
-        np.ones(2, bool),
-        -0.4,
-        0.85,
-        -2.0,
-        3.5,
-        0,
-    )
+    for each in (again, store):
+        hits = np.ones(2, bool)
+        k.ray_update(
+            *each.parts(), 50, 50, cells, cells[::-1].copy(), hits, -0.4, 0.85, -2.0, 3.5, 0
+        )
     np.testing.assert_array_equal(again.window(0, 100, 0, 100), store.window(0, 100, 0, 100))
 
 
