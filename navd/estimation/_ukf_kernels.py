@@ -46,6 +46,47 @@ _BEARING_ROW = 9
 
 
 @njit(cache=True, nogil=True)
+def _product(a: FloatArray, b: FloatArray) -> FloatArray:
+    """a @ b of two small matrices, in loops: numba's @ calls BLAS, whose code and call
+    overhead cost more than the product on the filter's 9 x 9 matrices, most of all when the
+    step runs cold between events (BLAS out of the caches)."""
+    n, k = a.shape
+    m = b.shape[1]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for j in range(k):
+            v = a[i, j]
+            for c in range(m):
+                out[i, c] += v * b[j, c]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _apply(a: FloatArray, v: FloatArray) -> FloatArray:
+    """a @ v of a small matrix and a vector, in loops (see ``_product``)."""
+    n, k = a.shape
+    out = np.zeros(n)
+    for i in range(n):
+        s = 0.0
+        for j in range(k):
+            s += a[i, j] * v[j]
+        out[i] = s
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _noise(dt: float, q_poly: FloatArray) -> FloatArray:
+    """Q = [dt⁵, dt⁴, dt³, dt², dt] @ q_poly as the 9 x 9 process noise (in loops)."""
+    q = np.zeros(_N * _N)
+    power = dt
+    for row in range(4, -1, -1):  # q_poly's rows: dt⁵ first, dt last
+        for c in range(_N * _N):
+            q[c] += power * q_poly[row, c]
+        power *= dt
+    return q.reshape(_N, _N)
+
+
+@njit(cache=True, nogil=True)
 def _cholesky(a: FloatArray) -> tuple[FloatArray, bool]:
     """Lower triangular L with L Lᵀ = a, and whether a was positive definite."""
     n = a.shape[0]
@@ -167,8 +208,7 @@ def _predict(
         for j in range(_N):
             mean[j] += wm[i] * moved[i, j]
     mean[_TH] = _angle_mean(moved[:, _TH], wm)
-    powers = np.array([dt**5, dt**4, dt**3, dt**2, dt])
-    cov = (powers @ q_poly).reshape(_N, _N)
+    cov = _noise(dt, q_poly)
     d = moved - mean
     for i in range(count):
         d[i, _TH] = wrap(d[i, _TH])
@@ -227,9 +267,9 @@ def _update(
     if not ok:
         return x, p, y, s, False
     gain = _solve(low, cross.T).T  # K = Pxz S⁻¹ (S symmetric)
-    new_x = x + gain @ y
+    new_x = x + _apply(gain, y)
     new_x[_TH] = wrap(new_x[_TH])
-    new_p = p - gain @ s @ gain.T
+    new_p = p - _product(_product(gain, s), gain.T.copy())
     return new_x, new_p, y, s, True
 
 
@@ -246,9 +286,7 @@ def propagate(
         f[pos, vel] = dt
         f[pos, acc] = half
         f[vel, acc] = dt
-    powers = np.array([dt**5, dt**4, dt**3, dt**2, dt])
-    q = (powers @ q_poly).reshape(_N, _N)
-    return f @ x, f @ p @ f.T + q
+    return _apply(f, x), _product(_product(f, p), f.T.copy()) + _noise(dt, q_poly)
 
 
 @njit(cache=True, nogil=True)
@@ -290,7 +328,7 @@ def ukf_step(
             if not ok:
                 return DIVERGED, x, p, math.nan
             yk = y[:k].reshape(k, 1).copy()
-            distance = (yk.T @ _solve(low, yk))[0, 0]
+            distance = _product(yk.T.copy(), _solve(low, yk))[0, 0]
             if not distance <= gate_chi2:
                 outcome = REJECTED
                 new_x, new_p = mean, cov
