@@ -10,6 +10,9 @@ loading scipy.ndimage (some 20 MB of the daemon's memory for this one function).
 ``any_within`` says whether any of a few points (stations along a route) lies within a radius
 of any of many (a scan's obstacle points), stopping at the first such pair: the route's
 blocked check, asked at every scan (a broadcast of every pair took about 1 ms a scan).
+
+``nearest_on_polyline`` finds the point of a route nearest the robot, asked several times a
+control step (in numpy, some ten small array calls: 150 us of the daemon's 20 Hz step).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["any_within", "distance_to"]
+__all__ = ["any_within", "distance_to", "nearest_on_polyline"]
 
 BoolArray = npt.NDArray[np.bool_]
 FloatArray = npt.NDArray[np.float64]
@@ -107,3 +110,22 @@ def any_within(a: FloatArray, b: FloatArray, radius_m: float) -> bool:
             if dx * dx + dy * dy < r2:
                 return True
     return False
+
+
+@njit(cache=True, nogil=True)
+def nearest_on_polyline(
+    points: FloatArray, first: int, x: float, y: float
+) -> tuple[int, float, float]:
+    """The point nearest (x, y) [m] on the segments of an N x 2 polyline (N >= 2) from
+    segment ``first`` on: (segment, fraction along it 0..1, distance [m]); the first of
+    equally near segments."""
+    best, best_t, best_d = first, 0.0, math.inf
+    for i in range(first, points.shape[0] - 1):
+        ax, ay = points[i, 0], points[i, 1]
+        abx, aby = points[i + 1, 0] - ax, points[i + 1, 1] - ay
+        length2 = max(abx * abx + aby * aby, 1e-12)
+        t = min(max(((x - ax) * abx + (y - ay) * aby) / length2, 0.0), 1.0)
+        d = math.hypot(ax + t * abx - x, ay + t * aby - y)
+        if d < best_d:
+            best, best_t, best_d = i, t, d
+    return best, best_t, best_d

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
-from navd.planning._distance_kernels import any_within
+from navd.planning._distance_kernels import any_within, nearest_on_polyline
 from navd.planning.dwa import PathField, path_field
 
 __all__ = ["Route"]
@@ -28,6 +28,7 @@ class Route:
 
     def __init__(self, points_m: FloatArray) -> None:
         self.points_m = points_m
+        self._points = np.require(points_m, np.float64, ("C", "W"))  # one kernel type
         self.field: PathField = path_field(points_m)
         steps = np.hypot(*np.diff(points_m, axis=0).T) if len(points_m) > 1 else np.empty(0)
         self.cumulative: FloatArray = np.concatenate([[0.0], np.cumsum(steps)])
@@ -52,15 +53,11 @@ class Route:
         last = self._located
         if last is not None and last[1] == self.progress and last[0] == pose:
             return last[2]
-        a = points[self.progress : -1]
-        ab = points[self.progress + 1 :] - a
-        p = np.array([pose.x, pose.y])
-        length2 = np.maximum((ab**2).sum(axis=1), 1e-12)
-        t = np.clip(((p - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
-        d = np.hypot(*(a + t[:, None] * ab - p).T)
-        i = int(np.argmin(d))
-        self.progress += i
-        found = (self.progress, float(t[i]), float(d[i]))
+        segment, t, d = nearest_on_polyline(
+            self._points, self.progress, float(pose.x), float(pose.y)
+        )
+        self.progress = segment
+        found = (segment, t, d)
         self._located = (pose, self.progress, found)
         return found
 

@@ -1,4 +1,5 @@
-"""The distance transform against scipy's, cell for cell."""
+"""The distance transform against scipy's, cell for cell; the pair and nearest-point
+searches against brute force."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 
-from navd.planning._distance_kernels import any_within, distance_to
+from navd.planning._distance_kernels import any_within, distance_to, nearest_on_polyline
 
 
 @settings(max_examples=300, deadline=None)
@@ -55,3 +56,37 @@ def test_any_within_is_strict_at_the_radius() -> None:
     a = np.array([[0.0, 0.0]])
     assert not any_within(a, np.array([[0.5, 0.0]]), 0.5)
     assert any_within(a, np.array([[0.4999, 0.0], [9.0, 9.0]]), 0.5)
+
+
+# on a 0.1 m lattice: a segment is a point or at least 0.1 m long (a route's steps are cells)
+polylines = arrays(
+    np.float64,
+    st.tuples(st.integers(2, 10), st.just(2)),
+    elements=st.integers(-30, 30).map(lambda v: v / 10.0),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(polylines, st.floats(-4.0, 4.0), st.floats(-4.0, 4.0), st.integers(0, 8))
+def test_nearest_on_polyline_is_on_it_and_nothing_sampled_is_nearer(
+    line: np.ndarray, x: float, y: float, first: int
+) -> None:
+    first = min(first, line.shape[0] - 2)
+    segment, t, d = nearest_on_polyline(line, first, x, y)
+    assert first <= segment <= line.shape[0] - 2
+    assert 0.0 <= t <= 1.0
+    a, b = line[segment], line[segment + 1]
+    assert d == pytest.approx(np.hypot(*(a + t * (b - a) - (x, y))), abs=1e-9)
+    # 201 points along every segment from ``first`` on: none nearer (segments before it
+    # are not searched)
+    s = np.linspace(0.0, 1.0, 201)[:, None]
+    for i in range(first, line.shape[0] - 1):
+        along = line[i] + s * (line[i + 1] - line[i])
+        assert np.hypot(along[:, 0] - x, along[:, 1] - y).min() >= d - 1e-9
+
+
+def test_nearest_on_polyline_takes_the_first_of_equally_near_segments() -> None:
+    # a route out along x and back: both legs pass (1, 0) at the same distance
+    line = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 0.0]])
+    assert nearest_on_polyline(line, 0, 1.0, 0.5) == (0, 0.5, 0.5)
+    assert nearest_on_polyline(line, 1, 1.0, 0.5) == (1, 0.5, 0.5)
