@@ -58,7 +58,13 @@ def uniform_costmap(cells: int) -> Costmap:
     frame = GridFrame(1.0, 0.0, 0.0, cells, cells)
     no_clearance = np.zeros(cost.shape, np.float32)
     return Costmap(
-        frame, occupied, no_clearance, cost, np.zeros_like(occupied), unknown_blocks=False
+        frame,
+        obstacles=occupied,
+        clearance_m=no_clearance,
+        cost=cost,
+        blocked=occupied,
+        unknown=np.zeros_like(occupied),
+        unknown_blocks=False,
     )
 
 

@@ -99,7 +99,7 @@ class CellSearch:
         cols = costmap.frame.cols
         if cost_weight == 0.0 or uniform_costs(costmap.cost):
             memory = self._reserve(costmap.frame.rows * cols)
-            rows_free, cols_free = pack_free_cells(costmap.cost)
+            rows_free, cols_free = pack_free_cells(costmap.blocked)
             g_cells, self.last_expanded = jump_point_search(
                 cols, start_cell, goal_cell, *memory.jumps(), rows_free, cols_free
             )

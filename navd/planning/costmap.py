@@ -261,6 +261,9 @@ class Costmap:
         clearance_m: [m] distance from each cell centre to the nearest obstacle cell centre
             (inf when there is none).
         cost: [0..1] cost of each cell for the robot's centre; inf where it cannot be.
+        blocked: the cells of infinite cost, one byte a cell: jump point search packs them
+            into bits at every search, and reading a quarter of the bytes the costs take is
+            about half its packing time.
         unknown: cells never observed.
         unknown_blocks: unknown cells cannot be crossed (``planning.allow_unknown`` false);
             otherwise an unknown cell of infinite cost is blocked by a nearby obstacle.
@@ -270,6 +273,7 @@ class Costmap:
     obstacles: BoolArray
     clearance_m: npt.NDArray[np.float32]
     cost: npt.NDArray[np.float32]
+    blocked: BoolArray
     unknown: BoolArray
     unknown_blocks: bool
 
@@ -300,17 +304,19 @@ def build_costmap(
     cost[soft] = np.exp(
         -settings.cost_decay_per_m * (clearance[soft] - settings.robot_radius_m)
     ).clip(0.0, 1.0)
+    blocked = clearance < settings.robot_radius_m
     if settings.allow_unknown:
         cost[unknown] = np.maximum(cost[unknown], settings.unknown_cost)
     else:
-        cost[unknown] = np.inf
-    cost[clearance < settings.robot_radius_m] = np.inf
+        blocked |= unknown
+    cost[blocked] = np.inf
     return Costmap(
         frame,
-        obstacles.copy(),
-        clearance,
-        cost,
-        unknown.copy(),
+        obstacles=obstacles.copy(),
+        clearance_m=clearance,
+        cost=cost,
+        blocked=blocked,
+        unknown=unknown.copy(),
         unknown_blocks=not settings.allow_unknown,
     )
 

@@ -47,6 +47,20 @@ def test_unknown_cells_cost_or_block_as_configured() -> None:
     assert np.isinf(forbidden.clearance_m).all()  # nothing is an obstacle
 
 
+@pytest.mark.parametrize("allow_unknown", [True, False])
+def test_the_blocked_cells_are_those_of_infinite_cost(allow_unknown: bool) -> None:
+    rng = np.random.default_rng(7)
+    obstacles = rng.random(FRAME.shape) < 0.02
+    unknown = np.zeros(FRAME.shape, bool)
+    unknown[25:, 5:30] = True
+    settings = CostmapSettings(0.25, 0.8, 3.0, allow_unknown, 0.5, 65)
+    costmap = build_costmap(FRAME, obstacles, unknown, settings)
+    np.testing.assert_array_equal(costmap.blocked, ~np.isfinite(costmap.cost))
+    assert costmap.blocked.any() and not costmap.blocked.all()
+    # unexplored cells are all blocked when they cannot be crossed, else only near obstacles
+    assert costmap.blocked[unknown].all() == (not allow_unknown)
+
+
 def test_static_layer_thresholds_occupancy() -> None:
     occupancy = np.array([[-1, 0, 64, 65, 100]], dtype=np.int8)
     occupied, unknown = static_layer(occupancy, 65)

@@ -55,10 +55,11 @@ def costmap_of(cost: np.ndarray) -> Costmap:
     blocked = ~np.isfinite(cost)
     return Costmap(
         frame,
-        blocked,
-        np.zeros(cost.shape, np.float32),
-        cost.astype(np.float32),
-        np.zeros(cost.shape, bool),
+        obstacles=blocked,
+        clearance_m=np.zeros(cost.shape, np.float32),
+        cost=cost.astype(np.float32),
+        blocked=blocked,
+        unknown=np.zeros(cost.shape, bool),
         unknown_blocks=False,
     )
 
