@@ -5,6 +5,7 @@ import threading
 
 import pytest
 
+from navd.lifecycle import workers
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
 from navd.lifecycle.messages import Message, VelocityCommand
@@ -122,6 +123,25 @@ async def test_wait_idle_returns_once_every_job_and_detached_setup_is_done(bus: 
     setup_gate.set()
     await asyncio.wait_for(waiter, 5.0)
     assert not pool.busy()
+    pool.close()
+
+
+async def test_each_set_up_drops_the_compilers_code_as_it_ends(
+    bus: Bus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    released: list[str] = []
+    monkeypatch.setattr(
+        workers, "release_compiler_code", lambda: released.append(threading.current_thread().name)
+    )
+    pool = WorkerPool(bus, threads=1)
+    first_gate, second_gate = threading.Event(), threading.Event()
+    pool.run_detached(lambda: first_gate.wait(5.0), name="first-setup", module="slam")
+    pool.run_detached(lambda: second_gate.wait(5.0), name="second-setup", module="planner")
+    first_gate.set()
+    await _until(lambda: released == ["first-setup"])  # the other still runs: dropped anyway
+    second_gate.set()
+    await asyncio.wait_for(pool.wait_idle(), 5.0)
+    assert released == ["first-setup", "second-setup"]
     pool.close()
 
 
