@@ -11,6 +11,9 @@ from navd.config.fields import Section, is_loopback, restart
 __all__ = ["LifecycleConfig", "LoggingConfig", "TcpConfig"]
 
 
+MIN_SLICE_MS = 0.1  # the shortest time slice Linux gives a task that asks for one
+
+
 class LifecycleConfig(Section):
     """The event loop, dispatch, workers and supervision."""
 
@@ -47,6 +50,16 @@ class LifecycleConfig(Section):
             "the event loop up for at most about this long"
         ),
     )
+    loop_slice_ms: float = Field(
+        0.3,
+        ge=0.0,
+        le=100,
+        **restart(
+            "[ms] time slice the event-loop thread asks the kernel for (Linux 6.12 and later): "
+            "shorter than the default, it is run sooner when a message arrives while another "
+            "program uses the CPU; 0 keeps the kernel's default"
+        ),
+    )
     transition_timeout_s: float = Field(
         5.0, gt=0, le=120, description="[s] longest a module may take to start or stop"
     )
@@ -77,6 +90,16 @@ class LifecycleConfig(Section):
         le=1_000_000,
         description="[messages] most messages queued by handlers in one dispatch cascade",
     )
+
+    @model_validator(mode="after")
+    def _slice_the_kernel_can_give(self) -> LifecycleConfig:
+        if 0.0 < self.loop_slice_ms < MIN_SLICE_MS:
+            raise ValueError(
+                f"lifecycle.loop_slice_ms = {self.loop_slice_ms} is shorter than the kernel's "
+                f"shortest slice ({MIN_SLICE_MS} ms): give at least that, or 0 for the "
+                "kernel's default"
+            )
+        return self
 
 
 class LoggingConfig(Section):

@@ -32,6 +32,7 @@ from navd.lifecycle.messages import (
     VelocityCommand,
 )
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager
+from navd.lifecycle.scheduling import request_slice, thread_slice_s
 from navd.lifecycle.sdnotify import SystemdNotifier
 from navd.lifecycle.settings import Live
 from navd.lifecycle.supervision import Supervisor
@@ -169,7 +170,12 @@ class Daemon:
         # Set for the process while the daemon runs (and given back after, for a process
         # that runs daemons in turn, such as the tests).
         switch_interval_s = sys.getswitchinterval()
-        sys.setswitchinterval(self.config_service.current.lifecycle.switch_interval_ms / 1e3)
+        lifecycle = self.config_service.current.lifecycle
+        sys.setswitchinterval(lifecycle.switch_interval_ms / 1e3)
+        slice_ms = lifecycle.loop_slice_ms
+        # this thread runs the event loop: a short slice has it run soon after it wakes
+        slice_before_s = thread_slice_s()
+        sliced = slice_ms > 0.0 and request_slice(slice_ms / 1e3)
         self._install_signals(loop)
         set_level(self.logging.value.level)  # the level in force is the config's, from here on
         self._started_s = self.clock.now()
@@ -180,6 +186,7 @@ class Daemon:
         _log.info(
             "starting",
             version=__version__,
+            loop_slice_ms=slice_ms if sliced else None,  # None: the kernel's default
             modules=[m.name for m in self.manager.modules],
             config=redacted(self.config),
         )
@@ -206,6 +213,8 @@ class Daemon:
             self._remove_signals(loop)
             self.notifier.close()
             sys.setswitchinterval(switch_interval_s)
+            if sliced and slice_before_s is not None:
+                request_slice(slice_before_s)
             _log.info("stopped", reason=self._shutdown_reason, stop_errors=len(errors))
 
     def _context(self, name: str) -> ModuleContext:

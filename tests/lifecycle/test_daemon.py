@@ -20,6 +20,7 @@ from navd.lifecycle.messages import (
     VelocityCommand,
 )
 from navd.lifecycle.module import Module, ModuleContext
+from navd.lifecycle.scheduling import thread_slice_s
 
 
 async def _settle() -> None:
@@ -226,3 +227,19 @@ async def test_the_switch_interval_is_the_configs_while_the_daemon_runs() -> Non
     daemon.request_shutdown("done")
     await task
     assert sys.getswitchinterval() == before
+
+
+async def test_the_event_loop_thread_runs_with_the_configs_slice_while_the_daemon_runs() -> None:
+    before = thread_slice_s()
+    if before is None:
+        pytest.skip("this kernel gives no task a slice of its own (Linux 6.12 and later do)")
+    daemon = Daemon(
+        parse_config({"lifecycle": {"loop_slice_ms": 0.25}}),
+        clock=SimClock(),
+        handle_signals=False,
+    )
+    task = await _started(daemon)
+    assert thread_slice_s() == pytest.approx(0.00025)  # this thread runs the daemon's loop
+    daemon.request_shutdown("done")
+    await task
+    assert thread_slice_s() == pytest.approx(before)
