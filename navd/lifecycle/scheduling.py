@@ -43,11 +43,15 @@ class _SchedAttr(ctypes.Structure):
 
 def request_slice(slice_s: float) -> bool:
     """Ask the kernel for a ``slice_s`` [s] time slice for the calling thread, keeping its
-    policy (SCHED_OTHER) and nice value; False where there is no such call (another system
-    or machine) or the kernel refused it."""
+    nice value; False where there is no such call (another system or machine), where the
+    thread runs under another policy than the normal one (a real-time or batch policy the
+    service was given is left as it is), or where the kernel refused it."""
     syscall = _syscall()
     numbers = _SYSCALLS.get(platform.machine())
-    if syscall is None or numbers is None:
+    current = _attributes()
+    if syscall is None or numbers is None or current is None:
+        return False
+    if current.sched_policy != _SCHED_OTHER:
         return False
     attr = _SchedAttr(
         size=ctypes.sizeof(_SchedAttr),
@@ -61,6 +65,12 @@ def request_slice(slice_s: float) -> bool:
 def thread_slice_s() -> float | None:
     """[s] the time slice the calling thread runs with, or None where the kernel does not say
     (another system, or a kernel whose scheduler has no slice of its own per task)."""
+    attr = _attributes()
+    return attr.sched_runtime / 1e9 if attr is not None and attr.sched_runtime else None
+
+
+def _attributes() -> _SchedAttr | None:
+    """The calling thread's scheduling attributes, or None where they cannot be read."""
     syscall = _syscall()
     numbers = _SYSCALLS.get(platform.machine())
     if syscall is None or numbers is None:
@@ -68,7 +78,7 @@ def thread_slice_s() -> float | None:
     attr = _SchedAttr()
     if syscall(numbers[1], 0, ctypes.byref(attr), ctypes.sizeof(_SchedAttr), 0) != 0:
         return None
-    return attr.sched_runtime / 1e9 if attr.sched_runtime else None
+    return attr
 
 
 @functools.cache

@@ -3,6 +3,7 @@ where there is no such call."""
 
 from __future__ import annotations
 
+import os
 import threading
 
 import pytest
@@ -31,6 +32,17 @@ def test_a_thread_gets_the_slice_it_asks_for_and_the_others_keep_theirs() -> Non
 
     assert _in_a_thread(ask) == (True, pytest.approx(0.0004))
     assert thread_slice_s() == here  # a thread's own, not the process's
+
+
+def test_a_thread_under_another_policy_is_left_as_it_is() -> None:
+    if thread_slice_s() is None:
+        pytest.skip("this kernel gives no task a slice of its own (Linux 6.12 and later do)")
+
+    def batch_then_ask() -> tuple[bool, int]:
+        os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))  # this thread only
+        return request_slice(0.0004), os.sched_getscheduler(0)
+
+    assert _in_a_thread(batch_then_ask) == (False, os.SCHED_BATCH)
 
 
 def test_nothing_is_asked_where_there_is_no_such_call(monkeypatch: pytest.MonkeyPatch) -> None:
