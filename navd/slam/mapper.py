@@ -190,6 +190,13 @@ class ScanMapper:
             out.append(self.keyframes[index].pose.compose(relative) if index >= 0 else relative)
         return out
 
+    def finish(self) -> None:
+        """After the last scan: let go of what only matching new scans uses (the tracking
+        field and the fine map), so that writing the map out has that memory. Adding a scan
+        afterwards matches it without the fine refinement."""
+        self._field = None
+        self.fine = None
+
     def tracking_counts(self) -> dict[str, int | float]:
         """How tracking went so far: the replay summary's and the daemon status's counts."""
         c = self.counts

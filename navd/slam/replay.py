@@ -217,6 +217,7 @@ def replay(
     wall = time.perf_counter() - start
     if not stamps:
         raise LogFormatError("it holds no laser scans: nothing to map")
+    mapper.finish()
     # The trajectory as the final pose graph has it (loop closures correct the past too).
     poses = mapper.trajectory()
     graph = mapper.graph()

@@ -10,6 +10,7 @@ from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe
+from navd.slam.mapper import ScanMapper
 from navd.slam.refinement import FIELD_MARGIN_M, FineRefinement
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
@@ -88,3 +89,18 @@ def test_a_refined_pose_stays_within_a_map_cell_of_the_match_and_nears_the_truth
     assert math.hypot(refined.x - start.x, refined.y - start.y) <= 1.5 * SETTINGS.resolution_m
     assert math.hypot(refined.x - truth.x, refined.y - truth.y) < math.hypot(0.03, 0.02)
     assert np.isfinite([refined.x, refined.y, refined.yaw]).all()
+
+
+def test_a_finished_mapper_lets_go_of_its_fine_map_and_still_matches_a_scan() -> None:
+    mapper = ScanMapper(SETTINGS)
+    poses = [Pose2(0.1 * k, 0.0, 0.0) for k in range(6)]
+    for k, pose in enumerate(poses):
+        mapper.add(0.1 * k, _scan(pose), pose)
+    assert mapper.fine is not None
+    cells = mapper.grid.shape
+    mapper.finish()
+    assert mapper.fine is None
+    assert mapper.grid.shape == cells  # the map itself is kept for writing out
+    last = Pose2(0.65, 0.0, 0.0)
+    result = mapper.add(0.6, _scan(last), last)
+    assert math.hypot(result.pose.x - last.x, result.pose.y - last.y) < 0.05
