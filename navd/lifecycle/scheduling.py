@@ -7,7 +7,8 @@ running anywhere in the daemon: another task was using up its time slice
 scheduler lets a task ask for a shorter slice (``sched_attr.sched_runtime`` of a SCHED_OTHER
 task, honoured from Linux 6.12): its virtual deadlines come sooner, so when it wakes it
 preempts a task that runs with the default slice instead of waiting for that slice to end.
-No privilege is needed; an older kernel accepts the call and keeps its default.
+No privilege is needed. A kernel before 6.12 has no slice of its own per task: there the
+request changes nothing (or is refused, and the daemon runs on as before).
 """
 
 from __future__ import annotations
