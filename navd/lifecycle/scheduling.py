@@ -47,20 +47,18 @@ def request_slice(slice_s: float) -> bool:
     nice value; False where there is no such call (another system or machine), where the
     thread runs under another policy than the normal one (a real-time or batch policy the
     service was given is left as it is), or where the kernel refused it."""
-    syscall = _syscall()
-    numbers = _SYSCALLS.get(platform.machine())
+    calls = _calls()
     current = _attributes()
-    if syscall is None or numbers is None or current is None:
+    if calls is None or current is None or current.sched_policy != _SCHED_OTHER:
         return False
-    if current.sched_policy != _SCHED_OTHER:
-        return False
+    syscall, (set_attr, _) = calls
     attr = _SchedAttr(
         size=ctypes.sizeof(_SchedAttr),
         sched_policy=_SCHED_OTHER,
         sched_nice=os.getpriority(os.PRIO_PROCESS, 0),
         sched_runtime=round(slice_s * 1e9),
     )
-    return bool(syscall(numbers[0], 0, ctypes.byref(attr), 0) == 0)
+    return bool(syscall(set_attr, 0, ctypes.byref(attr), 0) == 0)
 
 
 def thread_slice_s() -> float | None:
@@ -72,14 +70,22 @@ def thread_slice_s() -> float | None:
 
 def _attributes() -> _SchedAttr | None:
     """The calling thread's scheduling attributes, or None where they cannot be read."""
-    syscall = _syscall()
-    numbers = _SYSCALLS.get(platform.machine())
-    if syscall is None or numbers is None:
+    calls = _calls()
+    if calls is None:
         return None
+    syscall, (_, get_attr) = calls
     attr = _SchedAttr()
-    if syscall(numbers[1], 0, ctypes.byref(attr), ctypes.sizeof(_SchedAttr), 0) != 0:
+    if syscall(get_attr, 0, ctypes.byref(attr), ctypes.sizeof(_SchedAttr), 0) != 0:
         return None
     return attr
+
+
+def _calls() -> tuple[Callable[..., int], tuple[int, int]] | None:
+    """libc's ``syscall`` and this machine's (sched_setattr, sched_getattr) numbers; None
+    where either is missing."""
+    syscall = _syscall()
+    numbers = _SYSCALLS.get(platform.machine())
+    return None if syscall is None or numbers is None else (syscall, numbers)
 
 
 @functools.cache

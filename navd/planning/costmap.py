@@ -327,7 +327,7 @@ def ros_costmap(costmap: Costmap) -> npt.NDArray[np.int8]:
     cells: npt.NDArray[np.int8] = np.rint(np.nan_to_num(costmap.cost, posinf=1.0) * 98.0).astype(
         np.int8
     )
-    cells[np.isinf(costmap.cost)] = 99
+    cells[costmap.blocked] = 99
     cells[costmap.unknown] = -1
     cells[costmap.obstacles] = 100
     return cells

@@ -27,8 +27,7 @@ class Route:
     """
 
     def __init__(self, points_m: FloatArray) -> None:
-        self.points_m = points_m
-        self._points = np.require(points_m, np.float64, ("C", "W"))  # one kernel type
+        self.points_m = np.require(points_m, np.float64, ("C", "W"))  # one kernel type
         self.field: PathField = path_field(points_m)
         steps = np.hypot(*np.diff(points_m, axis=0).T) if len(points_m) > 1 else np.empty(0)
         self.cumulative: FloatArray = np.concatenate([[0.0], np.cumsum(steps)])
@@ -53,9 +52,7 @@ class Route:
         last = self._located
         if last is not None and last[1] == self.progress and last[0] == pose:
             return last[2]
-        segment, t, d = nearest_on_polyline(
-            self._points, self.progress, float(pose.x), float(pose.y)
-        )
+        segment, t, d = nearest_on_polyline(points, self.progress, float(pose.x), float(pose.y))
         self.progress = segment
         found = (segment, t, d)
         self._located = (pose, self.progress, found)
