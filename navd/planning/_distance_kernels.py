@@ -1,11 +1,13 @@
 """Numba kernel of the exact Euclidean distance transform of a grid.
 
 ``distance_to`` gives every cell its distance, in cells, to the nearest cell set in a mask:
-the lower envelope of parabolas of Felzenszwalb and Huttenlocher (2012, "Distance transforms
-of sampled functions"), once down every column and once along every row, linear in the
-cells. The distances are exact: the square root of a whole number of squared cells, as
-``scipy.ndimage.distance_transform_edt`` gives them (the test compares the two), without
-loading scipy.ndimage (some 20 MB of the daemon's memory for this one function).
+the distance down each column to its nearest set cell, then along every row the lower
+envelope of parabolas of Felzenszwalb and Huttenlocher (2012, "Distance transforms of
+sampled functions"), linear in the cells. The distances are exact: the square root of a
+whole number of squared cells, as ``scipy.ndimage.distance_transform_edt`` gives them (the
+test compares the two), without loading scipy.ndimage (some 20 MB of the daemon's memory
+for this one function). It is most of what building a costmap costs: 30 ms of 46 at 2000²
+cells here (71 of 88 when the envelope also ran down the columns).
 
 ``any_within`` says whether any of a few points (stations along a route) lies within a radius
 of any of many (a scan's obstacle points), stopping at the first such pair: the route's
@@ -30,40 +32,45 @@ FloatArray = npt.NDArray[np.float64]
 
 
 @njit(cache=True, nogil=True)
-def _envelope(
-    f: FloatArray, n: int, out: FloatArray, v: npt.NDArray[np.int64], z: FloatArray
+def _along_row(
+    grid: FloatArray, r: int, v: npt.NDArray[np.int64], h: FloatArray, z: FloatArray
 ) -> None:
-    """out[q] = min over p of (q - p)^2 + f[p], for the first ``n`` entries; inf where every
-    f[p] is inf (no feature on this line)."""
+    """Row ``r`` of ``grid`` holds each cell's distance down its column to the nearest set
+    cell (inf for none); replace it with sqrt(min over p of (q - p)^2 + grid[r, p]^2), the
+    distance in the plane: the lower envelope of the parabolas of the row's cells (v: their
+    columns, h: g^2 + p^2, z: where each begins to be the lowest)."""
+    cols = grid.shape[1]
     k = -1
-    for q in range(n):
-        if f[q] == math.inf:
+    for q in range(cols):
+        g = grid[r, q]
+        if g == math.inf:
             continue
+        hq = g * g + q * q
         if k < 0:
             k = 0
             v[0] = q
+            h[0] = hq
             z[0] = -math.inf
-            z[1] = math.inf
             continue
-        fq = f[q] + q * q
-        s = (fq - (f[v[k]] + v[k] * v[k])) / (2.0 * (q - v[k]))
-        while s <= z[k]:
+        s = (hq - h[k]) / (2.0 * (q - v[k]))
+        while s <= z[k]:  # the new parabola is lower wherever the last one was lowest
             k -= 1
-            s = (fq - (f[v[k]] + v[k] * v[k])) / (2.0 * (q - v[k]))
+            s = (hq - h[k]) / (2.0 * (q - v[k]))
         k += 1
         v[k] = q
+        h[k] = hq
         z[k] = s
-        z[k + 1] = math.inf
-    if k < 0:
-        for q in range(n):
-            out[q] = math.inf
+    if k < 0:  # no set cell in any column: nothing to be near
+        for q in range(cols):
+            grid[r, q] = math.inf
         return
+    z[k + 1] = math.inf
     k = 0
-    for q in range(n):
+    for q in range(cols):
         while z[k + 1] < q:
             k += 1
         d = q - v[k]
-        out[q] = d * d + f[v[k]]
+        grid[r, q] = math.sqrt(d * d + h[k] - v[k] * v[k])
 
 
 @njit(cache=True, nogil=True)
@@ -71,25 +78,24 @@ def distance_to(mask: BoolArray) -> FloatArray:
     """[cells] Euclidean distance from every cell to the nearest cell set in ``mask``
     (rows x columns); 0 on the set cells, inf everywhere when none is set."""
     rows, cols = mask.shape
-    longest = max(rows, cols)
-    f = np.empty(longest)
-    line = np.empty(longest)
-    v = np.empty(longest, dtype=np.int64)
-    z = np.empty(longest + 1)
-    squared = np.empty((rows, cols))
+    # Down the columns the nearest set cell is a count of steps, found in two sweeps over the
+    # rows (down, then up) that read and write whole rows in memory order. (The envelope run
+    # down each column, a row's stride between cells, took 4/5 of the time at 2000².)
+    grid = np.empty((rows, cols))
     for c in range(cols):
-        for r in range(rows):
-            f[r] = 0.0 if mask[r, c] else math.inf
-        _envelope(f, rows, line, v, z)
-        for r in range(rows):
-            squared[r, c] = line[r]
+        grid[0, c] = 0.0 if mask[0, c] else math.inf
+    for r in range(1, rows):
+        for c in range(cols):
+            grid[r, c] = 0.0 if mask[r, c] else grid[r - 1, c] + 1.0
+    for r in range(rows - 2, -1, -1):
+        for c in range(cols):
+            grid[r, c] = min(grid[r, c], grid[r + 1, c] + 1.0)
+    v = np.empty(cols, dtype=np.int64)
+    h = np.empty(cols)
+    z = np.empty(cols + 1)
     for r in range(rows):
-        for c in range(cols):
-            f[c] = squared[r, c]
-        _envelope(f, cols, line, v, z)
-        for c in range(cols):
-            squared[r, c] = math.sqrt(line[c])
-    return squared
+        _along_row(grid, r, v, h, z)
+    return grid
 
 
 @njit(cache=True, nogil=True)
