@@ -1,45 +1,49 @@
 """Numba kernel of A* on a weighted 8-connected costmap, with its open list in buckets.
 
-The graph and the step costs are those of ``_astar_kernels``: a step of length L cells
-(1 or sqrt 2) from a to b costs L * (1 + w * (c_a + c_b) / 2), a diagonal only between two
-free cells, the heuristic is the octile distance. What differs is the open list. A binary or
-4-ary heap costs a few dozen ns per push and pop on the daemon's grids (tens of thousands of
-open cells), more than the rest of an expansion. Here the key g + h is cut into buckets of
-1 / ``buckets_per_cell`` of a cell (Dial's bucket queue, in a ring: a key grows by at most one
-step's cost plus sqrt 2 from the key it was reached from, so only that many buckets are ever
-in use). A bucket is a doubly linked list threaded through the cells themselves: pushing,
-popping and moving an improved open cell to its new bucket are a few array writes, and a cell
-is open at most once (no stale copies). Within a bucket the newest cell comes first, which
-breaks near-ties towards the cell nearer the goal.
+The graph and the step costs are those of ``_astar_kernels``: a step of length L cells (1 or
+sqrt 2) from a to b costs L * (1 + w * (c_a + c_b) / 2), a diagonal only between two free
+cells, the heuristic is the octile distance. What differs is the open list. A binary or 4-ary
+heap costs a few dozen ns per push and pop on the daemon's grids (tens of thousands of open
+cells), more than the rest of an expansion. Here the key g + h is cut into buckets of 1 /
+``buckets_per_cell`` of a cell (Dial's bucket queue, in a ring: a key grows by at most one
+step's cost plus sqrt 2 from the key it was reached from, or by a bounded amount along a pass,
+below, so only the ring's buckets are ever in use). A bucket is a doubly linked list threaded
+through the cells themselves: pushing, popping and moving an improved open cell to its new
+bucket are a few array writes, and a cell is open at most once (no stale copies). Within a
+bucket the newest cell comes first, which breaks near-ties towards the cell nearer the goal.
 
 Where a cell and its 8 neighbours are all free floor (cost 0), a step costs its length alone
 and the search prunes as jump point search does: a cell entered straight passes the search on
 straight ahead only, one entered diagonally along the diagonal and its two components; every
 other neighbour is reached at least as cheaply from the cell before. Near anything costly or
-blocked every neighbour is tried. A straight step onto such a cell does not put it in a
-bucket: it is passed over at once (its g and direction written as if it had been expanded,
-prev_open -1 for "in no bucket"), and so is the next, until a cell that is not open floor,
-the goal, or one already reached as cheaply; that cell goes in a bucket. A cell passed over
-and later reached more cheaply goes in a bucket then, as any improved cell. This is jump
-point search's straight jump, with the cells on the way recorded so that a later, dearer
-ray stops where an earlier one went. On the benchmark's inflated 400² grid the cells taken
-out of buckets went from 68 000 to 9 400 (65 000 passed over) and the search from 1.8 to
-1.0 ms; the routes and their costs did not change (nor did BARN's 200 worlds).
+blocked every neighbour is tried. A straight step onto such a cell does not put it in a bucket:
+it is passed over at once (its g and direction written as if it had been expanded, prev_open -1
+for "in no bucket"), and so is the next, until the pass meets the goal, a cell on the grid's
+border or not open floor, or has used up its room in the ring (below): that cell goes in a
+bucket. A closed cell, or one already reached at no higher cost, ends the pass before it and is
+left as it is. A cell passed over and later reached more cheaply goes in a bucket then, as any
+improved cell. This is jump point search's straight jump, with the cells on the way recorded so
+that a later ray at no lower cost stops where an earlier one went. On the benchmark's inflated
+400² grid the cells taken out of buckets went from 68 000 to 9 400 (65 000 passed over) and the
+search from 1.8 to 1.0 ms; the routes and their costs did not change (nor did BARN's 200
+worlds).
 
 The price of the buckets is order within a bucket: a cell may be expanded before one whose
 key is lower by less than a bucket's width d = 1 / buckets_per_cell. Each such slip adds at
 most d to the cost of what it closes, and slips only add up along a route's cells, each step
 of which costs at least 1: the route found costs at most (1 + d) * C + d, with C the optimal
-cost (256 buckets per cell: within 0.4 % of optimal). A cell passed over slips nothing: its
-g is the cell's before plus 1, exact. Tests check the bound against Dijkstra's algorithm.
+cost (256 buckets per cell: within 0.4 % of optimal). A pass adds no slip of its own: it
+writes g ahead of cells with lower keys, but a cell passed over stays open to a cheaper
+arrival, which puts it in a bucket in key order; only the cells taken out of buckets are
+closed. Tests check the bound against Dijkstra's algorithm.
 
 The ring is sized for one step's growth of the key plus PASS_ROOM_CELLS, the room a pass
 along floor has: a straight step raises the key by at most 2 cells, so a pass stops where the
-cell it ends on would still fit (at least 15 cells on). It is sized for costs up to a ceiling,
-COST_CEILING (the costmap's scale) unless told otherwise; meeting a costlier cell ends the
-search with CEILING_TOO_LOW, and the caller searches again with the grid's highest cost.
-(Widening the ring in the middle of the search was tried: a ring array that the loop may
-replace made every search four times slower.)
+cell it ends on would still fit (15 cells on at least, at 256 buckets a cell). It is sized
+for costs up to a ceiling, COST_CEILING (the costmap's scale) unless told otherwise; meeting
+a costlier cell ends the search with CEILING_TOO_LOW, and the caller searches again with the
+grid's highest cost. (Widening the ring in the middle of the search was tried: a ring array
+that the loop may replace made every search four times slower.)
 
 Working arrays are passed in and stamped with a generation number, so a planner reuses them
 between searches without clearing millions of cells each time (20 bytes a cell).
@@ -150,7 +154,8 @@ def bucket_astar(
             where ``mark >> 4 == generation``, and ``mark & 7`` is the direction of the step
             that entered the cell (read the route back with ``trace_steps``).
         next_open, prev_open: working arrays of rows * cols entries: the bucket lists
-            (``prev_open`` below -1 marks a bucket's first cell: -2 - the bucket's slot).
+            (``prev_open`` below -1 marks a bucket's first cell: -2 - the bucket's slot; -1
+            a cell reached, open, and in no bucket: passed over).
         generation: a number in 1..MAX_GENERATION not used by an earlier search with these
             arrays.
         buckets_per_cell: buckets per cell of key (d = 1 / buckets_per_cell above).
@@ -159,7 +164,7 @@ def bucket_astar(
     Returns:
         (cost of the route in cells of length, -1 if none, CEILING_TOO_LOW if a cell costs
         more than ``cost_ceiling``: search again with a higher one and a new generation;
-        cells expanded).
+        cells expanded, that is taken out of buckets: cells passed over do not count).
 
     """
     rows, cols = cost.shape
@@ -174,7 +179,7 @@ def bucket_astar(
     tag = generation << 4
     reach = (_SQRT2 * (1.0 + cost_weight * cost_ceiling) + _SQRT2) * buckets_per_cell + 2.0
     reach += PASS_ROOM_CELLS * buckets_per_cell
-    per_pass = 2 * int(buckets_per_cell) + 1  # [buckets] most a step along floor adds to a key
+    per_pass = math.ceil(2.0 * buckets_per_cell) + 1  # [buckets] most a step along floor adds
     ring = 1
     while ring < reach:
         ring *= 2

@@ -37,7 +37,8 @@ class PlannedPath:
     Attributes:
         points_m: [m] N x 2 map points from the robot to the goal.
         cost: [m] A* route cost: length weighted by the cells' costs.
-        cells_expanded: how many cells the search expanded (0 when reused).
+        cells_expanded: how many cells the search expanded (0 when reused): jump points, or
+            cells taken out of buckets (not those a pass along floor went over).
         reused: the rest of the last route toward the same goal, still the best (``reuse``).
         fine_length_m: [m] for a far goal (``horizon``), how much of the route, from the
             robot on, was planned at full resolution (the rest is coarse); None: all of it.

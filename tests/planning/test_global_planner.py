@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from navd.planning._bucket_kernels import BUCKETS_PER_CELL
+from navd.planning._bucket_kernels import BUCKETS_PER_CELL, bucket_astar
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
@@ -235,6 +235,35 @@ def test_passes_along_wide_floor_keep_dijkstras_cost_and_the_rings_room(seed: in
             continue
         path = GlobalPlanner().plan(costmap, center(start), center(goal), search)
         assert expected * (1 - 1e-6) <= path.cost / RES <= (1 + slip) * expected + slip
+
+
+@pytest.mark.parametrize("buckets_per_cell", [10.0, 10.9, 1.9, 0.75])
+def test_passes_keep_the_bound_at_any_bucket_width(buckets_per_cell: float) -> None:
+    # The kernel on its own with a bucket width that is not a whole fraction of a cell: a
+    # pass must count a step's growth of the key in whole buckets rounded up, or its last
+    # cell's key wraps around the ring (the route came out at 60.7 against an optimum of
+    # 14.4 with 10.9 buckets a cell when the count was rounded down).
+    cost = np.zeros((10, 42), np.float32)
+    cost[0:5, 13:17] = 0.5
+    cost[1:4, 14:16] = np.inf
+    start, goal = 1 * 42 + 17, 5 * 42 + 6
+    optimum = float(dijkstra(step_graph(cost, 3.0), indices=start)[goal])
+    cells = cost.size
+    found, _ = bucket_astar(
+        cost,
+        start,
+        goal,
+        3.0,
+        np.empty(cells),
+        np.zeros(cells, np.int32),
+        np.empty(cells, np.int32),
+        np.empty(cells, np.int32),
+        1,
+        buckets_per_cell,
+        1.0,
+    )
+    slip = 1.0 / buckets_per_cell
+    assert optimum * (1 - 1e-6) <= found <= (1 + slip) * optimum + slip
 
 
 def test_open_floor_is_passed_over_not_put_in_buckets() -> None:
