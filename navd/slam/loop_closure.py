@@ -171,9 +171,6 @@ class LoopCloser:
         # Far matches waiting for a second (step 4), each with its pose relative to its old
         # keyframe (a re-solve of the graph meanwhile moves both alike).
         self.held: list[tuple[LoopCandidate, Pose2]] = []
-        # Whether the last pass searched held nothing above the coarse floor in its window
-        # (not a look-alike, not a query that saw nothing): only then is it searched farther.
-        self._window_empty = False
         self.configure(settings)
 
     def configure(self, settings: MapperSettings) -> None:
@@ -224,18 +221,14 @@ class LoopCloser:
             wanted = max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest]))
             window = min(s.loop_search_xy_m, wanted)
             alike = max(window, min(s.loop_search_xy_m, LOOP_LOOKALIKE_PER_M * since_nearest_m))
-            candidate = self._search_pass(keyframes, k, run, window, alike)
+            candidate, window_empty = self._search_pass(keyframes, k, run, window, alike)
             if candidate is not None:
                 found.append(candidate)
-            elif (
-                self._window_empty
-                and wanted > s.loop_search_xy_m
-                and k % LOOP_FAR_EVERY_KEYFRAMES == 0
-            ):
+            elif window_empty and wanted > s.loop_search_xy_m and k % LOOP_FAR_EVERY_KEYFRAMES == 0:
                 far_cap = LOOP_FAR_FACTOR * s.loop_search_xy_m
                 far_window = min(far_cap, wanted)
                 far_alike = max(far_window, min(far_cap, LOOP_LOOKALIKE_PER_M * since_nearest_m))
-                far = self._search_pass(keyframes, k, run, far_window, far_alike)
+                far, _ = self._search_pass(keyframes, k, run, far_window, far_alike)
                 if far is not None:
                     found.extend(self._confirmed(keyframes, far))
         return found
@@ -274,17 +267,18 @@ class LoopCloser:
         run: npt.NDArray[np.int64],
         window_m: float,
         alike_m: float,
-    ) -> LoopCandidate | None:
-        """The pass ``run``'s loop closure for keyframe ``k``: searched within ``window_m``,
-        unambiguous within ``alike_m`` [m, half-widths]."""
+    ) -> tuple[LoopCandidate | None, bool]:
+        """The pass ``run``'s loop closure for keyframe ``k``, searched within ``window_m``,
+        unambiguous within ``alike_m`` [m, half-widths], or None; and whether the window held
+        nothing above the coarse floor (not a look-alike, not a query that saw nothing): only
+        then is the pass worth searching farther."""
         s = self.settings
         self.counts.checks += 1
-        self._window_empty = False
         current = keyframes[k]
         assert current.scan is not None
-        coarse = self._coarse_match(keyframes, k, run, window_m, alike_m)
+        coarse, window_empty = self._coarse_match(keyframes, k, run, window_m, alike_m)
         if coarse is None:
-            return None
+            return None, window_empty
         # The fine map: the old keyframes around the one nearest the coarse pose.
         xy = np.array([(keyframes[i].pose.x, keyframes[i].pose.y) for i in run])
         j = int(run[np.argmin(np.hypot(xy[:, 0] - coarse.x, xy[:, 1] - coarse.y))])
@@ -297,15 +291,15 @@ class LoopCloser:
         points = voxel_downsample(current.scan.hits, s.voxel_size_m)
         match = self.fine.match(field, points, coarse)
         if match.score < s.loop_min_score:
-            return None
+            return None, False
         rival = rival_ratio(
             field, points, match.pose, radius_m=LOOP_RIVAL_RADIUS_M, exclude_m=LOOP_RIVAL_EXCLUDE_M
         )
         if rival > LOOP_MAX_RIVAL_RATIO:
             self.counts.ambiguous += 1
-            return None
+            return None, False
         self.counts.found += 1
-        return LoopCandidate(j, k, match.pose, match.score)
+        return LoopCandidate(j, k, match.pose, match.score), False
 
     def _coarse_match(
         self,
@@ -314,9 +308,10 @@ class LoopCloser:
         run: npt.NDArray[np.int64],
         window_m: float,
         alike_m: float,
-    ) -> Pose2 | None:
+    ) -> tuple[Pose2 | None, bool]:
         """Where the newest keyframes' scans fit the pass's coarse map within the window,
-        if no other place within ``alike_m`` fits nearly as well."""
+        if no other place within ``alike_m`` fits nearly as well; and whether nothing in the
+        window scored above the coarse floor."""
         s = self.settings
         current = keyframes[k]
         resolution = s.resolution_m * LOOP_COARSE_FACTOR
@@ -331,7 +326,7 @@ class LoopCloser:
         )
         query = _query_points(keyframes, k, resolution)
         if query.shape[0] < LOOP_MIN_QUERY_POINTS:
-            return None  # the newest scans saw (almost) nothing: a wide hall, a short lidar
+            return None, False  # the newest scans saw (almost) nothing: a wide hall, short lidar
         pose, score, _ = global_search(
             field,
             query,
@@ -342,13 +337,12 @@ class LoopCloser:
             min_score=LOOP_COARSE_MIN_SCORE,  # most passes hold no match: given up early
         )
         if score < LOOP_COARSE_MIN_SCORE:
-            self._window_empty = True
-            return None
+            return None, True
         rival = rival_ratio(field, query, pose, radius_m=alike_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
         if rival > LOOP_MAX_RIVAL_RATIO:
             self.counts.ambiguous += 1
-            return None
-        return pose
+            return None, False
+        return pose, False
 
 
 def _query_points(keyframes: list[Keyframe], k: int, voxel_m: float) -> FloatArray:
