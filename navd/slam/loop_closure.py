@@ -45,6 +45,7 @@ graph (robust: a wrong one that slipped through pulls less than a right one).
 
 from __future__ import annotations
 
+import enum
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -163,6 +164,15 @@ def passes(indices: npt.NDArray[np.int64], join: int) -> list[npt.NDArray[np.int
     return list(np.split(indices, breaks))
 
 
+class _Miss(enum.Enum):
+    """Why searching an old pass gave no loop closure."""
+
+    BLIND = "the newest scans saw (almost) nothing"
+    EMPTY_WINDOW = "nothing in the window scored above the coarse floor"
+    AMBIGUOUS = "another place within the look-alike distance fits nearly as well"
+    WEAK = "the fine match scored below loop_min_score"
+
+
 class LoopCloser:
     """Searches old passes for the place a new keyframe shows (see the module docstring)."""
 
@@ -221,15 +231,19 @@ class LoopCloser:
             wanted = max(LOOP_MIN_WINDOW_M, LOOP_DRIFT_PER_M * float(linked[nearest]))
             window = min(s.loop_search_xy_m, wanted)
             alike = max(window, min(s.loop_search_xy_m, LOOP_LOOKALIKE_PER_M * since_nearest_m))
-            candidate, window_empty = self._search_pass(keyframes, k, run, window, alike)
-            if candidate is not None:
-                found.append(candidate)
-            elif window_empty and wanted > s.loop_search_xy_m and k % LOOP_FAR_EVERY_KEYFRAMES == 0:
+            result = self._search_pass(keyframes, k, run, window, alike)
+            if isinstance(result, LoopCandidate):
+                found.append(result)
+            elif (
+                result is _Miss.EMPTY_WINDOW  # a look-alike or a blind query is not widened
+                and wanted > s.loop_search_xy_m
+                and k % LOOP_FAR_EVERY_KEYFRAMES == 0
+            ):
                 far_cap = LOOP_FAR_FACTOR * s.loop_search_xy_m
                 far_window = min(far_cap, wanted)
                 far_alike = max(far_window, min(far_cap, LOOP_LOOKALIKE_PER_M * since_nearest_m))
-                far, _ = self._search_pass(keyframes, k, run, far_window, far_alike)
-                if far is not None:
+                far = self._search_pass(keyframes, k, run, far_window, far_alike)
+                if isinstance(far, LoopCandidate):
                     found.extend(self._confirmed(keyframes, far))
         return found
 
@@ -267,18 +281,18 @@ class LoopCloser:
         run: npt.NDArray[np.int64],
         window_m: float,
         alike_m: float,
-    ) -> tuple[LoopCandidate | None, bool]:
+    ) -> LoopCandidate | _Miss:
         """The pass ``run``'s loop closure for keyframe ``k``, searched within ``window_m``,
-        unambiguous within ``alike_m`` [m, half-widths], or None; and whether the window held
-        nothing above the coarse floor (not a look-alike, not a query that saw nothing): only
-        then is the pass worth searching farther."""
+        unambiguous within ``alike_m`` [m, half-widths], or why there is none."""
         s = self.settings
         self.counts.checks += 1
         current = keyframes[k]
         assert current.scan is not None
-        coarse, window_empty = self._coarse_match(keyframes, k, run, window_m, alike_m)
-        if coarse is None:
-            return None, window_empty
+        coarse = self._coarse_match(keyframes, k, run, window_m, alike_m)
+        if isinstance(coarse, _Miss):
+            if coarse is _Miss.AMBIGUOUS:
+                self.counts.ambiguous += 1
+            return coarse
         # The fine map: the old keyframes around the one nearest the coarse pose.
         xy = np.array([(keyframes[i].pose.x, keyframes[i].pose.y) for i in run])
         j = int(run[np.argmin(np.hypot(xy[:, 0] - coarse.x, xy[:, 1] - coarse.y))])
@@ -291,15 +305,15 @@ class LoopCloser:
         points = voxel_downsample(current.scan.hits, s.voxel_size_m)
         match = self.fine.match(field, points, coarse)
         if match.score < s.loop_min_score:
-            return None, False
+            return _Miss.WEAK
         rival = rival_ratio(
             field, points, match.pose, radius_m=LOOP_RIVAL_RADIUS_M, exclude_m=LOOP_RIVAL_EXCLUDE_M
         )
         if rival > LOOP_MAX_RIVAL_RATIO:
             self.counts.ambiguous += 1
-            return None, False
+            return _Miss.AMBIGUOUS
         self.counts.found += 1
-        return LoopCandidate(j, k, match.pose, match.score), False
+        return LoopCandidate(j, k, match.pose, match.score)
 
     def _coarse_match(
         self,
@@ -308,10 +322,9 @@ class LoopCloser:
         run: npt.NDArray[np.int64],
         window_m: float,
         alike_m: float,
-    ) -> tuple[Pose2 | None, bool]:
+    ) -> Pose2 | _Miss:
         """Where the newest keyframes' scans fit the pass's coarse map within the window,
-        if no other place within ``alike_m`` fits nearly as well; and whether nothing in the
-        window scored above the coarse floor."""
+        if no other place within ``alike_m`` fits nearly as well; else why not."""
         s = self.settings
         current = keyframes[k]
         resolution = s.resolution_m * LOOP_COARSE_FACTOR
@@ -326,7 +339,7 @@ class LoopCloser:
         )
         query = _query_points(keyframes, k, resolution)
         if query.shape[0] < LOOP_MIN_QUERY_POINTS:
-            return None, False  # the newest scans saw (almost) nothing: a wide hall, short lidar
+            return _Miss.BLIND  # a wide hall, a short lidar
         pose, score, _ = global_search(
             field,
             query,
@@ -337,12 +350,11 @@ class LoopCloser:
             min_score=LOOP_COARSE_MIN_SCORE,  # most passes hold no match: given up early
         )
         if score < LOOP_COARSE_MIN_SCORE:
-            return None, True
+            return _Miss.EMPTY_WINDOW
         rival = rival_ratio(field, query, pose, radius_m=alike_m, exclude_m=LOOP_COARSE_EXCLUDE_M)
         if rival > LOOP_MAX_RIVAL_RATIO:
-            self.counts.ambiguous += 1
-            return None, False
-        return pose, False
+            return _Miss.AMBIGUOUS
+        return pose
 
 
 def _query_points(keyframes: list[Keyframe], k: int, voxel_m: float) -> FloatArray:
