@@ -45,6 +45,7 @@ import numpy.typing as npt
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
 from navd.bench.planning import random_rectangles, uniform_costmap
 from navd.bench.room import cast
+from navd.bench.timing import median_ms, paired_ms
 from navd.config import NavdConfig
 from navd.estimation.madgwick import MadgwickFilter
 from navd.estimation.settings import EstimatorSettings
@@ -67,33 +68,6 @@ PEERS = ("pyastar2d", "imufusion", "filterpy", "kiss_icp")
 GRAVITY_MPS2 = 9.80665
 SPACED_UKF_STEPS = 100  # steps timed one by one after a pause (a cold step, as in the daemon)
 SPACED_UKF_PAUSE_S = 0.01
-
-
-def _median_ms(call: Callable[[], object], repeats: int) -> float:
-    """Median ms of ``repeats`` calls after one untimed call (compiles, sizes buffers)."""
-    call()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        call()
-        times.append(time.perf_counter() - start)
-    return 1e3 * percentile(times, 50)
-
-
-def _paired_ms(
-    ours: Callable[[], object], peer: Callable[[], object], repeats: int
-) -> tuple[float, float]:
-    """Median ms of ``ours`` and of ``peer``, run in turn ``repeats`` times each after one
-    untimed call of each: drifts of a noisy machine hit both alike."""
-    ours()
-    peer()
-    times: tuple[list[float], list[float]] = ([], [])
-    for _ in range(repeats):
-        for call, into in ((ours, times[0]), (peer, times[1])):
-            start = time.perf_counter()
-            call()
-            into.append(time.perf_counter() - start)
-    return 1e3 * percentile(times[0], 50), 1e3 * percentile(times[1], 50)
 
 
 def _route_cost_m(costmap: Costmap, cells: npt.NDArray[np.integer[Any]], weight: float) -> float:
@@ -132,7 +106,7 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
         f"astar_weighted_{cells}_navd_route_cost_m": round(route.cost, 3),
     }
     if importlib.util.find_spec("pyastar2d") is None:
-        figures[f"astar_weighted_{cells}_navd_ms"] = round(_median_ms(ours, repeats), 2)
+        figures[f"astar_weighted_{cells}_navd_ms"] = round(median_ms(ours, repeats), 2)
         return figures
     import pyastar2d  # noqa: PLC0415 - a development dependency
 
@@ -142,7 +116,7 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
     def peer() -> object:
         return pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
 
-    navd_ms, peer_ms = _paired_ms(ours, peer, repeats)
+    navd_ms, peer_ms = paired_ms(ours, peer, repeats)
     path = pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
     figures.update(
         {
@@ -168,7 +142,7 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
         return planner.plan(costmap, start_m, goal_m, search)
 
     if importlib.util.find_spec("pyastar2d") is None:
-        return {f"astar_uniform_{cells}_navd_ms": round(_median_ms(ours, repeats), 2)}
+        return {f"astar_uniform_{cells}_navd_ms": round(median_ms(ours, repeats), 2)}
     import pyastar2d  # noqa: PLC0415
 
     weights = np.where(costmap.obstacles, np.inf, 1.0).astype(np.float32)
@@ -177,7 +151,7 @@ def _astar_uniform(cells: int, repeats: int) -> dict[str, object]:
     def peer() -> object:
         return pyastar2d.astar_path(weights, start, goal, allow_diagonal=True)
 
-    navd_ms, peer_ms = _paired_ms(ours, peer, repeats)
+    navd_ms, peer_ms = paired_ms(ours, peer, repeats)
     return {
         f"astar_uniform_{cells}_navd_ms": round(navd_ms, 2),
         f"astar_uniform_{cells}_pyastar2d_ms": round(peer_ms, 2),
@@ -195,7 +169,7 @@ def _madgwick(repeats: int) -> dict[str, object]:
         for imu in samples:
             update(imu)
 
-    navd_us = 1e3 * min(_median_ms(navd_pass, 1) for _ in range(repeats)) / len(samples)
+    navd_us = 1e3 * min(median_ms(navd_pass, 1) for _ in range(repeats)) / len(samples)
     figures: dict[str, object] = {"madgwick_navd_us_per_sample": round(navd_us, 3)}
     if importlib.util.find_spec("imufusion") is None:
         return figures
@@ -220,8 +194,8 @@ def _madgwick(repeats: int) -> dict[str, object]:
         for imu in samples:
             update(np.degrees(np.array(imu.gyro_radps)), np.array(imu.accel_mps2) / GRAVITY_MPS2)
 
-    arrays_us = 1e3 * min(_median_ms(peer_pass, 1) for _ in range(repeats)) / len(samples)
-    peer_us = 1e3 * min(_median_ms(peer_from_messages, 1) for _ in range(repeats)) / len(samples)
+    arrays_us = 1e3 * min(median_ms(peer_pass, 1) for _ in range(repeats)) / len(samples)
+    peer_us = 1e3 * min(median_ms(peer_from_messages, 1) for _ in range(repeats)) / len(samples)
     figures["madgwick_imufusion_us_per_sample"] = round(peer_us, 3)
     figures["madgwick_ratio"] = round(navd_us / peer_us, 3)
     figures["madgwick_imufusion_prebuilt_arrays_us_per_sample"] = round(arrays_us, 3)

@@ -3,13 +3,14 @@
 A*: grids of 1000 x 1000 and 2000 x 2000 cells with random rectangles until 25 % of the cells
 are occupied, start and goal in opposite corners (cleared), no inflation costs: the same
 problem pyastar2d solves. Printed: ms per search (median of several), cells expanded (jump
-points count as one) and the route cost against the straight-line distance. Then the 2000 x
-2000 grid as the daemon plans on it: 5 cm cells, inflated with the default configuration and
+points count as one; on the inflated grid, cells taken out of buckets, not those a pass along
+floor went over) and the route cost against the straight-line distance. Then the 2000 x 2000
+grid as the daemon plans on it: 5 cm cells, inflated with the default configuration and
 searched with the default cost weight, cell by cell with the open list in buckets; building
-that costmap from its obstacle cells, and its distance transform beside scipy.ndimage's
-exact one (time ratio); and a replan on it toward the same goal from a third of the way
-along, which continues the route instead of searching while nothing changed that could make
-the route wrong.
+that costmap from its obstacle cells, and its distance transform beside scipy.ndimage's exact
+one (timed in turn, the time ratio); and a replan on it toward the same goal from a third of
+the way along, which continues the route instead of searching while nothing changed that could
+make the route wrong.
 
 DWA: one control cycle as the navigator runs it (dynamic window of 20 x 21 = 420 rollouts of
 2 s at 0.1 s steps, 0.4 x 0.3 m rectangle, 1440 scan points of a cluttered surrounding,
@@ -21,11 +22,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
 
+from navd.bench.timing import median_ms, paired_ms
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.lifecycle.stats import percentile
@@ -110,18 +111,16 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
     config = NavdConfig()
     occupied = random_rectangles(cells, 0.25, seed=cells)
     frame = GridFrame(0.05, 0.0, 0.0, cells, cells)
-    costmap = build_costmap(
-        frame, occupied, np.zeros_like(occupied), CostmapSettings.from_config(config)
-    )
+    settings = CostmapSettings.from_config(config)
+    costmap = build_costmap(frame, occupied, np.zeros_like(occupied), settings)
     search = SearchSettings(cost_weight=config.planning.cost_weight, smooth=False)
     start, goal = (0.2, 0.2), (0.05 * cells - 0.2, 0.05 * cells - 0.2)
     ms, path = _timed_plans(GlobalPlanner(), search, costmap, start, goal, repeats)
     costly = np.isfinite(costmap.cost) & (costmap.cost > 0.0)
-    build = CostmapSettings.from_config(config)
     nothing = np.zeros_like(occupied)
     return {
-        f"costmap_{cells}_build_ms": _median_ms(
-            lambda: build_costmap(frame, occupied, nothing, build), repeats
+        f"costmap_{cells}_build_ms": round(
+            median_ms(lambda: build_costmap(frame, occupied, nothing, settings), repeats), 2
         ),
         **_distance_transform(occupied, repeats),
         f"astar_{cells}_inflated_ms": ms,
@@ -131,17 +130,6 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
     }
 
 
-def _median_ms(call: Callable[[], object], repeats: int) -> float:
-    """Median ms of ``repeats`` calls, after one untimed call."""
-    call()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        call()
-        times.append(time.perf_counter() - t0)
-    return round(1e3 * percentile(times, 50), 2)
-
-
 def _distance_transform(occupied: npt.NDArray[np.bool_], repeats: int) -> dict[str, object]:
     """The costmap's clearance (navd's exact distance transform, most of a build) beside
     scipy.ndimage's exact one on the same cells, timed in turn."""
@@ -149,11 +137,12 @@ def _distance_transform(occupied: npt.NDArray[np.bool_], repeats: int) -> dict[s
 
     cells = occupied.shape[0]
     free = ~occupied
-    ours = _median_ms(lambda: distance_to(occupied), repeats)
-    peer = _median_ms(lambda: ndimage.distance_transform_edt(free), repeats)
+    ours, peer = paired_ms(
+        lambda: distance_to(occupied), lambda: ndimage.distance_transform_edt(free), repeats
+    )
     return {
-        f"distance_transform_{cells}_navd_ms": ours,
-        f"distance_transform_{cells}_scipy_ms": peer,
+        f"distance_transform_{cells}_navd_ms": round(ours, 2),
+        f"distance_transform_{cells}_scipy_ms": round(peer, 2),
         f"distance_transform_{cells}_ratio": round(ours / peer, 3),
     }
 

@@ -47,7 +47,8 @@ class CellRoute:
     Attributes:
         cells: N x 2 (row, col) cells from the start to the goal.
         cost_cells: the route's cost in cells of length (weighted by the cells' costs).
-        expanded: cells the search expanded.
+        expanded: cells the search expanded: jump points, or cells taken out of buckets (not
+            those a pass along floor went over).
     """
 
     cells: CellArray

@@ -29,6 +29,12 @@ def test_equals_scipys_exact_transform(mask: np.ndarray) -> None:
         np.testing.assert_array_equal(got, ndimage.distance_transform_edt(~mask))
 
 
+@pytest.mark.parametrize("shape", [(0, 5), (5, 0), (0, 0)])
+def test_an_empty_grid_gives_an_empty_grid(shape: tuple[int, int]) -> None:
+    got = distance_to(np.zeros(shape, dtype=np.bool_))
+    assert got.shape == shape
+
+
 @pytest.mark.parametrize("shape", [(300, 200), (1, 500), (500, 1)])
 def test_sparse_features_on_long_lines(shape: tuple[int, int]) -> None:
     mask = np.random.default_rng(sum(shape)).random(shape) < 0.002
