@@ -88,9 +88,8 @@ def _demo(args: argparse.Namespace) -> int:
         print(f"navd demo: {err}", file=sys.stderr)
         return EXIT_USAGE
     print(json.dumps(summary, indent=2))
-    print(
-        f"navd demo: wrote {args.out / 'demo.png'} and {args.out / 'summary.json'}", file=sys.stderr
-    )
+    wrote = ", ".join(str(args.out / name) for name in ("demo.png", "summary.json"))
+    print(f"navd demo: wrote {wrote} and {args.out / 'demo.log'} (navd's log)", file=sys.stderr)
     return EXIT_OK if summary["reached"] else EXIT_FAILED
 
 
