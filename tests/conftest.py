@@ -13,11 +13,11 @@ from typing import Any
 import pytest
 from hypothesis import settings
 
-from navd.drivers.protocol.frames import ScanFrame
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.messages import Message, VelocityCommand
 from navd.lifecycle.supervision import Supervisor
+from navd.wire import ScanFrame
 
 settings.register_profile("navd", derandomize=True, database=None)
 settings.load_profile("navd")

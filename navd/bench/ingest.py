@@ -29,10 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import GoalFrame, SubscribeFrame
-from navd.drivers.protocol.replies import StatusFrame
 from navd.sim.session import free_port
+from navd.wire import Client, GoalFrame, StatusFrame, SubscribeFrame
 
 STREAMS = (("imu", 1000.0), ("lidar", 10.0), ("gps", 5.0), ("compass", 10.0))
 LAG_PROBE_S = 0.05  # the daemon's default probe period

@@ -21,9 +21,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame
 from navd.sim.session import Session, session
 from navd.sim.world import from_shapes
+from navd.wire import GoalFrame, InitialPoseFrame
 
 __all__ = ["CASES", "run"]
 

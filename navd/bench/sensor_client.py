@@ -18,18 +18,18 @@ import sys
 import time
 
 from navd.bench.room import cast
-from navd.drivers.client import Client
-from navd.drivers.protocol.codec import encode
-from navd.drivers.protocol.frames import (
+from navd.geometry.pose import Pose2
+from navd.wire import (
+    Client,
     FixFrame,
     HeadingFrame,
     ImuFrame,
     PingFrame,
+    Pong,
     ScanFrame,
     SensorFrame,
+    encode,
 )
-from navd.drivers.protocol.replies import Pong
-from navd.geometry.pose import Pose2
 
 
 def frame(role: str, rays: int, binary: bool) -> SensorFrame:

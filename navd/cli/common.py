@@ -59,7 +59,7 @@ def connect(args: argparse.Namespace) -> Any:
         ConfigError: the config file is bad.
         ClientError: navd cannot be reached or refused the client.
     """
-    from navd.drivers.client import Client  # noqa: PLC0415 - only the client commands need it
+    from navd.wire import Client  # noqa: PLC0415 - only the client commands need it
 
     tcp = load(args.config).tcp
     host = args.host or ("127.0.0.1" if tcp.host in ("0.0.0.0", "::") else tcp.host)

@@ -22,9 +22,13 @@ from navd.cli.common import (
     load,
 )
 from navd.config import ConfigError, NavdConfig, dump_toml, load_config
-from navd.drivers.client import ClientError
-from navd.drivers.protocol.frames import ConfigFrame, ConfigGetFrame
-from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFrame
+from navd.wire import (
+    ClientError,
+    ConfigAppliedFrame,
+    ConfigFrame,
+    ConfigGetFrame,
+    ConfigRejectedFrame,
+)
 
 __all__ = ["add_commands"]
 

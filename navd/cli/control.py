@@ -19,14 +19,16 @@ from navd.cli.common import (
     connection_options,
 )
 from navd.config import ConfigError
-from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import (
+from navd.wire import (
     CancelFrame,
+    Client,
+    ClientError,
     GoalFrame,
+    GoalStatusFrame,
     RecordFrame,
+    StatusFrame,
     SubscribeFrame,
 )
-from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 
 __all__ = ["add_commands", "format_status", "goal_line"]
 

@@ -22,9 +22,15 @@ from navd.cli.common import (
     connection_options,
 )
 from navd.config import ConfigError
-from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import MissionControlFrame, MissionFrame, SubscribeFrame
-from navd.drivers.protocol.replies import MissionStatusFrame, StatusFrame
+from navd.wire import (
+    Client,
+    ClientError,
+    MissionControlFrame,
+    MissionFrame,
+    MissionStatusFrame,
+    StatusFrame,
+    SubscribeFrame,
+)
 
 __all__ = ["add_commands", "load_mission", "mission_line"]
 

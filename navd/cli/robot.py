@@ -14,19 +14,17 @@ from pydantic import ValidationError
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, connect, connection_options
 from navd.config import ConfigError
-from navd.drivers.client import ClientError
-from navd.drivers.protocol.frames import (
+from navd.wire import (
+    ClientError,
     FindPoseFrame,
     Frame,
     InitialPoseFrame,
     LoadMapFrame,
-    SaveMapFrame,
-)
-from navd.drivers.protocol.replies import (
     MapLoadedFrame,
     MapSavedFrame,
     PoseFoundFrame,
     ReplyPart,
+    SaveMapFrame,
 )
 
 __all__ = ["add_commands"]

@@ -82,8 +82,8 @@ def add_commands(commands: Commands) -> None:
 
 
 def _sensor(args: argparse.Namespace) -> int:
-    from navd.drivers.protocol.frames import DEVICE_ID_PATTERN  # noqa: PLC0415
     from navd.sensors.runner import KINDS, Link  # noqa: PLC0415 - pyserial etc.
+    from navd.wire import DEVICE_ID_PATTERN  # noqa: PLC0415
 
     host, _, port_text = args.navd.rpartition(":")
     if not host or not port_text.isdigit():

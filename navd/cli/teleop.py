@@ -26,9 +26,7 @@ from dataclasses import dataclass
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, Commands, connect, connection_options
 from navd.config import ConfigError
-from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import SubscribeFrame, TeleopFrame
-from navd.drivers.protocol.replies import ErrorFrame, StatusFrame
+from navd.wire import Client, ClientError, ErrorFrame, StatusFrame, SubscribeFrame, TeleopFrame
 
 __all__ = ["KeyDriver", "add_commands"]
 

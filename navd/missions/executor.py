@@ -31,6 +31,7 @@ from navd.lifecycle.messages.mission import (
     MissionStatus,
     MissionStep,
 )
+from navd.wire import MissionInfo
 
 __all__ = ["GATE_SIDE_M", "STAGING_M", "MissionExecutor", "no_mission"]
 
@@ -41,19 +42,11 @@ ENDED = ("completed", "failed", "canceled")
 
 def no_mission(now: float, reason: str) -> MissionStatus:
     """The status that answers a command when no mission has been run."""
-    return MissionStatus(
-        stamp=now,
-        received=now,
-        mission_id="",
-        name="",
-        state="none",
-        step=0,
-        steps=0,
-        round=0,
-        rounds=0,
-        event="refused",
-        reason=reason,
-    )
+    info = MissionInfo(
+        mission_id="", name="", state="none", step=0, steps=0, round=0, rounds=0,
+        event="refused", reason=reason,
+    )  # fmt: skip
+    return MissionStatus(stamp=now, received=now, info=info)
 
 
 @dataclass(frozen=True, slots=True)
@@ -374,13 +367,12 @@ class MissionExecutor:
     def refused(self, now: float, reason: str) -> MissionStatus:
         """The status that answers a command that did nothing, saying why."""
         status = self._status(now, "refused")
-        return dataclasses.replace(status, reason=reason)
+        info = status.info.model_copy(update={"reason": reason})
+        return dataclasses.replace(status, info=info)
 
     def _status(self, now: float, event: str) -> MissionStatus:
         request, step = self.request, self.step
-        return MissionStatus(
-            stamp=now,
-            received=now,
+        info = MissionInfo(
             mission_id=request.mission_id,
             name=request.name,
             state=self.state,
@@ -390,10 +382,16 @@ class MissionExecutor:
             rounds=request.rounds,
             kind="" if step is None else step.kind,
             event=event,
-            distance_m=self.distance_m,
-            eta_s=self.eta_s,
+            distance_m=_known(self.distance_m),
+            eta_s=_known(self.eta_s),
             message=step.message if step is not None and step.kind == "pause" else "",
             reason=self.reason,
             done=self.done,
             failed=self.failed,
         )
+        return MissionStatus(stamp=now, received=now, info=info)
+
+
+def _known(value: float) -> float | None:
+    """A number as the mission's progress gives it: None when unknown (NaN)."""
+    return None if math.isnan(value) else value

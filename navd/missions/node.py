@@ -49,16 +49,17 @@ class MissionNode(Module):
 
     def _publish(self, messages: list[Message]) -> None:
         for message in messages:
-            if isinstance(message, MissionStatus) and message.event != "progress":
+            if isinstance(message, MissionStatus) and message.info.event != "progress":
+                info = message.info
                 self.ctx.log.info(
                     "mission",
-                    mission_id=message.mission_id,
-                    what=message.event,
-                    state=message.state,
-                    step=message.step,
-                    steps=message.steps,
-                    round=message.round,
-                    reason=message.reason or None,
+                    mission_id=info.mission_id,
+                    what=info.event,
+                    state=info.state,
+                    step=info.step,
+                    steps=info.steps,
+                    round=info.round,
+                    reason=info.reason or None,
                 )
             self.ctx.publish(message)
 

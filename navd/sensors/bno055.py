@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 import time
 
-from navd.drivers.protocol.frames import HeadingFrame, ImuFrame, SensorFrame
 from navd.sensors.i2c import ChipError, I2cBus, int16_le
+from navd.wire import HeadingFrame, ImuFrame, SensorFrame
 
 __all__ = ["BNO055_ADDRESS", "Bno055"]
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from navd.drivers.protocol.frames import SensorFrame
 from navd.errors import NavdError
+from navd.wire import SensorFrame
 
 __all__ = ["Chip", "ChipError", "I2cBus", "int16_be", "int16_le"]
 

@@ -16,8 +16,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import ImuFrame, Role
 from navd.sensors.bno055 import Bno055
 from navd.sensors.i2c import Chip, ChipError, I2cBus
 from navd.sensors.magnetometer import CompassCalibration, Hmc5883l, Qmc5883l
@@ -30,6 +28,7 @@ from navd.sensors.runner import (
     Trouble,
     drain_replies,
 )
+from navd.wire import Client, ClientError, ImuFrame, Role
 
 __all__ = ["I2C_KINDS", "I2cOptions", "make_chip", "open_smbus", "run_i2c_sensor"]
 

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.drivers.protocol.frames import ScanFrame
 from navd.sensors.turns import turn_scan
+from navd.wire import ScanFrame
 
 __all__ = [
     "PACKET_BYTES",

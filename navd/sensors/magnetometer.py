@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.drivers.protocol.frames import HeadingFrame, SensorFrame
 from navd.sensors.i2c import ChipError, I2cBus, int16_be, int16_le
+from navd.wire import HeadingFrame, SensorFrame
 
 __all__ = [
     "HMC5883L_ADDRESS",

@@ -22,7 +22,7 @@ from typing import Any
 
 import pynmea2
 
-from navd.drivers.protocol.frames import FixFrame, HeadingFrame, SensorFrame
+from navd.wire import FixFrame, HeadingFrame, SensorFrame
 
 __all__ = ["HDT_ACCURACY_DEG", "UERE_M", "NmeaReader"]
 

@@ -45,8 +45,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.drivers.protocol.frames import ScanFrame, SensorFrame
 from navd.sensors.turns import turn_scan
+from navd.wire import ScanFrame, SensorFrame
 
 __all__ = [
     "CAPSULE_BYTES",

@@ -22,13 +22,12 @@ from typing import Protocol
 
 import serial
 
-from navd.drivers.client import Client, ClientError
-from navd.drivers.protocol.frames import Role, SensorFrame
 from navd.drivers.serial_port import open_exclusive
 from navd.logs import get_logger
 from navd.sensors.ld06 import PacketReader, ScanAssembler
 from navd.sensors.nmea import NmeaReader
 from navd.sensors.rplidar import RplidarDecoder, ScanMode
+from navd.wire import Client, ClientError, Role, SensorFrame
 
 __all__ = ["KINDS", "Decoder", "Link", "SensorKind", "Trouble", "drain_replies", "run_sensor"]
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.drivers.protocol.frames import ScanFrame
+from navd.wire import ScanFrame
 
 __all__ = ["turn_scan"]
 

@@ -34,20 +34,24 @@ from typing import Any
 
 import numpy as np
 
-from navd.drivers.client import ClientError, ConnectionClosedError
-from navd.drivers.protocol.frames import (
-    CancelFrame,
-    GoalFrame,
-    InitialPoseFrame,
-    SaveMapFrame,
-    SubscribeFrame,
-)
-from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, Reply, StatusFrame
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
 from navd.sim.runner import Simulator
 from navd.sim.session import Session, free_port, session
 from navd.sim.world import World
+from navd.wire import (
+    CancelFrame,
+    ClientError,
+    ConnectionClosedError,
+    GoalFrame,
+    GoalStatusFrame,
+    InitialPoseFrame,
+    PathFrame,
+    Reply,
+    SaveMapFrame,
+    StatusFrame,
+    SubscribeFrame,
+)
 
 __all__ = ["DemoResult", "run_demo"]
 

@@ -10,10 +10,9 @@ import os
 import tty
 from pathlib import Path
 
-from navd.drivers.client import AsyncClient, ClientError
-from navd.drivers.protocol.frames import Role
 from navd.sim.errors import SimError
 from navd.sim.settings import SimSettings
+from navd.wire import AsyncClient, ClientError, Role
 
 __all__ = ["RECONNECT_S", "PtyChassis", "SensorLinks"]
 

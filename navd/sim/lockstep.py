@@ -12,18 +12,19 @@ import asyncio
 import time
 from collections import Counter
 
-from navd.drivers.client import (
-    AsyncClient,
-    ClientError,
-    ConnectionClosedError,
-    RequestRefusedError,
-)
-from navd.drivers.protocol.frames import ClockFrame
-from navd.drivers.protocol.replies import ClockAck, ErrorFrame
 from navd.sim.errors import SimError
 from navd.sim.links import RECONNECT_S, PtyChassis, SensorLinks
 from navd.sim.physics import SimRobot
 from navd.sim.sensors import SensorModels, SimSensor
+from navd.wire import (
+    AsyncClient,
+    ClientError,
+    ClockAck,
+    ClockFrame,
+    ConnectionClosedError,
+    ErrorFrame,
+    RequestRefusedError,
+)
 
 __all__ = ["Lockstep"]
 

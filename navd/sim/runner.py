@@ -19,7 +19,6 @@ import contextlib
 import time
 
 from navd.config import NavdConfig
-from navd.drivers.client import AsyncClient
 from navd.geometry.pose import Pose2
 from navd.sim.body import Body
 from navd.sim.links import RECONNECT_S, PtyChassis, SensorLinks
@@ -28,6 +27,7 @@ from navd.sim.physics import SimRobot
 from navd.sim.sensors import SensorModels, SimSensor
 from navd.sim.settings import SimSettings
 from navd.sim.world import World
+from navd.wire import AsyncClient
 
 __all__ = ["Simulator"]
 

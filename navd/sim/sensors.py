@@ -17,21 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.drivers.protocol.frames import (
-    BeaconFrame,
-    FixFrame,
-    HeadingFrame,
-    ImuFrame,
-    Role,
-    ScanFrame,
-    SensorFrame,
-)
 from navd.estimation.geo import GeoFrame
 from navd.geometry.mount import SensorMounts
 from navd.geometry.pose import Pose2
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.physics import SimRobot
 from navd.sim.settings import SimSettings
+from navd.wire import BeaconFrame, FixFrame, HeadingFrame, ImuFrame, Role, ScanFrame, SensorFrame
 
 __all__ = ["GRAVITY_MPS2", "SensorModels", "SimSensor"]
 

@@ -23,12 +23,12 @@ from typing import Any
 import tomli_w
 
 from navd.config import NavdConfig
-from navd.drivers.client import AsyncClient, ClientError
 from navd.geometry.pose import Pose2
 from navd.sim.errors import SimError
 from navd.sim.runner import Simulator
 from navd.sim.settings import SimSettings
 from navd.sim.world import World
+from navd.wire import AsyncClient, ClientError
 
 __all__ = ["Session", "free_port", "session"]
 

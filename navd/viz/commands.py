@@ -26,17 +26,17 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import decode_control
-from navd.drivers.protocol.frames import (
+from navd.viz.errors import CommandRefusedError
+from navd.viz.settings import VizSettings
+from navd.wire import (
     CancelFrame,
     ControlRequest,
     GoalFrame,
     InitialPoseFrame,
     TeleopFrame,
+    WireError,
+    decode_control,
 )
-from navd.viz.errors import CommandRefusedError
-from navd.viz.settings import VizSettings
 
 __all__ = [
     "COMMAND_TOPICS",

@@ -62,7 +62,7 @@ from foxglove.websocket import (
 )
 
 from navd import __version__
-from navd.drivers.protocol.convert import control_message
+from navd.drivers.convert import control_message
 from navd.lifecycle.messages import (
     CostmapUpdate,
     DaemonStatus,

@@ -1,7 +1,8 @@
 """Bus messages as the JSON of a recording, and back.
 
 Each recorded message is one JSON object of its fields: numbers, strings, lists; arrays as
-``{"dtype", "shape", "base64"}`` (exact, and compact for scans and maps); a number JSON
+``{"dtype", "shape", "base64"}`` (exact, and compact for scans and maps); a wire model
+(a mission's progress) as its JSON object; a number JSON
 cannot hold (NaN, infinity) as the string ``"NaN"``, ``"Infinity"`` or ``"-Infinity"``.
 A message reads back equal to the one written (arrays equal, element by element).
 
@@ -23,6 +24,7 @@ from enum import Enum
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel
 
 from navd.lifecycle.messages import (
     BeaconObservation,
@@ -130,6 +132,8 @@ def _plain(value: Any) -> Any:
         }
     if isinstance(value, Enum):
         return value.value
+    if isinstance(value, BaseModel):
+        return value.model_dump(mode="json")
     if isinstance(value, float) and not math.isfinite(value):
         return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
     if isinstance(value, tuple | list):
@@ -168,6 +172,8 @@ def _typed(hint: Any, value: Any) -> Any:
         return None
     if hint is DeviceKind:
         return DeviceKind(value)
+    if isinstance(hint, type) and issubclass(hint, BaseModel):
+        return hint.model_validate(value)
     if (hint is Vector3 or Vector3 in options) and isinstance(value, list):
         return Vector3(*value)
     if isinstance(value, str) and (hint is float or float in options):

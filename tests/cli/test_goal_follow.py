@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 from navd.cli.control import _follow
-from navd.drivers.protocol.replies import Diagnostics, GoalStatusFrame, Reply, StatusFrame
+from navd.wire import Diagnostics, GoalStatusFrame, Reply, StatusFrame
 
 
 class ScriptedClient:

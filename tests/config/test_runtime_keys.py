@@ -18,13 +18,12 @@ from pydantic import BaseModel
 
 from navd.config import ConfigError, NavdConfig, apply_changes
 from navd.config.fields import restart_required
-from navd.drivers.protocol.frames import ConfigFrame
-from navd.drivers.protocol.replies import ConfigAppliedFrame, ConfigRejectedFrame
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import PoseMeasurement
 from navd.sim.session import free_port
 from navd.slam.node import SlamNode
+from navd.wire import ConfigAppliedFrame, ConfigFrame, ConfigRejectedFrame
 from tests.conftest import room_scan
 from tests.drivers.conftest import connected, record, running_daemon, until
 

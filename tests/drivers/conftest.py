@@ -9,12 +9,10 @@ from typing import Any
 
 from navd.app import build_modules
 from navd.config import parse_config
-from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import Hello
-from navd.drivers.protocol.replies import Reply
 from navd.drivers.tcp.server import TcpServer
 from navd.lifecycle.daemon import Daemon
 from navd.lifecycle.messages import Message
+from navd.wire import AsyncClient, Hello, Reply
 
 READY_TIMEOUT_S = 30.0  # [s] start-up: imports and module activation
 WARM_UP_TIMEOUT_S = 300.0  # [s] numba kernels compiling with a cold cache on a slow machine

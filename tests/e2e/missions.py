@@ -4,10 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from navd.drivers.client import ConnectionClosedError
-from navd.drivers.protocol.frames import MissionFrame
-from navd.drivers.protocol.replies import MissionStatusFrame, Reply
 from navd.sim.session import Session
+from navd.wire import ConnectionClosedError, MissionFrame, MissionStatusFrame, Reply
 
 ENDED = ("completed", "failed", "canceled")
 

@@ -15,10 +15,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.protocol.frames import InitialPoseFrame, MissionFrame, SubscribeFrame
-from navd.drivers.protocol.replies import MissionStatusFrame, Reply, StatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import from_shapes, office
+from navd.wire import (
+    InitialPoseFrame,
+    MissionFrame,
+    MissionStatusFrame,
+    Reply,
+    StatusFrame,
+    SubscribeFrame,
+)
 from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e

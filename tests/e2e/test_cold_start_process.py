@@ -15,16 +15,16 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import (
+from navd.wire import (
+    Client,
     FixFrame,
     Frame,
     HeadingFrame,
     ImuFrame,
     OdomFrame,
+    StatusFrame,
     SubscribeFrame,
 )
-from navd.drivers.protocol.replies import StatusFrame
 from tests.conftest import room_scan
 from tests.e2e.conftest import default_config
 

@@ -123,9 +123,7 @@ def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypa
 
 
 def test_a_log_level_changed_at_runtime_reaches_every_logger(daemon_on_port: Any) -> None:
-    from navd.drivers.client import Client
-    from navd.drivers.protocol.frames import ConfigFrame, GoalFrame
-    from navd.drivers.protocol.replies import ConfigAppliedFrame
+    from navd.wire import Client, ConfigAppliedFrame, ConfigFrame, GoalFrame
 
     daemon, port = daemon_on_port()
     with Client("127.0.0.1", port, device_id="ui") as ui:

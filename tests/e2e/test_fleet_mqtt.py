@@ -21,10 +21,9 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame
-from navd.drivers.protocol.replies import GoalStatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import from_shapes, office
+from navd.wire import GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.fleet.broker import Broker
 from tests.fleet.vda5050_schemas import check
 

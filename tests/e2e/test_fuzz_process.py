@@ -23,8 +23,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import (
+from navd.wire import (
+    Client,
+    ErrorFrame,
     FixFrame,
     Frame,
     GoalFrame,
@@ -32,11 +33,12 @@ from navd.drivers.protocol.frames import (
     ImuFrame,
     InitialPoseFrame,
     PingFrame,
+    Pong,
     SaveMapFrame,
     ScanFrame,
+    StatusFrame,
     SubscribeFrame,
 )
-from navd.drivers.protocol.replies import ErrorFrame, Pong, StatusFrame
 from tests.e2e.test_tcp_process import IMU, Streamer, devices
 
 pytestmark = pytest.mark.e2e

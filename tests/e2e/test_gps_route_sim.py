@@ -13,10 +13,10 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.frames import MissionFrame, SubscribeFrame
 from navd.estimation.geo import GeoFrame
 from navd.sim.session import session
 from navd.sim.world import from_shapes
+from navd.wire import MissionFrame, SubscribeFrame
 from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e

@@ -14,11 +14,9 @@ from typing import Any, BinaryIO
 import pytest
 import tomli_w
 
-from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame
-from navd.drivers.protocol.replies import GoalStatusFrame
 from navd.sim.session import session
 from navd.sim.world import from_shapes
+from navd.wire import AsyncClient, GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.e2e.conftest import REPO, free_port
 
 pytestmark = pytest.mark.e2e

@@ -11,10 +11,9 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.frames import InitialPoseFrame, MissionControlFrame, MissionFrame
-from navd.drivers.protocol.replies import MissionStatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import office
+from navd.wire import InitialPoseFrame, MissionControlFrame, MissionFrame, MissionStatusFrame
 from tests.e2e.missions import follow_mission
 
 pytestmark = pytest.mark.e2e

@@ -13,9 +13,9 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.frames import CancelFrame, InitialPoseFrame
 from navd.sim.session import free_port, session
 from navd.sim.world import from_shapes
+from navd.wire import CancelFrame, InitialPoseFrame
 from tests.e2e.conftest import run_navd
 from tests.e2e.test_safety_process import Lidar
 from tests.e2e.test_scenarios import HALL

@@ -18,10 +18,9 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 
-from navd.drivers.protocol.frames import InitialPoseFrame, SubscribeFrame
-from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 from navd.sim.session import Session, free_port, session
 from navd.sim.world import from_shapes
+from navd.wire import GoalStatusFrame, InitialPoseFrame, StatusFrame, SubscribeFrame
 from tests.e2e.test_scenarios import HALL
 
 pytestmark = pytest.mark.e2e

@@ -9,9 +9,15 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import GoalFrame, SubscribeFrame
-from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame, Reply, StatusFrame
+from navd.wire import (
+    Client,
+    GoalFrame,
+    GoalStatusFrame,
+    PathFrame,
+    Reply,
+    StatusFrame,
+    SubscribeFrame,
+)
 from tests.conftest import room_scan
 from tests.e2e.conftest import default_config, run_navd
 

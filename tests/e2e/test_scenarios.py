@@ -16,12 +16,19 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from navd.drivers.client import ConnectionClosedError
-from navd.drivers.protocol.frames import GoalFrame, InitialPoseFrame, SaveMapFrame, SubscribeFrame
-from navd.drivers.protocol.replies import GoalStatusFrame, PoseInfo, StatusFrame
 from navd.sim.session import Session, session
 from navd.sim.world import World, from_shapes
 from navd.slam.map_io import load_map
+from navd.wire import (
+    ConnectionClosedError,
+    GoalFrame,
+    GoalStatusFrame,
+    InitialPoseFrame,
+    PoseInfo,
+    SaveMapFrame,
+    StatusFrame,
+    SubscribeFrame,
+)
 
 pytestmark = pytest.mark.e2e
 

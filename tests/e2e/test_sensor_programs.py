@@ -15,13 +15,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import SubscribeFrame
-from navd.drivers.protocol.replies import StatusFrame
 from navd.lifecycle.messages import GpsFix, LaserScan
 from navd.sensors.ld06 import encode_packet
 from navd.viz.recording_reader import read_recording
 from navd.viz.recording_writer import recording_files
+from navd.wire import Client, StatusFrame, SubscribeFrame
 from tests.e2e.ptys import linked_pty
 from tests.sensors.test_nmea import GGA
 

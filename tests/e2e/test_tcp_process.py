@@ -9,16 +9,19 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import (
+from navd.wire import (
+    Client,
+    DeviceInfo,
     HeadingFrame,
     ImuFrame,
     PingFrame,
+    Pong,
+    Reply,
     ScanFrame,
     SensorFrame,
+    StatusFrame,
     SubscribeFrame,
 )
-from navd.drivers.protocol.replies import DeviceInfo, Pong, Reply, StatusFrame
 from tests.e2e.conftest import run_navd
 
 pytestmark = pytest.mark.e2e

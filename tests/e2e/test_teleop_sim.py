@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from navd.drivers.protocol.frames import InitialPoseFrame, TeleopFrame
 from navd.sim.session import Session, session
 from navd.sim.world import from_shapes
+from navd.wire import InitialPoseFrame, TeleopFrame
 
 pytestmark = pytest.mark.e2e
 

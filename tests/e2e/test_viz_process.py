@@ -9,8 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.client import Client
-from navd.drivers.protocol.frames import ScanFrame
+from navd.wire import Client, ScanFrame
 from tests.e2e.conftest import default_config
 from tests.viz.foxglove_client import FoxgloveClient
 

@@ -8,9 +8,6 @@ import numpy as np
 import pytest
 from pyproj import Geod
 
-from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import FixFrame, GoalFrame, InitialPoseFrame, SubscribeFrame
-from navd.drivers.protocol.replies import GoalStatusFrame, StatusFrame
 from navd.lifecycle.messages import (
     DriveCommand,
     LocalizationState,
@@ -18,6 +15,15 @@ from navd.lifecycle.messages import (
     SafeStop,
     SafeStopCleared,
     VelocityCommand,
+)
+from navd.wire import (
+    AsyncClient,
+    FixFrame,
+    GoalFrame,
+    GoalStatusFrame,
+    InitialPoseFrame,
+    StatusFrame,
+    SubscribeFrame,
 )
 from tests.drivers.conftest import connected, record, running_daemon, until
 

@@ -13,8 +13,8 @@ SCRIPT = textwrap.dedent(
     """
     import numpy as np
     from navd.config import NavdConfig
-    from navd.drivers.protocol.codec import decode_sensor
-    from navd.drivers.protocol.convert import sensor_message
+    from navd.wire import decode_sensor
+    from navd.drivers.convert import sensor_message
     from navd.estimation import _madgwick_kernels, _ukf_kernels
     from navd.estimation.estimator import StateEstimator
     from navd.estimation.settings import EstimatorSettings

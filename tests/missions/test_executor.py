@@ -27,7 +27,7 @@ def _goals(messages: list[Message]) -> list[Goal]:
 
 
 def _events(messages: list[Message]) -> list[str]:
-    return [m.event for m in messages if isinstance(m, MissionStatus)]
+    return [m.info.event for m in messages if isinstance(m, MissionStatus)]
 
 
 def _end(goal: Goal | GeoGoal, state: str, reason: str = "") -> GoalStatus:
@@ -67,8 +67,13 @@ def test_only_the_steps_own_goal_moves_the_mission_on() -> None:
         eta_s=2.0,
     )
     (status,) = mission.on_goal_status(progress, 1.0, HERE)
-    assert isinstance(status, MissionStatus) and status.event == "progress"
-    assert (status.distance_m, status.eta_s, status.step, status.steps) == (0.7, 2.0, 1, 2)
+    assert isinstance(status, MissionStatus) and status.info.event == "progress"
+    assert (status.info.distance_m, status.info.eta_s, status.info.step, status.info.steps) == (
+        0.7,
+        2.0,
+        1,
+        2,
+    )
 
 
 @pytest.mark.parametrize(
@@ -113,7 +118,7 @@ def test_a_wait_waits_on_the_clock_and_a_pause_on_a_person() -> None:
     out = mission.on_tick(15.0, HERE)
     assert _events(out) == ["step_done", "step_started", "waiting"]
     waiting = [m for m in out if isinstance(m, MissionStatus)][-1]
-    assert waiting.state == "waiting" and waiting.message == "load the parcel"
+    assert waiting.info.state == "waiting" and waiting.info.message == "load the parcel"
     assert mission.on_tick(100.0, HERE) == []  # a pause does not end by itself
     out, refusal = mission.command("continue", 20.0, HERE)
     assert refusal == "" and _goals(out)[0].x_m == 1
@@ -282,9 +287,13 @@ def test_a_beacon_without_a_place_fails_the_step_by_its_policy_naming_the_known_
         MissionStep(kind="beacon", beacons=("B1",)),
     )
     out = mission.start(0.0, HERE)
-    skipped = [m for m in out if isinstance(m, MissionStatus) and m.event == "step_skipped"]
-    assert skipped and "B9 has no place" in skipped[0].reason and "B1, B2" in skipped[0].reason
+    skipped = [m for m in out if isinstance(m, MissionStatus) and m.info.event == "step_skipped"]
+    assert (
+        skipped
+        and "B9 has no place" in skipped[0].info.reason
+        and "B1, B2" in skipped[0].info.reason
+    )
     (goal,) = _goals(out)  # on to the next step
     assert math.dist((goal.x_m, goal.y_m), PLACES["B1"]) == pytest.approx(0.0)
     empty = _mission(MissionStep(kind="visit_beacons"))
-    assert "no beacon has a place" in empty.start(0.0, HERE)[-1].reason  # type: ignore[attr-defined]
+    assert "no beacon has a place" in empty.start(0.0, HERE)[-1].info.reason  # type: ignore[attr-defined]

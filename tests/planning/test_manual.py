@@ -8,14 +8,6 @@ from collections.abc import Mapping
 from typing import Any
 
 from navd.config import NavdConfig
-from navd.drivers.protocol.frames import (
-    CancelFrame,
-    GoalFrame,
-    InitialPoseFrame,
-    SubscribeFrame,
-    TeleopFrame,
-)
-from navd.drivers.protocol.replies import ErrorFrame, StatusFrame
 from navd.lifecycle.messages import (
     DriveCommand,
     DriveMode,
@@ -25,6 +17,15 @@ from navd.lifecycle.messages import (
 )
 from navd.logs import add_log_tap, remove_log_tap
 from navd.planning.manual import ManualDriving, ManualSettings
+from navd.wire import (
+    CancelFrame,
+    ErrorFrame,
+    GoalFrame,
+    InitialPoseFrame,
+    StatusFrame,
+    SubscribeFrame,
+    TeleopFrame,
+)
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 SETTINGS = ManualSettings(

@@ -11,8 +11,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.protocol.frames import CancelFrame, GoalFrame, InitialPoseFrame, ScanFrame
-from navd.drivers.protocol.replies import GoalStatusFrame, PathFrame
 from navd.lifecycle.messages import (
     ConfigChange,
     CostmapUpdate,
@@ -30,6 +28,14 @@ from navd.lifecycle.messages import (
 from navd.planning.errors import GoalUnreachableError
 from navd.planning.global_planner import GlobalPlanner
 from navd.planning.node import PlannerNode
+from navd.wire import (
+    CancelFrame,
+    GoalFrame,
+    GoalStatusFrame,
+    InitialPoseFrame,
+    PathFrame,
+    ScanFrame,
+)
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 

@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from navd.drivers.protocol.frames import HeadingFrame, ImuFrame
 from navd.sensors.bno055 import Bno055
 from navd.sensors.i2c import ChipError
 from navd.sensors.magnetometer import (
@@ -18,6 +17,7 @@ from navd.sensors.magnetometer import (
     fit_calibration,
 )
 from navd.sensors.mpu import Mpu
+from navd.wire import HeadingFrame, ImuFrame
 from tests.sensors.chip_fakes import (
     GRAVITY,
     FakeBno055,

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from navd.drivers.protocol.frames import FixFrame, HeadingFrame
 from navd.sensors.nmea import UERE_M, NmeaReader
+from navd.wire import FixFrame, HeadingFrame
 
 
 def nmea(body: str) -> str:

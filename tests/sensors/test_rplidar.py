@@ -10,8 +10,8 @@ import operator
 import numpy as np
 import pytest
 
-from navd.drivers.protocol.frames import ScanFrame
 from navd.sensors.rplidar import Command, RplidarDecoder, ScanMode, request
+from navd.wire import ScanFrame
 from tests.sensors.rplidar_emulator import RplidarEmulator, sample
 
 

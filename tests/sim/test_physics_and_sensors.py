@@ -7,12 +7,11 @@ import math
 import pytest
 
 from navd.config import NavdConfig
-from navd.drivers.protocol.codec import decode_sensor, encode
-from navd.drivers.protocol.frames import ScanFrame
 from navd.sim.physics import COMMAND_TIMEOUT_S, SimRobot
 from navd.sim.sensors import GRAVITY_MPS2, SensorModels
 from navd.sim.settings import SimSettings
 from navd.sim.world import from_shapes
+from navd.wire import ScanFrame, decode_sensor, encode
 
 ROOM = {"walls": [[-2, -2, 2, -2], [2, -2, 2, 2], [2, 2, -2, 2], [-2, 2, -2, -2]]}
 

@@ -9,16 +9,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 from navd.bench.room import cast
-from navd.drivers.protocol.frames import (
-    ConfigFrame,
-    FindPoseFrame,
-    InitialPoseFrame,
-    SaveMapFrame,
-    ScanFrame,
-    SubscribeFrame,
-    UnsubscribeFrame,
-)
-from navd.drivers.protocol.replies import ConfigAppliedFrame, MapSavedFrame, StatusFrame
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     InitialPose,
@@ -34,6 +24,18 @@ from navd.lifecycle.messages import (
 )
 from navd.slam.map_io import load_map, load_map_state
 from navd.slam.node import SlamNode
+from navd.wire import (
+    ConfigAppliedFrame,
+    ConfigFrame,
+    FindPoseFrame,
+    InitialPoseFrame,
+    MapSavedFrame,
+    SaveMapFrame,
+    ScanFrame,
+    StatusFrame,
+    SubscribeFrame,
+    UnsubscribeFrame,
+)
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 
@@ -404,7 +406,7 @@ async def test_a_wrong_pose_given_while_lost_is_not_taken(tmp_path: Path) -> Non
 async def test_a_map_loaded_at_run_time_searches_for_the_robot_and_restarts_the_estimate(
     tmp_path: Path,
 ) -> None:
-    from navd.drivers.protocol.frames import LoadMapFrame
+    from navd.wire import LoadMapFrame
 
     _room_map(tmp_path)
     async with running_daemon(slam={"map_dir": str(tmp_path), "updating_map": False}) as (

@@ -14,15 +14,10 @@ from typing import Any
 import pytest
 
 from navd.config import NavdConfig
-from navd.drivers.protocol.frames import (
-    CancelFrame,
-    GoalFrame,
-    InitialPoseFrame,
-    TeleopFrame,
-)
 from navd.lifecycle.messages import CancelGoal, Goal, InitialPose, ManualCommand
 from navd.viz.commands import MAX_COMMAND_BYTES, CommandRefusedError, read_command, viewer_request
 from navd.viz.settings import VizSettings
+from navd.wire import CancelFrame, GoalFrame, InitialPoseFrame, TeleopFrame
 from tests.drivers.conftest import record, until
 from tests.viz.foxglove_client import FoxgloveClient
 from tests.viz.test_node import viewed_daemon

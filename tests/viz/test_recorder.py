@@ -12,8 +12,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import ConfigFrame, GoalFrame, RecordFrame
 from navd.lifecycle.messages import (
     ConfigChange,
     Goal,
@@ -23,6 +21,7 @@ from navd.lifecycle.messages import (
     RecordingState,
 )
 from navd.viz.recording_reader import read_recording
+from navd.wire import AsyncClient, ConfigFrame, GoalFrame, RecordFrame
 from tests.drivers.conftest import connected, record, running_daemon, until
 
 TOKEN = "a-token-for-the-test"

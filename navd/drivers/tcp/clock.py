@@ -9,15 +9,12 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Callable, Iterable
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import decode_clock
-from navd.drivers.protocol.frames import PingFrame
-from navd.drivers.protocol.replies import ClockAck, ErrorFrame, Pong
 from navd.drivers.tcp.session import Server, Session
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.errors import LifecycleError
 from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.messages import DeviceKind
+from navd.wire import ClockAck, ErrorFrame, PingFrame, Pong, WireError, decode_clock
 
 __all__ = ["CLOCK_QUEUE", "ClockRole"]
 

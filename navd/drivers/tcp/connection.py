@@ -16,8 +16,7 @@ import math
 import socket
 from typing import Protocol, cast
 
-from navd.drivers.protocol.codec import encode
-from navd.drivers.protocol.replies import ErrorFrame, ReplyPart
+from navd.wire import ErrorFrame, ReplyPart, encode
 
 __all__ = ["Connection", "LineSink"]
 

@@ -8,31 +8,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 
 from navd.config.loader import redacted
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import decode_control, encode
-from navd.drivers.protocol.convert import control_message
-from navd.drivers.protocol.frames import (
-    ConfigGetFrame,
-    PingFrame,
-    SubscribeFrame,
-    UnsubscribeFrame,
-)
-from navd.drivers.protocol.replies import (
-    Ack,
-    ConfigAppliedFrame,
-    ConfigRejectedFrame,
-    GoalStatusFrame,
-    MapLoadedFrame,
-    MapSavedFrame,
-    MissionStatusFrame,
-    PathFrame,
-    Pong,
-    PoseFoundFrame,
-    ReplyPart,
-    StatusFrame,
-)
+from navd.drivers.convert import control_message
 from navd.drivers.tcp.session import Server, Session
-from navd.drivers.tcp.status_board import goal_info, mission_info
+from navd.drivers.tcp.status_board import goal_info
 from navd.lifecycle.messages import (
     CancelGoal,
     ConfigApplied,
@@ -53,6 +31,27 @@ from navd.lifecycle.messages import (
     Path,
     PoseFound,
     SaveMapRequest,
+)
+from navd.wire import (
+    Ack,
+    ConfigAppliedFrame,
+    ConfigGetFrame,
+    ConfigRejectedFrame,
+    GoalStatusFrame,
+    MapLoadedFrame,
+    MapSavedFrame,
+    MissionStatusFrame,
+    PathFrame,
+    PingFrame,
+    Pong,
+    PoseFoundFrame,
+    ReplyPart,
+    StatusFrame,
+    SubscribeFrame,
+    UnsubscribeFrame,
+    WireError,
+    decode_control,
+    encode,
 )
 
 __all__ = ["ControlRole"]
@@ -240,7 +239,7 @@ class ControlRole:
             )
 
     def _on_mission_status(self, status: MissionStatus) -> None:
-        self._broadcast(MissionStatusFrame(**mission_info(status).model_dump()))
+        self._broadcast(MissionStatusFrame(**status.info.model_dump()))
 
     def _on_goal_status(self, status: GoalStatus) -> None:
         self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))

@@ -11,13 +11,10 @@ from __future__ import annotations
 import functools
 import math
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import decode_sensor
-from navd.drivers.protocol.convert import sensor_message
-from navd.drivers.protocol.frames import PingFrame
-from navd.drivers.protocol.replies import Pong
+from navd.drivers.convert import sensor_message
 from navd.drivers.tcp.session import Server, Session
 from navd.lifecycle.messages import DeviceKind, DeviceResumed
+from navd.wire import PingFrame, Pong, WireError, decode_sensor
 
 __all__ = ["SensorRole"]
 

@@ -18,10 +18,7 @@ import re
 from collections.abc import Callable
 
 from navd import __version__
-from navd.drivers.errors import DriverError, WireError
-from navd.drivers.protocol.codec import decode_hello
-from navd.drivers.protocol.frames import PROTOCOL_VERSION, SENSOR_FRAMES, Hello
-from navd.drivers.protocol.replies import DeviceInfo, ErrorFrame, StatusFrame, Welcome
+from navd.drivers.errors import DriverError
 from navd.drivers.tcp.clock import ClockRole
 from navd.drivers.tcp.connection import Connection
 from navd.drivers.tcp.control import ControlRole
@@ -43,6 +40,17 @@ from navd.lifecycle.messages import (
     DeviceResumed,
 )
 from navd.lifecycle.module import Module, ModuleContext
+from navd.wire import (
+    PROTOCOL_VERSION,
+    SENSOR_FRAMES,
+    DeviceInfo,
+    ErrorFrame,
+    Hello,
+    StatusFrame,
+    Welcome,
+    WireError,
+    decode_hello,
+)
 
 __all__ = ["TcpServer"]
 

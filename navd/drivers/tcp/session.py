@@ -10,13 +10,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from navd.drivers.protocol.frames import ClockFrame
 from navd.drivers.tcp.connection import Connection
 from navd.drivers.tcp.settings import TcpSettings
 from navd.drivers.timesync import StampMapper
 from navd.lifecycle.messages import DeviceKind
 from navd.lifecycle.module import ModuleContext
 from navd.lifecycle.settings import Live
+from navd.wire import ClockFrame
 
 __all__ = ["ARRIVALS_KEPT", "Role", "Server", "Session"]
 

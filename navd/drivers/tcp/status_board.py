@@ -9,22 +9,6 @@ from __future__ import annotations
 
 import math
 
-from navd.drivers.protocol.replies import (
-    AppliedInfo,
-    BeaconInfo,
-    ConfigNews,
-    DeviceInfo,
-    Diagnostics,
-    GoalInfo,
-    LocalizationInfo,
-    MissionInfo,
-    ModuleInfo,
-    PoseInfo,
-    RejectedInfo,
-    StatusFrame,
-    VelocityInfo,
-    WorkerInfo,
-)
 from navd.lifecycle.messages import (
     BeaconPlaces,
     ConfigApplied,
@@ -42,8 +26,23 @@ from navd.lifecycle.messages import (
     SlamTracking,
 )
 from navd.lifecycle.module import ModuleContext
+from navd.wire import (
+    AppliedInfo,
+    BeaconInfo,
+    ConfigNews,
+    DeviceInfo,
+    Diagnostics,
+    GoalInfo,
+    LocalizationInfo,
+    ModuleInfo,
+    PoseInfo,
+    RejectedInfo,
+    StatusFrame,
+    VelocityInfo,
+    WorkerInfo,
+)
 
-__all__ = ["MAX_LISTED_BEACONS", "StatusBoard", "goal_info", "mission_info"]
+__all__ = ["MAX_LISTED_BEACONS", "StatusBoard", "goal_info"]
 
 MAX_LISTED_BEACONS = 64  # beacons shown in a status frame (a bounded frame)
 
@@ -116,7 +115,7 @@ class StatusBoard:
             if drive is None
             else VelocityInfo(linear=drive.linear_mps, angular=drive.angular_radps),
             goal=None if self.goal is None else goal_info(self.goal),
-            mission=None if self.mission is None else mission_info(self.mission),
+            mission=None if self.mission is None else self.mission.info,
             beacons=self.beacons,
             devices=devices,
             diagnostics=Diagnostics(
@@ -178,7 +177,7 @@ class StatusBoard:
         self.goal = status
 
     def _mission_status(self, status: MissionStatus) -> None:
-        if status.event != "refused":  # a refused command changes nothing
+        if status.info.event != "refused":  # a refused command changes nothing
             self.mission = status
 
     def _config_applied(self, applied: ConfigApplied) -> None:
@@ -205,12 +204,6 @@ def goal_info(status: GoalStatus) -> GoalInfo:
         eta_s=status.eta_s,
         reason=status.reason,
     )
-
-
-def mission_info(status: MissionStatus) -> MissionInfo:
-    """A mission's status as sent to clients, field for field (unknown numbers become null
-    on the wire)."""
-    return MissionInfo(**{name: getattr(status, name) for name in MissionInfo.model_fields})
 
 
 def _localization_info(state: LocalizationState | None) -> LocalizationInfo | None:

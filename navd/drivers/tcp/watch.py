@@ -13,11 +13,11 @@ import asyncio
 import math
 from collections.abc import Callable, Iterable
 
-from navd.drivers.protocol.replies import ErrorFrame
 from navd.drivers.tcp.session import Session
 from navd.drivers.tcp.settings import TcpSettings
 from navd.lifecycle.messages import DeviceKind, DeviceStale
 from navd.lifecycle.module import ModuleContext
+from navd.wire import ErrorFrame
 
 __all__ = ["SilenceWatch", "stale_after_s"]
 

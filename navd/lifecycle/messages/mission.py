@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from navd.lifecycle.messages.base import Message
+from navd.wire.replies import MissionInfo
 
 __all__ = [
     "BEACON_STEPS",
@@ -102,34 +103,9 @@ class MissionStatus(Message):
     """Where a mission is, published on every change of step or state and as it drives.
 
     Attributes:
-        mission_id, name: which mission.
-        state: "running", "paused", "waiting" (for a person's continue), "completed",
-            "failed" or "canceled".
-        step: the step being run, from 1 (0 before the first); steps: how many there are.
-        round: the round, from 1; rounds: how many (0: until cancelled).
-        kind: the step's kind.
-        event: what just happened: "started", "step_started", "step_done", "step_failed",
-            "step_skipped", "step_retried", "progress", "paused", "resumed", "waiting",
-            "completed", "failed", "canceled".
-        distance_m: [m] to the step's goal along the route, NaN when not driving.
-        eta_s: [s] to the step's goal, NaN when unknown.
-        message: a pause's words to the person.
-        reason: why a step failed or the mission stopped.
-        done: steps completed so far (all rounds); failed: steps that failed (skipped too).
+        info: the mission's progress, as control clients receive it (``navd.wire``'s
+            ``MissionInfo`` is its one definition: state, step and round, the event that
+            just happened, the distance and time to the step's goal, None when unknown).
     """
 
-    mission_id: str
-    name: str
-    state: str
-    step: int
-    steps: int
-    round: int
-    rounds: int
-    kind: str = ""
-    event: str = ""
-    distance_m: float = math.nan
-    eta_s: float = math.nan
-    message: str = ""
-    reason: str = ""
-    done: int = 0
-    failed: int = 0
+    info: MissionInfo

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import json
 
-from navd.drivers.protocol.frames import ClockFrame
-from navd.drivers.protocol.replies import ClockAck, ErrorFrame, Welcome
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.messages import LaserScan
+from navd.wire import ClockAck, ClockFrame, ErrorFrame, Welcome
 from tests.drivers.conftest import connected, hello, record, running_daemon
 from tests.drivers.tcp.test_server import SCAN
 

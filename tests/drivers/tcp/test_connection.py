@@ -8,8 +8,8 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.protocol.replies import ErrorFrame, Pong
 from navd.drivers.tcp.connection import Connection
+from navd.wire import ErrorFrame, Pong
 
 
 class FakeTransport(asyncio.Transport):

@@ -8,10 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from navd.drivers.client import AsyncClient
-from navd.drivers.protocol.frames import LoadMapFrame, SaveMapFrame
-from navd.drivers.protocol.replies import Ack, ErrorFrame
 from navd.lifecycle.messages import LoadMapRequest, SaveMapRequest
+from navd.wire import Ack, AsyncClient, ErrorFrame, LoadMapFrame, SaveMapFrame
 from tests.drivers.conftest import record, running_daemon, until
 
 

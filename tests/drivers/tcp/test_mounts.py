@@ -7,8 +7,8 @@ from __future__ import annotations
 import json
 import math
 
-from navd.drivers.protocol.replies import ErrorFrame, Welcome
 from navd.lifecycle.messages import DeviceStale, LaserScan, WheelOdometry
+from navd.wire import ErrorFrame, Welcome
 from tests.drivers.conftest import connected, hello, record, running_daemon, until
 
 TWO_LIDARS = {"lidars": {"front": {"x_m": 0.2}, "rear": {"x_m": -0.2, "yaw_rad": 3.1416}}}

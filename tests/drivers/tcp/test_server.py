@@ -11,30 +11,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.drivers.client import AsyncClient, ConnectionClosedError, RequestRefusedError
-from navd.drivers.protocol.codec import encode
-from navd.drivers.protocol.frames import (
-    CancelFrame,
-    ConfigFrame,
-    GoalFrame,
-    Hello,
-    ImuFrame,
-    InitialPoseFrame,
-    PingFrame,
-    SaveMapFrame,
-    ScanFrame,
-    SubscribeFrame,
-)
-from navd.drivers.protocol.replies import (
-    Ack,
-    ConfigAppliedFrame,
-    ConfigRejectedFrame,
-    ErrorFrame,
-    GoalStatusFrame,
-    Pong,
-    StatusFrame,
-    Welcome,
-)
 from navd.drivers.tcp.server import TcpServer
 from navd.lifecycle.messages import (
     CancelGoal,
@@ -49,6 +25,30 @@ from navd.lifecycle.messages import (
     InitialPose,
     LaserScan,
     MapUpdate,
+)
+from navd.wire import (
+    Ack,
+    AsyncClient,
+    CancelFrame,
+    ConfigAppliedFrame,
+    ConfigFrame,
+    ConfigRejectedFrame,
+    ConnectionClosedError,
+    ErrorFrame,
+    GoalFrame,
+    GoalStatusFrame,
+    Hello,
+    ImuFrame,
+    InitialPoseFrame,
+    PingFrame,
+    Pong,
+    RequestRefusedError,
+    SaveMapFrame,
+    ScanFrame,
+    StatusFrame,
+    SubscribeFrame,
+    Welcome,
+    encode,
 )
 from tests.drivers.conftest import connected, hello, record, running_daemon, until
 

@@ -9,11 +9,9 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import decode_sensor
-from navd.drivers.protocol.convert import sensor_message
-from navd.drivers.protocol.frames import FixFrame, ImuFrame, OdomFrame, ScanFrame
+from navd.drivers.convert import sensor_message
 from navd.lifecycle.messages import GpsFix, Imu, LaserScan, WheelOdometry
+from navd.wire import FixFrame, ImuFrame, OdomFrame, ScanFrame, WireError, decode_sensor
 
 HEADER = {"stamp": {"sec": 1700000000, "nanosec": 250000000}, "frame_id": "laser"}
 SCAN: dict[str, Any] = {

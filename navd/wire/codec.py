@@ -13,18 +13,12 @@ from typing import Annotated, Any, TypeVar, get_args
 
 from pydantic import Field, TypeAdapter, ValidationError
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.frames import (
-    ROS_SENSOR_FRAMES,
-    SENSOR_FRAMES,
-    ClockRequest,
-    ControlRequest,
-    Frame,
-    Hello,
-    PingFrame,
-    SensorFrame,
-)
-from navd.drivers.protocol.replies import Reply, ReplyPart
+from navd.wire.base import Frame, Hello, PingFrame
+from navd.wire.control_frames import ClockRequest, ControlRequest
+from navd.wire.errors import WireError
+from navd.wire.replies import Reply, ReplyPart
+from navd.wire.ros_frames import ROS_SENSOR_FRAMES
+from navd.wire.sensor_frames import SENSOR_FRAMES, SensorFrame
 
 __all__ = [
     "TAGS",

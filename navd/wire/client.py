@@ -18,35 +18,15 @@ import socket
 import time
 from typing import TypeVar
 
-from navd.drivers.errors import DriverError, WireError
-from navd.drivers.protocol.codec import decode_reply, encode
-from navd.drivers.protocol.frames import Frame, Hello, Role
-from navd.drivers.protocol.replies import Ack, ErrorFrame, Reply, Welcome
+from navd.wire.base import Frame, Hello, Role
+from navd.wire.codec import decode_reply, encode
+from navd.wire.errors import ClientError, ConnectionClosedError, RequestRefusedError, WireError
+from navd.wire.replies import Ack, ErrorFrame, Reply, Welcome
 
-__all__ = ["AsyncClient", "Client", "ClientError", "ConnectionClosedError", "RequestRefusedError"]
+__all__ = ["AsyncClient", "Client"]
 
 R = TypeVar("R", bound=Reply)
 READ_LIMIT_BYTES = 1 << 24  # longest reply line an AsyncClient reads (a status frame is ~4 KB)
-
-
-class ClientError(DriverError):
-    """navd could not be reached, refused the connection, or answered what was not expected."""
-
-
-class ConnectionClosedError(ClientError):
-    """navd closed the connection."""
-
-
-class RequestRefusedError(ClientError):
-    """navd answered a request (or the hello) with an error frame.
-
-    Attributes:
-        error: the error frame.
-    """
-
-    def __init__(self, what: str, error: ErrorFrame) -> None:
-        super().__init__(f"navd refused the {what}: {error.describe()}")
-        self.error = error
 
 
 def _hello(role: Role, device_id: str, token: str | None) -> bytes:

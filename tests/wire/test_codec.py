@@ -7,26 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.drivers.errors import WireError
-from navd.drivers.protocol.codec import (
-    TAGS,
-    decode_control,
-    decode_hello,
-    decode_reply,
-    decode_sensor,
-    encode,
-)
-from navd.drivers.protocol.convert import control_message, sensor_message
-from navd.drivers.protocol.frames import SENSOR_FRAMES, ClockRequest, ControlRequest, Hello
-from navd.drivers.protocol.replies import (
-    Ack,
-    ClockAck,
-    ErrorFrame,
-    GoalStatusFrame,
-    PathFrame,
-    Reply,
-    Welcome,
-)
+from navd.drivers.convert import control_message, sensor_message
 from navd.lifecycle.messages import (
     BeaconObservation,
     CompassHeading,
@@ -38,6 +19,26 @@ from navd.lifecycle.messages import (
     Imu,
     LaserScan,
     WheelOdometry,
+)
+from navd.wire import (
+    SENSOR_FRAMES,
+    TAGS,
+    Ack,
+    ClockAck,
+    ClockRequest,
+    ControlRequest,
+    ErrorFrame,
+    GoalStatusFrame,
+    Hello,
+    PathFrame,
+    Reply,
+    Welcome,
+    WireError,
+    decode_control,
+    decode_hello,
+    decode_reply,
+    decode_sensor,
+    encode,
 )
 
 

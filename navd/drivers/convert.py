@@ -7,7 +7,31 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from navd.drivers.protocol.frames import (
+from navd.geometry.angles import wrap_angle
+from navd.lifecycle.messages import (
+    BeaconObservation,
+    CancelGoal,
+    CompassHeading,
+    ConfigChange,
+    FindPoseRequest,
+    GeoGoal,
+    Goal,
+    GpsFix,
+    Imu,
+    InitialPose,
+    LaserScan,
+    LoadMapRequest,
+    ManualCommand,
+    Message,
+    MissionCommand,
+    MissionRequest,
+    MissionStep,
+    RecordRequest,
+    SaveMapRequest,
+    Vector3,
+    WheelOdometry,
+)
+from navd.wire import (
     BeaconFrame,
     CancelFrame,
     ConfigFrame,
@@ -32,30 +56,6 @@ from navd.drivers.protocol.frames import (
     ScanFrame,
     SensorFrame,
     TeleopFrame,
-)
-from navd.geometry.angles import wrap_angle
-from navd.lifecycle.messages import (
-    BeaconObservation,
-    CancelGoal,
-    CompassHeading,
-    ConfigChange,
-    FindPoseRequest,
-    GeoGoal,
-    Goal,
-    GpsFix,
-    Imu,
-    InitialPose,
-    LaserScan,
-    LoadMapRequest,
-    ManualCommand,
-    Message,
-    MissionCommand,
-    MissionRequest,
-    MissionStep,
-    RecordRequest,
-    SaveMapRequest,
-    Vector3,
-    WheelOdometry,
 )
 
 __all__ = ["control_message", "sensor_message"]

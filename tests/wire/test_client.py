@@ -6,16 +6,21 @@ import asyncio
 
 import pytest
 
-from navd.drivers.client import (
+from navd.wire import (
+    Ack,
     AsyncClient,
     Client,
     ClientError,
     ConnectionClosedError,
+    GoalFrame,
+    GoalStatusFrame,
     RequestRefusedError,
+    SaveMapFrame,
+    StatusFrame,
+    SubscribeFrame,
+    Welcome,
+    encode,
 )
-from navd.drivers.protocol.codec import encode
-from navd.drivers.protocol.frames import GoalFrame, SaveMapFrame, SubscribeFrame
-from navd.drivers.protocol.replies import Ack, GoalStatusFrame, StatusFrame, Welcome
 from tests.drivers.conftest import running_daemon
 
 
