@@ -29,6 +29,7 @@ from navd.wire import (
     ScanFrame,
     SensorFrame,
     encode,
+    frame_text,
 )
 
 
@@ -113,7 +114,7 @@ def main() -> None:
         reply = client.receive()
         if isinstance(reply, Pong):
             break
-        print(json.dumps({"unexpected": reply.model_dump(mode="json")}), file=sys.stderr)
+        print(f"unexpected reply: {frame_text(reply)}", file=sys.stderr)
     print(json.dumps({"sent": sent}), flush=True)
     sys.stdin.read()
     client.close()

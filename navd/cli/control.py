@@ -28,6 +28,7 @@ from navd.wire import (
     RecordFrame,
     StatusFrame,
     SubscribeFrame,
+    frame_text,
 )
 
 __all__ = ["add_commands", "format_status", "goal_line"]
@@ -110,14 +111,14 @@ def _goal(args: argparse.Namespace) -> int:
             ack = client.request(frame)
             heading = "" if frame.yaw is None else f", heading {frame.yaw:.2f} rad"
             print(
-                ack.model_dump_json(exclude_none=True)
+                frame_text(ack)
                 if args.json
                 else f"goal {ack.goal_id} sent: ({frame.x:.2f}, {frame.y:.2f}) m{heading}",
                 flush=True,
             )
             if args.wait:
                 verdict = _follow(client, ack.goal_id)
-                print(verdict.model_dump_json() if args.json else goal_line(verdict))
+                print(frame_text(verdict) if args.json else goal_line(verdict))
             else:
                 verdict = _first_status(client, ack.goal_id)
                 if verdict is not None and not args.json and verdict.state != "failed":
@@ -197,7 +198,7 @@ def _cancel(args: argparse.Namespace) -> int:
         print(f"navd cancel: {err}", file=sys.stderr)
         return EXIT_FAILED
     if args.json:
-        print(ack.model_dump_json(exclude_none=True))
+        print(frame_text(ack))
     else:  # the daemon stops the goal if one is active (navd status shows it)
         print("cancel accepted" if args.goal_id is None else f"cancel of {args.goal_id} accepted")
     return EXIT_OK
@@ -257,7 +258,7 @@ def _status(args: argparse.Namespace) -> int:
             client.request(SubscribeFrame(rate_hz=args.rate))
             while True:
                 frame = client.receive_type(StatusFrame)
-                print(frame.model_dump_json() if args.json else format_status(frame), flush=True)
+                print(frame_text(frame) if args.json else format_status(frame), flush=True)
                 if args.once:
                     return EXIT_OK
     except (ClientError, ConfigError) as err:

@@ -10,8 +10,6 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
 from navd.cli.common import (
     EXIT_CANCELED,
     EXIT_FAILED,
@@ -26,10 +24,13 @@ from navd.wire import (
     Client,
     ClientError,
     MissionControlFrame,
+    MissionDocumentError,
     MissionFrame,
     MissionStatusFrame,
     StatusFrame,
     SubscribeFrame,
+    frame_text,
+    mission_from_document,
 )
 
 __all__ = ["add_commands", "load_mission", "mission_line"]
@@ -94,17 +95,10 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
         raise ConfigError([f"not valid {kind}: {err}"], source=source) from err
     if not isinstance(data, dict):
         raise ConfigError(["a mission is a table (an object) with steps"], source=source)
-    data = {k: v for k, v in data.items() if k != "type"}
-    if mission_id is not None:
-        data["mission_id"] = mission_id
     try:
-        return MissionFrame.model_validate(data)
-    except ValidationError as err:
-        problems = [
-            f"{'.'.join(str(p) for p in e['loc']) or 'mission'}: {e['msg']}"
-            for e in err.errors(include_url=False)
-        ]
-        raise ConfigError(problems, source=source) from err
+        return mission_from_document(data, mission_id)
+    except MissionDocumentError as err:
+        raise ConfigError(err.problems, source=source) from err
 
 
 def _size(mission: MissionFrame) -> str:
@@ -146,7 +140,7 @@ def _run(args: argparse.Namespace) -> int:
         with connect(args) as client:
             ack = client.request(mission)
             print(
-                ack.model_dump_json(exclude_none=True)
+                frame_text(ack)
                 if args.json
                 else f"mission {ack.mission_id} sent: {_size(mission)}",
                 flush=True,
@@ -180,7 +174,7 @@ def _follow(client: Client, mission_id: str | None, *, raw: bool) -> MissionStat
             if left is None or (not math.isnan(shown) and abs(left - shown) < 1.0):
                 continue  # a line for each metre driven, not for each planner tick
             shown = left
-        print(status.model_dump_json() if raw else mission_line(status), flush=True)
+        print(frame_text(status) if raw else mission_line(status), flush=True)
         if status.state in ENDED:
             return status
 

@@ -35,7 +35,7 @@ from navd.wire import (
     InitialPoseFrame,
     TeleopFrame,
     WireError,
-    decode_control,
+    decode_control_object,
 )
 
 __all__ = [
@@ -88,7 +88,7 @@ def _twist(message: Mapping[str, Any]) -> ControlRequest:
 
 
 def _navd(message: Mapping[str, Any]) -> ControlRequest:
-    frame = decode_control(json.dumps(message).encode())
+    frame = decode_control_object(message)
     if not isinstance(frame, VIEWER_REQUESTS):
         allowed = ", ".join(sorted(f.model_fields["type"].default for f in VIEWER_REQUESTS))
         raise CommandRefusedError(f"a viewer may send {allowed}, not {frame.type!r}")

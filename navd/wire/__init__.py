@@ -33,10 +33,12 @@ from navd.wire.codec import (
     TAGS,
     decode_clock,
     decode_control,
+    decode_control_object,
     decode_hello,
     decode_reply,
     decode_sensor,
     encode,
+    frame_text,
 )
 from navd.wire.control_frames import (
     CancelFrame,
@@ -58,6 +60,7 @@ from navd.wire.control_frames import (
 from navd.wire.errors import (
     ClientError,
     ConnectionClosedError,
+    MissionDocumentError,
     ProtocolError,
     RequestRefusedError,
     WireError,
@@ -67,6 +70,7 @@ from navd.wire.mission_frames import (
     MissionControlFrame,
     MissionFrame,
     MissionStepSpec,
+    mission_from_document,
 )
 from navd.wire.replies import (
     Ack,
@@ -167,6 +171,7 @@ __all__ = [
     "MapLoadedFrame",
     "MapSavedFrame",
     "MissionControlFrame",
+    "MissionDocumentError",
     "MissionFrame",
     "MissionInfo",
     "MissionStatusFrame",
@@ -202,8 +207,11 @@ __all__ = [
     "WorkerInfo",
     "decode_clock",
     "decode_control",
+    "decode_control_object",
     "decode_hello",
     "decode_reply",
     "decode_sensor",
     "encode",
+    "frame_text",
+    "mission_from_document",
 ]

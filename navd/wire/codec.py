@@ -9,6 +9,7 @@ only requests, the clock client only clock steps.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from typing import Annotated, Any, TypeVar, get_args
 
 from pydantic import Field, TypeAdapter, ValidationError
@@ -24,10 +25,12 @@ __all__ = [
     "TAGS",
     "decode_clock",
     "decode_control",
+    "decode_control_object",
     "decode_hello",
     "decode_reply",
     "decode_sensor",
     "encode",
+    "frame_text",
 ]
 
 T = TypeVar("T")
@@ -120,6 +123,16 @@ def decode_control(line: bytes) -> ControlRequest:
     return _decode(_CONTROL, line, "control")
 
 
+def decode_control_object(message: Mapping[str, Any]) -> ControlRequest:
+    """A control request already parsed from JSON (a viewer's command: an object, not a
+    line), read exactly as the same object sent as a line would be.
+
+    Raises:
+        WireError: naming the field that is wrong.
+    """
+    return decode_control(json.dumps(message).encode())
+
+
 def decode_clock(line: bytes) -> ClockRequest:
     """Decode a line from the clock client.
 
@@ -145,6 +158,12 @@ def encode(frame: Frame | ReplyPart) -> bytes:
     reply become null.
     """
     return frame.model_dump_json(exclude_none=frame.OMIT_NONE).encode() + b"\n"
+
+
+def frame_text(frame: Frame | ReplyPart) -> str:
+    """One frame as navd (or a client) sends it, without the line's end: what a command
+    line's ``--json`` prints."""
+    return encode(frame).decode().rstrip("\n")
 
 
 def _decode(adapter: TypeAdapter[T], line: bytes, role: str) -> T:

@@ -13,6 +13,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ClientError",
     "ConnectionClosedError",
+    "MissionDocumentError",
     "ProtocolError",
     "RequestRefusedError",
     "WireError",
@@ -35,6 +36,18 @@ class WireError(ProtocolError):
         super().__init__(f"{field}: {reason}" if field else reason)
         self.field = field
         self.reason = reason
+
+
+class MissionDocumentError(ProtocolError):
+    """A mission file's table is not a mission.
+
+    Attributes:
+        problems: one line per wrong field, each starting with the field's path.
+    """
+
+    def __init__(self, problems: list[str]) -> None:
+        super().__init__("; ".join(problems))
+        self.problems = problems
 
 
 class ClientError(ProtocolError):

@@ -4,11 +4,13 @@ it (``MissionControlFrame``); docs/missions.md describes each step's fields."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from navd.wire.base import DEVICE_ID_PATTERN, Coordinate, Frame
+from navd.wire.errors import MissionDocumentError
 
 __all__ = [
     "MAX_MISSION_STEPS",
@@ -16,6 +18,7 @@ __all__ = [
     "MissionFrame",
     "MissionPolicy",
     "MissionStepSpec",
+    "mission_from_document",
 ]
 
 MAX_MISSION_STEPS = 1000
@@ -92,3 +95,26 @@ class MissionControlFrame(Frame):
 
     type: Literal["mission_control"] = "mission_control"
     action: Literal["pause", "resume", "cancel", "continue"]
+
+
+def mission_from_document(
+    document: Mapping[str, Any], mission_id: str | None = None
+) -> MissionFrame:
+    """A mission file's table (TOML or JSON, already parsed) as the frame that runs it: the
+    same fields as a ``mission`` frame, its ``type`` optional; ``mission_id`` replaces the
+    file's.
+
+    Raises:
+        MissionDocumentError: every field that is wrong, each named by its path.
+    """
+    data = {key: value for key, value in document.items() if key != "type"}
+    if mission_id is not None:
+        data["mission_id"] = mission_id
+    try:
+        return MissionFrame.model_validate(data)
+    except ValidationError as err:
+        problems = [
+            f"{'.'.join(str(p) for p in e['loc']) or 'mission'}: {e['msg']}"
+            for e in err.errors(include_url=False)
+        ]
+        raise MissionDocumentError(problems) from err

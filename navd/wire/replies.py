@@ -174,6 +174,11 @@ class GoalStatusFrame(GoalInfo):
 
     type: Literal["goal_status"] = "goal_status"
 
+    @classmethod
+    def of(cls, info: GoalInfo) -> GoalStatusFrame:
+        """The frame that sends ``info``."""
+        return cls(**info.model_dump())
+
 
 class MissionInfo(ReplyPart):
     """Where a mission is (unknown numbers are null): its state, step ``step`` of ``steps``
@@ -202,6 +207,11 @@ class MissionStatusFrame(MissionInfo):
     """Sent to every control client on each event of a mission (and as it drives)."""
 
     type: Literal["mission_status"] = "mission_status"
+
+    @classmethod
+    def of(cls, info: MissionInfo) -> MissionStatusFrame:
+        """The frame that sends ``info``."""
+        return cls(**info.model_dump())
 
 
 class PathFrame(ReplyPart):

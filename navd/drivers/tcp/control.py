@@ -239,10 +239,10 @@ class ControlRole:
             )
 
     def _on_mission_status(self, status: MissionStatus) -> None:
-        self._broadcast(MissionStatusFrame(**status.info.model_dump()))
+        self._broadcast(MissionStatusFrame.of(status.info))
 
     def _on_goal_status(self, status: GoalStatus) -> None:
-        self._broadcast(GoalStatusFrame(**goal_info(status).model_dump()))
+        self._broadcast(GoalStatusFrame.of(goal_info(status)))
 
     def _on_map_saved(self, saved: MapSaved) -> None:
         self._broadcast(
