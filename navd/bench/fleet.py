@@ -31,6 +31,7 @@ from typing import Any
 import aiomqtt
 
 from navd.fleet import reports
+from navd.fleet.mqtt import Broker, connect
 from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus
@@ -70,7 +71,7 @@ class _PointVehicle:
         return json.dumps(build(head, *args))
 
     async def run(self, port: int, stop: asyncio.Event) -> None:
-        async with aiomqtt.Client("127.0.0.1", port, identifier=f"bench-{self.serial}") as client:
+        async with connect(Broker("127.0.0.1", port), f"bench-{self.serial}") as client:
             await client.subscribe(self.topics.order, qos=1)
             await client.subscribe(self.topics.instant_actions, qos=1)
             await client.publish(
@@ -152,7 +153,7 @@ def _pose(v: _PointVehicle) -> Any:
 
 
 async def _count(port: int, stop: asyncio.Event, counter: list[int]) -> None:
-    async with aiomqtt.Client("127.0.0.1", port, identifier="bench-counter") as client:
+    async with connect(Broker("127.0.0.1", port), "bench-counter") as client:
         await client.subscribe("uagv/#", qos=0)
         async for _ in client.messages:
             counter[0] += 1

@@ -20,16 +20,15 @@ from __future__ import annotations
 import asyncio
 import json
 import math
-import ssl
 import time
 from dataclasses import dataclass
 from typing import Any
-from urllib.parse import urlsplit
 
 import aiomqtt
 
 from navd.config import FleetConfig, NavdConfig, RobotConfig
 from navd.fleet import reports
+from navd.fleet.mqtt import Broker, connect
 from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
 from navd.geometry.footprint import Footprint
@@ -207,15 +206,14 @@ class FleetNode(Module):
     async def _connection(self) -> None:
         """Keep connected: subscribe, announce, hear; reconnect after a growing pause."""
         fleet = self.ctx.startup_config.fleet
-        url = urlsplit(fleet.broker_url)
-        tls = None
-        if url.scheme == "mqtts":
-            tls = aiomqtt.TLSParameters(
-                ca_certs=fleet.ca_file,
-                certfile=fleet.cert_file,
-                keyfile=fleet.key_file,
-                cert_reqs=ssl.CERT_REQUIRED,
-            )
+        broker = Broker.of_url(
+            fleet.broker_url,
+            username=fleet.username,
+            password=fleet.password,
+            ca_file=fleet.ca_file,
+            cert_file=fleet.cert_file,
+            key_file=fleet.key_file,
+        )
         will = aiomqtt.Will(
             self.topics.connection,
             self._json("connection", reports.connection, "CONNECTIONBROKEN"),
@@ -225,15 +223,9 @@ class FleetNode(Module):
         pause = FIRST_RETRY_S
         while True:
             try:
-                async with aiomqtt.Client(
-                    url.hostname or "127.0.0.1",
-                    url.port or (8883 if tls else 1883),
-                    identifier=f"{fleet.manufacturer}-{fleet.serial_number}",
-                    username=fleet.username,
-                    password=fleet.password,
-                    tls_params=tls,
-                    will=will,
-                    keepalive=fleet.keepalive_s,
+                identifier = f"{fleet.manufacturer}-{fleet.serial_number}"
+                async with connect(
+                    broker, identifier, will=will, keepalive_s=fleet.keepalive_s
                 ) as client:
                     await self._online(client)
                     pause = FIRST_RETRY_S

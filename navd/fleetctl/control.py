@@ -17,11 +17,11 @@ import uuid
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
-from urllib.parse import urlsplit
 
 import aiomqtt
 import numpy as np
 
+from navd.fleet.mqtt import Broker, connect
 from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import GroupMap
@@ -93,21 +93,13 @@ class FleetView:
         return vehicle, levels[4]
 
 
-def _client(broker_url: str, identifier: str) -> aiomqtt.Client:
-    url = urlsplit(broker_url)
-    if url.scheme not in ("mqtt", "mqtts") or not url.hostname:
-        raise ValueError(
-            f"broker URL {broker_url!r} must be mqtt://HOST[:PORT] or mqtts://HOST[:PORT]"
-        )
-    tls = aiomqtt.TLSParameters() if url.scheme == "mqtts" else None
-    return aiomqtt.Client(
-        url.hostname,
-        url.port or (8883 if tls else 1883),
-        identifier=identifier,
-        username=url.username,
-        password=url.password,
-        tls_params=tls,
-    )
+def _client(broker_url: str) -> aiomqtt.Client:
+    """A connection for the fleet control, under a name of its own on the broker.
+
+    Raises:
+        BrokerUrlError: the URL is not an MQTT broker's.
+    """
+    return connect(Broker.of_url(broker_url), f"navd-fleet-{uuid.uuid4().hex[:8]}")
 
 
 async def fleet_view(
@@ -117,7 +109,7 @@ async def fleet_view(
     ``listen_s`` (each ONLINE one is asked for it)."""
     view = FleetView(interface)
     prefix = f"{interface}/{MAJOR_VERSION}"
-    async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:
+    async with _client(broker_url) as client:
         await client.subscribe(f"{prefix}/+/+/connection", qos=1)
         await client.subscribe(f"{prefix}/+/+/state", qos=1)
         asked: set[str] = set()
@@ -195,7 +187,7 @@ async def drive_group(
     )
     began = time.monotonic()
     outcome: dict[str, Any] = {"reached": False}
-    async with _client(broker_url, f"navd-fleet-{uuid.uuid4().hex[:8]}") as client:
+    async with _client(broker_url) as client:
         run = _GroupRun(client, f"{interface}/{MAJOR_VERSION}", group, view, report)
         await run.start()
         loop = asyncio.get_running_loop()
