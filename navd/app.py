@@ -8,6 +8,7 @@ from navd.drivers.tcp.server import TcpServer
 from navd.estimation.node import EstimationNode
 from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate
+from navd.lifecycle.state_view import StateView
 from navd.missions.node import MissionNode
 from navd.planning.guard import CollisionGuard
 from navd.planning.node import PlannerNode
@@ -33,6 +34,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
         # before anything that decides or hears: a recording from start-up misses nothing,
         # and stops after them
         Recorder(),
+        StateView(),  # what the outside is told: the status, live view and fleet read it
         EstimationNode(),
         SlamNode(),
         PlannerNode(),

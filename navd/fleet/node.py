@@ -33,15 +33,7 @@ from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
 from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
-from navd.lifecycle.messages import (
-    DriveMode,
-    GoalStatus,
-    LocalizationState,
-    Message,
-    NearbyRobots,
-    PoseEstimate,
-    SafetyState,
-)
+from navd.lifecycle.messages import GoalStatus, Message, NearbyRobots, RobotState
 from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["FleetNode", "FleetSettings"]
@@ -98,10 +90,7 @@ class FleetNode(Module):
 
     def __init__(self) -> None:
         super().__init__("fleet")
-        self._pose: PoseEstimate | None = None
-        self._std_m = math.inf
-        self._held: tuple[str, ...] = ()
-        self._manual = False
+        self._state = RobotState(stamp=0.0, received=0.0, changed=frozenset())
         self._headers: dict[str, int] = {}
         self._client: aiomqtt.Client | None = None
         self._state_due = True
@@ -121,10 +110,7 @@ class FleetNode(Module):
         fleet = ctx.startup_config.fleet  # broker and names need a restart
         self.topics = Topics(fleet.interface_name, fleet.manufacturer, fleet.serial_number)
         self.vehicle = Vehicle(fleet.manufacturer, fleet.serial_number, self._requested)
-        ctx.subscribe(PoseEstimate, self._on_pose)
-        ctx.subscribe(LocalizationState, self._on_localization)
-        ctx.subscribe(SafetyState, self._on_safety)
-        ctx.subscribe(DriveMode, self._on_mode)
+        ctx.subscribe(RobotState, self._on_state)
         ctx.subscribe(GoalStatus, self._on_goal_status)
 
     async def on_activate(self) -> None:
@@ -156,34 +142,25 @@ class FleetNode(Module):
         for message in messages:
             self.ctx.publish(message)
 
-    def _on_pose(self, pose: PoseEstimate) -> None:
-        self._pose = pose
-
-    def _on_localization(self, state: LocalizationState) -> None:
-        self._std_m = state.position_std_m
-
-    def _on_safety(self, state: SafetyState) -> None:
-        if state.reasons != self._held:
-            self._held = state.reasons
-            self._state_due = True
-
-    def _on_mode(self, mode: DriveMode) -> None:
-        manual = mode.mode == "manual"
-        if manual != self._manual:
-            self._manual = manual
+    def _on_state(self, state: RobotState) -> None:
+        """A new view of the robot; a hold or release, or a change of who drives, is a
+        change the state message reports (§6.10)."""
+        before = self._state
+        self._state = state
+        if state.held != before.held or state.manual != before.manual:
             self._state_due = True
 
     def _on_goal_status(self, status: GoalStatus) -> None:
         self._publish(self.vehicle.on_goal_status(status, self.ctx.clock.now()))
 
     def _here(self) -> Pose2 | None:
-        pose = self._pose
+        pose = self._state.pose
         return None if pose is None else Pose2(pose.x_m, pose.y_m, pose.yaw_rad)
 
     def _standing(self, now: float) -> bool:
         """Whether the robot is known to stand: its latest pose says so and is fresh (with
         none, it cannot have driven an order)."""
-        pose = self._pose
+        pose = self._state.pose
         if pose is None:
             return True
         if now - pose.received > POSE_FRESH_S:
@@ -191,13 +168,14 @@ class FleetNode(Module):
         return not reports.driving(self._robot())
 
     def _robot(self) -> reports.Robot:
-        pose = self._pose
+        state = self._state
+        pose, localization = state.pose, state.localization
         return reports.Robot(
             pose=None if pose is None else (pose.x_m, pose.y_m, pose.yaw_rad),
-            position_std_m=self._std_m,
+            position_std_m=math.inf if localization is None else localization.position_std_m,
             velocity=(0.0, 0.0) if pose is None else (pose.linear_mps, pose.angular_radps),
-            held=self._held,
-            manual=self._manual,
+            held=state.held,
+            manual=state.manual,
             map_id=self.settings.value.map_id,
         )
 

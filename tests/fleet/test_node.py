@@ -17,7 +17,7 @@ from navd.config import NavdConfig
 from navd.fleet import node as fleet_node
 from navd.fleet.node import FleetNode
 from navd.lifecycle.bus import Bus
-from navd.lifecycle.messages import PoseEstimate
+from navd.lifecycle.messages import PoseEstimate, RobotState
 from navd.lifecycle.module import ModuleContext
 from navd.lifecycle.workers import WorkerPool
 from tests.fleet.vda5050_schemas import check
@@ -66,7 +66,8 @@ async def test_the_state_goes_out_when_the_robot_starts_and_when_it_stops(
     module._client = client  # type: ignore[assignment]  # connected, as far as it knows
 
     async def tick(t: float, linear_mps: float) -> list[dict[str, Any]]:
-        bus.publish(_pose(t, linear_mps))
+        pose = _pose(t, linear_mps)
+        bus.publish(RobotState(stamp=t, received=t, changed=frozenset({"pose"}), pose=pose))
         wall[0] += 1.0  # well past the least time between two states, far from 30 s
         module._tick(t)
         for _ in range(3):  # the sends are tasks of their own

@@ -22,8 +22,10 @@ from navd.lifecycle.messages import (
     SafetyState,
     ViewInterest,
 )
+from navd.lifecycle.state_view import StateView
 from navd.logs import add_log_tap, get_logger, remove_log_tap
 from navd.viz import node as viz_node
+from navd.viz.listener import Throttle
 from navd.viz.node import VizNode
 from tests.drivers.conftest import record, until
 from tests.planning.test_zones import ORIGIN, SHAPE, write_mask
@@ -54,7 +56,7 @@ async def viewed_daemon(
         }
     )
     node = VizNode()
-    daemon = Daemon(config, [node], handle_signals=False)
+    daemon = Daemon(config, [StateView(), node], handle_signals=False)
     task = asyncio.create_task(daemon.run())
     try:
         await asyncio.wait_for(daemon.ready.wait(), 30.0)
@@ -189,7 +191,7 @@ async def test_a_busy_port_leaves_the_daemon_running_without_the_view() -> None:
 def test_the_throttle_keeps_a_streams_rate_under_its_cap(
     period_s: float, arrivals: list[float], sent: int
 ) -> None:
-    throttle = viz_node._Throttle()
+    throttle = Throttle()
     assert sum(throttle.due(t, period_s) for t in arrivals) == sent
 
 

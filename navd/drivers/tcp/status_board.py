@@ -1,30 +1,13 @@
-"""What a control client sees in a ``status`` frame: the latest of everything, kept cheaply.
-
-The board subscribes to the messages that make up the status (pose, wheel command, goal
-progress, who drives, recording, daemon health, safety holds, config changes), keeps only
-the latest of each, and builds the frame on demand at the subscriber's rate.
+"""What a control client sees in a ``status`` frame: the robot's state (``RobotState``,
+kept by the lifecycle's ``StateView``) written as the wire's status frame, on demand at the
+subscriber's rate.
 """
 
 from __future__ import annotations
 
 import math
 
-from navd.lifecycle.messages import (
-    BeaconPlaces,
-    ConfigApplied,
-    ConfigRejected,
-    DaemonStatus,
-    DriveCommand,
-    DriveMode,
-    Goal,
-    GoalStatus,
-    LocalizationState,
-    MissionStatus,
-    PoseEstimate,
-    RecordingState,
-    SafetyState,
-    SlamTracking,
-)
+from navd.lifecycle.messages import GoalStatus, LocalizationState, RobotState
 from navd.lifecycle.module import ModuleContext
 from navd.wire import (
     AppliedInfo,
@@ -48,61 +31,36 @@ MAX_LISTED_BEACONS = 64  # beacons shown in a status frame (a bounded frame)
 
 
 class StatusBoard:
-    """The latest pose, command, goal, health, safety and config news."""
+    """The robot's latest state, written as a status frame when one is due."""
 
     def __init__(self) -> None:
-        self.pose: PoseEstimate | None = None
-        self.localization: LocalizationState | None = None
-        self.slam: SlamTracking | None = None
-        self.drive: DriveCommand | None = None
-        self.goal: GoalStatus | None = None
-        self.mission: MissionStatus | None = None
-        self.daemon: DaemonStatus | None = None
-        self.safety: tuple[str, ...] = ()
-        self.operator = ""  # who drives by hand ("" while the navigator does)
-        self.recording = ""  # the file being recorded ("" when not recording)
-        self.config = ConfigNews(revision=0)
-        self.beacons: list[BeaconInfo] = []
+        self.state = RobotState(stamp=0.0, received=0.0, changed=frozenset())
 
     def subscribe(self, ctx: ModuleContext) -> None:
         """Keep up to date from the bus (handlers attributed to ``ctx``'s module)."""
-        ctx.subscribe(PoseEstimate, self._pose)
-        ctx.subscribe(LocalizationState, self._localization)
-        ctx.subscribe(SlamTracking, self._slam)
-        ctx.subscribe(DriveCommand, self._drive)
-        ctx.subscribe(DaemonStatus, self._daemon)
-        ctx.subscribe(SafetyState, self._safety)
-        ctx.subscribe(DriveMode, self._drive_mode)
-        ctx.subscribe(RecordingState, self._recording)
-        ctx.subscribe(Goal, self._goal)
-        ctx.subscribe(GoalStatus, self._goal_status)
-        ctx.subscribe(MissionStatus, self._mission_status)
-        ctx.subscribe(ConfigApplied, self._config_applied)
-        ctx.subscribe(ConfigRejected, self._config_rejected)
-        ctx.subscribe(BeaconPlaces, self._beacons)
+        ctx.subscribe(RobotState, self._state)
+
+    def _state(self, state: RobotState) -> None:
+        self.state = state
 
     def frame(self, now: float, robot: str, devices: list[DeviceInfo]) -> StatusFrame:
         """The status frame at ``now`` [s] of the robot named ``robot``, with the server's
         device list."""
+        state = self.state
+        held, operator = state.held, state.operator
         # navigating only while the planner reports the goal active: an accepted goal that
         # nothing pursues yet is shown under "goal" as pending, not as motion
-        goal_active = self.goal is not None and self.goal.state == "active"
+        goal_active = state.goal is not None and state.goal.state == "active"
         mode = (
-            "stopped"
-            if self.safety
-            else "manual"
-            if self.operator
-            else "navigating"
-            if goal_active
-            else "idle"
+            "stopped" if held else "manual" if operator else "navigating" if goal_active else "idle"
         )
-        pose, drive, daemon = self.pose, self.drive, self.daemon
+        pose, drive, daemon = state.pose, state.drive, state.daemon
         return StatusFrame(
             stamp=now,
             robot=robot,
             mode=mode,
-            operator=self.operator or None,
-            recording=self.recording or None,
+            operator=operator or None,
+            recording=state.recording or None,
             pose=None
             if pose is None
             else PoseInfo(
@@ -114,13 +72,16 @@ class StatusBoard:
             velocity=None
             if drive is None
             else VelocityInfo(linear=drive.linear_mps, angular=drive.angular_radps),
-            goal=None if self.goal is None else goal_info(self.goal),
-            mission=None if self.mission is None else self.mission.info,
-            beacons=self.beacons,
+            goal=None if state.goal is None else goal_info(state.goal),
+            mission=None if state.mission is None else state.mission.info,
+            beacons=[
+                BeaconInfo(id=p.beacon_id, x=p.x_m, y=p.y_m, std=p.std_m, learnt=p.learnt)
+                for p in state.beacons[:MAX_LISTED_BEACONS]
+            ],
             devices=devices,
             diagnostics=Diagnostics(
-                safety=list(self.safety),
-                localization=_localization_info(self.localization),
+                safety=list(held),
+                localization=_localization_info(state.localization),
                 loop_lag_p50_ms=None if daemon is None else round(daemon.loop_lag_p50_ms, 3),
                 loop_lag_p99_ms=None if daemon is None else round(daemon.loop_lag_p99_ms, 3),
                 loop_lag_max_ms=None if daemon is None else round(daemon.loop_lag_max_ms, 3),
@@ -132,67 +93,28 @@ class StatusBoard:
                 workers=[]
                 if daemon is None
                 else [WorkerInfo(**w._asdict()) for w in daemon.workers],
-                config=self.config,
-                slam=None if self.slam is None else dict(self.slam.counts),
+                config=_config_news(state),
+                slam=None if state.slam is None else dict(state.slam.counts),
             ),
         )
 
-    def _beacons(self, places: BeaconPlaces) -> None:
-        self.beacons = [
-            BeaconInfo(id=p.beacon_id, x=p.x_m, y=p.y_m, std=p.std_m, learnt=p.learnt)
-            for p in places.places[:MAX_LISTED_BEACONS]
-        ]
 
-    def _pose(self, pose: PoseEstimate) -> None:
-        self.pose = pose
-
-    def _localization(self, state: LocalizationState) -> None:
-        self.localization = state
-
-    def _slam(self, tracking: SlamTracking) -> None:
-        self.slam = tracking
-
-    def _drive(self, drive: DriveCommand) -> None:
-        self.drive = drive
-
-    def _drive_mode(self, mode: DriveMode) -> None:
-        self.operator = mode.operator if mode.mode == "manual" else ""
-
-    def _recording(self, state: RecordingState) -> None:
-        self.recording = state.file if state.active else ""
-
-    def _daemon(self, status: DaemonStatus) -> None:
-        self.daemon = status
-
-    def _safety(self, state: SafetyState) -> None:
-        self.safety = state.reasons
-
-    def _goal(self, goal: Goal) -> None:
-        if self.goal is None or self.goal.goal_id != goal.goal_id:
-            self.goal = GoalStatus(
-                stamp=goal.stamp, received=goal.received, goal_id=goal.goal_id, state="pending"
-            )
-
-    def _goal_status(self, status: GoalStatus) -> None:
-        self.goal = status
-
-    def _mission_status(self, status: MissionStatus) -> None:
-        if status.info.event != "refused":  # a refused command changes nothing
-            self.mission = status
-
-    def _config_applied(self, applied: ConfigApplied) -> None:
-        news = AppliedInfo(
+def _config_news(state: RobotState) -> ConfigNews:
+    history = state.config
+    applied, rejected = history.last_applied, history.last_rejected
+    return ConfigNews(
+        revision=history.revision,
+        last_applied=None
+        if applied is None
+        else AppliedInfo(
             request_id=applied.request_id, stamp=applied.stamp, changed=list(applied.changed_keys)
-        )
-        self.config = self.config.model_copy(
-            update={"revision": self.config.revision + 1, "last_applied": news}
-        )
-
-    def _config_rejected(self, rejected: ConfigRejected) -> None:
-        news = RejectedInfo(
+        ),
+        last_rejected=None
+        if rejected is None
+        else RejectedInfo(
             request_id=rejected.request_id, stamp=rejected.stamp, reason=rejected.reason
-        )
-        self.config = self.config.model_copy(update={"last_rejected": news})
+        ),
+    )
 
 
 def goal_info(status: GoalStatus) -> GoalInfo:

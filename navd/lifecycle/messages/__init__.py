@@ -75,6 +75,7 @@ from navd.lifecycle.messages.sensors import (
     NearbyRobots,
     WheelOdometry,
 )
+from navd.lifecycle.messages.state import ConfigHistory, RobotState
 
 __all__ = [
     "MISSION_ACTIONS",
@@ -85,6 +86,7 @@ __all__ = [
     "CompassHeading",
     "ConfigApplied",
     "ConfigChange",
+    "ConfigHistory",
     "ConfigRejected",
     "CostmapUpdate",
     "DaemonStatus",
@@ -124,6 +126,7 @@ __all__ = [
     "PoseMeasurement",
     "RecordRequest",
     "RecordingState",
+    "RobotState",
     "SafeStop",
     "SafeStopCleared",
     "SafetyState",

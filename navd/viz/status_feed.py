@@ -1,0 +1,60 @@
+"""The robot's state (``RobotState``) as the live view's JSON: ``/status`` (safety, who
+drives, localization, the daemon's health) and ``/goal_status`` (the goal's progress).
+JSON has no NaN: an unknown number is null."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from navd.lifecycle.messages import GoalStatus, RobotState
+
+__all__ = ["STATUS_PARTS", "goal_status_message", "status_message"]
+
+# The parts of the robot's state that /status shows: a change of any other is not sent.
+STATUS_PARTS = frozenset({"daemon", "localization", "mode", "safety"})
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def status_message(state: RobotState) -> dict[str, Any]:
+    """/status: what holds the robot, who drives, how well it is localized, the daemon."""
+    message: dict[str, Any] = {
+        "safety": {"stopped": bool(state.held), "reasons": list(state.held)},
+    }
+    if state.mode is not None:
+        message["drive"] = {"mode": state.mode.mode, "operator": state.mode.operator}
+    localization = state.localization
+    if localization is not None:
+        message["localization"] = {
+            "state": localization.state,
+            "position_std_m": _finite(localization.position_std_m),
+            "yaw_std_rad": _finite(localization.yaw_std_rad),
+        }
+    daemon = state.daemon
+    if daemon is not None:
+        message.update(
+            stamp=daemon.stamp,
+            uptime_s=round(daemon.uptime_s, 3),
+            loop_lag_max_ms=round(daemon.loop_lag_max_ms, 3),
+            safe_stop_reasons=list(daemon.safe_stop_reasons),
+            modules={
+                m.name: {"state": m.state, "faulted": m.faulted, "failures": m.handler_failures}
+                for m in daemon.modules
+            },
+        )
+    return message
+
+
+def goal_status_message(status: GoalStatus) -> dict[str, Any]:
+    """/goal_status: the goal, its state, the distance and time left, why it ended."""
+    return {
+        "stamp": status.stamp,
+        "goal_id": status.goal_id,
+        "state": status.state,
+        "distance_remaining_m": _finite(status.distance_remaining_m),
+        "eta_s": _finite(status.eta_s),
+        "reason": status.reason,
+    }
