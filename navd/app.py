@@ -10,7 +10,7 @@ from navd.lifecycle.module import Module
 from navd.lifecycle.safety import SafetyGate
 from navd.lifecycle.state_view import StateView
 from navd.missions.node import MissionNode
-from navd.planning.guard import CollisionGuard
+from navd.planning.guard_node import CollisionGuard
 from navd.planning.node import PlannerNode
 from navd.slam.node import SlamNode
 from navd.viz.node import VizNode

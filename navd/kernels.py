@@ -48,7 +48,7 @@ KERNEL_MODULES = (
     "navd.planning._costmap_kernels",
     "navd.planning._distance_kernels",
     "navd.planning._dwa_kernels",
-    "navd.planning.guard",
+    "navd.planning._guard_kernels",
 )
 
 COMPILE_TIMEOUT_S = 900.0  # a cold compile takes about a minute here, a few on the board

@@ -73,7 +73,7 @@ def test_a_cold_cache_is_filled_once_for_all_warm_ups(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, events: list[Mapping[str, Any]]
 ) -> None:
     runs = tmp_path / "runs"
-    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning._guard_kernels.sweep"])
     # Each run appends a line; a slow child, so the four warm-ups all wait for the same one.
     cache = KernelCache(
         _python(f"import time; time.sleep(0.3); open({str(runs)!r}, 'a').write('x\\n')")
@@ -92,7 +92,7 @@ def test_a_cold_cache_is_filled_once_for_all_warm_ups(
 def test_a_failing_child_is_logged_and_the_warm_ups_go_on(
     monkeypatch: pytest.MonkeyPatch, events: list[Mapping[str, Any]]
 ) -> None:
-    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning._guard_kernels.sweep"])
     cache = KernelCache(_python("import sys; print('no space left'); sys.exit(3)"))
     cache.prepare()  # never raises: the warm-ups then compile in the daemon
     failed = [e for e in events if e["event"] == "kernels_compile_failed"]
@@ -108,7 +108,7 @@ def test_stopping_ends_a_compile_still_running(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, events: list[Mapping[str, Any]]
 ) -> None:
     started = tmp_path / "started"
-    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning.guard._sweep"])
+    monkeypatch.setattr(kernels, "cold_kernels", lambda: ["navd.planning._guard_kernels.sweep"])
     cache = KernelCache(
         _python(f"import time; open({str(started)!r}, 'w').close(); time.sleep(600)")
     )

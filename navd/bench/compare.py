@@ -55,8 +55,10 @@ from navd.geometry.scan import ScanPoints, scan_points
 from navd.lifecycle.messages import Imu
 from navd.lifecycle.stats import percentile
 from navd.planning._astar_kernels import SQRT2
-from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
+from navd.planning.costmap import Costmap, GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
+from navd.planning.settings import costmap_settings
+from navd.slam.settings import scan_odometry_settings
 
 if TYPE_CHECKING:
     from navd.slam.odometry import ScanOdometrySettings
@@ -88,7 +90,10 @@ def _astar_weighted(cells: int, repeats: int) -> dict[str, object]:
     occupied[-20:, -20:] = False
     frame = GridFrame(0.05, 0.0, 0.0, cells, cells)
     costmap = build_costmap(
-        frame, occupied, np.zeros_like(occupied), CostmapSettings.from_config(config)
+        frame,
+        occupied,
+        np.zeros_like(occupied),
+        costmap_settings(config.planning, config.robot, config.safety),
     )
     start, goal = (4, 4), (cells - 5, cells - 5)
     start_m, goal_m = tuple(frame.centers_of(np.array([start, goal])))
@@ -290,7 +295,7 @@ def _filterpy_steps(
 
 def _scan_registration(scans: int = 200, beams: int = 720) -> dict[str, object]:
     from navd.slam.mapper import ScanMapper  # noqa: PLC0415
-    from navd.slam.odometry import ScanOdometry, ScanOdometrySettings  # noqa: PLC0415
+    from navd.slam.odometry import ScanOdometry  # noqa: PLC0415
     from navd.slam.settings import MapperSettings  # noqa: PLC0415
     from navd.slam.warmup import warm_up  # noqa: PLC0415
 
@@ -314,13 +319,13 @@ def _scan_registration(scans: int = 200, beams: int = 720) -> dict[str, object]:
         mapper.add(0.1 * i, points, truth)
         navd_s.append(time.perf_counter() - start)
     figures: dict[str, object] = {"scan_navd_ms_median": round(1e3 * percentile(navd_s, 50), 3)}
-    odometry = ScanOdometry(ScanOdometrySettings.from_config(config))
+    odometry = ScanOdometry(scan_odometry_settings(config.slam, config.lidar))
     odometry_s, odometry_pose = _register_all(odometry.register, drive_scans)
     figures["scan_odometry_navd_ms_median"] = round(1e3 * percentile(odometry_s, 50), 3)
     figures["scan_odometry_navd_end_error_m"] = _end_error(odometry_pose, drive_scans)
     if importlib.util.find_spec("kiss_icp") is None:
         return figures
-    peer = _kiss_icp(ScanOdometrySettings.from_config(config))
+    peer = _kiss_icp(scan_odometry_settings(config.slam, config.lidar))
     peer_s, peer_pose = _register_all(peer, drive_scans)
     figures["scan_kiss_icp_ms_median"] = round(1e3 * percentile(peer_s, 50), 3)
     figures["scan_ratio"] = round(percentile(navd_s, 50) / percentile(peer_s, 50), 3)

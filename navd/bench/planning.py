@@ -31,10 +31,10 @@ from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.lifecycle.stats import percentile
 from navd.planning._distance_kernels import distance_to
-from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
-from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
+from navd.planning.costmap import Costmap, GridFrame, build_costmap
+from navd.planning.dwa import LocalPlanner, Window, path_field
 from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
-from navd.planning.profile import VelocityProfile
+from navd.planning.settings import costmap_settings, dwa_settings, velocity_profile
 
 __all__ = ["random_rectangles", "run", "uniform_costmap"]
 
@@ -111,7 +111,7 @@ def _astar_inflated(cells: int, repeats: int) -> dict[str, object]:
     config = NavdConfig()
     occupied = random_rectangles(cells, 0.25, seed=cells)
     frame = GridFrame(0.05, 0.0, 0.0, cells, cells)
-    settings = CostmapSettings.from_config(config)
+    settings = costmap_settings(config.planning, config.robot, config.safety)
     costmap = build_costmap(frame, occupied, np.zeros_like(occupied), settings)
     search = SearchSettings(cost_weight=config.planning.cost_weight, smooth=False)
     start, goal = (0.2, 0.2), (0.05 * cells - 0.2, 0.05 * cells - 0.2)
@@ -180,8 +180,9 @@ def _replan(
 
 def _dwa(cycles: int) -> dict[str, object]:
     config = NavdConfig.model_validate({"robot": {"footprint": "rectangle"}})
-    profile = VelocityProfile.from_config(config)
-    local = LocalPlanner(DwaSettings.from_config(config), profile.yaw_rate_table)
+    profile = velocity_profile(config.planning, config.robot)
+    dwa = dwa_settings(config.planning, config.robot, config.safety)
+    local = LocalPlanner(dwa, profile.yaw_rate_table)
     rng = np.random.default_rng(7)
     path = path_field(np.array([[0.0, 0.0], [6.0, 0.0]]))
     times = []

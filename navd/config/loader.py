@@ -24,6 +24,7 @@ from navd.config.fields import is_secret, privileged, restart_required
 from navd.config.model import NavdConfig
 
 __all__ = [
+    "RESTART_ONLY",
     "RETIRED_KEYS",
     "apply_changes",
     "changed_keys",
@@ -281,11 +282,27 @@ def _set_dotted(data: dict[str, Any], key: str, value: object) -> list[str]:
     return []
 
 
+def _restart_only_keys() -> frozenset[str]:
+    keys = set()
+    for section, field in NavdConfig.model_fields.items():
+        model = field.annotation
+        assert isinstance(model, type) and issubclass(model, BaseModel)
+        keys |= {
+            f"{section}.{name}" for name in model.model_fields if restart_required(model, name)
+        }
+    return frozenset(keys)
+
+
+# Every key that takes effect only at start-up (ports, threads, the map to load, the broker,
+# the serial device...): refused by name while navd runs, from any control client or a
+# SIGHUP reload alike (its marks in the model, ``fields.restart``, are the source).
+RESTART_ONLY: frozenset[str] = _restart_only_keys()
+
+
 def _needs_restart(dotted: str) -> bool:
+    """Whether ``dotted`` is, or lies inside (a named mount's key), a restart-only key."""
     section, _, name = dotted.partition(".")
-    model = NavdConfig.model_fields[section].annotation
-    assert isinstance(model, type) and issubclass(model, BaseModel)
-    return restart_required(model, name.split(".")[0])
+    return f"{section}.{name.split('.')[0]}" in RESTART_ONLY
 
 
 def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

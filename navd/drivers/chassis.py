@@ -17,15 +17,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-from dataclasses import dataclass
 from typing import Any
 
 import serial
 
-from navd.config import NavdConfig
 from navd.drivers.errors import SerialPortError
 from navd.drivers.kinematics import (
-    WheelCalibration,
     body_velocity,
     format_command,
     ramp,
@@ -33,6 +30,7 @@ from navd.drivers.kinematics import (
     wheel_speeds,
 )
 from navd.drivers.serial_port import open_exclusive
+from navd.drivers.settings import ChassisSettings
 from navd.lifecycle.clock import ticks
 from navd.lifecycle.messages import (
     DeviceConnected,
@@ -44,61 +42,10 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["ChassisDriver", "ChassisSettings"]
+__all__ = ["ChassisDriver"]
 
-LINE_ENDINGS = {"lf": "\n", "crlf": "\r\n"}
 MAX_FEEDBACK_LINE = 256
 TRAFFIC_ID = "chassis"  # the chassis's name in the line counters (and in WheelOdometry)
-
-
-@dataclass(frozen=True, slots=True)
-class ChassisSettings:
-    """The chassis driver's settings.
-
-    Attributes:
-        port, baudrate: the serial device and its speed (they need a restart).
-        line_ending: what ends each command line ("\\n" or "\\r\\n").
-        period_s: [s] one command line is written per period.
-        calibration: wheel speeds to the STM32's integers and back.
-        track_width_m: [m] between the wheels.
-        reaction_timeout_s: [s] no fresh command for this long writes "0 0".
-        max_linear_accel_mps2, max_angular_accel_radps2: [m/s², rad/s²] the fastest the
-            written command speeds up.
-        reconnect_initial_s, reconnect_max_s: [s] the backoff reopening a lost port.
-        feedback: "off", "log" or "encoders" (what the lines the STM32 sends are).
-    """
-
-    port: str
-    baudrate: int
-    line_ending: str
-    period_s: float
-    calibration: WheelCalibration
-    track_width_m: float
-    reaction_timeout_s: float
-    max_linear_accel_mps2: float
-    max_angular_accel_radps2: float
-    reconnect_initial_s: float
-    reconnect_max_s: float
-    feedback: str
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> ChassisSettings:
-        """The settings the chassis, robot and safety sections describe."""
-        chassis = config.chassis
-        return cls(
-            port=chassis.port,
-            baudrate=chassis.baudrate,
-            line_ending=LINE_ENDINGS[chassis.line_ending],
-            period_s=1.0 / chassis.command_rate_hz,
-            calibration=WheelCalibration.of(chassis),
-            track_width_m=config.robot.track_width_m,
-            reaction_timeout_s=config.safety.reaction_timeout_s,
-            max_linear_accel_mps2=config.robot.max_linear_accel_mps2,
-            max_angular_accel_radps2=config.robot.max_angular_accel_radps2,
-            reconnect_initial_s=chassis.reconnect_initial_s,
-            reconnect_max_s=chassis.reconnect_max_s,
-            feedback=chassis.feedback,
-        )
 
 
 class ChassisDriver(Module):
@@ -118,7 +65,7 @@ class ChassisDriver(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(ChassisSettings, self._settings_changed)
+        self.settings = ctx.settings(ChassisSettings.from_config, self._settings_changed)
         ctx.subscribe(DriveCommand, self._on_drive)
         ctx.subscribe(SafeStop, self._on_safe_stop)
 

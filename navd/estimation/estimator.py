@@ -26,7 +26,7 @@ from navd.estimation.beacon_map import BeaconMap, RobotPose
 from navd.estimation.bearing import bearing_to_yaw
 from navd.estimation.errors import GeoError
 from navd.estimation.geo import GeoFrame
-from navd.estimation.history import Event, EventHistory, HistorySettings, Insert
+from navd.estimation.history import Event, EventHistory, Insert
 from navd.estimation.madgwick import MadgwickFilter
 from navd.estimation.motion_model import (
     STATE_SIZE,
@@ -41,7 +41,7 @@ from navd.estimation.motion_model import (
     transition_matrix,
 )
 from navd.estimation.settings import EstimatorSettings
-from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, UkfSettings
+from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf
 from navd.geometry.angles import wrap_angle
 from navd.lifecycle.messages import (
     BeaconObservation,
@@ -135,7 +135,7 @@ class StateEstimator:
         self._q_poly = ProcessNoise(
             est.accel_noise_mps2**2, est.angular_accel_noise_radps2**2
         ).polynomial
-        self.history = EventHistory(PoseUkf(UkfSettings.of(est)), HistorySettings.of(est))
+        self.history = EventHistory(PoseUkf(settings.ukf), settings.history)
         self.beacon_map = BeaconMap(settings.beacons.gate_chi2)
         # the latest range to each known beacon: (stamp [s], range [m], std [m])
         self._ranges: dict[str, tuple[float, float, float]] = {}
@@ -162,8 +162,8 @@ class StateEstimator:
         ).polynomial
         self.madgwick.configure(est)
         self.beacon_map.gate_chi2 = settings.beacons.gate_chi2
-        self.history.settings = HistorySettings.of(est)
-        ukf = UkfSettings.of(est)
+        self.history.settings = settings.history
+        ukf = settings.ukf
         if ukf != self.history.ukf.settings:
             self.history.ukf = PoseUkf(ukf)  # the state lives in the history, not the filter
 

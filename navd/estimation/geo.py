@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 from pyproj import Transformer
 
-from navd.config import NavdConfig
 from navd.estimation.errors import GeoError
 
 __all__ = ["GeoFrame", "MapProjection", "open_projections_here", "utm_zone_for"]
@@ -31,11 +30,6 @@ class MapProjection:
 
     map_rotation_rad: float
     max_distance_m: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> MapProjection:
-        """The projection the world section describes."""
-        return cls(config.world.map_rotation_rad, config.world.utm_threshold_m)
 
 
 def utm_zone_for(latitude_deg: float, longitude_deg: float) -> int:

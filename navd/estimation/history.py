@@ -20,7 +20,7 @@ from enum import Enum
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import EstimationConfig, NavdConfig
+from navd.config import EstimationConfig
 from navd.estimation.motion_model import STATE_SIZE, TH
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf, StepOutcome
 
@@ -106,11 +106,6 @@ class HistorySettings:
     horizon_s: float
     max_events: int
     reset_inflation: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> HistorySettings:
-        """The settings the estimation section describes."""
-        return cls.of(config.estimation)
 
     @classmethod
     def of(cls, est: EstimationConfig) -> HistorySettings:

@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import EstimationConfig, NavdConfig
+from navd.config import EstimationConfig
 from navd.estimation import _madgwick_kernels as k
 from navd.lifecycle.messages import Imu, Vector3
 
@@ -63,11 +63,6 @@ class MadgwickSettings:
     still_gyro_radps: float
     still_time_s: float
     max_gap_s: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> MadgwickSettings:
-        """The gains the estimation section describes."""
-        return cls.of(config.estimation)
 
     @classmethod
     def of(cls, est: EstimationConfig) -> MadgwickSettings:

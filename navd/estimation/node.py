@@ -62,7 +62,7 @@ class EstimationNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(EstimatorSettings, self._settings_changed)
+        self.settings = ctx.settings(EstimatorSettings.from_config, self._settings_changed)
         self.estimator: StateEstimator | None = None
         self.before_ready = 0
         self._pending_pose: InitialPose | None = None
@@ -88,7 +88,7 @@ class EstimationNode(Module):
         # thread, so that is done now (about 2 ms, before the daemon is ready), not on the
         # first fix.
         open_projections_here()
-        period_s = 1.0 / self.ctx.startup_config.estimation.publish_rate_hz  # needs a restart
+        period_s = self.settings.value.publish_period_s  # needs a restart
         self.ctx.every(period_s, self._publish, name="publish")
         self.ctx.every(_BEACONS_EVERY_S, self._publish_beacons, name="beacons")
 

@@ -21,7 +21,7 @@ from enum import Enum
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import EstimationConfig, NavdConfig
+from navd.config import EstimationConfig
 from navd.estimation._ukf_kernels import DIVERGED, REJECTED, ukf_step
 from navd.estimation.motion_model import STATE_SIZE, ProcessNoise, Row
 
@@ -133,11 +133,6 @@ class UkfSettings:
     kappa: float
     linear_jerk_psd: float
     angular_jerk_psd: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> UkfSettings:
-        """The settings the estimation section describes."""
-        return cls.of(config.estimation)
 
     @classmethod
     def of(cls, est: EstimationConfig) -> UkfSettings:

@@ -26,17 +26,16 @@ from typing import Any
 
 import aiomqtt
 
-from navd.config import FleetConfig, NavdConfig, RobotConfig
 from navd.fleet import reports
 from navd.fleet.mqtt import Broker, connect
+from navd.fleet.settings import FleetSettings
 from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
-from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import GoalStatus, Message, NearbyRobots, RobotState
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["FleetNode", "FleetSettings"]
+__all__ = ["FleetNode"]
 
 MIN_STATE_S = 0.1  # [s] state messages at most this often (a burst of changes is one)
 TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
@@ -61,30 +60,6 @@ class _Other:
     heard_s: float
 
 
-@dataclass(frozen=True, slots=True)
-class FleetSettings:
-    """The fleet section, and what the factsheet says of the robot.
-
-    Attributes:
-        fleet: broker, names and publishing rates.
-        robot: the robot's size and speeds (the factsheet).
-        map_id: the map the positions are on (``slam.map_name``).
-        radius_m: [m] the robot's circumscribed radius (another vehicle's when its
-            factsheet has not come).
-    """
-
-    fleet: FleetConfig
-    robot: RobotConfig
-    map_id: str
-    radius_m: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> FleetSettings:
-        footprint = Footprint.of(config.robot)
-        radius = math.hypot(footprint.half_length_m, footprint.half_width_m)
-        return cls(config.fleet, config.robot, config.slam.map_name, radius)
-
-
 class FleetNode(Module):
     """The VDA 5050 vehicle (see the module docstring)."""
 
@@ -106,8 +81,8 @@ class FleetNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(FleetSettings)
-        fleet = ctx.startup_config.fleet  # broker and names need a restart
+        self.settings = ctx.settings(FleetSettings.from_config)
+        fleet = self.settings.value.fleet  # broker and names need a restart
         self.topics = Topics(fleet.interface_name, fleet.manufacturer, fleet.serial_number)
         self.vehicle = Vehicle(fleet.manufacturer, fleet.serial_number, self._requested)
         ctx.subscribe(RobotState, self._on_state)
@@ -183,7 +158,7 @@ class FleetNode(Module):
 
     async def _connection(self) -> None:
         """Keep connected: subscribe, announce, hear; reconnect after a growing pause."""
-        fleet = self.ctx.startup_config.fleet
+        fleet = self.settings.value.fleet  # the broker and the login need a restart
         broker = Broker.of_url(
             fleet.broker_url,
             username=fleet.username,
@@ -358,7 +333,7 @@ class FleetNode(Module):
 
     def _json(self, topic: str, build: Any, *args: Any) -> bytes:
         """``build(header, *args)`` as JSON, with the topic's next header id."""
-        fleet = self.ctx.startup_config.fleet
+        fleet = self.settings.value.fleet
         number = self._headers.get(topic, 0)
         self._headers[topic] = number + 1
         head = reports.header(number, time.time(), fleet.manufacturer, fleet.serial_number)
@@ -366,4 +341,6 @@ class FleetNode(Module):
 
     def _factsheet(self) -> bytes:
         settings = self.settings.value
-        return self._json("factsheet", reports.factsheet, settings.fleet, settings.robot)
+        return self._json(
+            "factsheet", reports.factsheet, settings.fleet, settings.limits, settings.footprint
+        )

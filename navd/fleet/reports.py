@@ -8,10 +8,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from navd.config import FleetConfig, RobotConfig
+from navd.config import FleetConfig
 from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
 from navd.fleet.vehicle import INSTANT_ACTIONS, Vehicle
 from navd.geometry.footprint import Footprint
+from navd.geometry.limits import RobotLimits
 
 __all__ = ["Robot", "connection", "driving", "factsheet", "state", "visualization"]
 
@@ -122,9 +123,10 @@ def connection(head: dict[str, Any], connection_state: str) -> dict[str, Any]:
     return {**head, "connectionState": connection_state}
 
 
-def factsheet(head: dict[str, Any], fleet: FleetConfig, robot: RobotConfig) -> dict[str, Any]:
+def factsheet(
+    head: dict[str, Any], fleet: FleetConfig, limits: RobotLimits, footprint: Footprint
+) -> dict[str, Any]:
     """The factsheet: what the vehicle is and which of the protocol it speaks."""
-    footprint = Footprint.of(robot)  # a circle's half extents are its radius
     length, width = 2.0 * footprint.half_length_m, 2.0 * footprint.half_width_m
     return {
         **head,
@@ -139,9 +141,9 @@ def factsheet(head: dict[str, Any], fleet: FleetConfig, robot: RobotConfig) -> d
         },
         "physicalParameters": {
             "speedMin": 0.0,
-            "speedMax": robot.max_linear_speed_mps,
-            "accelerationMax": robot.max_linear_accel_mps2,
-            "decelerationMax": robot.max_linear_accel_mps2,
+            "speedMax": limits.max_forward_mps,
+            "accelerationMax": limits.max_linear_accel_mps2,
+            "decelerationMax": limits.max_linear_accel_mps2,
             "heightMax": 0.5,
             "width": width,
             "length": length,

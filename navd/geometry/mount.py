@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from navd.config import LidarConfig, LidarMountConfig, NavdConfig
+from navd.config import LidarConfig, LidarMountConfig, MountsConfig
 from navd.geometry.pose import Pose2
 
 __all__ = ["LidarMount", "SensorMounts", "rotation_rpy"]
@@ -78,15 +78,14 @@ class SensorMounts:
     frame_ids: Mapping[str, str] = field(default_factory=dict)
 
     @classmethod
-    def of(cls, config: NavdConfig) -> SensorMounts:
-        """The mounts the ``lidar`` and ``mounts`` sections describe."""
-        m = config.mounts
+    def of(cls, m: MountsConfig, lidar: LidarConfig) -> SensorMounts:
+        """The mounts the ``mounts`` and ``lidar`` sections describe."""
         frame_ids: dict[str, str] = {}
         for table in (m.lidars, m.imus, m.gps, m.compasses):
             for device_id, mount in table.items():
                 frame_ids[device_id] = mount.frame_id or device_id
         return cls(
-            default_lidar=LidarMount.of(config.lidar),
+            default_lidar=LidarMount.of(lidar),
             lidars={k: LidarMount.of(v) for k, v in m.lidars.items()},
             imus={k: (v.roll_rad, v.pitch_rad, v.yaw_rad) for k, v in m.imus.items()},
             gps={k: (v.x_m, v.y_m) for k, v in m.gps.items()},

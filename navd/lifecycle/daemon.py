@@ -99,8 +99,8 @@ class Daemon:
         self._shutdown_reason = ""
         self._started_s = self.clock.now()
         self.notifier = notifier if notifier is not None else SystemdNotifier()
-        self.lifecycle = Live(LifecycleSettings, config, self._lifecycle_changed)
-        self.logging = Live(LoggingSettings, config, self._logging_changed)
+        self.lifecycle = Live(LifecycleSettings.from_config, config, self._lifecycle_changed)
+        self.logging = Live(LoggingSettings.from_config, config, self._logging_changed)
         self.bus.subscribe(ConfigApplied, self._on_config_applied, module=self.MODULE)
 
     @property

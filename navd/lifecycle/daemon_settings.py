@@ -1,12 +1,14 @@
-"""The daemon's own settings: dispatch, supervision, probes and logging."""
+"""The lifecycle room's settings: dispatch, supervision, probes, logging, and the limits the
+safety gate clamps every command to; the only place the room derives values from the config."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from navd.config import NavdConfig
+from navd.geometry.limits import RobotLimits
 
-__all__ = ["LifecycleSettings", "LoggingSettings"]
+__all__ = ["LifecycleSettings", "LoggingSettings", "gate_limits"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,3 +64,8 @@ class LoggingSettings:
     def from_config(cls, config: NavdConfig) -> LoggingSettings:
         """The settings the logging section describes."""
         return cls(config.logging.level, config.logging.status_log_period_s)
+
+
+def gate_limits(config: NavdConfig) -> RobotLimits:
+    """The robot's limits, which the safety gate clamps every command to."""
+    return RobotLimits.of(config.robot)

@@ -5,8 +5,8 @@ modules in the order given (configure all, then activate all) and stops them in 
 order (deactivate all, then clean up all), each transition bounded by a timeout that raises
 ``ModuleTimeoutError`` naming the module and the transition that hung. A module talks to the
 rest of the daemon only through its ``ModuleContext``: subscribe, publish, submit heavy jobs,
-spawn background tasks, and hold its settings (``ctx.settings``: derived from the config,
-swapped whole on a change; see ``navd.lifecycle.settings``).
+spawn background tasks, and hold its settings (``ctx.settings``: derived from the config by
+its room's settings module, swapped whole on a change; see ``navd.lifecycle.settings``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
 from navd.lifecycle.messages import ConfigApplied, Message
-from navd.lifecycle.settings import Live, Settings
+from navd.lifecycle.settings import Derive, Live
 from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import Job, WorkerPool
 from navd.logs import get_logger
@@ -31,7 +31,7 @@ from navd.logs import get_logger
 __all__ = ["Module", "ModuleContext", "ModuleManager", "ModuleState"]
 
 M = TypeVar("M", bound=Message)
-S = TypeVar("S", bound=Settings)
+S = TypeVar("S")
 _log = get_logger("lifecycle.modules")
 
 
@@ -72,30 +72,30 @@ class ModuleContext:
         self.traffic = traffic if traffic is not None else Traffic()
         self.log: FilteringBoundLogger = get_logger(name)
         self._config = config
-        self._startup = config()
         self._tasks: set[asyncio.Task[None]] = set()
         self._live: list[Live[Any]] = []
         # Settings are swapped before any handler of the module sees the ConfigApplied, and a
         # failing on_change counts against this module.
         bus.subscribe(ConfigApplied, self._on_config_applied, module=name)
 
-    @property
-    def startup_config(self) -> NavdConfig:
-        """The config the daemon started with: for keys that need a restart (ports, threads,
-        a map to load), which cannot differ from it; everything else comes from
-        ``settings``."""
-        return self._startup
-
-    def settings(self, kind: type[S], on_change: Callable[[S, S], None] | None = None) -> Live[S]:
-        """Hold ``kind`` derived from the config in force; when a config change alters it,
-        ``on_change(old, new)`` runs on the event loop and the holder is swapped whole."""
-        live = Live(kind, self._config(), on_change)
+    def settings(
+        self, derive: Derive[S], on_change: Callable[[S, S], None] | None = None
+    ) -> Live[S]:
+        """Hold the settings ``derive`` takes from the config in force (a room's settings
+        function); when a config change alters them, ``on_change(old, new)`` runs on the
+        event loop and the holder is swapped whole."""
+        live = Live(derive, self._config(), on_change)
         self._live.append(live)
         return live
 
+    @property
+    def holders(self) -> tuple[Live[Any], ...]:
+        """Every settings holder of the module."""
+        return tuple(self._live)
+
     def apply_config(self, config: NavdConfig) -> list[str]:
-        """Re-derive every settings holder of the module from ``config``; returns the names
-        of the settings types that were swapped.
+        """Re-derive every settings holder of the module from ``config``; returns what the
+        swapped ones hold (their types' names).
 
         Raises:
             Exception: the first ``on_change`` that failed, once every holder was tried
@@ -106,7 +106,7 @@ class ModuleContext:
         for live in self._live:
             try:
                 if live.update(config):
-                    swapped.append(live.kind.__name__)
+                    swapped.append(live.name)
             except Exception as err:  # every holder gets its turn; the first error is raised
                 errors.append(err)
         if errors:
@@ -220,9 +220,9 @@ class Module:
         """Release what on_configure allocated."""
 
     def settings_in_use(self) -> tuple[object, ...]:
-        """The settings values the module's parts hold now, each of a type with
-        ``from_config`` (read back from the parts, not from the holders, so a part that
-        missed a change shows)."""
+        """The settings values the module's parts hold now, each one its holders derive
+        (read back from the parts, not from the holders, so a part that missed a change
+        shows)."""
         return ()
 
 

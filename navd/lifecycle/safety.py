@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from navd.config import NavdConfig
+from navd.lifecycle.daemon_settings import gate_limits
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
@@ -32,29 +32,7 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["GateSettings", "SafetyGate", "SpeedLimiter"]
-
-
-@dataclass(frozen=True, slots=True)
-class GateSettings:
-    """The robot's speed limits, which every command is clamped to.
-
-    Attributes:
-        max_forward_mps, max_reverse_mps: [m/s] top speeds forward and backward (>= 0).
-        max_yaw_rate_radps: [rad/s] top yaw rate either way.
-    """
-
-    max_forward_mps: float
-    max_reverse_mps: float
-    max_yaw_rate_radps: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> GateSettings:
-        """The limits the robot section describes."""
-        robot = config.robot
-        return cls(
-            robot.max_linear_speed_mps, robot.max_reverse_speed_mps, robot.max_angular_speed_radps
-        )
+__all__ = ["SafetyGate", "SpeedLimiter"]
 
 
 class SpeedLimiter(Protocol):
@@ -114,7 +92,7 @@ class SafetyGate(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(GateSettings)
+        self.settings = ctx.settings(gate_limits)
         ctx.subscribe(VelocityCommand, self._on_velocity)
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(DeviceStale, self._on_gone)

@@ -12,6 +12,7 @@ from navd.lifecycle.messages import BeaconPlaces, GoalStatus, Message, PoseEstim
 from navd.lifecycle.messages.mission import MissionCommand, MissionRequest, MissionStatus
 from navd.lifecycle.module import Module, ModuleContext
 from navd.missions.executor import MissionExecutor, no_mission
+from navd.missions.settings import MissionSettings
 
 __all__ = ["TICK_S", "MissionNode"]
 
@@ -31,8 +32,8 @@ class MissionNode(Module):
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         # the config's beacons, before the estimator publishes them with the learnt ones
-        known = ctx.startup_config.beacons.known
-        self._places = {b: (p.x_m, p.y_m) for b, p in known.items()}
+        known = ctx.settings(MissionSettings.from_config).value.beacon_places
+        self._places = {b: (x, y) for b, x, y in known}
         ctx.subscribe(MissionRequest, self._on_request)
         ctx.subscribe(MissionCommand, self._on_command)
         ctx.subscribe(GoalStatus, self._on_goal_status)

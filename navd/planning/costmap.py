@@ -18,11 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
-from navd.geometry.footprint import Footprint
 from navd.planning._costmap_kernels import mark_and_clear
 from navd.planning._distance_kernels import distance_to
-from navd.planning.margins import keep_clear_m
 
 __all__ = [
     "Costmap",
@@ -236,19 +233,6 @@ class CostmapSettings:
     allow_unknown: bool
     unknown_cost: float
     occupied_threshold_pct: int
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> CostmapSettings:
-        """The settings the planning, robot and safety sections describe."""
-        planning = config.planning
-        return cls(
-            robot_radius_m=Footprint.of(config.robot).inscribed_m + keep_clear_m(config.safety),
-            inflation_radius_m=planning.inflation_radius_m,
-            cost_decay_per_m=planning.cost_decay,
-            allow_unknown=planning.allow_unknown,
-            unknown_cost=planning.unknown_cost,
-            occupied_threshold_pct=planning.occupied_threshold_pct,
-        )
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,7 +10,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
 from navd.geometry.footprint import Footprint
 from navd.geometry.pose import Pose2
 from navd.planning._distance_kernels import distance_to
@@ -23,7 +22,6 @@ from navd.planning._dwa_kernels import (
     snap_near,
     window_samples,
 )
-from navd.planning.margins import keep_clear_m
 
 __all__ = ["DwaChoice", "DwaSettings", "LocalPlanner", "PathField", "Window", "path_field"]
 
@@ -71,33 +69,6 @@ class DwaSettings:
     linear_accel_mps2: float
     angular_accel_radps2: float
     weights: tuple[float, float, float, float, float]
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> DwaSettings:
-        """The settings the robot, safety and planning sections describe."""
-        planning, robot = config.planning, config.robot
-        return cls(
-            footprint=Footprint.of(robot),
-            margin_m=keep_clear_m(config.safety),
-            clearance_cap_m=max(planning.inflation_radius_m, 0.1),
-            horizon_s=planning.prediction_horizon_s,
-            step_s=planning.sim_step_s,
-            period_s=1.0 / planning.control_rate_hz,
-            linear_samples=planning.linear_samples,
-            angular_samples=planning.angular_samples,
-            max_speed_mps=robot.max_linear_speed_mps,
-            max_reverse_mps=robot.max_reverse_speed_mps,
-            max_yaw_rate_radps=robot.max_angular_speed_radps,
-            linear_accel_mps2=robot.max_linear_accel_mps2,
-            angular_accel_radps2=robot.max_angular_accel_radps2,
-            weights=(
-                planning.goal_weight,
-                planning.path_weight,
-                planning.clearance_weight,
-                planning.oscillation_weight,
-                planning.heading_weight,
-            ),
-        )
 
 
 @dataclass(frozen=True, slots=True)

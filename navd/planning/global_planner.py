@@ -8,7 +8,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
 from navd.planning._astar_kernels import shortcut
 from navd.planning.cell_search import CellSearch
 from navd.planning.costmap import Costmap
@@ -74,11 +73,6 @@ class SearchSettings:
 
     cost_weight: float
     smooth: bool
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> SearchSettings:
-        """The settings the planning section describes."""
-        return cls(config.planning.cost_weight, config.planning.smooth_path)
 
 
 class GlobalPlanner:

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
@@ -65,20 +64,6 @@ class LayerSettings:
     keep_out_mask: str | None = None
     speed_mask: str | None = None
     window_m: float = 30.0
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> LayerSettings:
-        """The settings the planning section describes."""
-        planning = config.planning
-        return cls(
-            planning.occupied_threshold_pct,
-            planning.obstacle_persistence_s,
-            planning.keep_out_zones,
-            planning.max_plan_cells,
-            planning.keep_out_mask,
-            planning.speed_mask,
-            planning.local_window_m,
-        )
 
 
 class Layers:

@@ -13,8 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from navd.config import NavdConfig
-
 __all__ = ["ManualDriving", "ManualSettings"]
 
 
@@ -33,17 +31,6 @@ class ManualSettings:
     max_linear_mps: float
     max_angular_radps: float
     resume_after_s: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> ManualSettings:
-        """The settings the teleop section describes."""
-        teleop = config.teleop
-        return cls(
-            enabled=teleop.enabled,
-            max_linear_mps=teleop.max_linear_speed_mps,
-            max_angular_radps=teleop.max_angular_speed_radps,
-            resume_after_s=teleop.resume_after_s,
-        )
 
 
 def _cap(value: float, limit: float) -> float:

@@ -125,7 +125,7 @@ class PlannerNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(PlannerSettings, self._settings_changed)
+        self.settings = ctx.settings(PlannerSettings.from_config, self._settings_changed)
         self.nav = Navigator(self.settings.value.navigator)
         ctx.subscribe(Goal, self._on_goal)
         ctx.subscribe(CancelGoal, self._on_cancel)

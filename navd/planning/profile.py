@@ -8,8 +8,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
-
 __all__ = ["VelocityProfile"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -37,21 +35,6 @@ class VelocityProfile:
     table_speeds_mps: tuple[float, ...]
     table_yaw_rates_radps: tuple[float, ...]
     max_yaw_accel_radps2: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> VelocityProfile:
-        """The profile the robot and planning sections describe."""
-        planning = config.planning
-        return cls(
-            max_speed_mps=config.robot.max_linear_speed_mps,
-            min_speed_mps=planning.min_linear_speed_mps,
-            max_accel_mps2=config.robot.max_linear_accel_mps2,
-            acceleration_time_s=planning.acceleration_time_s,
-            approach_distance_m=planning.approach_distance_m,
-            table_speeds_mps=tuple(row[0] for row in planning.angular_limit_table),
-            table_yaw_rates_radps=tuple(row[1] for row in planning.angular_limit_table),
-            max_yaw_accel_radps2=config.robot.max_angular_accel_radps2,
-        )
 
     def speed_cap(self, remaining_m: float, moving_s: float) -> float:
         """[m/s] top forward speed with ``remaining_m`` to go after ``moving_s`` of driving.

@@ -1,23 +1,158 @@
-"""The navigator's settings: every part's own, derived from one config."""
+"""The planning room's settings: every part's own values, derived once from the sections
+that concern it (robot, safety, planning, teleop, chassis, mounts), and the only place the
+room reads the config. The robot's limits come as one ``RobotLimits``."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
-from navd.config import NavdConfig
+from navd.config import NavdConfig, PlanningConfig, RobotConfig, SafetyConfig, TeleopConfig
 from navd.geometry.footprint import Footprint
+from navd.geometry.limits import RobotLimits
 from navd.geometry.mount import SensorMounts
 from navd.planning.costmap import CostmapSettings
 from navd.planning.dwa import DwaSettings
 from navd.planning.global_planner import SearchSettings
+from navd.planning.guard import GuardSettings
 from navd.planning.layers import LayerSettings
 from navd.planning.manual import ManualSettings
 from navd.planning.margins import keep_clear_m
 from navd.planning.profile import VelocityProfile
 from navd.planning.stuck import StuckSettings
 
-__all__ = ["NavigatorSettings", "PlannerSettings", "goal_too_far"]
+__all__ = [
+    "NavigatorSettings",
+    "PlannerSettings",
+    "costmap_settings",
+    "default_guard",
+    "default_planner",
+    "dwa_settings",
+    "goal_too_far",
+    "guard_settings",
+    "layer_settings",
+    "manual_settings",
+    "search_settings",
+    "stuck_settings",
+    "velocity_profile",
+]
+
+
+def costmap_settings(
+    planning: PlanningConfig, robot: RobotConfig, safety: SafetyConfig
+) -> CostmapSettings:
+    """The costmap's: inflation around the footprint's inscribed circle plus the margin."""
+    return CostmapSettings(
+        robot_radius_m=Footprint.of(robot).inscribed_m + keep_clear_m(safety),
+        inflation_radius_m=planning.inflation_radius_m,
+        cost_decay_per_m=planning.cost_decay,
+        allow_unknown=planning.allow_unknown,
+        unknown_cost=planning.unknown_cost,
+        occupied_threshold_pct=planning.occupied_threshold_pct,
+    )
+
+
+def dwa_settings(planning: PlanningConfig, robot: RobotConfig, safety: SafetyConfig) -> DwaSettings:
+    """The local planner's: its rollouts, samples, limits and weights."""
+    limits = RobotLimits.of(robot)
+    return DwaSettings(
+        footprint=Footprint.of(robot),
+        margin_m=keep_clear_m(safety),
+        clearance_cap_m=max(planning.inflation_radius_m, 0.1),
+        horizon_s=planning.prediction_horizon_s,
+        step_s=planning.sim_step_s,
+        period_s=1.0 / planning.control_rate_hz,
+        linear_samples=planning.linear_samples,
+        angular_samples=planning.angular_samples,
+        max_speed_mps=limits.max_forward_mps,
+        max_reverse_mps=limits.max_reverse_mps,
+        max_yaw_rate_radps=limits.max_yaw_rate_radps,
+        linear_accel_mps2=limits.max_linear_accel_mps2,
+        angular_accel_radps2=limits.max_angular_accel_radps2,
+        weights=(
+            planning.goal_weight,
+            planning.path_weight,
+            planning.clearance_weight,
+            planning.oscillation_weight,
+            planning.heading_weight,
+        ),
+    )
+
+
+def velocity_profile(planning: PlanningConfig, robot: RobotConfig) -> VelocityProfile:
+    """The speed ramp, the slow approach, and the yaw rate allowed at each speed."""
+    limits = RobotLimits.of(robot)
+    return VelocityProfile(
+        max_speed_mps=limits.max_forward_mps,
+        min_speed_mps=planning.min_linear_speed_mps,
+        max_accel_mps2=limits.max_linear_accel_mps2,
+        acceleration_time_s=planning.acceleration_time_s,
+        approach_distance_m=planning.approach_distance_m,
+        table_speeds_mps=tuple(row[0] for row in planning.angular_limit_table),
+        table_yaw_rates_radps=tuple(row[1] for row in planning.angular_limit_table),
+        max_yaw_accel_radps2=limits.max_angular_accel_radps2,
+    )
+
+
+def stuck_settings(planning: PlanningConfig, robot: RobotConfig) -> StuckSettings:
+    """When the robot counts as stuck, and how it tries to get free."""
+    return StuckSettings(
+        stuck_time_s=planning.stuck_time_s,
+        backward_time_s=planning.stuck_time_force_backward_s,
+        max_stuck_time_s=planning.max_stuck_time_s,
+        min_progress_m=planning.stuck_min_progress_m,
+        rotation_tolerance_rad=planning.stuck_rotation_tolerance_rad,
+        min_speed_mps=planning.min_linear_speed_mps,
+        max_speed_mps=RobotLimits.of(robot).max_forward_mps,
+        backup_distance_m=planning.backup_distance_m,
+    )
+
+
+def layer_settings(planning: PlanningConfig) -> LayerSettings:
+    """What the costmap's layers are made of."""
+    return LayerSettings(
+        planning.occupied_threshold_pct,
+        planning.obstacle_persistence_s,
+        planning.keep_out_zones,
+        planning.max_plan_cells,
+        planning.keep_out_mask,
+        planning.speed_mask,
+        planning.local_window_m,
+    )
+
+
+def search_settings(planning: PlanningConfig) -> SearchSettings:
+    """The route search's cost weight and smoothing."""
+    return SearchSettings(planning.cost_weight, planning.smooth_path)
+
+
+def manual_settings(teleop: TeleopConfig) -> ManualSettings:
+    """What operators driving by hand may do."""
+    return ManualSettings(
+        enabled=teleop.enabled,
+        max_linear_mps=teleop.max_linear_speed_mps,
+        max_angular_radps=teleop.max_angular_speed_radps,
+        resume_after_s=teleop.resume_after_s,
+    )
+
+
+def guard_settings(config: NavdConfig) -> GuardSettings:
+    """The collision guard's: the safety, robot, chassis, lidar, mounts and planning (the
+    speed mask) sections."""
+    safety, limits = config.safety, RobotLimits.of(config.robot)
+    return GuardSettings(
+        footprint=Footprint.of(config.robot),
+        stop_m=safety.stop_distance_m,
+        slowdown_m=safety.slowdown_distance_m,
+        slowdown_factor=safety.slowdown_factor,
+        linear_decel_mps2=limits.max_linear_accel_mps2,
+        angular_decel_radps2=limits.max_angular_accel_radps2,
+        period_s=1.0 / config.chassis.command_rate_hz,
+        enabled=safety.use_collisions,
+        mounts=SensorMounts.of(config.mounts, config.lidar),
+        speed_mask=config.planning.speed_mask,
+        max_speed_mps=limits.max_forward_mps,
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,25 +199,24 @@ class NavigatorSettings:
     @classmethod
     def from_config(cls, config: NavdConfig) -> NavigatorSettings:
         """The settings the robot, safety and planning sections describe."""
-        planning, robot = config.planning, config.robot
+        planning, robot, safety = config.planning, config.robot, config.safety
         footprint = Footprint.of(robot)
-        clear_m = keep_clear_m(config.safety)
+        clear_m = keep_clear_m(safety)
         return cls(
             footprint=footprint,
             keep_clear_m=clear_m,
             local_radius_m=(
-                max(robot.max_linear_speed_mps, robot.max_reverse_speed_mps)
-                * planning.prediction_horizon_s
+                RobotLimits.of(robot).max_speed_mps * planning.prediction_horizon_s
                 + footprint.circumradius_m
                 + max(planning.inflation_radius_m, clear_m)
                 + 0.5
             ),
-            costmap=CostmapSettings.from_config(config),
-            dwa=DwaSettings.from_config(config),
-            profile=VelocityProfile.from_config(config),
-            stuck=StuckSettings.from_config(config),
-            layers=LayerSettings.from_config(config),
-            search=SearchSettings.from_config(config),
+            costmap=costmap_settings(planning, robot, safety),
+            dwa=dwa_settings(planning, robot, safety),
+            profile=velocity_profile(planning, robot),
+            stuck=stuck_settings(planning, robot),
+            layers=layer_settings(planning),
+            search=search_settings(planning),
             goal_xy_tolerance_m=planning.goal_xy_tolerance_m,
             goal_yaw_tolerance_rad=planning.goal_yaw_tolerance_rad,
             approach_distance_m=planning.approach_distance_m,
@@ -123,10 +257,10 @@ class PlannerSettings:
         return cls(
             navigator=NavigatorSettings.from_config(config),
             control_period_s=1.0 / config.planning.control_rate_hz,
-            mounts=SensorMounts.of(config),
+            mounts=SensorMounts.of(config.mounts, config.lidar),
             obstacle_range_m=config.planning.obstacle_range_m,
             reaction_timeout_s=config.safety.reaction_timeout_s,
-            manual=ManualSettings.from_config(config),
+            manual=manual_settings(config.teleop),
         )
 
 
@@ -142,3 +276,13 @@ def goal_too_far(
         f"goal ({goal_xy_m[0]:.1f}, {goal_xy_m[1]:.1f}) m is {distance:.0f} m from the robot, "
         f"more than planning.max_goal_distance_m ({limit:g} m); give waypoints in between"
     )
+
+
+def default_planner() -> PlannerSettings:
+    """The planner's settings with every key at its default (warm-ups, benchmarks)."""
+    return PlannerSettings.from_config(NavdConfig())
+
+
+def default_guard() -> GuardSettings:
+    """The collision guard's settings with every key at its default."""
+    return guard_settings(NavdConfig())

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import StrEnum
 
-from navd.config import NavdConfig
 from navd.geometry.angles import angle_between
 from navd.geometry.pose import Pose2
 
@@ -59,21 +58,6 @@ class StuckSettings:
     min_speed_mps: float
     max_speed_mps: float
     backup_distance_m: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> StuckSettings:
-        """The settings the planning and robot sections describe."""
-        planning = config.planning
-        return cls(
-            stuck_time_s=planning.stuck_time_s,
-            backward_time_s=planning.stuck_time_force_backward_s,
-            max_stuck_time_s=planning.max_stuck_time_s,
-            min_progress_m=planning.stuck_min_progress_m,
-            rotation_tolerance_rad=planning.stuck_rotation_tolerance_rad,
-            min_speed_mps=planning.min_linear_speed_mps,
-            max_speed_mps=config.robot.max_linear_speed_mps,
-            backup_distance_m=planning.backup_distance_m,
-        )
 
 
 class StuckMonitor:

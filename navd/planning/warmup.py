@@ -7,15 +7,14 @@ import math
 
 import numpy as np
 
-from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY
 from navd.geometry.scan import scan_points
-from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
-from navd.planning.global_planner import GlobalPlanner, SearchSettings
+from navd.planning.costmap import GridFrame, build_costmap
+from navd.planning.global_planner import GlobalPlanner
 from navd.planning.goal import NavGoal
-from navd.planning.guard import GuardSettings, warm_up_guard
+from navd.planning.guard import warm_up_guard
 from navd.planning.navigator import Navigator
-from navd.planning.settings import NavigatorSettings
+from navd.planning.settings import default_guard, default_planner
 
 __all__ = ["warm_up"]
 
@@ -23,7 +22,8 @@ __all__ = ["warm_up"]
 def warm_up() -> None:
     """Plan and take a few steps in a small room with a throwaway navigator (its scan read
     from ranges, as the planner reads every lidar's)."""
-    nav = Navigator(NavigatorSettings.from_config(NavdConfig()))
+    settings = default_planner().navigator
+    nav = Navigator(settings)
     occupancy = np.zeros((60, 60), dtype=np.int8)
     occupancy[[0, -1], :] = occupancy[:, [0, -1]] = 100
     nav.set_map(occupancy, 0.05, -1.5, -1.5)
@@ -41,10 +41,7 @@ def warm_up() -> None:
     nav.route.blocked(nav.map_layers.scan_points, 0.3, 1.0)  # asked by the planner's loop
     # The room above is inflated, so A* went cell by cell, its open list in buckets; an open
     # floor with no obstacle is searched by jumping.
-    config = NavdConfig()
     nothing = np.zeros((20, 20), dtype=np.bool_)
-    floor = build_costmap(
-        GridFrame(0.05, 0.0, 0.0, 20, 20), nothing, nothing, CostmapSettings.from_config(config)
-    )
-    GlobalPlanner().plan(floor, (0.1, 0.1), (0.9, 0.7), SearchSettings.from_config(config))
-    warm_up_guard(GuardSettings.from_config(config))
+    floor = build_costmap(GridFrame(0.05, 0.0, 0.0, 20, 20), nothing, nothing, settings.costmap)
+    GlobalPlanner().plan(floor, (0.1, 0.1), (0.9, 0.7), settings.search)
+    warm_up_guard(default_guard())

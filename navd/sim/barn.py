@@ -31,9 +31,9 @@ from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.planning.errors import PlanningError
 from navd.planning.goal import GoalState, NavGoal
-from navd.planning.guard import GUARD_REACH_M, GuardSettings, guard_scale, warm_up_guard
+from navd.planning.guard import GUARD_REACH_M, guard_scale, warm_up_guard
 from navd.planning.navigator import Navigator
-from navd.planning.settings import NavigatorSettings
+from navd.planning.settings import NavigatorSettings, guard_settings
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body
 from navd.sim.errors import SimError
@@ -159,7 +159,7 @@ def run_world(
     index: int, cylinders: FloatArray, optimal_length_m: float, config: NavdConfig
 ) -> BarnRun:
     """Drive one BARN world with navd's navigator in simulated time."""
-    guard = GuardSettings.from_config(config)
+    guard = guard_settings(config)
     warm_up_guard(guard)  # the guard stops the robot while its kernel is not loaded
     world = barn_world(cylinders)
     nav = Navigator(NavigatorSettings.from_config(config))

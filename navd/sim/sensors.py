@@ -96,7 +96,7 @@ class SensorModels:
         self._sensors: list[SimSensor] | None = None
         self._next_beacon = 0  # the beacon sensor's turn
         # Where the first listed IMU, GNSS antenna and compass sit (their mounts' inverse).
-        mounts = SensorMounts.of(config)
+        mounts = SensorMounts.of(config.mounts, config.lidar)
         self._imu_to_base = mounts.imu_rotation(next(iter(config.mounts.imus), ""))
         self._antenna_m = mounts.gps_offset_m(next(iter(config.mounts.gps), ""))
         self._compass_yaw_rad = mounts.compass_yaw_rad(next(iter(config.mounts.compasses), ""))

@@ -21,13 +21,10 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from navd.config import NavdConfig
-from navd.geometry.mount import SensorMounts
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.messages import (
@@ -51,49 +48,16 @@ from navd.slam.finder import GLOBAL, Finder
 from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
-from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
-from navd.slam.settings import MapperSettings
+from navd.slam.odometry import ScanOdometry
+from navd.slam.settings import SlamSettings
 from navd.slam.warmup import warm_up
 
-__all__ = ["SlamNode", "SlamSettings"]
+__all__ = ["SlamNode"]
 
 MAX_WAITING_SAVES = 8  # save requests waiting at once; more are answered at once, refused
 
 MAP_PERIOD_S = 1.0
 _SLOT = "scan_match"
-
-
-@dataclass(frozen=True, slots=True)
-class SlamSettings:
-    """The SLAM module's settings.
-
-    Attributes:
-        mapper: what the mapper runs on.
-        odometry: what scan odometry runs on (without wheel odometry).
-        mounts: where each lidar sits.
-        map_dir, map_name: where maps are saved, and their default name.
-        save_on_shutdown: save the map when the daemon stops.
-    """
-
-    mapper: MapperSettings
-    odometry: ScanOdometrySettings
-    mounts: SensorMounts
-    map_dir: str
-    map_name: str
-    save_on_shutdown: bool
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> SlamSettings:
-        """The settings the slam and lidar sections describe."""
-        slam = config.slam
-        return cls(
-            mapper=MapperSettings.from_config(config),
-            odometry=ScanOdometrySettings.from_config(config),
-            mounts=SensorMounts.of(config),
-            map_dir=slam.map_dir,
-            map_name=slam.map_name,
-            save_on_shutdown=slam.save_on_shutdown,
-        )
 
 
 def _map_update(grid: OccupancyGrid, now: float) -> MapUpdate:
@@ -128,15 +92,15 @@ class SlamNode(Module):
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self._finder = Finder(ctx)
-        self.settings = ctx.settings(SlamSettings, self._settings_changed)
+        self.settings = ctx.settings(SlamSettings.from_config, self._settings_changed)
         # What the mapper and scan odometry were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.
         self._in_force = self.settings.value
-        self._enabled = ctx.startup_config.slam.enabled
+        self._enabled = self._in_force.enabled  # needs a restart
         self.mapper = ScanMapper(self._in_force.mapper)
         lidars = self._in_force.mounts.lidars  # mounts need a restart
         self._assembler = ScanAssembler(lidars) if len(lidars) > 1 else None
-        load = ctx.startup_config.slam.load_map
+        load = self._in_force.load_map  # needs a restart
         if load is not None:
             try:
                 saved = load_map_state(Path(load))

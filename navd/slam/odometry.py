@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
 from navd.geometry.angles import wrap_angle
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.slam import _odometry_kernels as kernels
@@ -55,12 +54,6 @@ class ScanOdometrySettings:
     voxel_size_m: float
     max_range_m: float
     min_range_m: float
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> ScanOdometrySettings:
-        """The settings the slam and lidar sections describe."""
-        slam = config.slam
-        return cls(slam.voxel_size_m, slam.max_range_m, config.lidar.min_range_m)
 
 
 class ScanOdometry:

@@ -1,4 +1,6 @@
-"""The mapper's settings: plain values taken from the ``slam`` config section."""
+"""The SLAM room's settings: the mapper's and scan odometry's values and the module's own,
+derived once from the ``slam``, ``lidar`` and ``mounts`` sections; the only place the room
+reads the config."""
 
 from __future__ import annotations
 
@@ -6,9 +8,11 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from navd.config import NavdConfig
+from navd.config import LidarConfig, NavdConfig, SlamConfig
+from navd.geometry.mount import SensorMounts
+from navd.slam.odometry import ScanOdometrySettings
 
-__all__ = ["MapperSettings"]
+__all__ = ["MapperSettings", "SlamSettings", "scan_odometry_settings"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,3 +80,47 @@ class MapperSettings:
     def defaults(cls, **overrides: Any) -> MapperSettings:
         """The default config's settings with single values replaced (tests, warm-up)."""
         return dataclasses.replace(cls.from_config(NavdConfig()), **overrides)
+
+
+def scan_odometry_settings(slam: SlamConfig, lidar: LidarConfig) -> ScanOdometrySettings:
+    """Scan odometry's: the voxel size and the ranges kept."""
+    return ScanOdometrySettings(slam.voxel_size_m, slam.max_range_m, lidar.min_range_m)
+
+
+@dataclass(frozen=True, slots=True)
+class SlamSettings:
+    """The SLAM module's settings.
+
+    Attributes:
+        mapper: what the mapper runs on.
+        odometry: what scan odometry runs on (without wheel odometry).
+        mounts: where each lidar sits.
+        map_dir, map_name: where maps are saved, and their default name.
+        save_on_shutdown: save the map when the daemon stops.
+        enabled: whether SLAM runs (needs a restart).
+        load_map: the map to start from, or None (needs a restart).
+    """
+
+    mapper: MapperSettings
+    odometry: ScanOdometrySettings
+    mounts: SensorMounts
+    map_dir: str
+    map_name: str
+    save_on_shutdown: bool
+    enabled: bool = True
+    load_map: str | None = None
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> SlamSettings:
+        """The settings the slam and lidar sections describe."""
+        slam = config.slam
+        return cls(
+            mapper=MapperSettings.from_config(config),
+            odometry=scan_odometry_settings(slam, config.lidar),
+            mounts=SensorMounts.of(config.mounts, config.lidar),
+            map_dir=slam.map_dir,
+            map_name=slam.map_name,
+            save_on_shutdown=slam.save_on_shutdown,
+            enabled=slam.enabled,
+            load_map=slam.load_map,
+        )

@@ -106,7 +106,7 @@ class VizNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(VizSettings, self._settings_changed)
+        self.settings = ctx.settings(VizSettings.from_config, self._settings_changed)
         self._map_throttle = Throttle()
         self._scan_throttles: dict[str, Throttle] = {}  # by lidar
         self._pose_throttle = Throttle()

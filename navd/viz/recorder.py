@@ -95,7 +95,7 @@ class Recorder(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(RecorderSettings)
+        self.settings = ctx.settings(RecorderSettings.from_config)
         for kind in (*INPUTS, *OUTPUTS, *INFO):
             ctx.subscribe(kind, self._on_message)
         ctx.subscribe(RecordRequest, self._on_request)

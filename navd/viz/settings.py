@@ -70,7 +70,7 @@ class VizSettings:
             pose_period_s=1.0 / viz.pose_rate_hz,
             log_level=viz.log_level,
             footprint=Footprint.of(config.robot),
-            mounts=SensorMounts.of(config),
+            mounts=SensorMounts.of(config.mounts, config.lidar),
             keep_out_zones=config.planning.keep_out_zones,
             zone_masks=(config.planning.keep_out_mask, config.planning.speed_mask),
             robot_name=config.robot.name,

@@ -10,8 +10,9 @@ import pytest
 
 from navd.bench.compare import _route_cost_m
 from navd.config import NavdConfig
-from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
+from navd.planning.costmap import Costmap, GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner, SearchSettings
+from navd.planning.settings import costmap_settings
 
 
 def _costmap(cells: int, seed: int) -> Costmap:
@@ -23,7 +24,7 @@ def _costmap(cells: int, seed: int) -> Costmap:
         r, c = rng.integers(15, cells - 40, size=2)
         occupied[r : r + h, c : c + w] = True
     frame = GridFrame(0.05, 0.0, 0.0, cells, cells)
-    settings = CostmapSettings.from_config(NavdConfig())
+    settings = costmap_settings(NavdConfig().planning, NavdConfig().robot, NavdConfig().safety)
     return build_costmap(frame, occupied, np.zeros_like(occupied), settings)
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from navd.config import NavdConfig
 from navd.fleet import reports
+from navd.fleet.settings import FleetSettings
 from navd.fleet.vehicle import CANCEL_STOP_S, RETRY_S, Vehicle
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
@@ -494,7 +495,9 @@ def test_the_state_says_where_the_robot_is_and_why_it_is_held() -> None:
 
 def test_the_factsheet_says_what_navd_is_and_does() -> None:
     config = NavdConfig()
-    sheet = reports.factsheet(reports.header(0, 1.8e9, MAKER, SERIAL), config.fleet, config.robot)
+    settings = FleetSettings.from_config(config)
+    head = reports.header(0, 1.8e9, MAKER, SERIAL)
+    sheet = reports.factsheet(head, config.fleet, settings.limits, settings.footprint)
     check("factsheet", sheet)
     actions = {a["actionType"]: a["actionScopes"] for a in sheet["protocolFeatures"]["agvActions"]}
     assert actions["wait"] == ["NODE", "EDGE"] and actions["cancelOrder"] == ["INSTANT"]

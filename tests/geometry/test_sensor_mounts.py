@@ -13,12 +13,13 @@ from navd.geometry.pose import Pose2
 
 
 def _mounts(**mounts: object) -> SensorMounts:
-    return SensorMounts.of(NavdConfig.model_validate({"mounts": mounts}))
+    config = NavdConfig.model_validate({"mounts": mounts})
+    return SensorMounts.of(config.mounts, config.lidar)
 
 
 def test_without_mounts_every_device_is_placed_by_the_defaults() -> None:
     config = NavdConfig.model_validate({"lidar": {"x_m": 0.3, "min_range_m": 0.2}})
-    mounts = SensorMounts.of(config)
+    mounts = SensorMounts.of(config.mounts, config.lidar)
     assert mounts.lidar("anything") == LidarMount(Pose2(0.3, 0.0, 0.0), 0.2)
     assert mounts.imu_rotation("imu0") is None
     assert mounts.gps_offset_m("gnss") == (0.0, 0.0)

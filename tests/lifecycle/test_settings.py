@@ -10,7 +10,7 @@ from navd.config import NavdConfig, apply_changes
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.messages import ConfigApplied
 from navd.lifecycle.module import ModuleContext
-from navd.lifecycle.settings import Live
+from navd.lifecycle.settings import Live, parts_of
 from navd.lifecycle.workers import WorkerPool
 
 
@@ -30,7 +30,7 @@ def _changed(config: NavdConfig, changes: dict[str, object]) -> NavdConfig:
 def test_a_change_the_settings_do_not_read_swaps_nothing() -> None:
     calls: list[tuple[Limits, Limits]] = []
     config = NavdConfig()
-    live = Live(Limits, config, lambda old, new: calls.append((old, new)))
+    live = Live(Limits.from_config, config, lambda old, new: calls.append((old, new)))
     before = live.value
     assert not live.update(_changed(config, {"planning.goal_weight": 2.0}))
     assert live.value is before and calls == []
@@ -39,7 +39,7 @@ def test_a_change_the_settings_do_not_read_swaps_nothing() -> None:
 def test_a_change_they_read_swaps_them_whole_then_calls_on_change() -> None:
     calls: list[tuple[Limits, Limits]] = []
     config = NavdConfig()
-    live = Live(Limits, config, lambda old, new: calls.append((old, new)))
+    live = Live(Limits.from_config, config, lambda old, new: calls.append((old, new)))
     assert live.update(_changed(config, {"robot.max_linear_speed_mps": 0.8}))
     assert live.value == Limits(0.8)
     assert calls == [(Limits(0.5), Limits(0.8))]
@@ -61,27 +61,29 @@ def _applied(bus: Bus, config: NavdConfig) -> ConfigApplied:
 def test_a_module_context_swaps_its_settings_when_a_change_is_applied(bus: Bus) -> None:
     config = NavdConfig()
     ctx = _context(bus, config)
-    limits = ctx.settings(Limits)
+    limits = ctx.settings(Limits.from_config)
     seen_by_handler: list[Limits] = []
     # the module's own handler runs after the swap: it already sees the new settings
     ctx.subscribe(ConfigApplied, lambda _m: seen_by_handler.append(limits.value))
     bus.publish(_applied(bus, _changed(config, {"robot.max_linear_speed_mps": 0.3})))
     assert limits.value == Limits(0.3)
     assert seen_by_handler == [Limits(0.3)]
-    assert ctx.startup_config is config  # restart-only keys are read from the start
+    assert [h.name for h in ctx.holders] == ["Limits"]
 
 
 def test_a_failing_on_change_counts_against_its_module_only(bus: Bus) -> None:
     config = NavdConfig()
     good = _context(bus, config, "good")
     bad = _context(bus, config, "bad")
-    good_limits = good.settings(Limits)
+    good_limits = good.settings(Limits.from_config)
 
     def refuse(old: Limits, new: Limits) -> None:
         raise RuntimeError(f"cannot take {new}")
 
-    bad_limits = bad.settings(Limits, refuse)
-    bad_after = bad.settings(Limits)  # a second holder of the failing module still swaps
+    bad_limits = bad.settings(Limits.from_config, refuse)
+    bad_after = bad.settings(
+        Limits.from_config
+    )  # a second holder of the failing module still swaps
     bus.publish(_applied(bus, _changed(config, {"robot.max_linear_speed_mps": 0.3})))
     assert good_limits.value == Limits(0.3)
     assert bad_limits.value == Limits(0.5)  # refused: the holder agrees with its component
@@ -97,3 +99,14 @@ def test_retired_keys_say_where_they_went(key: str) -> None:
     section, name = key.split(".")
     with pytest.raises(ConfigError, match=rf"{key}: (moved to lidar\.|removed)"):
         parse_config({section: {name: 0.1 if name != "debug" else True}})
+
+
+def test_the_parts_of_settings_are_every_value_inside_them() -> None:
+    @dataclass(frozen=True, slots=True)
+    class Outer:
+        limits: Limits
+        pair: tuple[Limits, float]
+
+    outer = Outer(Limits(1.0), (Limits(2.0), 3.0))
+    parts = list(parts_of(outer))
+    assert parts == [outer, Limits(1.0), 1.0, (Limits(2.0), 3.0), Limits(2.0), 2.0, 3.0]

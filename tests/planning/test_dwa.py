@@ -20,6 +20,7 @@ from navd.planning._dwa_kernels import (
     window_samples,
 )
 from navd.planning.dwa import SNAP_SLACK_M, DwaSettings, LocalPlanner, Window, arc, path_field
+from navd.planning.settings import dwa_settings
 
 
 def brute_clearance(points: np.ndarray, fp: Footprint, pose: np.ndarray) -> float:
@@ -44,7 +45,7 @@ def brute_clearance(points: np.ndarray, fp: Footprint, pose: np.ndarray) -> floa
 
 def planner(footprint: str) -> tuple[LocalPlanner, DwaSettings]:
     config = NavdConfig.model_validate({"robot": {"footprint": footprint}})
-    s = DwaSettings.from_config(config)
+    s = dwa_settings(config.planning, config.robot, config.safety)
     return LocalPlanner(s), s
 
 

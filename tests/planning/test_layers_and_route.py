@@ -12,12 +12,13 @@ from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.geometry.scan import ALL_AROUND, FieldOfView
 from navd.planning.errors import GoalRefusedError
-from navd.planning.layers import FRAME_MARGIN_M, Layers, LayerSettings
+from navd.planning.layers import FRAME_MARGIN_M, Layers
 from navd.planning.route import Route
+from navd.planning.settings import layer_settings
 
 
 def test_the_snapshot_frame_holds_the_map_the_robot_and_the_goal() -> None:
-    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    layers = Layers(layer_settings(NavdConfig().planning))
     occupancy = np.zeros((40, 60), np.int8)
     occupancy[10, 10] = 100
     layers.set_map(occupancy, 0.05, -1.0, -1.0)
@@ -31,7 +32,7 @@ def test_the_snapshot_frame_holds_the_map_the_robot_and_the_goal() -> None:
 
 
 def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> None:
-    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    layers = Layers(layer_settings(NavdConfig().planning))
     layers.snapshot(0.0, [(0.0, 0.0)])  # the obstacle layer exists before any map
     layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0)
     frame, obstacles, _ = layers.snapshot(0.1, [(0.0, 0.0), (5.0, 0.0)])
@@ -45,7 +46,7 @@ def test_scan_marks_survive_a_growing_map_and_a_new_lattice_starts_afresh() -> N
 
 def test_what_a_270_degree_lidar_saw_stays_an_obstacle_in_its_blind_sector() -> None:
     ahead = FieldOfView(0.0, 0.0, -0.75 * math.pi, 1.5 * math.pi)  # blind behind the robot
-    layers = Layers(LayerSettings.from_config(NavdConfig()))  # persistence 2 s
+    layers = Layers(layer_settings(NavdConfig().planning))  # persistence 2 s
     layers.snapshot(0.0, [(0.0, 0.0)])
     layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, ahead)
     # the robot turned round: the obstacle is behind it now, where its lidar cannot see
@@ -64,7 +65,7 @@ def test_what_a_270_degree_lidar_saw_stays_an_obstacle_in_its_blind_sector() -> 
 def test_two_lidars_scans_are_live_together_and_their_views_join() -> None:
     front = FieldOfView(0.1, 0.0, -0.5 * math.pi, math.pi)
     left = FieldOfView(0.0, 0.1, 0.0, math.pi)  # front-left and rear-left: blind on the right
-    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    layers = Layers(layer_settings(NavdConfig().planning))
     layers.snapshot(0.0, [(0.0, 0.0)])
     layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, front, lidar="a")
     layers.add_scan(IDENTITY, np.array([[0.0, 1.0]]), np.empty((0, 2)), 0.05, left, lidar="b")
@@ -82,7 +83,7 @@ def test_two_lidars_scans_are_live_together_and_their_views_join() -> None:
 
 
 def test_a_far_goal_does_not_grow_every_later_snapshot_nor_exceed_the_cell_limit() -> None:
-    settings = LayerSettings.from_config(NavdConfig())
+    settings = layer_settings(NavdConfig().planning)
     layers = Layers(settings)
     far, _, _ = layers.snapshot(0.0, [(0.0, 0.0), (60.0, 0.0)])
     near, _, _ = layers.snapshot(1.0, [(0.0, 0.0), (2.0, 0.0)])
@@ -109,7 +110,7 @@ def test_route_progress_remaining_carrot_and_blocking() -> None:
 
 
 def test_other_robots_are_obstacles_where_they_are_and_where_they_are_going() -> None:
-    layers = Layers(LayerSettings.from_config(NavdConfig()))
+    layers = Layers(layer_settings(NavdConfig().planning))
     # one standing at (2, 0), one at (0, 3) driving +x at 0.5 m/s
     layers.set_robots((("a/one", 2.0, 0.0, 0.0, 0.0, 0.3), ("a/two", 0.0, 3.0, 0.0, 0.5, 0.3)))
     frame, obstacles, _ = layers.snapshot(0.0, [(0.0, 0.0), (4.0, 4.0)])

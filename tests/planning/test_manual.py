@@ -17,6 +17,7 @@ from navd.lifecycle.messages import (
 )
 from navd.logs import add_log_tap, remove_log_tap
 from navd.planning.manual import ManualDriving, ManualSettings
+from navd.planning.settings import manual_settings
 from navd.wire import (
     CancelFrame,
     ErrorFrame,
@@ -149,5 +150,5 @@ def test_teleop_settings_come_from_the_teleop_section() -> None:
     config = NavdConfig.model_validate(
         {"teleop": {"max_linear_speed_mps": 0.2, "resume_after_s": 9.0, "enabled": False}}
     )
-    settings = ManualSettings.from_config(config)
+    settings = manual_settings(config.teleop)
     assert settings == ManualSettings(False, 0.2, 1.0, 9.0)

@@ -16,9 +16,11 @@ from navd.geometry.footprint import Footprint
 from navd.geometry.mount import LidarMount, SensorMounts
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.lifecycle.messages import LaserScan
-from navd.planning.guard import CollisionGuard, GuardSettings, guard_scale
+from navd.planning.guard import GuardSettings, guard_scale
+from navd.planning.guard_node import CollisionGuard
 from navd.planning.profile import VelocityProfile
-from navd.planning.stuck import StuckMonitor, StuckPhase, StuckSettings
+from navd.planning.settings import guard_settings, stuck_settings
+from navd.planning.stuck import StuckMonitor, StuckPhase
 
 PROFILE = VelocityProfile(0.5, 0.05, 0.5, 1.0, 1.0, (0.0, 0.5), (1.5, 0.8), 2.0)
 
@@ -76,7 +78,7 @@ def test_stuck_monitor_phases_follow_the_configured_times() -> None:
             }
         }
     )
-    monitor = StuckMonitor(StuckSettings.from_config(config))
+    monitor = StuckMonitor(stuck_settings(config.planning, config.robot))
     phases = {t: monitor.update(t, Pose2(0.0, 0.0, 0.0)) for t in (0.0, 0.5, 1.5, 1.9)}
     assert [p.phase for p in phases.values()] == [StuckPhase.MOVING] * 2 + [StuckPhase.PUSHING] * 2
     # The minimum speed rises linearly from min to max speed over max_stuck_time.
@@ -118,9 +120,9 @@ def test_guard_stops_every_move_until_its_kernel_is_loaded() -> None:
     loop, which must not compile, so it stops the robot rather than pass a command unchecked."""
     code = (
         "import numpy as np\n"
-        "from navd.config import NavdConfig\n"
-        "from navd.planning.guard import GuardSettings, guard_scale, warm_up_guard\n"
-        "s = GuardSettings.from_config(NavdConfig())\n"
+        "from navd.planning.guard import guard_scale, warm_up_guard\n"
+        "from navd.planning.settings import default_guard\n"
+        "s = default_guard()\n"
         "far = np.array([[9.0, 9.0]])\n"
         "print(guard_scale(far, 0.3, 0.0, s))\n"
         "warm_up_guard(s)\n"
@@ -166,7 +168,7 @@ def test_the_guard_sees_what_either_of_two_lidars_sees() -> None:
         }
     )
     guard = CollisionGuard()
-    guard.settings = SimpleNamespace(value=GuardSettings.from_config(config))  # type: ignore[assignment]
+    guard.settings = SimpleNamespace(value=guard_settings(config))  # type: ignore[assignment]
     far = 9.0
     guard._on_scan(_half_scan("front", [far, far, far, far]))
     guard._on_scan(_half_scan("rear", [far, 0.2, 0.2, far]))  # something right behind

@@ -18,11 +18,13 @@ SCRIPT = textwrap.dedent(
     from navd.planning import (
         _astar_kernels, _bitgrid_kernels, _bucket_kernels, _distance_kernels, _dwa_kernels
     )
-    from navd.planning.costmap import CostmapSettings, GridFrame, build_costmap
-    from navd.planning.dwa import DwaSettings, LocalPlanner, Window, path_field
-    from navd.planning.global_planner import GlobalPlanner, SearchSettings
-    from navd.planning.profile import VelocityProfile
+    from navd.planning.costmap import GridFrame, build_costmap
+    from navd.planning.dwa import LocalPlanner, Window, path_field
+    from navd.planning.global_planner import GlobalPlanner
     from navd.planning.route import Route
+    from navd.planning.settings import (
+        costmap_settings, dwa_settings, search_settings, velocity_profile
+    )
     from navd.planning.warmup import warm_up
 
     modules = (
@@ -34,8 +36,8 @@ SCRIPT = textwrap.dedent(
     warm_up()
     warmed = {f.__name__: len(f.signatures) for f in kernels}
     config = NavdConfig()
-    settings = CostmapSettings.from_config(config)
-    search = SearchSettings.from_config(config)
+    settings = costmap_settings(config.planning, config.robot, config.safety)
+    search = search_settings(config.planning)
     walls = np.zeros((120, 90), dtype=np.bool_)
     walls[40, 10:80] = True
     frame = GridFrame(0.05, 0.0, 0.0, 120, 90)
@@ -47,7 +49,8 @@ SCRIPT = textwrap.dedent(
         assert planner.plan(rebuilt, (0.55, 0.5), (4.0, 5.5), search).reused
     # the local planner: every kind of window, read-only and strided obstacle points
     local = LocalPlanner(
-        DwaSettings.from_config(config), VelocityProfile.from_config(config).yaw_rate_table
+        dwa_settings(config.planning, config.robot, config.safety),
+        velocity_profile(config.planning, config.robot).yaw_rate_table,
     )
     wall = np.column_stack([np.full(40, 1.0), np.linspace(-1.0, 1.0, 40), np.zeros(40)])
     wall.flags.writeable = False

@@ -20,10 +20,10 @@ from navd.geometry.raster_file import MapYaml, occupancy_of
 from navd.planning.costmap import GridFrame
 from navd.planning.errors import PlanningError
 from navd.planning.goal import NavGoal
-from navd.planning.guard import CollisionGuard, GuardSettings
-from navd.planning.layers import Layers, LayerSettings
+from navd.planning.guard_node import CollisionGuard
+from navd.planning.layers import Layers
 from navd.planning.navigator import Navigator
-from navd.planning.settings import NavigatorSettings
+from navd.planning.settings import NavigatorSettings, guard_settings, layer_settings
 from navd.planning.zones import RECHECK_S, ZoneError, ZoneMasks, load_zone_mask
 from tests.planning.drive import drive, rasterize
 
@@ -180,7 +180,7 @@ def test_the_collision_guard_holds_anyone_to_a_speed_zone(tmp_path: Path) -> Non
     yaml = write_mask(tmp_path, "speed", grey, mode="raw")
     config = _config(speed_mask=str(yaml))
     guard = CollisionGuard()
-    guard.settings = SimpleNamespace(value=GuardSettings.from_config(config))  # type: ignore[assignment]
+    guard.settings = SimpleNamespace(value=guard_settings(config))  # type: ignore[assignment]
     guard.zones = ZoneMasks(None, str(yaml))
     top = config.robot.max_linear_speed_mps
     guard._pose = (1.0, 0.0)  # outside: a person's full speed goes through
@@ -197,7 +197,7 @@ def test_a_mask_swapped_for_another_file_is_the_one_kept_out_of(tmp_path: Path) 
     second = np.full(SHAPE, 254, dtype=np.uint8)
     second[_cells(5.0, 5.5, 0.0, 0.5)] = 0
     a, b = write_mask(tmp_path, "a", first), write_mask(tmp_path, "b", second)
-    settings = LayerSettings.from_config(_config(keep_out_mask=str(a)))
+    settings = layer_settings(_config(keep_out_mask=str(a)).planning)
     layers = Layers(settings)
     frame = GridFrame(RES, ORIGIN[0], ORIGIN[1], *SHAPE)
     assert layers.keep_out(frame)[frame.cell_of(1.2, 0.2)]

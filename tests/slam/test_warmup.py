@@ -21,9 +21,9 @@ SCRIPT = textwrap.dedent(
     from navd.geometry.pose import Pose2
     from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
-    from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
+    from navd.slam.odometry import ScanOdometry
     from navd.slam.pose_graph import Edge, graph_distances, optimize
-    from navd.slam.settings import MapperSettings
+    from navd.slam.settings import MapperSettings, scan_odometry_settings
     from navd.slam import _grid_kernels
     from navd.slam.global_search import relocalize
     from navd.slam.matcher import rival_ratio
@@ -37,7 +37,7 @@ SCRIPT = textwrap.dedent(
     warmed = {f.__name__: len(f.signatures) for f in kernels}
     before = set(sys.modules)
     config = NavdConfig()
-    odometry = ScanOdometry(ScanOdometrySettings.from_config(config))
+    odometry = ScanOdometry(scan_odometry_settings(config.slam, config.lidar))
     mapper = ScanMapper(MapperSettings.from_config(config))
     angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
     ranges = 3.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))

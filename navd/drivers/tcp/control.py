@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
-from navd.config.loader import redacted
 from navd.drivers.convert import control_message
 from navd.drivers.tcp.session import Server, Session
+from navd.drivers.tcp.settings import readable_config
 from navd.drivers.tcp.status_board import goal_info
 from navd.lifecycle.messages import (
     CancelGoal,
@@ -88,7 +88,7 @@ class ControlRole:
         self._config_requests: dict[str, Session] = {}
         self._map_area: tuple[float, float, float, float] | None = None  # [m] x0, y0, x1, y1
         ctx = server.ctx
-        self._config = ctx.startup_config  # the config in force (ConfigApplied keeps it)
+        self._readable = ctx.settings(readable_config)  # what config_get answers from
         ctx.subscribe(GoalStatus, self._on_goal_status)
         ctx.subscribe(MissionStatus, self._on_mission_status)
         ctx.subscribe(Path, self._on_path)
@@ -171,7 +171,7 @@ class ControlRole:
         Raises:
             WireError: naming the sections, or the section's keys, when ``key`` is unknown.
         """
-        plain = redacted(self._config)
+        plain = self._readable.value
         section, _, name = key.partition(".")
         if section not in plain:
             raise WireError("key", f"no section {section!r}; sections: {', '.join(plain)}")
@@ -183,8 +183,6 @@ class ControlRole:
         return plain[section][name]
 
     def _on_config_answer(self, answer: ConfigApplied | ConfigRejected) -> None:
-        if isinstance(answer, ConfigApplied):
-            self._config = answer.config  # what config_get reads from now on
         session = self._config_requests.pop(answer.request_id, None)
         if session is None:
             return

@@ -25,7 +25,6 @@ from navd.drivers.tcp.control import ControlRole
 from navd.drivers.tcp.sensors import SensorRole
 from navd.drivers.tcp.session import Role, Session
 from navd.drivers.tcp.settings import (
-    STATUS_FRAME_BYTES,
     ConnectionLimits,
     SensorPacing,
     TcpSettings,
@@ -73,7 +72,7 @@ class TcpServer(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self.settings = ctx.settings(TcpSettings, self._settings_changed)
+        self.settings = ctx.settings(TcpSettings.from_config, self._settings_changed)
         self.watch = SilenceWatch(ctx, self.sessions.values, lambda: self.settings.value)
         self.board.subscribe(ctx)
         # a new or resumed device may fall silent before the watch's next deadline
@@ -136,13 +135,14 @@ class TcpServer(Module):
         """Connections open now take the new limits too (a new handshake deadline applies
         only to connections made after it)."""
         self.wake_watch()
+        limits = new.connection
         for conn in self.connections:
-            conn.max_line_bytes = new.max_line_bytes
-            conn.write_high_bytes = new.status_queue * STATUS_FRAME_BYTES
-            conn.slow_reader_s = new.slow_reader_s
+            conn.max_line_bytes = limits.max_line_bytes
+            conn.write_high_bytes = limits.write_high_bytes
+            conn.slow_reader_s = limits.slow_reader_s
             session = conn.session
             if isinstance(session, Session) and session.kind.value in SENSOR_FRAMES:
-                conn.coalesce_s = new.coalesce_s
+                conn.coalesce_s = new.pacing.coalesce_s
 
     @property
     def port(self) -> int:
@@ -157,10 +157,10 @@ class TcpServer(Module):
         tcp = self.settings.value
         return Connection(
             self,
-            max_line_bytes=tcp.max_line_bytes,
+            max_line_bytes=tcp.connection.max_line_bytes,
             handshake_timeout_s=tcp.handshake_timeout_s,
-            write_high_bytes=tcp.status_queue * STATUS_FRAME_BYTES,
-            slow_reader_s=tcp.slow_reader_s,
+            write_high_bytes=tcp.connection.write_high_bytes,
+            slow_reader_s=tcp.connection.slow_reader_s,
         )
 
     def on_open(self, conn: Connection) -> bool:
@@ -288,7 +288,7 @@ class TcpServer(Module):
         conn.session = session
         conn.handshake_done()
         if hello.role in SENSOR_FRAMES:
-            conn.coalesce_s = self.settings.value.coalesce_s
+            conn.coalesce_s = self.settings.value.pacing.coalesce_s
         self._roles[kind].opened(session)
         conn.send(
             Welcome(
@@ -296,7 +296,7 @@ class TcpServer(Module):
                 daemon=f"navd {__version__}",
                 device_id=hello.device_id,
                 role=hello.role,
-                max_line_bytes=self.settings.value.max_line_bytes,
+                max_line_bytes=self.settings.value.connection.max_line_bytes,
             )
         )
         self.ctx.log.info(

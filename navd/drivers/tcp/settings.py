@@ -1,94 +1,25 @@
-"""The TCP server's settings."""
+"""The TCP server's settings, derived once from the tcp, safety, lidar and mounts sections;
+and the config as control clients may read it."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from navd.config import NavdConfig
+from navd.config.loader import redacted
 from navd.geometry.mount import SensorMounts
 from navd.lifecycle.messages import DeviceKind
 
-__all__ = ["STATUS_FRAME_BYTES", "ConnectionLimits", "SensorPacing", "TcpSettings"]
+__all__ = [
+    "STATUS_FRAME_BYTES",
+    "ConnectionLimits",
+    "SensorPacing",
+    "TcpSettings",
+    "readable_config",
+]
 
 STATUS_FRAME_BYTES = 4096  # [bytes] a status frame, for the output bound of a slow reader
-
-
-@dataclass(frozen=True, slots=True)
-class TcpSettings:
-    """What the server listens with and how it treats its clients.
-
-    Attributes:
-        host, port, token: where it listens and the shared secret (they need a restart).
-        allow_privileged_changes: control clients may change privileged keys (a restart).
-        max_clients: [clients] most clients connected at once (after their hello).
-        max_pending: [connections] most connections waiting to say hello.
-        control_idle_timeout_s: [s] a control client silent and unsubscribed this long is
-            disconnected.
-        sensor_idle_timeout_s: [s] a sensor that sends nothing this long is disconnected.
-        max_line_bytes: [bytes] longest accepted line.
-        handshake_timeout_s: [s] a new connection has this long to say hello.
-        coalesce_s: [s] pause after reading a fast sensor connection.
-        status_queue: [frames] status frames buffered for a slow subscriber.
-        slow_reader_s: [s] a client whose status frames all drop this long is disconnected.
-        stale_after_s: [s] per sensor kind, silence that makes a device stale.
-        lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
-        robot_name: the name status frames carry.
-        teleop_enabled: control clients may drive by hand (``teleop.enabled``).
-        mounts: the sensors' mounts: which device ids may connect, which ROS frame_ids
-            their frames may name.
-    """
-
-    host: str
-    port: int
-    token: str | None = field(repr=False)
-    allow_privileged_changes: bool
-    max_clients: int
-    max_pending: int
-    control_idle_timeout_s: float
-    sensor_idle_timeout_s: float
-    max_line_bytes: int
-    handshake_timeout_s: float
-    coalesce_s: float
-    status_queue: int
-    slow_reader_s: float
-    stale_after_s: tuple[tuple[DeviceKind, float], ...]
-    lockstep_timeout_s: float
-    robot_name: str
-    teleop_enabled: bool
-    mounts: SensorMounts
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> TcpSettings:
-        """The settings the tcp section describes (with the lifecycle's lockstep timeout and
-        the robot's name)."""
-        tcp = config.tcp
-        return cls(
-            host=tcp.host,
-            port=tcp.port,
-            token=tcp.token,
-            allow_privileged_changes=tcp.allow_privileged_changes,
-            max_clients=tcp.max_clients,
-            max_pending=tcp.max_pending,
-            control_idle_timeout_s=tcp.control_idle_timeout_s,
-            sensor_idle_timeout_s=tcp.sensor_idle_timeout_s,
-            max_line_bytes=tcp.max_line_bytes,
-            handshake_timeout_s=tcp.handshake_timeout_s,
-            coalesce_s=tcp.read_coalesce_ms / 1e3,
-            status_queue=tcp.status_queue,
-            slow_reader_s=tcp.slow_reader_timeout_s,
-            stale_after_s=(
-                (DeviceKind.LIDAR, tcp.lidar_timeout_s),
-                (DeviceKind.IMU, tcp.imu_timeout_s),
-                (DeviceKind.GPS, tcp.gps_timeout_s),
-                (DeviceKind.COMPASS, tcp.compass_timeout_s),
-                (DeviceKind.BEACON, tcp.beacon_timeout_s),
-                (DeviceKind.WHEEL_ODOMETRY, tcp.wheel_odometry_timeout_s),
-            ),
-            lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
-            robot_name=config.robot.name,
-            teleop_enabled=config.teleop.enabled,
-            mounts=SensorMounts.of(config),
-        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,14 +36,6 @@ class ConnectionLimits:
     write_high_bytes: int
     slow_reader_s: float
 
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> ConnectionLimits:
-        """The limits the tcp section describes."""
-        tcp = config.tcp
-        return cls(
-            tcp.max_line_bytes, tcp.status_queue * STATUS_FRAME_BYTES, tcp.slow_reader_timeout_s
-        )
-
 
 @dataclass(frozen=True, slots=True)
 class SensorPacing:
@@ -124,7 +47,83 @@ class SensorPacing:
 
     coalesce_s: float
 
+
+@dataclass(frozen=True, slots=True)
+class TcpSettings:
+    """What the server listens with and how it treats its clients.
+
+    Attributes:
+        host, port, token: where it listens and the shared secret (they need a restart).
+        allow_privileged_changes: control clients may change privileged keys (a restart).
+        max_clients: [clients] most clients connected at once (after their hello).
+        max_pending: [connections] most connections waiting to say hello.
+        control_idle_timeout_s: [s] a control client silent and unsubscribed this long is
+            disconnected.
+        sensor_idle_timeout_s: [s] a sensor that sends nothing this long is disconnected.
+        handshake_timeout_s: [s] a new connection has this long to say hello.
+        stale_after_s: [s] per sensor kind, silence that makes a device stale.
+        lockstep_timeout_s: [s] real time a clock step waits for the lines it was promised.
+        robot_name: the name status frames carry.
+        teleop_enabled: control clients may drive by hand (``teleop.enabled``).
+        mounts: the sensors' mounts: which device ids may connect, which ROS frame_ids
+            their frames may name.
+        connection: what every connection is bounded by.
+        pacing: how sensor connections are read.
+    """
+
+    host: str
+    port: int
+    token: str | None = field(repr=False)
+    allow_privileged_changes: bool
+    max_clients: int
+    max_pending: int
+    control_idle_timeout_s: float
+    sensor_idle_timeout_s: float
+    handshake_timeout_s: float
+    stale_after_s: tuple[tuple[DeviceKind, float], ...]
+    lockstep_timeout_s: float
+    robot_name: str
+    teleop_enabled: bool
+    mounts: SensorMounts
+    connection: ConnectionLimits
+    pacing: SensorPacing
+
     @classmethod
-    def from_config(cls, config: NavdConfig) -> SensorPacing:
-        """The pacing the tcp section describes."""
-        return cls(config.tcp.read_coalesce_ms / 1e3)
+    def from_config(cls, config: NavdConfig) -> TcpSettings:
+        """The settings the tcp section describes (with the lifecycle's lockstep timeout and
+        the robot's name)."""
+        tcp = config.tcp
+        return cls(
+            host=tcp.host,
+            port=tcp.port,
+            token=tcp.token,
+            allow_privileged_changes=tcp.allow_privileged_changes,
+            max_clients=tcp.max_clients,
+            max_pending=tcp.max_pending,
+            control_idle_timeout_s=tcp.control_idle_timeout_s,
+            sensor_idle_timeout_s=tcp.sensor_idle_timeout_s,
+            handshake_timeout_s=tcp.handshake_timeout_s,
+            stale_after_s=(
+                (DeviceKind.LIDAR, tcp.lidar_timeout_s),
+                (DeviceKind.IMU, tcp.imu_timeout_s),
+                (DeviceKind.GPS, tcp.gps_timeout_s),
+                (DeviceKind.COMPASS, tcp.compass_timeout_s),
+                (DeviceKind.BEACON, tcp.beacon_timeout_s),
+                (DeviceKind.WHEEL_ODOMETRY, tcp.wheel_odometry_timeout_s),
+            ),
+            lockstep_timeout_s=config.lifecycle.lockstep_timeout_s,
+            robot_name=config.robot.name,
+            teleop_enabled=config.teleop.enabled,
+            mounts=SensorMounts.of(config.mounts, config.lidar),
+            connection=ConnectionLimits(
+                tcp.max_line_bytes,
+                tcp.status_queue * STATUS_FRAME_BYTES,
+                tcp.slow_reader_timeout_s,
+            ),
+            pacing=SensorPacing(tcp.read_coalesce_ms / 1e3),
+        )
+
+
+def readable_config(config: NavdConfig) -> dict[str, Any]:
+    """The config in force as ``config_get`` answers it: plain data, secrets redacted."""
+    return redacted(config)
