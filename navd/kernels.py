@@ -55,16 +55,17 @@ COMPILE_TIMEOUT_S = 900.0  # a cold compile takes about a minute here, a few on 
 
 
 def warm_up_all() -> None:
-    """Compile (or load from the cache) every kernel the daemon can run: estimation, SLAM,
-    planning and the collision guard, through each room's own warm-up."""
+    """Compile (or load from the cache) every kernel navd can run: estimation, SLAM, planning
+    and the collision guard, through each room's own warm-up, and what a replay adds (the
+    fine refinement), so one child fills the cache for the daemon and ``navd replay``."""
     # Imported here: a process that only checks the cache does not load the rooms' kernels.
     from navd.estimation.warmup import warm_up as warm_estimation  # noqa: PLC0415
+    from navd.offline.warmup import warm_up as warm_replay  # noqa: PLC0415
     from navd.planning.warmup import warm_up as warm_planning  # noqa: PLC0415
-    from navd.slam.warmup import warm_up as warm_slam  # noqa: PLC0415
 
     warm_estimation(NavdConfig().estimation)
     warm_planning()
-    warm_slam()
+    warm_replay()  # the daemon's SLAM kernels, then the fine refinement's
 
 
 def _dispatchers() -> Iterator[tuple[str, Dispatcher]]:

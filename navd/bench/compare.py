@@ -277,8 +277,8 @@ def _filterpy_steps(
     x0: FloatArray, p0: FloatArray, steps: list[tuple[float, Measurement]], settings: UkfSettings
 ) -> list[float]:
     """[s] per step of filterpy's own UKF over ``steps``, with navd's model plugged in."""
+    from navd.bench.ukf_reference import stock_filter  # noqa: PLC0415
     from navd.estimation.motion_model import ProcessNoise  # noqa: PLC0415
-    from navd.estimation.ukf_reference import stock_filter  # noqa: PLC0415
 
     peer = stock_filter(settings, steps[0][1].rows)
     peer.x, peer.P = x0.copy(), p0.copy()

@@ -15,7 +15,8 @@ from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load, pr
 from navd.config import ConfigError
 
 if TYPE_CHECKING:
-    from navd.slam.logfiles import LogScan
+    from navd.offline.logfiles import LogScan
+    from navd.slam.settings import MapperSettings
 
 __all__ = ["add_commands"]
 
@@ -50,6 +51,13 @@ def add_commands(commands: Commands) -> None:
         action=argparse.BooleanOptionalAction,
         default=None,
         help="close loops or not (slam.loop_closure; on by default)",
+    )
+    replay.add_argument(
+        "--fine-resolution",
+        type=float,
+        metavar="M",
+        help="[m] cell of the fine map each reported pose is refined on (default: half of "
+        "slam.resolution_m; slam.resolution_m itself: no refinement)",
     )
     replay.add_argument(
         "--perturb",
@@ -113,12 +121,31 @@ def _load_kernels() -> None:
         release_compiler_code,
         release_freed_memory,
     )
-    from navd.slam.warmup import warm_up  # noqa: PLC0415
+    from navd.offline.warmup import warm_up  # noqa: PLC0415
 
     KernelCache().prepare(every_signature=True)
     warm_up()
     release_freed_memory()
     release_compiler_code()
+
+
+def _mapper_settings(args: argparse.Namespace, settings: MapperSettings) -> MapperSettings:
+    """The config's mapper settings with the replay's own options.
+
+    Raises:
+        ValueError: ``--fine-resolution`` out of its range (named).
+    """
+    if args.max_range is not None:
+        settings = dataclasses.replace(settings, max_range_m=args.max_range)
+    if args.loop_closure is not None:
+        settings = dataclasses.replace(settings, loop_closure=args.loop_closure)
+    fine = args.fine_resolution
+    if fine is not None and not 0.005 <= fine <= settings.resolution_m:
+        raise ValueError(
+            f"--fine-resolution {fine}: must be at least 0.005 m and at most the map's cell, "
+            f"slam.resolution_m ({settings.resolution_m} m)"
+        )
+    return settings
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -135,9 +162,10 @@ def _replay(args: argparse.Namespace) -> int:
         )
         return EXIT_USAGE
     from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
-    from navd.slam.errors import LogFormatError, SlamError  # noqa: PLC0415
+    from navd.offline.errors import LogFormatError, OfflineError  # noqa: PLC0415
+    from navd.offline.replay import open_recording, replay, replay_mount  # noqa: PLC0415
+    from navd.slam.errors import SlamError  # noqa: PLC0415
     from navd.slam.map_io import load_map_state  # noqa: PLC0415
-    from navd.slam.replay import open_recording, replay, replay_mount  # noqa: PLC0415
     from navd.slam.settings import MapperSettings  # noqa: PLC0415
 
     try:
@@ -145,11 +173,11 @@ def _replay(args: argparse.Namespace) -> int:
     except ConfigError as err:
         print(f"navd replay: {err}", file=sys.stderr)
         return EXIT_USAGE
-    settings = MapperSettings.from_config(config)
-    if args.max_range is not None:
-        settings = dataclasses.replace(settings, max_range_m=args.max_range)
-    if args.loop_closure is not None:
-        settings = dataclasses.replace(settings, loop_closure=args.loop_closure)
+    try:
+        settings = _mapper_settings(args, MapperSettings.from_config(config))
+    except ValueError as err:
+        print(f"navd replay: {err}", file=sys.stderr)
+        return EXIT_USAGE
     try:
         start_map = None if args.map is None else load_map_state(args.map)
     except SlamError as err:
@@ -185,8 +213,9 @@ def _replay(args: argparse.Namespace) -> int:
             odometry=args.odometry,
             progress=None if args.quiet else _progress_line(total),
             start_map=start_map,
+            fine_cell_m=args.fine_resolution,
         )
-    except SlamError as err:
+    except (SlamError, OfflineError) as err:
         said = str(err)
         if args.scans is not None and isinstance(err, LogFormatError) and "no laser scans" in said:
             said = f"--scans {args.scans} picked no scans (the log has fewer)"
@@ -210,7 +239,7 @@ def _chosen_scans(
     Raises:
         ValueError: a bad --scans or --perturb, named.
     """
-    from navd.slam.perturb import perturb  # noqa: PLC0415 - only replay needs SLAM
+    from navd.offline.perturb import perturb  # noqa: PLC0415 - only replay needs SLAM
 
     if args.scans is not None:
         try:
@@ -299,13 +328,13 @@ def _progress_line(total: int) -> Callable[[int, float], None]:
 
 
 def _relations(args: argparse.Namespace) -> int:
-    from navd.slam.errors import SlamError  # noqa: PLC0415
-    from navd.slam.relations import evaluate, read_relations, read_tum  # noqa: PLC0415
+    from navd.offline.errors import OfflineError  # noqa: PLC0415
+    from navd.offline.relations import evaluate, read_relations, read_tum  # noqa: PLC0415
 
     try:
         stamps, poses = read_tum(args.trajectory)
         errors = evaluate(stamps, poses, read_relations(args.relations))
-    except (SlamError, OSError) as err:
+    except (OfflineError, OSError) as err:
         print(f"navd eval relations: {err}", file=sys.stderr)
         return EXIT_USAGE
     print_figures(errors.as_dict(), args.json)

@@ -47,6 +47,8 @@ RETIRED_KEYS = {
     "slam.laser_yaw_rad": "moved to lidar.yaw_rad",
     "slam.min_range_m": "moved to lidar.min_range_m",
     "logging.debug": 'removed (it changed nothing); set logging.level = "debug" for detail',
+    "slam.match_resolution_m": "moved to `navd replay --fine-resolution` (only a replay refines "
+    "its poses on a fine map; the daemon never did)",
 }
 
 

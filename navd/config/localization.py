@@ -22,18 +22,6 @@ class SlamConfig(Section):
     )
     updating_map: bool = Field(True, description="add scans to the map (off: localize only)")
     resolution_m: float = Field(0.05, ge=0.01, le=1, **restart("[m] occupancy grid cell size"))
-    match_resolution_m: float | None = Field(
-        None,
-        ge=0.005,
-        le=1,
-        examples=[0.025],
-        **restart(
-            "[m] cell size of the fine map a replay's trajectory is refined on: the keyframes "
-            "near the robot drawn again at this cell, each match searched again within one "
-            "map cell (tracking, the map and the daemon's pose go on from the match itself; "
-            "unset: half of resolution_m; equal to it: no refinement; needs loop_closure)"
-        ),
-    )
     voxel_size_m: float = Field(
         0.1, ge=0.01, le=2, description="[m] voxel size for scan downsampling and ICP"
     )
@@ -129,23 +117,6 @@ class SlamConfig(Section):
         **restart("map .yaml to load at start-up and localize on; unset: start a new map"),
     )
     save_on_shutdown: bool = Field(False, description="save the map when the daemon stops")
-
-    @model_validator(mode="after")
-    def _match_not_coarser(self) -> SlamConfig:
-        if self.match_resolution_m is not None and self.match_resolution_m > self.resolution_m:
-            raise ValueError(
-                f"slam.match_resolution_m ({self.match_resolution_m}) must not exceed "
-                f"slam.resolution_m ({self.resolution_m}): a pose is refined on the map's "
-                "cells or finer ones"
-            )
-        if self.match_resolution_m is not None and not self.loop_closure:
-            raise ValueError(
-                f"slam.match_resolution_m ({self.match_resolution_m}) is set but "
-                "slam.loop_closure is false: the fine map is drawn from the keyframes' scans, "
-                "which only loop closure keeps; remove match_resolution_m or turn "
-                "loop_closure on"
-            )
-        return self
 
 
 class EstimationConfig(Section):

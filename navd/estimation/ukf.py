@@ -3,13 +3,11 @@
 Each step is one call into a numba kernel (``_ukf_kernels``): predict, update, the
 Mahalanobis gate on the sensor's own rows, the yaw variance cap. The algebra is the textbook
 UKF (Wan and van der Merwe 2000) as filterpy writes it; a test runs filterpy's own
-UnscentedKalmanFilter on the same model (``ukf_reference``) and checks every step against
-this one. filterpy is not imported by the daemon: its package loads scipy.stats and
-scipy.optimize (38 MB of memory, 0.3 s here and about a second on the board), and in numpy a
-step cost 100-150 µs, nearly all in call overhead. Yaw residuals are wrapped, yaw means are
-taken on the circle (``ukf_reference.angle_mean``), and the filter never raises: a failed
-Cholesky factorization or a non-finite result is reported as ``StepOutcome.DIVERGED`` for
-the caller to reset from a good state.
+UnscentedKalmanFilter on the same model (``navd.bench.ukf_reference``) and checks every step
+against this one. filterpy is not imported by the daemon (docs/estimation.md says what it
+would cost). Yaw residuals are wrapped, yaw means are taken on the circle, and the filter
+never raises: a failed Cholesky factorization or a non-finite result is reported as
+``StepOutcome.DIVERGED`` for the caller to reset from a good state.
 """
 
 from __future__ import annotations

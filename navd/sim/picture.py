@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from navd.offline.picture import encode_png
 from navd.sim.world import World
-from navd.slam.picture import encode_png
 
 __all__ = ["demo_picture", "fleet_picture"]
 

@@ -4,13 +4,12 @@ No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads
 ``navd replay`` runs over log files.
 """
 
-from navd.slam.errors import LogFormatError, MapFileError, SlamError
+from navd.slam.errors import MapFileError, SlamError
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.settings import MapperSettings
 
 __all__ = [
-    "LogFormatError",
     "MapFileError",
     "MapperSettings",
     "OccupancyGrid",

@@ -29,7 +29,7 @@ from navd.slam.loop_closure import LoopCloser
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
-from navd.slam.refinement import FineRefinement
+from navd.slam.reported_pose import PoseRefiner
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -100,15 +100,21 @@ def _tracking_matcher(s: MapperSettings) -> CorrelativeMatcher:
 
 @dataclass
 class ScanMapper:
-    """Builds the map and tracks the robot on it, one scan at a time."""
+    """Builds the map and tracks the robot on it, one scan at a time.
+
+    Attributes:
+        settings: what it runs on.
+        fine: refines the pose each matched scan is reported at (a replay's fine map), or
+            None: reported as matched.
+    """
 
     settings: MapperSettings = field(default_factory=MapperSettings.defaults)
+    fine: PoseRefiner | None = None
 
     def __post_init__(self) -> None:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
-        self.fine = FineRefinement.of(s)
         # The reported pose of the last scan in the frame of the tracked one (the fine map's
         # refinement; identity without one).
         self._refinement = Pose2(0.0, 0.0, 0.0)

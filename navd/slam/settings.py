@@ -21,7 +21,6 @@ class MapperSettings:
     ``from_config`` (the config holds the defaults; those with defaults here are fixed)."""
 
     resolution_m: float
-    match_resolution_m: float  # the fine map's cells (navd.slam.fine_map)
     voxel_size_m: float
     max_range_m: float
     search_xy_m: float
@@ -52,11 +51,6 @@ class MapperSettings:
         slam = config.slam
         return cls(
             resolution_m=slam.resolution_m,
-            match_resolution_m=(
-                slam.resolution_m / 2
-                if slam.match_resolution_m is None
-                else slam.match_resolution_m
-            ),
             voxel_size_m=slam.voxel_size_m,
             max_range_m=slam.max_range_m,
             search_xy_m=slam.search_xy_m,

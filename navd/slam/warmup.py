@@ -9,7 +9,6 @@ import numpy as np
 
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
-from navd.slam.fine_map import fine_refiner, refine_pose
 from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper
 from navd.slam.matcher import rival_ratio
@@ -23,8 +22,7 @@ __all__ = ["warm_up"]
 def warm_up() -> None:
     """Run two scans of a small square room through a throwaway mapper and scan odometry,
     then find the second on the map (the global search of localization and loop closure), ask
-    whether it fits elsewhere as well, refine its position as on the fine map, and solve a
-    three-pose loop.
+    whether it fits elsewhere as well, and solve a three-pose loop.
 
     The pose graph imports scipy.sparse.linalg on first use, holding the interpreter lock
     while it does; done here, no loop closure pays for it (docs/performance.md, "The first
@@ -47,10 +45,6 @@ def warm_up() -> None:
     # How well the scan fits elsewhere (tracking's repair, the lost search, loop closure).
     field = mapper.grid.likelihood_field(found.pose, 3.0, 0.05)
     rival_ratio(field, scan.hits, found.pose, radius_m=1.0, exclude_m=0.3)
-    # A pose refined on the fine map (a search of one level), and that map's field brought
-    # up to date with a keyframe's hits.
-    refine_pose(fine_refiner(mapper.settings), field, scan.hits, found.pose)
-    mapper.grid.stamp_points(field, found.pose.transform(scan.hits), 0.05)
     # A triangle: three 1 m sides, each turning 120 degrees, so the edges close exactly. The
     # poses start off it so the solver iterates, and the closing edge is robust, as a loop
     # closure's is, so the soft-L1 branch runs too.

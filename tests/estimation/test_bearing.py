@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from navd.bench.ukf_reference import angle_mean
 from navd.estimation.bearing import bearing_to_yaw
-from navd.estimation.ukf_reference import angle_mean
 from navd.geometry.angles import wrap_angle
 
 PI = math.pi

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from navd.bench.ukf_reference import stock_filter
 from navd.estimation.motion_model import (
     STATE_SIZE,
     TH,
@@ -17,7 +18,6 @@ from navd.estimation.motion_model import (
     transition_matrix,
 )
 from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
-from navd.estimation.ukf_reference import stock_filter
 
 pytest.importorskip("filterpy.kalman", reason="filterpy (a dev dependency) missing")
 

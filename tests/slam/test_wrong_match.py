@@ -10,8 +10,8 @@ from pathlib import Path
 
 from navd.config import NavdConfig
 from navd.geometry.mount import LidarMount
-from navd.slam.logfiles import LogScan, open_log
-from navd.slam.replay import replay
+from navd.offline.logfiles import LogScan, open_log
+from navd.offline.replay import replay
 from navd.slam.settings import MapperSettings
 from tests.datasets import dataset
 

@@ -8,7 +8,7 @@ again within a map cell, comes back 2.8 cm from its pose on average on 5 cm cell
 cm on 2.5 cm cells (tests/slam/test_fine_map.py).
 
 What it changes: only the pose reported for each matched scan, which is the trajectory a
-replay writes (the daemon does not refine: ``refinement.FineRefinement.of`` says why).
+replay writes (the daemon does not refine: docs/slam.md, pipeline step 6, says why).
 Tracking, the map, the keyframes and the loop closures go on from the match on the map
 exactly as without it. Feeding the refined pose
 back into tracking was measured first (docs/slam.md, "Finer cells for the Intel lab"): it
@@ -78,10 +78,11 @@ THIN_CELL_M = 0.5
 THIN_YAW_RAD = math.pi / 4
 
 
-def fine_keep_cells(settings: MapperSettings) -> int:
-    """Cells short of a hit where a ray on a fine map stops freeing: the fine cells of one
-    map cell beside the end's own (1 at half the map's cell)."""
-    return max(0, round(settings.resolution_m / settings.match_resolution_m) - 1)
+def fine_keep_cells(resolution_m: float, cell_m: float) -> int:
+    """Cells short of a hit where a ray on a fine map (cells of ``cell_m`` [m]) stops
+    freeing: the fine cells of one map cell (``resolution_m`` [m]) beside the end's own (1 at
+    half the map's cell)."""
+    return max(0, round(resolution_m / cell_m) - 1)
 
 
 def fine_refiner(settings: MapperSettings) -> CorrelativeMatcher:

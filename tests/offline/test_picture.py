@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from navd.slam.picture import encode_png
+from navd.offline.picture import encode_png
 
 
 def _decode(png: bytes) -> np.ndarray:

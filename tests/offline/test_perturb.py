@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from navd.geometry.pose import Pose2
-from navd.slam.logfiles import LogScan
-from navd.slam.perturb import perturb
+from navd.offline.logfiles import LogScan
+from navd.offline.perturb import perturb
 
 
 def _log(n: int = 1000, rate_hz: float = 10.0) -> list[LogScan]:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from navd.geometry.pose import Pose2
-from navd.slam.errors import LogFormatError
+from navd.offline.errors import LogFormatError
 
 __all__ = ["Relation", "RelationErrors", "evaluate", "read_relations", "read_tum"]
 

@@ -8,7 +8,7 @@ import pytest
 
 from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
-from navd.slam.replay import replay_mount
+from navd.offline.replay import replay_mount
 
 CONFIGURED = LidarMount(Pose2(0.1, 0.0, 0.0), 0.2)
 RECORDED = Pose2(0.3, -0.05, math.pi)

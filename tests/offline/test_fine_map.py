@@ -8,13 +8,12 @@ import math
 
 import numpy as np
 import pytest
-from pydantic import ValidationError
 
 from navd.bench.room import WALLS, cast
-from navd.config import NavdConfig
+from navd.config import ConfigError, parse_config
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
-from navd.slam.fine_map import (
+from navd.offline.fine_map import (
     REFINE_YAW_RAD,
     THIN_CELL_M,
     FineMap,
@@ -22,6 +21,7 @@ from navd.slam.fine_map import (
     fine_refiner,
     refine_pose,
 )
+from navd.offline.refinement import FineRefinement
 from navd.slam.keyframe import Keyframe
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
@@ -29,6 +29,7 @@ from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
 SETTINGS = MapperSettings.defaults()
+FINE_M = SETTINGS.resolution_m / 2  # a replay's fine cell by default
 
 
 def _scan(pose: Pose2, walls: np.ndarray = WALLS) -> ScanPoints:
@@ -40,29 +41,16 @@ def _keyframes(poses: list[Pose2]) -> list[Keyframe]:
     return [Keyframe(float(i), p, _scan(p)) for i, p in enumerate(poses)]
 
 
-def test_the_defaults_refine_on_cells_half_the_map_s() -> None:
-    assert SETTINGS.match_resolution_m == pytest.approx(SETTINGS.resolution_m / 2)
-    assert fine_keep_cells(SETTINGS) == 1
-    replay = dataclasses.replace(SETTINGS, keep_trajectory=True)
-    assert ScanMapper(replay).fine is not None
-    assert ScanMapper(SETTINGS).fine is None  # the daemon keeps no trajectory (refinement)
-    same = dataclasses.replace(replay, match_resolution_m=SETTINGS.resolution_m)
-    assert ScanMapper(same).fine is None  # no second map: matched on the map alone
-    no_loops = MapperSettings.defaults(loop_closure=False, keep_trajectory=True)
-    assert ScanMapper(no_loops).fine is None
+def test_half_the_map_s_cell_keeps_one_fine_cell_short_of_a_hit() -> None:
+    assert fine_keep_cells(0.05, 0.025) == 1
+    assert fine_keep_cells(0.05, 0.05) == 0
+    assert fine_keep_cells(0.05, 0.0125) == 3
+    assert ScanMapper(SETTINGS).fine is None  # the daemon's mapper is given none
 
 
-def test_a_match_resolution_coarser_than_the_map_is_refused_by_name() -> None:
-    with pytest.raises(ValidationError) as err:
-        NavdConfig.model_validate({"slam": {"resolution_m": 0.05, "match_resolution_m": 0.1}})
-    assert "slam.match_resolution_m (0.1)" in str(err.value)
-    assert "slam.resolution_m (0.05)" in str(err.value)
-
-
-def test_a_match_resolution_without_loop_closure_is_refused_by_name() -> None:
-    with pytest.raises(ValidationError, match=r"slam.match_resolution_m \(0.025\) is set but"):
-        NavdConfig.model_validate({"slam": {"loop_closure": False, "match_resolution_m": 0.025}})
-    NavdConfig.model_validate({"slam": {"loop_closure": False}})  # unset: no fine map, fine
+def test_the_retired_config_key_names_where_it_went() -> None:
+    with pytest.raises(ConfigError, match=r"slam.match_resolution_m: .*navd replay --fine-res"):
+        parse_config({"slam": {"match_resolution_m": 0.025}})
 
 
 def test_a_position_refined_on_the_fine_map_is_nearer_than_on_the_map() -> None:
@@ -91,14 +79,14 @@ def test_a_position_refined_on_the_fine_map_is_nearer_than_on_the_map() -> None:
 
 def test_the_refinement_moves_no_farther_than_a_map_cell() -> None:
     truth = Pose2(0.0, 0.0, 0.0)
-    fine = OccupancyGrid(SETTINGS.match_resolution_m)
+    fine = OccupancyGrid(FINE_M)
     fine.insert(truth, _scan(truth))
     points = voxel_downsample(_scan(truth).hits, SETTINGS.voxel_size_m)
     start = Pose2(0.15, 0.0, 0.0)  # three map cells off
     field = fine.likelihood_field(start, 12.0, SETTINGS.blur_sigma_m)
     refined = refine_pose(fine_refiner(SETTINGS), field, points, start)
     # one map cell, and the parabola's half cell of the fine map at most
-    assert abs(refined.x - start.x) <= SETTINGS.resolution_m + SETTINGS.match_resolution_m
+    assert abs(refined.x - start.x) <= SETTINGS.resolution_m + FINE_M
     assert refined.x < start.x  # toward the truth
 
 
@@ -151,12 +139,9 @@ def test_the_refined_pose_is_reported_and_tracking_goes_on_from_the_match() -> N
     # same to the bit; the reported poses differ by less than a map cell and a refinement's
     # turn, and are the trajectory the mapper keeps.
     rng = np.random.default_rng(7)
-    with_fine = ScanMapper(dataclasses.replace(SETTINGS, keep_trajectory=True))
-    without = ScanMapper(
-        dataclasses.replace(
-            SETTINGS, match_resolution_m=SETTINGS.resolution_m, keep_trajectory=True
-        )
-    )
+    replay = dataclasses.replace(SETTINGS, keep_trajectory=True)
+    with_fine = ScanMapper(replay, fine=FineRefinement.of(replay, FINE_M))
+    without = ScanMapper(replay)
     reported, tracked = [], []
     for i in range(40):
         truth = Pose2(-2.0 + 0.1 * i, -1.0 + 0.03 * i, 0.02 * i)

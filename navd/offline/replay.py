@@ -30,14 +30,15 @@ from navd.geometry.mount import LidarMount
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import laser_points
 from navd.lifecycle.stats import percentile
-from navd.slam.bags import inspect_bag, is_bag, read_bag
-from navd.slam.errors import LogFormatError
+from navd.offline.bags import inspect_bag, is_bag, read_bag
+from navd.offline.errors import LogFormatError
+from navd.offline.logfiles import LogScan, count_scans, open_log
+from navd.offline.picture import map_picture
+from navd.offline.refinement import FineRefinement
 from navd.slam.global_search import relocalize
-from navd.slam.logfiles import LogScan, count_scans, open_log
 from navd.slam.map_io import SavedMap, save_map
 from navd.slam.mapper import ScanMapper
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
-from navd.slam.picture import map_picture
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -172,6 +173,7 @@ def replay(
     odometry: str = "log",
     progress: Progress | None = None,
     start_map: SavedMap | None = None,
+    fine_cell_m: float | None = None,
 ) -> ReplayResult:
     """Run SLAM over ``scans`` and write the results into ``out_dir``.
 
@@ -179,6 +181,8 @@ def replay(
         odometry: the motion prior: "log" (the log's odometry), "scan" (scan odometry on
             the scans themselves) or "none" (the last pose).
         start_map: a saved map to go on mapping (the robot found on it by the first scan).
+        fine_cell_m: [m] the fine map's cell the reported poses are refined on (pipeline
+            step 6 of docs/slam.md); None: half the map's; the map's own: no refinement.
 
     Raises:
         LogFormatError: a scan the log cannot give, or no scan at all.
@@ -186,7 +190,11 @@ def replay(
     if odometry not in ("log", "scan", "none"):
         raise ValueError(f"odometry must be log, scan or none, got {odometry!r}")
     out_dir.mkdir(parents=True, exist_ok=True)
-    mapper = ScanMapper(dataclasses.replace(settings, keep_trajectory=True))
+    cell_m = settings.resolution_m / 2 if fine_cell_m is None else fine_cell_m
+    mapper = ScanMapper(
+        dataclasses.replace(settings, keep_trajectory=True),
+        fine=FineRefinement.of(settings, cell_m),
+    )
     loaded = _Loaded.of(mapper, start_map)
     scan_odometry = (
         ScanOdometry(

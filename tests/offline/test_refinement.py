@@ -9,9 +9,9 @@ import numpy as np
 from navd.bench.room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
+from navd.offline.refinement import FIELD_MARGIN_M, FineRefinement
 from navd.slam.keyframe import Keyframe
 from navd.slam.mapper import ScanMapper
-from navd.slam.refinement import FIELD_MARGIN_M, FineRefinement
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
@@ -27,7 +27,7 @@ class _Counted(FineRefinement):
     """A refinement that counts the fine map's fields drawn anew and brought up to date."""
 
     def __init__(self, settings: MapperSettings) -> None:
-        super().__init__(settings)
+        super().__init__(settings, settings.resolution_m / 2)
         self.drawn = self.updated = 0
         field, update = self.map.field, self.map.update
 
@@ -43,14 +43,12 @@ class _Counted(FineRefinement):
         self.map.update = counted_update  # type: ignore[method-assign]
 
 
-def test_a_replay_refines_and_the_daemon_or_no_loop_closure_or_finer_cells_does_not() -> None:
-    assert isinstance(FineRefinement.of(SETTINGS), FineRefinement)
-    assert not MapperSettings.defaults().keep_trajectory  # the daemon's
-    assert FineRefinement.of(MapperSettings.defaults()) is None
+def test_a_refinement_needs_finer_cells_than_the_map_s_and_loop_closure() -> None:
+    half = SETTINGS.resolution_m / 2
+    assert isinstance(FineRefinement.of(SETTINGS, half), FineRefinement)
     no_loops = MapperSettings.defaults(loop_closure=False, keep_trajectory=True)
-    assert FineRefinement.of(no_loops) is None
-    coarse = MapperSettings.defaults(match_resolution_m=SETTINGS.resolution_m, keep_trajectory=True)
-    assert FineRefinement.of(coarse) is None
+    assert FineRefinement.of(no_loops, half) is None
+    assert FineRefinement.of(SETTINGS, SETTINGS.resolution_m) is None  # the map's own cells
 
 
 def test_the_field_is_brought_up_to_date_between_moves_and_drawn_anew_after_one() -> None:
@@ -79,7 +77,7 @@ def test_the_field_is_brought_up_to_date_between_moves_and_drawn_anew_after_one(
 
 
 def test_a_refined_pose_stays_within_a_map_cell_of_the_match_and_nears_the_truth() -> None:
-    refinement = FineRefinement(SETTINGS)
+    refinement = FineRefinement(SETTINGS, SETTINGS.resolution_m / 2)
     truth = Pose2(0.5, -1.2, 0.4)
     keyframes = [Keyframe(0.0, truth, _scan(truth))]
     refinement.add(keyframes)
@@ -92,7 +90,7 @@ def test_a_refined_pose_stays_within_a_map_cell_of_the_match_and_nears_the_truth
 
 
 def test_a_finished_mapper_lets_go_of_its_fine_map_and_still_matches_a_scan() -> None:
-    mapper = ScanMapper(SETTINGS)
+    mapper = ScanMapper(SETTINGS, fine=FineRefinement.of(SETTINGS, SETTINGS.resolution_m / 2))
     poses = [Pose2(0.1 * k, 0.0, 0.0) for k in range(6)]
     for k, pose in enumerate(poses):
         mapper.add(0.1 * k, _scan(pose), pose)

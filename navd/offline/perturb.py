@@ -21,7 +21,7 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 
 from navd.geometry.pose import Pose2
-from navd.slam.logfiles import LogScan
+from navd.offline.logfiles import LogScan
 
 __all__ = ["PERTURBATIONS", "perturb"]
 

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from navd.geometry.pose import Pose2
-from navd.slam.errors import LogFormatError
-from navd.slam.logfiles import LogScan, OdometryTrack
+from navd.offline.errors import LogFormatError
+from navd.offline.logfiles import LogScan, OdometryTrack
 
 __all__ = ["BagLog", "inspect_bag", "is_bag", "read_bag"]
 

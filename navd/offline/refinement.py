@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
-from navd.slam.fine_map import FineMap, fine_keep_cells, fine_refiner, refine_pose
+from navd.offline.fine_map import FineMap, fine_keep_cells, fine_refiner, refine_pose
 from navd.slam.keyframe import Keyframe
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.settings import MapperSettings
@@ -33,16 +33,18 @@ FIELD_MARGIN_M = 1.0
 
 
 class FineRefinement:
-    """Matched poses refined on a fine map of the keyframes near the robot.
+    """Matched poses refined on a fine map of the keyframes near the robot (a
+    ``slam.reported_pose.PoseRefiner``).
 
     Args:
-        settings: the mapper's; ``match_resolution_m`` is the fine map's cell, half the
-            lidar's range its reach (both fixed for its life).
+        settings: the mapper's; half the lidar's range is the fine map's reach (fixed for
+            its life).
+        cell_m: [m] the fine map's cell (fixed for its life).
     """
 
-    def __init__(self, settings: MapperSettings) -> None:
+    def __init__(self, settings: MapperSettings, cell_m: float) -> None:
         s = settings
-        self.map = FineMap(s.match_resolution_m, s.max_range_m / 2, fine_keep_cells(s))
+        self.map = FineMap(cell_m, s.max_range_m / 2, fine_keep_cells(s.resolution_m, cell_m))
         self.configure(settings)
         self._field: LikelihoodField | None = None
         self._grid: OccupancyGrid | None = None  # the fine map's grid it was drawn from
@@ -50,21 +52,14 @@ class FineRefinement:
         self._center = Pose2(0.0, 0.0, 0.0)  # where it was drawn around
 
     @classmethod
-    def of(cls, settings: MapperSettings) -> FineRefinement | None:
-        """A refinement if the settings ask for one: a trajectory kept (a replay's; see
-        below), cells finer than the map's, and keyframes that keep their scans (loop
-        closure on) to draw them from.
-
-        The daemon keeps no trajectory, and refines nothing: the pose it publishes is the
-        match itself. Published refined, the pose made the simulated kidnap of
-        tests/e2e/test_scenarios.py fail in 7 of 10 runs (the robot found again on the
-        hall's twin of where it was put down; 5 of 5 passed without it), and why was not
-        found (docs/slam.md, pipeline step 6)."""
-        if not settings.keep_trajectory or not settings.loop_closure:
+    def of(cls, settings: MapperSettings, cell_m: float) -> FineRefinement | None:
+        """A refinement on cells of ``cell_m`` [m] where one can be had: cells finer than
+        the map's, and keyframes that keep their scans (loop closure on) to draw them
+        from; None otherwise. (The daemon refines nothing: docs/slam.md, pipeline step 6,
+        says why.)"""
+        if not settings.loop_closure or cell_m >= settings.resolution_m:
             return None
-        if settings.match_resolution_m >= settings.resolution_m:
-            return None
-        return cls(settings)
+        return cls(settings, cell_m)
 
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the refinement's pull, the blur, the range)."""

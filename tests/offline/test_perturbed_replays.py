@@ -10,7 +10,7 @@ import statistics
 from pathlib import Path
 
 from navd.cli import main
-from navd.slam.relations import evaluate, read_relations, read_tum
+from navd.offline.relations import evaluate, read_relations, read_tum
 from tests.datasets import dataset
 
 INTEL_BAG_UNPERTURBED_M = 0.0241  # measured with the defaults on 5 December (docs/slam.md)

@@ -1,5 +1,5 @@
 """Laser logs for replay: the plain-text dumps of the Freiburg benchmark, and CARMEN logs
-(ROS bags are read by ``navd.slam.bags``).
+(ROS bags are read by ``navd.offline.bags``).
 
 Every reader yields ``LogScan``: a scan in the LaserScan sense plus the odometry pose at its
 stamp (interpolated between odometry samples), or None when the log has none.
@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
-from navd.slam.errors import LogFormatError
+from navd.offline.errors import LogFormatError
 
 __all__ = [
     "LogScan",

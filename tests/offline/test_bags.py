@@ -18,9 +18,9 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from navd.bench.room import cast
 from navd.cli import main
 from navd.geometry.pose import Pose2
-from navd.slam.bags import inspect_bag, is_bag, read_bag
-from navd.slam.errors import LogFormatError
-from navd.slam.relations import read_tum
+from navd.offline.bags import inspect_bag, is_bag, read_bag
+from navd.offline.errors import LogFormatError
+from navd.offline.relations import read_tum
 from tests.datasets import dataset
 
 # The robot drives 1.5 m along x while turning a little; 10 scans at 5 Hz, odometry at 20 Hz
