@@ -44,7 +44,7 @@ import numpy.typing as npt
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
 from navd.bench.planning import random_rectangles, uniform_costmap
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.bench.timing import median_ms, paired_ms
 from navd.config import NavdConfig
 from navd.estimation.madgwick import MadgwickFilter

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.config import NavdConfig
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points

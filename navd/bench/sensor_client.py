@@ -17,7 +17,7 @@ import math
 import sys
 import time
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.wire import (
     Client,

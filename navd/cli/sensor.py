@@ -155,7 +155,7 @@ def _calibrate(args: argparse.Namespace, link: Link, address: int | None) -> int
     from navd.config.edit import set_table_keys  # noqa: PLC0415
     from navd.config.loader import toml_key  # noqa: PLC0415
     from navd.sensors.calibration import record_turn  # noqa: PLC0415
-    from navd.sensors.i2c import ChipError  # noqa: PLC0415
+    from navd.sensors.errors import ChipError  # noqa: PLC0415
     from navd.sensors.i2c_runner import I2cOptions  # noqa: PLC0415
 
     if args.chip is None:

@@ -117,7 +117,7 @@ def _load_kernels() -> None:
     this process raises its peak (fr-clinic with a cold cache: 297 MB of VmHWM, 261 MB with
     the child; the child costs about 2 s when the cache is full)."""
     from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
-    from navd.lifecycle.memory import (  # noqa: PLC0415
+    from navd.lifecycle.memory_release import (  # noqa: PLC0415
         release_compiler_code,
         release_freed_memory,
     )

@@ -23,6 +23,7 @@ import numpy as np
 
 from navd.fleet.mqtt import Broker, connect
 from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
+from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import GroupMap
 
@@ -169,7 +170,7 @@ async def drive_group(
     last was).
 
     Raises:
-        ValueError: no vehicle to drive, one asked for is not there, robots on different maps
+        GroupGoalError: no vehicle to drive, one asked for is not there, robots on different maps
             or on another than ``map_id`` (the one they report), or no way for the group on
             ``group_map`` (why, named).
     """
@@ -228,13 +229,13 @@ def one_map(map_ids: Mapping[str, str], expected: str | None = None) -> None:
     out on one map.
 
     Raises:
-        ValueError: naming each robot's map.
+        GroupGoalError: naming each robot's map.
     """
     maps = set(map_ids.values()) | ({expected} if expected is not None else set())
     if len(maps) > 1:
         said = ", ".join(f"{serial} on {map_ids[serial]!r}" for serial in sorted(map_ids))
         wanted = f" (--map-id {expected!r})" if expected is not None else ""
-        raise ValueError(
+        raise GroupGoalError(
             f"the robots are not all on one map{wanted}: {said}; a robot reports its "
             "slam.map_name (not the name of its slam.load_map file): set it alike on them"
         )
@@ -245,19 +246,19 @@ def _members(view: FleetView, serials: list[str] | None) -> list[tuple[str, str,
     online with a position.
 
     Raises:
-        ValueError: none, or one of ``serials`` is not online with a position.
+        GroupGoalError: none, or one of ``serials`` is not online with a position.
     """
     ready = [v for v in view.vehicles.values() if v.connection == "ONLINE" and v.position]
     if serials is not None:
         missing = [s for s in serials if s not in {v.serial for v in ready}]
         if missing:
             seen = ", ".join(sorted(v.serial for v in ready)) or "none"
-            raise ValueError(
+            raise GroupGoalError(
                 f"vehicle {', '.join(missing)} is not online with a position (online: {seen})"
             )
         ready = [v for v in ready if v.serial in serials]
     if not ready:
-        raise ValueError("no vehicle is online with a position on the broker")
+        raise GroupGoalError("no vehicle is online with a position on the broker")
     return [(v.manufacturer, v.serial, *v.position) for v in ready if v.position is not None]
 
 

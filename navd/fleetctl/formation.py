@@ -14,6 +14,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import linear_sum_assignment
 
+from navd.fleetctl.errors import GroupGoalError
+
 __all__ = ["FORMATIONS", "Formation", "assign", "places", "shape_error", "slots"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -30,7 +32,7 @@ def slots(kind: Formation, count: int, spacing_m: float) -> FloatArray:
       sqrt(3)/2 behind the one before (equilateral triangles of side ``spacing_m``).
     """
     if count < 1:
-        raise ValueError(f"a formation needs at least one robot, got {count}")
+        raise GroupGoalError(f"a formation needs at least one robot, got {count}")
     k = np.arange(count, dtype=np.float64)
     if kind == "line":
         offsets = np.column_stack([np.zeros(count), ((count - 1) / 2.0 - k) * spacing_m])
@@ -45,7 +47,7 @@ def slots(kind: Formation, count: int, spacing_m: float) -> FloatArray:
             row += 1
         offsets = np.array(rows[:count])
     else:
-        raise ValueError(f"unknown formation {kind!r}; known: {', '.join(FORMATIONS)}")
+        raise GroupGoalError(f"unknown formation {kind!r}; known: {', '.join(FORMATIONS)}")
     centred: FloatArray = offsets - offsets.mean(axis=0)
     return centred
 

@@ -33,9 +33,10 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
+from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import Formation, shape_error
 from navd.fleetctl.group_map import GroupMap
-from navd.fleetctl.way import GroupWay, lay_out
+from navd.fleetctl.group_route import GroupWay, lay_out
 
 __all__ = ["GroupDrive", "GroupGoal"]
 
@@ -91,9 +92,9 @@ class GroupGoal:
         numbers = [self.x_m, self.y_m, self.spacing_m, self.step_m, self.start_delay_s]
         numbers += [self.speed_mps] + ([] if self.heading_rad is None else [self.heading_rad])
         if not all(math.isfinite(v) for v in numbers):
-            raise ValueError(f"a group goal's numbers must be finite: {self}")
+            raise GroupGoalError(f"a group goal's numbers must be finite: {self}")
         if min(self.spacing_m, self.step_m, self.speed_mps) <= 0 or self.start_delay_s < 0:
-            raise ValueError(
+            raise GroupGoalError(
                 f"a group goal's spacing_m, step_m and speed_mps must be > 0 and its "
                 f"start_delay_s >= 0: {self}"
             )
@@ -145,7 +146,7 @@ class GroupDrive:
         group_map: the map the group drives on (None: a straight line, open ground).
 
     Raises:
-        ValueError: no robot, no route for the centre, or a place the group does not fit
+        GroupGoalError: no robot, no route for the centre, or a place the group does not fit
             even in a column (``way.lay_out``).
     """
 
@@ -160,7 +161,7 @@ class GroupDrive:
         group_map: GroupMap | None = None,
     ) -> None:
         if not robots:
-            raise ValueError("a group needs at least one robot")
+            raise GroupGoalError("a group needs at least one robot")
         self.group_id = group_id
         self.goal = goal
         here = np.array([(x, y) for _, _, x, y in robots], dtype=np.float64)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from navd.fleetctl.errors import GroupGoalError
 from navd.planning._astar_kernels import segment_max_cost
 from navd.planning.costmap import (
     Costmap,
@@ -118,7 +119,7 @@ class GroupMap:
         """[m] N x 2 route of the group's centre from ``start_m`` to ``goal_m``.
 
         Raises:
-            ValueError: the start or the goal is in a wall or off the map, or no route leads
+            GroupGoalError: the start or the goal is in a wall or off the map, or no route leads
                 there (the planner's reason, named).
         """
         try:
@@ -126,5 +127,5 @@ class GroupMap:
                 self.costmap, start_m, goal_m, SearchSettings(ROUTE_COST_WEIGHT, smooth=True)
             )
         except (StartBlockedError, GoalUnreachableError) as err:
-            raise ValueError(f"the group's centre: {err}") from err
+            raise GroupGoalError(f"the group's centre: {err}") from err
         return found.points_m

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from navd.config import LidarConfig, LidarMountConfig, MountsConfig
+from navd.geometry.errors import UnknownMountError
 from navd.geometry.pose import Pose2
 
 __all__ = ["LidarMount", "SensorMounts", "rotation_rpy"]
@@ -97,14 +98,14 @@ class SensorMounts:
         """The mount of lidar ``device_id`` (the ``lidar`` section's when none are listed).
 
         Raises:
-            KeyError: lidars are listed and this one is not (its hello was refused).
+            UnknownMountError: lidars are listed and this one is not (its hello was refused).
         """
         if not self.lidars:
             return self.default_lidar
         try:
             return self.lidars[device_id]
         except KeyError:
-            raise KeyError(
+            raise UnknownMountError(
                 f"lidar {device_id!r} has no mount: add [mounts.lidars.{device_id}]"
             ) from None
 

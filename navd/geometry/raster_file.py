@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from navd.errors import NavdError
+from navd.geometry.errors import RasterFileError
 
 __all__ = [
     "FREE_THRESH",
@@ -26,10 +26,6 @@ __all__ = [
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
 MODES = ("trinary", "scale", "raw")
-
-
-class RasterFileError(NavdError, ValueError):
-    """A raster's YAML or image is missing or malformed (the message names the file)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -24,6 +24,7 @@ from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
 from navd.lifecycle.daemon_settings import LifecycleSettings, LoggingSettings
 from navd.lifecycle.lag import LoopLagMonitor
+from navd.lifecycle.line_counts import Traffic
 from navd.lifecycle.messages import (
     ConfigApplied,
     DaemonStatus,
@@ -36,7 +37,6 @@ from navd.lifecycle.scheduling import request_slice, thread_slice_s
 from navd.lifecycle.sdnotify import SystemdNotifier
 from navd.lifecycle.settings import Live
 from navd.lifecycle.supervision import Supervisor
-from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import WorkerPool
 from navd.logs import current_level, get_logger, set_level
 

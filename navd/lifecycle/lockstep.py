@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.traffic import Traffic
+from navd.lifecycle.line_counts import Traffic
 from navd.lifecycle.workers import WorkerPool
 
 __all__ = ["Lockstep", "StepReport"]

@@ -22,9 +22,9 @@ from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
+from navd.lifecycle.line_counts import Traffic
 from navd.lifecycle.messages import ConfigApplied, Message
 from navd.lifecycle.settings import Derive, Live
-from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import Job, WorkerPool
 from navd.logs import get_logger
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.memory import release_compiler_code, release_freed_memory
+from navd.lifecycle.memory_release import release_compiler_code, release_freed_memory
 from navd.lifecycle.messages import Message, WorkerStats
 from navd.logs import get_logger
 

@@ -31,6 +31,7 @@ from navd.lifecycle.messages.mission import (
     MissionStatus,
     MissionStep,
 )
+from navd.missions.errors import UnknownBeaconError
 from navd.wire import MissionInfo
 
 __all__ = ["GATE_SIDE_M", "STAGING_M", "MissionExecutor", "no_mission"]
@@ -203,7 +204,7 @@ class MissionExecutor:
         if step.kind in BEACON_STEPS:
             try:
                 self._waypoints = self._beacon_waypoints(step, pose)
-            except LookupError as err:
+            except UnknownBeaconError as err:
                 return [*out, *self._step_failed(now, pose, str(err.args[0]))]
         return [*out, *self._drive(now, pose, final=False)]
 
@@ -269,11 +270,11 @@ class MissionExecutor:
         places = self.places
         wanted = step.beacons or tuple(sorted(places))
         if not wanted:
-            raise LookupError("no beacon has a place yet: list them under [beacons.known]")
+            raise UnknownBeaconError("no beacon has a place yet: list them under [beacons.known]")
         missing = [b for b in wanted if b not in places]
         if missing:
             known = ", ".join(sorted(places)) or "none"
-            raise LookupError(f"beacon {', '.join(missing)} has no place (known: {known})")
+            raise UnknownBeaconError(f"beacon {', '.join(missing)} has no place (known: {known})")
         if step.kind == "gate":
             (ax, ay), (bx, by) = places[wanted[0]], places[wanted[1]]
             mx, my = (ax + bx) / 2.0, (ay + by) / 2.0

@@ -12,7 +12,7 @@ from navd.planning._astar_kernels import shortcut
 from navd.planning.cell_search import CellSearch
 from navd.planning.costmap import Costmap
 from navd.planning.errors import GoalUnreachableError, StartBlockedError
-from navd.planning.reuse import RouteMemory, remembered_route, route_costs
+from navd.planning.route_reuse import RouteMemory, remembered_route, route_costs
 
 __all__ = ["GlobalPlanner", "PlannedPath", "SearchSettings", "path_length"]
 

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 import time
 
-from navd.sensors.i2c import ChipError, I2cBus, int16_le
+from navd.sensors.errors import ChipError
+from navd.sensors.i2c import I2cBus, int16_le
 from navd.wire import HeadingFrame, ImuFrame, SensorFrame
 
 __all__ = ["BNO055_ADDRESS", "Bno055"]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from navd.errors import NavdError
+from navd.sensors.errors import ChipError
 from navd.wire import SensorFrame
 
 __all__ = ["Chip", "ChipError", "I2cBus", "int16_be", "int16_le"]
@@ -24,10 +24,6 @@ class I2cBus(Protocol):
     def write_byte_data(self, i2c_addr: int, register: int, value: int) -> None: ...
 
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]: ...
-
-
-class ChipError(NavdError):
-    """The chip at the address is not the one asked for, or refused its set-up."""
 
 
 class Chip(Protocol):

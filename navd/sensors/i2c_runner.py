@@ -17,7 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from navd.sensors.bno055 import Bno055
-from navd.sensors.i2c import Chip, ChipError, I2cBus
+from navd.sensors.errors import ChipError
+from navd.sensors.i2c import Chip, I2cBus
 from navd.sensors.magnetometer import CompassCalibration, Hmc5883l, Qmc5883l
 from navd.sensors.mpu import Mpu
 from navd.sensors.runner import (

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.sensors.turns import turn_scan
+from navd.sensors.revolution_scan import turn_scan
 from navd.wire import ScanFrame
 
 __all__ = [

@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.sensors.i2c import ChipError, I2cBus, int16_be, int16_le
+from navd.sensors.errors import CalibrationError, ChipError
+from navd.sensors.i2c import I2cBus, int16_be, int16_le
 from navd.wire import HeadingFrame, SensorFrame
 
 __all__ = [
@@ -72,11 +73,11 @@ def fit_calibration(xy_ut: npt.ArrayLike) -> CompassCalibration:
         xy_ut: [µT] N x 2 raw horizontal field samples, taken over at least one full turn.
 
     Raises:
-        ValueError: too few samples, or they do not trace an ellipse (the robot did not turn).
+        CalibrationError: too few samples, or they do not trace an ellipse (the robot did not turn).
     """
     points = np.asarray(xy_ut, dtype=np.float64)
     if points.ndim != 2 or points.shape[0] < 20:
-        raise ValueError(f"{len(points)} samples: need at least 20 over a full turn")
+        raise CalibrationError(f"{len(points)} samples: need at least 20 over a full turn")
     x, y = points[:, 0], points[:, 1]
     # a x² + b xy + c y² + d x + e y = 1, in least squares
     design = np.column_stack([x * x, x * y, y * y, x, y])
@@ -84,7 +85,7 @@ def fit_calibration(xy_ut: npt.ArrayLike) -> CompassCalibration:
     shape = np.array([[a, b / 2.0], [b / 2.0, c]])
     eigenvalues = np.linalg.eigvalsh(shape)
     if eigenvalues.min() <= 0.0:
-        raise ValueError("the samples do not trace an ellipse: turn the robot a full circle")
+        raise CalibrationError("the samples do not trace an ellipse: turn the robot a full circle")
     centre = -0.5 * np.linalg.solve(shape, [d, e])
     level = 1.0 + float(centre @ shape @ centre)
     normal = shape / level  # (p - centre)ᵀ normal (p - centre) = 1
@@ -95,7 +96,9 @@ def fit_calibration(xy_ut: npt.ArrayLike) -> CompassCalibration:
     bearings = np.sort(np.arctan2(y - centre[1], x - centre[0]))
     gaps = np.diff(np.concatenate([bearings, [bearings[0] + 2.0 * math.pi]]))
     if 2.0 * math.pi - gaps.max() < 1.5 * math.pi:
-        raise ValueError("the samples cover under three quarters of a turn: turn a full circle")
+        raise CalibrationError(
+            "the samples cover under three quarters of a turn: turn a full circle"
+        )
     return CompassCalibration(
         (float(centre[0]), float(centre[1])),
         ((float(soft[0, 0]), float(soft[0, 1])), (float(soft[1, 0]), float(soft[1, 1]))),

@@ -21,11 +21,11 @@ import numpy.typing as npt
 
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints
-from navd.slam.doubt import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, Doubt
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import LoopCloser
+from navd.slam.match_repair import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, MatchRepair
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
@@ -132,7 +132,7 @@ class ScanMapper:
         # scans in a row on mapped ground that did not fit it, or fitted doubtfully
         self._misfit_run = 0
         self.last_good: Pose2 | None = None  # the last pose a scan fitted the map at
-        self.doubt = Doubt(s, self.counts)
+        self.doubt = MatchRepair(s, self.counts)
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
         # The next keyframe starts a new chain (after a load or a pose set from outside).
         self._new_session = False

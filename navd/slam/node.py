@@ -12,7 +12,7 @@ they were built from; ``slam.load_map`` starts from a saved map (mapping goes on
 graph), and the first scan then finds the robot anywhere on it (global search); an initial
 pose from a control client makes the next scan search around it (±1 m, ±30°). A robot lost
 on its map is reported (``TrackingLost``) and searched for by the following scans until found
-(``finder``). ``slam.updating_map`` can be switched at runtime (off: localize on the map
+(``relocalization``). ``slam.updating_map`` can be switched at runtime (off: localize on the map
 without changing it).
 """
 
@@ -44,11 +44,11 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
-from navd.slam.finder import GLOBAL, Finder
 from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry
+from navd.slam.relocalization import GLOBAL, Relocalizer
 from navd.slam.settings import SlamSettings
 from navd.slam.warmup import warm_up
 
@@ -91,7 +91,7 @@ class SlamNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self._finder = Finder(ctx)
+        self._finder = Relocalizer(ctx)
         self.settings = ctx.settings(SlamSettings.from_config, self._settings_changed)
         # What the mapper and scan odometry were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.

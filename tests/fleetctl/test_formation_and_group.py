@@ -12,6 +12,7 @@ import pytest
 
 from navd.fleetctl import control
 from navd.fleetctl.control import FleetView, Vehicle, instant_action, one_map
+from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import assign, places, shape_error, slots
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from tests.fleet.vda5050_schemas import check
@@ -170,9 +171,9 @@ def test_robots_on_different_maps_or_another_than_asked_are_refused_by_serial() 
     one_map({"r1": "office", "r2": "office"})
     one_map({"r1": "office"}, "office")
     one_map({})  # no robot says: nothing to compare
-    with pytest.raises(ValueError, match=r"r1 on 'office', r2 on 'map'.*slam\.map_name"):
+    with pytest.raises(GroupGoalError, match=r"r1 on 'office', r2 on 'map'.*slam\.map_name"):
         one_map({"r1": "office", "r2": "map"})
-    with pytest.raises(ValueError, match=r"\(--map-id 'hall'\): r1 on 'office'"):
+    with pytest.raises(GroupGoalError, match=r"\(--map-id 'hall'\): r1 on 'office'"):
         one_map({"r1": "office"}, "hall")
 
 
@@ -189,5 +190,5 @@ async def test_a_group_goal_checks_the_robots_maps_before_any_order(
 
     monkeypatch.setattr(control, "fleet_view", heard)
     # the broker is never reached: the port below has nobody listening
-    with pytest.raises(ValueError, match="not all on one map"):
+    with pytest.raises(GroupGoalError, match="not all on one map"):
         await control.drive_group("mqtt://127.0.0.1:9", GroupGoal(5.0, 5.0))

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
+from navd.geometry.errors import UnknownMountError
 from navd.geometry.mount import LidarMount, SensorMounts, rotation_rpy
 from navd.geometry.pose import Pose2
 
@@ -36,7 +37,7 @@ def test_once_a_kind_has_mounts_only_its_listed_devices_may_connect() -> None:
     reason = mounts.refusal("lidar", "side")
     assert reason is not None and "[mounts.lidars.side]" in reason and "front, rear" in reason
     assert mounts.refusal("imu", "side") is None  # IMUs are not listed: any may come
-    with pytest.raises(KeyError):
+    with pytest.raises(UnknownMountError, match=r"add \[mounts.lidars"):
         mounts.lidar("side")
 
 

@@ -9,9 +9,9 @@ import pytest
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import SimClock, ticks
 from navd.lifecycle.errors import LifecycleError
+from navd.lifecycle.line_counts import Traffic
 from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.messages import VelocityCommand
-from navd.lifecycle.traffic import Traffic
 from navd.lifecycle.workers import WorkerPool
 from tests.conftest import velocity
 

@@ -15,7 +15,7 @@ from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import Writer as Ros2Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.cli import main
 from navd.geometry.pose import Pose2
 from navd.offline.bags import inspect_bag, is_bag, read_bag

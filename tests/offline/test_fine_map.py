@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.bench.room import WALLS, cast
+from navd.bench.synthetic_room import WALLS, cast
 from navd.config import ConfigError, parse_config
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points

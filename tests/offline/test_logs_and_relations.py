@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.cli import main
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.offline.refinement import FIELD_MARGIN_M, FineRefinement

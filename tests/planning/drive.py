@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.config import NavdConfig
 from navd.geometry.angles import wrap_angle
 from navd.geometry.footprint import Footprint

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.bench.room import WALLS
+from navd.bench.synthetic_room import WALLS
 from navd.config import NavdConfig
 from navd.geometry.pose import IDENTITY, Pose2
 from navd.planning.dwa import LocalPlanner

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from navd.sensors.bno055 import Bno055
-from navd.sensors.i2c import ChipError
+from navd.sensors.errors import CalibrationError, ChipError
 from navd.sensors.magnetometer import (
     CompassCalibration,
     Hmc5883l,
@@ -132,8 +132,8 @@ def test_the_calibration_fit_undoes_hard_and_soft_iron() -> None:
 
 def test_a_calibration_without_a_turn_is_refused() -> None:
     raw = _turn((0.0, 0.0), np.eye(2))[:40]  # under a quarter of a turn
-    with pytest.raises(ValueError, match="turn"):
+    with pytest.raises(CalibrationError, match="turn"):
         fit_calibration(raw)
-    with pytest.raises(ValueError, match="at least 20"):
+    with pytest.raises(CalibrationError, match="at least 20"):
         fit_calibration(raw[:5])
     assert CompassCalibration().apply(3.0, 4.0) == (3.0, 4.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam import _grid_kernels as k

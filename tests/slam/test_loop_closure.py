@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe

@@ -10,7 +10,7 @@ import pytest
 import yaml
 from PIL import Image
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam import map_io, occupancy

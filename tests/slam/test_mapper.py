@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import ScanPoints, scan_points
 from navd.slam.mapper import ScanMapper

@@ -8,7 +8,7 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.lifecycle.messages import (
     InitialPose,

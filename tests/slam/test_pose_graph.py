@@ -71,7 +71,7 @@ def test_consistent_edges_leave_the_poses_alone() -> None:
 
 
 def test_the_mapper_finds_loops_when_asked() -> None:
-    from navd.bench.room import cast
+    from navd.bench.synthetic_room import cast
     from navd.geometry.scan import scan_points
     from navd.slam.mapper import ScanMapper
     from navd.slam.settings import MapperSettings

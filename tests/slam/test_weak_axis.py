@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from navd.bench.room import cast
+from navd.bench.synthetic_room import cast
 from navd.geometry.pose import Pose2
 from navd.geometry.scan import scan_points
 from navd.slam.matcher import WEAK_AXIS_RATIO

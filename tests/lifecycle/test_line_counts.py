@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import asyncio
 
-from navd.lifecycle.traffic import Traffic
+from navd.lifecycle.line_counts import Traffic
 
 
 async def test_wait_received_returns_when_every_named_count_is_reached() -> None:
@@ -61,7 +61,7 @@ def test_without_defer_lines_are_handled_at_once() -> None:
 
 
 def test_held_lines_stay_bounded_when_nobody_steps_the_clock() -> None:
-    from navd.lifecycle.traffic import MAX_HELD
+    from navd.lifecycle.line_counts import MAX_HELD
 
     traffic = Traffic(defer=True)
     handled: list[int] = []

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from navd.lifecycle.memory import _clean_mappings, release_compiler_code
+from navd.lifecycle.memory_release import _clean_mappings, release_compiler_code
 
 LIB = "/venv/llvmlite/binding/libllvmlite.so"
 
@@ -54,7 +54,7 @@ def test_llvm_code_leaves_the_resident_set_and_compiling_still_works() -> None:
     """In a process of its own (no other test's thread may compile meanwhile)."""
     code = """
 import numba, numpy as np
-from navd.lifecycle.memory import _clean_mappings, release_compiler_code
+from navd.lifecycle.memory_release import _clean_mappings, release_compiler_code
 
 def resident():
     return sum(r for _, _, r in _clean_mappings("libllvmlite.so"))

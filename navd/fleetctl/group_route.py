@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import linear_sum_assignment
 
+from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import Formation, assign, places, slots
 from navd.fleetctl.group_map import GroupMap
 
@@ -133,7 +134,7 @@ def lay_out(
     """The group's way (see the module docstring) from where the robots stand.
 
     Raises:
-        ValueError: no route for the centre, or the group does not fit somewhere even in a
+        GroupGoalError: no route for the centre, or the group does not fit somewhere even in a
             column (where, named).
     """
     count = robots_xy_m.shape[0]
@@ -165,7 +166,7 @@ def lay_out(
         laid_here = layer.lay(s, wide=wide_here, at_goal=s == stations[-1])
         if laid_here is None:
             x, y = line.at(s)
-            raise ValueError(
+            raise GroupGoalError(
                 f"the group does not fit around ({x:.2f}, {y:.2f}) m, not even in a column "
                 f"{spacing_m:g} m apart: try a smaller spacing or another goal"
             )
@@ -302,7 +303,7 @@ def _shape_plan(
             elif layer.can_change(s, to_wide=wide, at_goal=s == last):
                 plan.append((s, not wide))
             else:
-                raise ValueError(_no_room_to_change(layer.line.at(before), layer.line.at(s)))
+                raise GroupGoalError(_no_room_to_change(layer.line.at(before), layer.line.at(s)))
         plan.append((s, wide))
     out = plan[:1]
     for (a, wide_a), (b, wide_b) in itertools.pairwise(plan):

@@ -20,7 +20,7 @@ from navd.planning.global_planner import (
     PlannedPath,
     SearchSettings,
 )
-from navd.planning.reuse import route_costs
+from navd.planning.route_reuse import route_costs
 from tests.planning.test_global_planner import RES, costmap_of, dijkstra_cost
 
 D = 1.0 / BUCKETS_PER_CELL  # the bucket search's bound: (1 + D) * C + D

@@ -26,7 +26,7 @@ from navd.slam.mapper import ScanMapper
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
-__all__ = ["GLOBAL", "Finder"]
+__all__ = ["GLOBAL", "Relocalizer"]
 
 FloatArray = npt.NDArray[np.float64]
 GLOBAL = "global"
@@ -35,7 +35,7 @@ RESEED_STD_M = 0.2
 RESEED_STD_RAD = 0.1
 
 
-class Finder:
+class Relocalizer:
     """What the next scan is to search for, and the search for a lost robot.
 
     ``ask`` may come from the event loop: it takes only a small lock of its own, never the

@@ -25,7 +25,7 @@ from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.settings import MapperSettings
 
-__all__ = ["LOST_RUN", "MIN_KNOWN_POINTS", "REPAIR_KNOWN_FRACTION", "Doubt"]
+__all__ = ["LOST_RUN", "MIN_KNOWN_POINTS", "REPAIR_KNOWN_FRACTION", "MatchRepair"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -48,7 +48,7 @@ class RepairCounts(Protocol):
     repair_ambiguous: int
 
 
-class Doubt:
+class MatchRepair:
     """The recent fits, and the wider search of a doubtful or unmatched scan.
 
     Args:

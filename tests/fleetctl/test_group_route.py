@@ -12,9 +12,10 @@ import numpy.typing as npt
 import pytest
 
 from navd.cli.fleet import DEFAULT_RADIUS_M as CLI_RADIUS_M
+from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import DEFAULT_RADIUS_M, GroupMap
-from navd.fleetctl.way import GroupWay, lay_out
+from navd.fleetctl.group_route import GroupWay, lay_out
 from navd.sim.world import office
 from navd.slam.map_io import save_map
 from navd.slam.occupancy import OccupancyGrid
@@ -141,14 +142,14 @@ def test_without_a_map_the_way_is_straight_and_the_formation_kept() -> None:
 def test_a_goal_in_a_wall_or_too_tight_for_the_group_is_refused_by_place() -> None:
     walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M)
     kwargs = {"goal_heading_rad": None, "formation": "triangle", "spacing_m": 1.5, "step_m": 1.0}
-    with pytest.raises(ValueError, match=r"the group's centre: goal \(6.00, 1.00\) m is occupied"):
+    with pytest.raises(GroupGoalError, match=r"group.s centre: goal \(6.00, 1.00\) m is occupied"):
         lay_out(ROBOTS, (6.0, 1.0), group_map=walls, **kwargs)  # type: ignore[arg-type]
     # the group's centre cannot stand at the goal 0.6 m from a wall, not even in a column
     # (a column 3 m long, along the route; not moved back: the goal is the centre's)
     tight = _two_rooms()
     tight[:, round((7.2 - ORIGIN[0]) / RES_M)] = True
     walls = GroupMap.of_grid(tight, ORIGIN, RES_M)
-    with pytest.raises(ValueError, match=r"does not fit around \(6\.60, 3\.50\) m"):
+    with pytest.raises(GroupGoalError, match=r"does not fit around \(6\.60, 3\.50\) m"):
         lay_out(ROBOTS, (6.6, 3.5), group_map=walls, **kwargs)  # type: ignore[arg-type]
 
 
