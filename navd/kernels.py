@@ -37,6 +37,7 @@ _log = get_logger("kernels")
 # Every module of the daemon that defines numba kernels (a test checks that no other does).
 KERNEL_MODULES = (
     "navd.geometry._angle_kernels",
+    "navd.geometry._footprint_kernels",
     "navd.geometry._scan_kernels",
     "navd.estimation._madgwick_kernels",
     "navd.estimation._ukf_kernels",

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from navd.geometry._angle_kernels import wrap
+from navd.geometry import wrap_angle_kernel as wrap
 
 __all__ = ["APPLIED", "DIVERGED", "REJECTED", "propagate", "ukf_step"]
 

@@ -1,9 +1,12 @@
 """Robot geometry: poses, angles, sensor mounts, scans as points, the footprint.
 
 The ground floor that slam, estimation, planning and drivers all stand on. Plain values and
-pure functions (and one numba twin of the angle wrap for kernels); no asyncio, no bus.
+pure functions (and the numba kernels other rooms' kernels call: the angle wrap, the
+footprint's distance); no asyncio, no bus.
 """
 
+from navd.geometry._angle_kernels import wrap as wrap_angle_kernel
+from navd.geometry._footprint_kernels import footprint_distance
 from navd.geometry.angles import angle_between, wrap_angle, wrap_angles
 from navd.geometry.footprint import Footprint
 from navd.geometry.mount import LidarMount
@@ -18,8 +21,10 @@ __all__ = [
     "Pose2",
     "ScanPoints",
     "angle_between",
+    "footprint_distance",
     "laser_points",
     "scan_points",
     "wrap_angle",
+    "wrap_angle_kernel",
     "wrap_angles",
 ]

@@ -26,7 +26,8 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from navd.geometry._angle_kernels import wrap
+from navd.geometry import footprint_distance
+from navd.geometry import wrap_angle_kernel as wrap
 
 __all__ = [
     "CHAMFER_RATIO",
@@ -39,7 +40,6 @@ __all__ = [
     "bucket_points",
     "chamfer_distance",
     "choose",
-    "footprint_distance",
     "rollouts",
     "snap_near",
     "window_samples",
@@ -246,33 +246,6 @@ def bucket_points(
             order[fill[b]] = k
             fill[b] += 1
     return start, order
-
-
-@njit(cache=True, nogil=True, inline="always")
-def footprint_distance(
-    px: float,
-    py: float,
-    x: float,
-    y: float,
-    cos_yaw: float,
-    sin_yaw: float,
-    kind: int,
-    half_length: float,
-    half_width: float,
-) -> float:
-    """[m] signed distance from point (px, py) to a footprint at (x, y, yaw); < 0 inside.
-
-    kind 0 is a circle of radius half_length; kind 1 a rectangle of half extents
-    (half_length, half_width) along the robot's x and y.
-    """
-    dx = px - x
-    dy = py - y
-    if kind == 0:
-        return math.sqrt(dx * dx + dy * dy) - half_length
-    qx = abs(cos_yaw * dx + sin_yaw * dy) - half_length
-    qy = abs(-sin_yaw * dx + cos_yaw * dy) - half_width
-    outside = math.sqrt(max(qx, 0.0) ** 2 + max(qy, 0.0) ** 2)
-    return outside + min(max(qx, qy), 0.0)
 
 
 @njit(cache=True, nogil=True)

@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from navd.planning._dwa_kernels import footprint_distance
+from navd.geometry import footprint_distance
 
 __all__ = ["cast_rays", "footprint_contact"]
 
