@@ -3,18 +3,14 @@
 from __future__ import annotations
 
 from navd.config import NavdConfig
-from navd.drivers.chassis import ChassisDriver
+from navd.drivers import ChassisDriver
 from navd.drivers.tcp.server import TcpServer
-from navd.estimation.node import EstimationNode
-from navd.lifecycle.module import Module
-from navd.lifecycle.safety import SafetyGate
-from navd.lifecycle.state_view import StateView
-from navd.missions.node import MissionNode
-from navd.planning.guard_node import CollisionGuard
-from navd.planning.node import PlannerNode
-from navd.slam.node import SlamNode
-from navd.viz.node import VizNode
-from navd.viz.recorder import Recorder
+from navd.estimation import EstimationNode
+from navd.lifecycle import Module, SafetyGate, StateView
+from navd.missions import MissionNode
+from navd.planning import CollisionGuard, PlannerNode
+from navd.slam import SlamNode
+from navd.viz import Recorder, VizNode
 
 __all__ = ["build_modules"]
 
@@ -44,7 +40,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
     if config.viz.enabled:
         modules.append(VizNode())
     if config.fleet.enabled:
-        from navd.fleet.node import FleetNode  # noqa: PLC0415 - MQTT loads only for a fleet
+        from navd.fleet import FleetNode  # noqa: PLC0415 - MQTT loads only for a fleet
 
         modules.append(FleetNode())
     if config.chassis.enabled:

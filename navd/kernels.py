@@ -60,9 +60,9 @@ def warm_up_all() -> None:
     and the collision guard, through each room's own warm-up, and what a replay adds (the
     fine refinement), so one child fills the cache for the daemon and ``navd replay``."""
     # Imported here: a process that only checks the cache does not load the rooms' kernels.
-    from navd.estimation.warmup import warm_up as warm_estimation  # noqa: PLC0415
-    from navd.offline.warmup import warm_up as warm_replay  # noqa: PLC0415
-    from navd.planning.warmup import warm_up as warm_planning  # noqa: PLC0415
+    from navd.estimation import warm_up as warm_estimation  # noqa: PLC0415
+    from navd.offline import warm_up as warm_replay  # noqa: PLC0415
+    from navd.planning import warm_up as warm_planning  # noqa: PLC0415
 
     warm_estimation(NavdConfig().estimation)
     warm_planning()

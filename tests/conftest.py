@@ -13,10 +13,8 @@ from typing import Any
 import pytest
 from hypothesis import settings
 
-from navd.lifecycle.bus import Bus
-from navd.lifecycle.clock import SimClock
+from navd.lifecycle import Bus, SimClock, Supervisor
 from navd.lifecycle.messages import Message, VelocityCommand
-from navd.lifecycle.supervision import Supervisor
 from navd.wire import ScanFrame
 
 settings.register_profile("navd", derandomize=True, database=None)

@@ -8,10 +8,8 @@ import pytest
 
 from navd import __version__
 from navd.cli import main
-from navd.geometry.pose import IDENTITY
-from navd.geometry.scan import scan_points
-from navd.slam.map_io import save_map
-from navd.slam.occupancy import OccupancyGrid
+from navd.geometry import IDENTITY, scan_points
+from navd.slam import OccupancyGrid, save_map
 
 DEFAULT_FILE = Path(__file__).resolve().parents[1] / "config" / "navd.toml"
 

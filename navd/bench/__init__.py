@@ -1,1 +1,17 @@
-"""Benchmarks behind ``navd bench``: each prints the figures an issue asks for."""
+"""Benchmarks behind ``navd bench``: each prints the figures an issue asks for.
+
+Each benchmark is a module of its own with a ``run`` that returns its figures, imported only
+when asked for (it imports what it times); the others are the programs and fixtures they
+start (a sensor client, a viewer, an LD06 on a pseudo-terminal, a synthetic room, the
+reference UKF).
+"""
+
+__all__ = [
+    "compare",
+    "estimation",
+    "fleet",
+    "ingest",
+    "planning",
+    "safety",
+    "scan",
+]

@@ -47,21 +47,24 @@ from navd.bench.planning import random_rectangles, uniform_costmap
 from navd.bench.synthetic_room import cast
 from navd.bench.timing import median_ms, paired_ms
 from navd.config import NavdConfig
-from navd.estimation.madgwick import MadgwickFilter
-from navd.estimation.settings import EstimatorSettings
-from navd.estimation.ukf import Measurement, PoseUkf, UkfSettings
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.estimation import EstimatorSettings, MadgwickFilter, Measurement, PoseUkf, UkfSettings
+from navd.geometry import Pose2, ScanPoints, scan_points
+from navd.lifecycle import percentile
 from navd.lifecycle.messages import Imu
-from navd.lifecycle.stats import percentile
-from navd.planning._astar_kernels import SQRT2
-from navd.planning.costmap import Costmap, GridFrame, build_costmap
-from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
-from navd.planning.settings import costmap_settings
-from navd.slam.settings import scan_odometry_settings
+from navd.planning import (
+    SQRT2,
+    Costmap,
+    GlobalPlanner,
+    GridFrame,
+    PlannedPath,
+    SearchSettings,
+    build_costmap,
+    costmap_settings,
+)
+from navd.slam import scan_odometry_settings
 
 if TYPE_CHECKING:
-    from navd.slam.odometry import ScanOdometrySettings
+    from navd.slam import ScanOdometrySettings
 
 __all__ = ["PEERS", "run"]
 
@@ -211,7 +214,7 @@ def _madgwick(repeats: int) -> dict[str, object]:
 def _recorded_ukf_steps() -> tuple[FloatArray, FloatArray, list[tuple[float, Measurement]]]:
     """The lidar pose events of a 60 s drive as the estimator fed them to its UKF: its
     starting state, and (dt, measurement) for each step with the most common rows."""
-    from navd.estimation.estimator import StateEstimator  # noqa: PLC0415
+    from navd.estimation import StateEstimator  # noqa: PLC0415
     from navd.lifecycle.messages import PoseMeasurement, WheelOdometry  # noqa: PLC0415
 
     estimator = StateEstimator(EstimatorSettings.from_config(NavdConfig()))
@@ -278,7 +281,7 @@ def _filterpy_steps(
 ) -> list[float]:
     """[s] per step of filterpy's own UKF over ``steps``, with navd's model plugged in."""
     from navd.bench.ukf_reference import stock_filter  # noqa: PLC0415
-    from navd.estimation.motion_model import ProcessNoise  # noqa: PLC0415
+    from navd.estimation import ProcessNoise  # noqa: PLC0415
 
     peer = stock_filter(settings, steps[0][1].rows)
     peer.x, peer.P = x0.copy(), p0.copy()
@@ -294,10 +297,12 @@ def _filterpy_steps(
 
 
 def _scan_registration(scans: int = 200, beams: int = 720) -> dict[str, object]:
-    from navd.slam.mapper import ScanMapper  # noqa: PLC0415
-    from navd.slam.odometry import ScanOdometry  # noqa: PLC0415
-    from navd.slam.settings import MapperSettings  # noqa: PLC0415
-    from navd.slam.warmup import warm_up  # noqa: PLC0415
+    from navd.slam import (  # noqa: PLC0415
+        MapperSettings,
+        ScanMapper,
+        ScanOdometry,
+        warm_up,
+    )
 
     warm_up()
     rng = np.random.default_rng(1)

@@ -20,13 +20,18 @@ import time
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, drive
 from navd.config import NavdConfig
-from navd.estimation.estimator import StateEstimator
-from navd.estimation.history import Insert
-from navd.estimation.madgwick import MadgwickFilter
-from navd.estimation.settings import EstimatorSettings
-from navd.estimation.ukf import FloatArray, Measurement, PoseUkf, StepOutcome
+from navd.estimation import (
+    EstimatorSettings,
+    FloatArray,
+    Insert,
+    MadgwickFilter,
+    Measurement,
+    PoseUkf,
+    StateEstimator,
+    StepOutcome,
+)
+from navd.lifecycle import percentile
 from navd.lifecycle.messages import Imu, Message, PoseMeasurement, WheelOdometry
-from navd.lifecycle.stats import percentile
 
 __all__ = ["run"]
 

@@ -30,13 +30,10 @@ from typing import Any
 
 import aiomqtt
 
-from navd.fleet import reports
-from navd.fleet.mqtt import Broker, connect
-from navd.fleet.vda5050 import Topics
-from navd.fleet.vehicle import Vehicle
+from navd.fleet import Broker, Topics, Vehicle, connect, reports
+from navd.lifecycle import percentile
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus
-from navd.lifecycle.stats import percentile
-from navd.sim.broker import LocalBroker
+from navd.sim import LocalBroker
 
 __all__ = ["run"]
 
@@ -147,7 +144,7 @@ class _PointVehicle:
 
 
 def _pose(v: _PointVehicle) -> Any:
-    from navd.geometry.pose import Pose2  # noqa: PLC0415
+    from navd.geometry import Pose2  # noqa: PLC0415
 
     return Pose2(v.x, v.y, v.yaw)
 

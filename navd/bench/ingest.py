@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from navd.sim.session import free_port
+from navd.sim import free_port
 from navd.wire import Client, GoalFrame, StatusFrame, SubscribeFrame
 
 STREAMS = (("imu", 1000.0), ("lidar", 10.0), ("gps", 5.0), ("compass", 10.0))

@@ -13,8 +13,7 @@ from pathlib import Path
 
 from navd.config import load_config
 from navd.drivers.tcp.server import TcpServer
-from navd.lifecycle import Daemon
-from navd.lifecycle.safety import SafetyGate
+from navd.lifecycle import Daemon, SafetyGate
 from navd.logs import configure_logging
 
 

@@ -16,7 +16,7 @@ import os
 import sys
 import time
 
-from navd.sensors.ld06 import POINTS, encode_packet
+from navd.sensors import POINTS, encode_packet
 
 TURN_HZ = 10.0
 

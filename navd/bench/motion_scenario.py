@@ -16,10 +16,8 @@ from typing import Protocol
 
 import numpy as np
 
-from navd.estimation.estimator import StateEstimator
-from navd.estimation.geo import GeoFrame
-from navd.estimation.madgwick import GRAVITY_MPS2
-from navd.geometry.angles import wrap_angle
+from navd.estimation import GRAVITY_MPS2, GeoFrame, StateEstimator
+from navd.geometry import wrap_angle
 from navd.lifecycle.messages import (
     BeaconObservation,
     CompassHeading,

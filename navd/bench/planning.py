@@ -28,13 +28,23 @@ import numpy.typing as npt
 
 from navd.bench.timing import median_ms, paired_ms
 from navd.config import NavdConfig
-from navd.geometry.pose import IDENTITY, Pose2
-from navd.lifecycle.stats import percentile
-from navd.planning._distance_kernels import distance_to
-from navd.planning.costmap import Costmap, GridFrame, build_costmap
-from navd.planning.dwa import LocalPlanner, Window, path_field
-from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
-from navd.planning.settings import costmap_settings, dwa_settings, velocity_profile
+from navd.geometry import IDENTITY, Pose2
+from navd.lifecycle import percentile
+from navd.planning import (
+    Costmap,
+    GlobalPlanner,
+    GridFrame,
+    LocalPlanner,
+    PlannedPath,
+    SearchSettings,
+    Window,
+    build_costmap,
+    costmap_settings,
+    distance_to,
+    dwa_settings,
+    path_field,
+    velocity_profile,
+)
 
 __all__ = ["random_rectangles", "run", "uniform_costmap"]
 

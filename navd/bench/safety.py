@@ -21,8 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from navd.sim.session import Session, session
-from navd.sim.world import from_shapes
+from navd.sim import Session, from_shapes, session
 from navd.wire import GoalFrame, InitialPoseFrame
 
 __all__ = ["CASES", "run"]

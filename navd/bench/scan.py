@@ -21,16 +21,19 @@ import numpy as np
 
 from navd.bench.synthetic_room import cast
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
-from navd.lifecycle.stats import percentile
-from navd.slam.global_search import relocalize
-from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper
-from navd.slam.occupancy import OccupancyGrid
-from navd.slam.pose_graph import Edge, optimize
-from navd.slam.settings import MapperSettings
-from navd.slam.voxel import voxel_downsample
-from navd.slam.warmup import warm_up
+from navd.geometry import Pose2, scan_points
+from navd.lifecycle import percentile
+from navd.slam import (
+    EDGE_WEIGHTS,
+    Edge,
+    MapperSettings,
+    OccupancyGrid,
+    ScanMapper,
+    optimize,
+    relocalize,
+    voxel_downsample,
+    warm_up,
+)
 
 __all__ = ["run"]
 

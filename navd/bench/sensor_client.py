@@ -18,7 +18,7 @@ import sys
 import time
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.wire import (
     Client,
     FixFrame,

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 
 __all__ = ["WALLS", "cast"]
 

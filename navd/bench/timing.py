@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-from navd.lifecycle.stats import percentile
+from navd.lifecycle import percentile
 
 __all__ = ["median_ms", "paired_ms"]
 

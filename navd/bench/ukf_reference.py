@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.estimation.motion_model import STATE_SIZE, TH, Row, evaluate_rows, transition_matrix
-from navd.geometry.angles import wrap_angle, wrap_angles
+from navd.estimation import STATE_SIZE, TH, Row, evaluate_rows, transition_matrix
+from navd.geometry import wrap_angle, wrap_angles
 
 __all__ = [
     "MeasurementFunctions",
@@ -27,7 +27,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from navd.estimation.ukf import UkfSettings
+    from navd.estimation import UkfSettings
 
 FloatArray = npt.NDArray[np.float64]
 

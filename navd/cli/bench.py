@@ -77,12 +77,12 @@ def add_commands(commands: Commands) -> None:
 
 
 def _ingest(args: argparse.Namespace) -> int:
-    from navd.bench.ingest import run  # noqa: PLC0415 - each benchmark imports what it times
+    from navd.bench import ingest  # noqa: PLC0415 - each benchmark imports what it times
 
     if args.view and importlib.util.find_spec("websockets") is None:
         print("--view needs the websockets package: pip install websockets", file=sys.stderr)
         return EXIT_USAGE
-    figures = run(
+    figures = ingest.run(
         seconds=args.seconds,
         rays=args.rays,
         binary=args.binary,
@@ -95,35 +95,35 @@ def _ingest(args: argparse.Namespace) -> int:
 
 
 def _estimation(args: argparse.Namespace) -> int:
-    from navd.bench.estimation import run  # noqa: PLC0415
+    from navd.bench import estimation  # noqa: PLC0415
 
-    print_figures(run(seconds=args.seconds), args.json)
+    print_figures(estimation.run(seconds=args.seconds), args.json)
     return EXIT_OK
 
 
 def _scan(args: argparse.Namespace) -> int:
-    from navd.bench.scan import run  # noqa: PLC0415
+    from navd.bench import scan  # noqa: PLC0415
 
-    print_figures(run(scans=args.scans, beams=args.beams), args.json)
+    print_figures(scan.run(scans=args.scans, beams=args.beams), args.json)
     return EXIT_OK
 
 
 def _planning(args: argparse.Namespace) -> int:
-    from navd.bench.planning import run  # noqa: PLC0415
+    from navd.bench import planning  # noqa: PLC0415
 
-    print_figures(run(repeats=args.repeats, cycles=args.cycles), args.json)
+    print_figures(planning.run(repeats=args.repeats, cycles=args.cycles), args.json)
     return EXIT_OK
 
 
 def _fleet(args: argparse.Namespace) -> int:
-    from navd.bench.fleet import run  # noqa: PLC0415
-    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.bench import fleet  # noqa: PLC0415
+    from navd.sim import SimError  # noqa: PLC0415
 
     if args.vehicles < 1:
         print("navd bench fleet: --vehicles must be at least 1", file=sys.stderr)
         return EXIT_USAGE
     try:
-        figures = run(vehicles=args.vehicles)
+        figures = fleet.run(vehicles=args.vehicles)
     except SimError as err:
         print(f"navd bench fleet: {err}", file=sys.stderr)
         return EXIT_USAGE
@@ -132,14 +132,14 @@ def _fleet(args: argparse.Namespace) -> int:
 
 
 def _safety(args: argparse.Namespace) -> int:
-    from navd.bench.safety import run  # noqa: PLC0415
+    from navd.bench import safety  # noqa: PLC0415
 
-    print_figures(run(trials=args.trials), args.json)
+    print_figures(safety.run(trials=args.trials), args.json)
     return EXIT_OK
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from navd.bench.compare import run  # noqa: PLC0415
+    from navd.bench import compare  # noqa: PLC0415
 
-    print_figures(run(repeats=args.repeats), args.json)
+    print_figures(compare.run(repeats=args.repeats), args.json)
     return EXIT_OK

@@ -101,9 +101,11 @@ def _file_problems(config: NavdConfig, here: Path) -> list[str]:
     ``here``: the map to start on and the zone masks are loaded, the broker's TLS files
     opened (with the fleet on). One line per key, naming it (relative paths say which
     folder they were read from: navd reads them from the folder it runs in)."""
-    from navd.planning.zones import ZoneError, load_zone_mask  # noqa: PLC0415 - check only
-    from navd.slam.errors import MapFileError  # noqa: PLC0415
-    from navd.slam.map_io import load_map_state  # noqa: PLC0415
+    from navd.planning import ZoneError, load_zone_mask  # noqa: PLC0415 - check only
+    from navd.slam import (  # noqa: PLC0415
+        MapFileError,
+        load_map_state,
+    )
 
     def relative(name: str) -> str:
         if Path(name).is_absolute():

@@ -247,7 +247,7 @@ def _record_statuses(starting: bool) -> int:
     long recording on a slow card)."""
     if starting:
         return RECORD_VERDICT_STATUSES
-    from navd.viz.recording_writer import CLOSE_TIMEOUT_S  # noqa: PLC0415 - stop only
+    from navd.viz import CLOSE_TIMEOUT_S  # noqa: PLC0415 - stop only
 
     return RECORD_VERDICT_STATUSES + math.ceil(10 * CLOSE_TIMEOUT_S)
 

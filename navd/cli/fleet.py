@@ -93,7 +93,7 @@ def _broker_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _status(args: argparse.Namespace) -> int:
-    from navd.fleetctl.control import fleet_view  # noqa: PLC0415 - MQTT only for this command
+    from navd.fleetctl import fleet_view  # noqa: PLC0415 - MQTT only for this command
 
     try:
         view = asyncio.run(fleet_view(args.broker, args.interface))
@@ -124,10 +124,12 @@ def _status(args: argparse.Namespace) -> int:
 
 
 def _goal(args: argparse.Namespace) -> int:
-    from navd.fleetctl.control import drive_group  # noqa: PLC0415 - MQTT only for this command
-    from navd.fleetctl.group import GroupGoal  # noqa: PLC0415
-    from navd.fleetctl.group_map import GroupMap  # noqa: PLC0415
-    from navd.slam.errors import MapFileError  # noqa: PLC0415
+    from navd.fleetctl import (  # noqa: PLC0415
+        GroupGoal,
+        GroupMap,
+        drive_group,
+    )
+    from navd.slam import MapFileError  # noqa: PLC0415
 
     numbers = (args.x, args.y, args.spacing, args.step, args.speed, args.timeout, args.radius)
     numbers += () if args.heading is None else (args.heading,)

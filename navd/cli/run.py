@@ -63,7 +63,7 @@ def _run(args: argparse.Namespace) -> int:
     from navd.app import build_modules  # noqa: PLC0415 - keep `navd config` fast to start
     from navd.kernels import KernelCache  # noqa: PLC0415
     from navd.lifecycle import Daemon  # noqa: PLC0415
-    from navd.slam.errors import MapFileError  # noqa: PLC0415
+    from navd.slam import MapFileError  # noqa: PLC0415
 
     kernels = KernelCache()
     daemon = Daemon(

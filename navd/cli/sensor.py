@@ -18,7 +18,7 @@ from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands
 from navd.logs import configure_logging
 
 if TYPE_CHECKING:
-    from navd.sensors.runner import Link
+    from navd.sensors import Link
 
 __all__ = ["add_commands"]
 
@@ -82,7 +82,7 @@ def add_commands(commands: Commands) -> None:
 
 
 def _sensor(args: argparse.Namespace) -> int:
-    from navd.sensors.runner import KINDS, Link  # noqa: PLC0415 - pyserial etc.
+    from navd.sensors import KINDS, Link  # noqa: PLC0415 - pyserial etc.
     from navd.wire import DEVICE_ID_PATTERN  # noqa: PLC0415
 
     host, _, port_text = args.navd.rpartition(":")
@@ -117,7 +117,7 @@ def _sensor(args: argparse.Namespace) -> int:
         return _calibrate(args, link, address)
     if i2c:
         return _run_i2c(args, link, address)
-    from navd.sensors.runner import run_sensor  # noqa: PLC0415
+    from navd.sensors import run_sensor  # noqa: PLC0415
 
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: the program ends, ports closed
         run_sensor(args.kind, link)
@@ -131,8 +131,11 @@ def _config_path(args: argparse.Namespace) -> Path:
 def _run_i2c(args: argparse.Namespace, link: Link, address: int | None) -> int:
     """Stream an I2C chip; a magnetometer through its calibration in navd's config."""
     from navd.config import ConfigError, load_config  # noqa: PLC0415
-    from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor  # noqa: PLC0415
-    from navd.sensors.magnetometer import CompassCalibration  # noqa: PLC0415
+    from navd.sensors import (  # noqa: PLC0415
+        CompassCalibration,
+        I2cOptions,
+        run_i2c_sensor,
+    )
 
     calibration = None
     path = _config_path(args)
@@ -151,12 +154,16 @@ def _run_i2c(args: argparse.Namespace, link: Link, address: int | None) -> int:
 
 def _calibrate(args: argparse.Namespace, link: Link, address: int | None) -> int:
     """Record the raw field while the robot turns in place; write the fitted correction."""
-    from navd.config import ConfigError  # noqa: PLC0415
-    from navd.config.edit import set_table_keys  # noqa: PLC0415
-    from navd.config.loader import toml_key  # noqa: PLC0415
-    from navd.sensors.calibration import record_turn  # noqa: PLC0415
-    from navd.sensors.errors import ChipError  # noqa: PLC0415
-    from navd.sensors.i2c_runner import I2cOptions  # noqa: PLC0415
+    from navd.config import (  # noqa: PLC0415
+        ConfigError,
+        set_table_keys,
+        toml_key,
+    )
+    from navd.sensors import (  # noqa: PLC0415
+        ChipError,
+        I2cOptions,
+        record_turn,
+    )
 
     if args.chip is None:
         print("navd sensor calibrate-compass: say which magnetometer: --chip", file=sys.stderr)

@@ -67,9 +67,12 @@ def add_commands(commands: Commands) -> None:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from navd.sim.demo import run_demo  # noqa: PLC0415 - only the simulator commands need it
-    from navd.sim.errors import SimError  # noqa: PLC0415
-    from navd.sim.world import load_world, office  # noqa: PLC0415
+    from navd.sim import (  # noqa: PLC0415
+        SimError,
+        load_world,
+        office,
+        run_demo,
+    )
 
     if args.fleet is not None:
         return _fleet_demo(args)
@@ -94,8 +97,10 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _fleet_demo(args: argparse.Namespace) -> int:
-    from navd.sim.errors import SimError  # noqa: PLC0415
-    from navd.sim.fleet_demo import run_fleet_demo  # noqa: PLC0415
+    from navd.sim import (  # noqa: PLC0415
+        SimError,
+        run_fleet_demo,
+    )
 
     if args.world is not None or args.view or args.record is not None:
         print(
@@ -118,9 +123,12 @@ def _fleet_demo(args: argparse.Namespace) -> int:
 
 
 def _sim(args: argparse.Namespace) -> int:
-    from navd.sim.errors import SimError  # noqa: PLC0415
-    from navd.sim.standalone import run_sim  # noqa: PLC0415
-    from navd.sim.world import load_world, office  # noqa: PLC0415
+    from navd.sim import (  # noqa: PLC0415
+        SimError,
+        load_world,
+        office,
+        run_sim,
+    )
 
     try:
         config = load_config(args.config)
@@ -157,8 +165,10 @@ def _sim(args: argparse.Namespace) -> int:
 
 
 def _barn(args: argparse.Namespace) -> int:
-    from navd.sim.barn import run_barn  # noqa: PLC0415
-    from navd.sim.errors import SimError  # noqa: PLC0415
+    from navd.sim import (  # noqa: PLC0415
+        SimError,
+        run_barn,
+    )
 
     try:
         worlds = None if args.worlds is None else [int(w) for w in args.worlds.split(",")]

@@ -15,8 +15,8 @@ from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load, pr
 from navd.config import ConfigError
 
 if TYPE_CHECKING:
-    from navd.offline.logfiles import LogScan
-    from navd.slam.settings import MapperSettings
+    from navd.offline import LogScan
+    from navd.slam import MapperSettings
 
 __all__ = ["add_commands"]
 
@@ -117,11 +117,8 @@ def _load_kernels() -> None:
     this process raises its peak (fr-clinic with a cold cache: 297 MB of VmHWM, 261 MB with
     the child; the child costs about 2 s when the cache is full)."""
     from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
-    from navd.lifecycle.memory_release import (  # noqa: PLC0415
-        release_compiler_code,
-        release_freed_memory,
-    )
-    from navd.offline.warmup import warm_up  # noqa: PLC0415
+    from navd.lifecycle import release_compiler_code, release_freed_memory  # noqa: PLC0415
+    from navd.offline import warm_up  # noqa: PLC0415
 
     KernelCache().prepare(every_signature=True)
     warm_up()
@@ -161,12 +158,13 @@ def _replay(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_USAGE
-    from navd.geometry.mount import LidarMount  # noqa: PLC0415 - only replay needs SLAM
-    from navd.offline.errors import LogFormatError, OfflineError  # noqa: PLC0415
-    from navd.offline.replay import open_recording, replay, replay_mount  # noqa: PLC0415
-    from navd.slam.errors import SlamError  # noqa: PLC0415
-    from navd.slam.map_io import load_map_state  # noqa: PLC0415
-    from navd.slam.settings import MapperSettings  # noqa: PLC0415
+    from navd.geometry import LidarMount  # noqa: PLC0415 - only replay needs SLAM
+    from navd.offline import LogFormatError, OfflineError, open_recording, replay, replay_mount  # noqa: PLC0415  # noqa: PLC0415
+    from navd.slam import (  # noqa: PLC0415
+        MapperSettings,
+        SlamError,
+        load_map_state,
+    )
 
     try:
         config = load(args.config)
@@ -239,7 +237,7 @@ def _chosen_scans(
     Raises:
         ValueError: a bad --scans or --perturb, named.
     """
-    from navd.offline.perturb import perturb  # noqa: PLC0415 - only replay needs SLAM
+    from navd.offline import perturb  # noqa: PLC0415 - only replay needs SLAM
 
     if args.scans is not None:
         try:
@@ -281,9 +279,11 @@ def _play(args: argparse.Namespace) -> int:
     import tempfile  # noqa: PLC0415
 
     from navd.app import build_modules  # noqa: PLC0415 - only playback needs the daemon
-    from navd.viz.errors import RecordingError  # noqa: PLC0415
-    from navd.viz.playback import play  # noqa: PLC0415
-    from navd.viz.recording_reader import read_recording  # noqa: PLC0415
+    from navd.viz import (  # noqa: PLC0415
+        RecordingError,
+        play,
+        read_recording,
+    )
 
     try:
         recording = read_recording(args.log, args.session)
@@ -328,8 +328,12 @@ def _progress_line(total: int) -> Callable[[int, float], None]:
 
 
 def _relations(args: argparse.Namespace) -> int:
-    from navd.offline.errors import OfflineError  # noqa: PLC0415
-    from navd.offline.relations import evaluate, read_relations, read_tum  # noqa: PLC0415
+    from navd.offline import (  # noqa: PLC0415
+        OfflineError,
+        evaluate,
+        read_relations,
+        read_tum,
+    )
 
     try:
         stamps, poses = read_tum(args.trajectory)

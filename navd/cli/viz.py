@@ -25,7 +25,7 @@ def add_commands(commands: Commands) -> None:
 
 
 def _layout(args: argparse.Namespace) -> int:
-    from navd.viz.layout import live_layout  # noqa: PLC0415 - the SDK loads only when asked
+    from navd.viz import live_layout  # noqa: PLC0415 - the SDK loads only when asked
 
     text = live_layout().to_json() + "\n"
     if args.out is None:

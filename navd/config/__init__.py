@@ -2,9 +2,21 @@
 
 from navd.config.beacons import BeaconPlaceConfig, BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
+from navd.config.edit import set_table_keys
 from navd.config.errors import ConfigError
+from navd.config.fields import is_loopback
 from navd.config.fleet import FleetConfig
-from navd.config.loader import apply_changes, dump_toml, load_config, parse_config
+from navd.config.loader import (
+    apply_changes,
+    changed_keys,
+    check_runtime_changeable,
+    dump_toml,
+    load_config,
+    parse_config,
+    redacted,
+    redacted_changes,
+    toml_key,
+)
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
 from navd.config.model import NavdConfig
 from navd.config.mounts import (
@@ -46,7 +58,14 @@ __all__ = [
     "VizConfig",
     "WorldConfig",
     "apply_changes",
+    "changed_keys",
+    "check_runtime_changeable",
     "dump_toml",
+    "is_loopback",
     "load_config",
     "parse_config",
+    "redacted",
+    "redacted_changes",
+    "set_table_keys",
+    "toml_key",
 ]

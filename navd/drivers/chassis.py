@@ -31,7 +31,7 @@ from navd.drivers.kinematics import (
 )
 from navd.drivers.serial_port import open_exclusive
 from navd.drivers.settings import ChassisSettings
-from navd.lifecycle.clock import ticks
+from navd.lifecycle import Module, ModuleContext, ticks
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
@@ -40,7 +40,6 @@ from navd.lifecycle.messages import (
     SafeStop,
     WheelOdometry,
 )
-from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["ChassisDriver"]
 

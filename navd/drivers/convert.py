@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from navd.geometry.angles import wrap_angle
+from navd.geometry import wrap_angle
 from navd.lifecycle.messages import (
     BeaconObservation,
     CancelGoal,

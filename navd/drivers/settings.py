@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from navd.config import NavdConfig
 from navd.drivers.kinematics import WheelCalibration
-from navd.geometry.limits import RobotLimits
+from navd.geometry import RobotLimits
 
 __all__ = ["LINE_ENDINGS", "ChassisSettings"]
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.angles import wrap_angle
+from navd.geometry import wrap_angle
 
 __all__ = ["BeaconMap", "LearntBeacon", "RobotPose"]
 

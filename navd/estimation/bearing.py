@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from navd.geometry.angles import wrap_angle
+from navd.geometry import wrap_angle
 
 __all__ = ["bearing_to_yaw"]
 

@@ -42,7 +42,7 @@ from navd.estimation.motion_model import (
 )
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf
-from navd.geometry.angles import wrap_angle
+from navd.geometry import wrap_angle
 from navd.lifecycle.messages import (
     BeaconObservation,
     BeaconPlace,

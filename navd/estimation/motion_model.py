@@ -18,7 +18,7 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.angles import wrap_angles
+from navd.geometry import wrap_angles
 
 __all__ = [
     "ATH",

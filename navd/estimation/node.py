@@ -19,6 +19,7 @@ from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.geo import open_projections_here
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.warmup import warm_up
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     BeaconObservation,
     BeaconPlaces,
@@ -37,7 +38,6 @@ from navd.lifecycle.messages import (
     TrackingLost,
     WheelOdometry,
 )
-from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["EstimationNode"]
 

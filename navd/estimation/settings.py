@@ -11,7 +11,7 @@ from navd.estimation.geo import MapProjection
 from navd.estimation.history import HistorySettings
 from navd.estimation.madgwick import MadgwickSettings
 from navd.estimation.ukf import UkfSettings
-from navd.geometry.mount import SensorMounts
+from navd.geometry import SensorMounts
 
 __all__ = ["EstimatorSettings"]
 

@@ -31,9 +31,9 @@ from navd.fleet.mqtt import Broker, connect
 from navd.fleet.settings import FleetSettings
 from navd.fleet.vda5050 import Topics
 from navd.fleet.vehicle import Vehicle
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import GoalStatus, Message, NearbyRobots, RobotState
-from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["FleetNode"]
 

@@ -11,8 +11,7 @@ from typing import Any
 from navd.config import FleetConfig
 from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
 from navd.fleet.vehicle import INSTANT_ACTIONS, Vehicle
-from navd.geometry.footprint import Footprint
-from navd.geometry.limits import RobotLimits
+from navd.geometry import Footprint, RobotLimits
 
 __all__ = ["Robot", "connection", "driving", "factsheet", "state", "visualization"]
 

@@ -8,8 +8,7 @@ import math
 from dataclasses import dataclass
 
 from navd.config import FleetConfig, NavdConfig
-from navd.geometry.footprint import Footprint
-from navd.geometry.limits import RobotLimits
+from navd.geometry import Footprint, RobotLimits
 
 __all__ = ["FleetSettings"]
 

@@ -35,7 +35,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from navd.fleet.vda5050 import Action, Edge, InstantActions, Node, Order
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
 
 __all__ = ["CANCEL_STOP_S", "INSTANT_ACTIONS", "NODE_ACTIONS", "START_DEVIATION_M", "Vehicle"]

@@ -21,8 +21,7 @@ from typing import Any
 import aiomqtt
 import numpy as np
 
-from navd.fleet.mqtt import Broker, connect
-from navd.fleet.vda5050 import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
+from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION, Broker, connect, timestamp
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import GroupMap

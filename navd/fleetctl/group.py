@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
+from navd.fleet import PROTOCOL_VERSION, timestamp
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import Formation, shape_error
 from navd.fleetctl.group_map import GroupMap

@@ -12,17 +12,19 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.fleetctl.errors import GroupGoalError
-from navd.planning._astar_kernels import segment_max_cost
-from navd.planning.costmap import (
+from navd.planning import (
     Costmap,
     CostmapSettings,
+    GlobalPlanner,
+    GoalUnreachableError,
     GridFrame,
+    SearchSettings,
+    StartBlockedError,
     build_costmap,
+    segment_max_cost,
     static_layer,
 )
-from navd.planning.errors import GoalUnreachableError, StartBlockedError
-from navd.planning.global_planner import GlobalPlanner, SearchSettings
-from navd.slam.map_io import load_map
+from navd.slam import load_map
 
 __all__ = ["DEFAULT_RADIUS_M", "GroupMap"]
 

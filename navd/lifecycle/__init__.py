@@ -10,7 +10,13 @@ from navd.lifecycle.errors import (
     ModuleStateError,
     ModuleTimeoutError,
 )
+from navd.lifecycle.lockstep import Lockstep
+from navd.lifecycle.memory_release import release_compiler_code, release_freed_memory
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager, ModuleState
+from navd.lifecycle.safety import SafetyGate
+from navd.lifecycle.settings import Live, parts_of
+from navd.lifecycle.state_view import StateView
+from navd.lifecycle.stats import percentile
 from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.workers import WorkerPool
 
@@ -20,6 +26,8 @@ __all__ = [
     "Daemon",
     "DispatchError",
     "LifecycleError",
+    "Live",
+    "Lockstep",
     "MessageError",
     "Module",
     "ModuleContext",
@@ -28,8 +36,14 @@ __all__ = [
     "ModuleStateError",
     "ModuleTimeoutError",
     "MonotonicClock",
+    "SafetyGate",
     "SimClock",
+    "StateView",
     "Supervisor",
     "WorkerPool",
+    "parts_of",
+    "percentile",
+    "release_compiler_code",
+    "release_freed_memory",
     "ticks",
 ]

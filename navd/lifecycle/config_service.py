@@ -9,8 +9,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navd.config import ConfigError, NavdConfig, apply_changes, load_config
-from navd.config.loader import changed_keys, check_runtime_changeable
+from navd.config import (
+    ConfigError,
+    NavdConfig,
+    apply_changes,
+    changed_keys,
+    check_runtime_changeable,
+    load_config,
+)
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock
 from navd.lifecycle.messages import ConfigApplied, ConfigChange, ConfigRejected

@@ -17,8 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from navd import __version__
-from navd.config import NavdConfig
-from navd.config.loader import redacted
+from navd.config import NavdConfig, redacted
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService

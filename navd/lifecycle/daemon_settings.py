@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from navd.config import NavdConfig
-from navd.geometry.limits import RobotLimits
+from navd.geometry import RobotLimits
 
 __all__ = ["LifecycleSettings", "LoggingSettings", "gate_limits"]
 

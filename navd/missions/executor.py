@@ -22,8 +22,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from navd.geometry.angles import wrap_angle
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2, wrap_angle
 from navd.lifecycle.messages import CancelGoal, GeoGoal, Goal, GoalStatus, Message
 from navd.lifecycle.messages.mission import (
     BEACON_STEPS,

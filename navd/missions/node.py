@@ -7,10 +7,10 @@ mission drives through the same planner and safety gate as a goal sent by hand.
 
 from __future__ import annotations
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import BeaconPlaces, GoalStatus, Message, PoseEstimate
 from navd.lifecycle.messages.mission import MissionCommand, MissionRequest, MissionStatus
-from navd.lifecycle.module import Module, ModuleContext
 from navd.missions.executor import MissionExecutor, no_mission
 from navd.missions.settings import MissionSettings
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.errors import LogFormatError
 from navd.offline.logfiles import LogScan, OdometryTrack
 

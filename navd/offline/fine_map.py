@@ -48,11 +48,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.slam.keyframe import Keyframe
-from navd.slam.matcher import CorrelativeMatcher
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.settings import MapperSettings
+from navd.geometry import Pose2
+from navd.slam import CorrelativeMatcher, Keyframe, LikelihoodField, MapperSettings, OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -19,7 +19,7 @@ from typing import TextIO
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.errors import LogFormatError
 
 __all__ = [

@@ -20,7 +20,7 @@ from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.logfiles import LogScan
 
 __all__ = ["PERTURBATIONS", "perturb"]

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.slam.occupancy import OccupancyGrid
+from navd.geometry import Pose2
+from navd.slam import OccupancyGrid
 
 __all__ = ["encode_png", "encode_png_bands", "map_picture"]
 

@@ -17,11 +17,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.fine_map import FineMap, fine_keep_cells, fine_refiner, refine_pose
-from navd.slam.keyframe import Keyframe
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.settings import MapperSettings
+from navd.slam import Keyframe, LikelihoodField, MapperSettings, OccupancyGrid
 
 __all__ = ["FIELD_MARGIN_M", "FineRefinement"]
 

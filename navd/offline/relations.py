@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.errors import LogFormatError
 
 __all__ = ["Relation", "RelationErrors", "evaluate", "read_relations", "read_tum"]

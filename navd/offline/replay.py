@@ -26,21 +26,23 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.mount import LidarMount
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import laser_points
-from navd.lifecycle.stats import percentile
+from navd.geometry import LidarMount, Pose2, laser_points
+from navd.lifecycle import percentile
 from navd.offline.bags import inspect_bag, is_bag, read_bag
 from navd.offline.errors import LogFormatError
 from navd.offline.logfiles import LogScan, count_scans, open_log
 from navd.offline.picture import map_picture
 from navd.offline.refinement import FineRefinement
-from navd.slam.global_search import relocalize
-from navd.slam.map_io import SavedMap, save_map
-from navd.slam.mapper import ScanMapper
-from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
-from navd.slam.settings import MapperSettings
-from navd.slam.voxel import voxel_downsample
+from navd.slam import (
+    MapperSettings,
+    SavedMap,
+    ScanMapper,
+    ScanOdometry,
+    ScanOdometrySettings,
+    relocalize,
+    save_map,
+    voxel_downsample,
+)
 
 __all__ = ["ReplayInput", "ReplayResult", "open_recording", "replay", "replay_mount", "tum_line"]
 

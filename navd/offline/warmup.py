@@ -8,12 +8,10 @@ import math
 
 import numpy as np
 
-from navd.geometry.pose import IDENTITY
-from navd.geometry.scan import scan_points
+from navd.geometry import IDENTITY, scan_points
 from navd.offline.fine_map import fine_refiner, refine_pose
-from navd.slam.occupancy import OccupancyGrid
-from navd.slam.settings import MapperSettings
-from navd.slam.warmup import warm_up as warm_up_slam
+from navd.slam import MapperSettings, OccupancyGrid
+from navd.slam import warm_up as warm_up_slam
 
 __all__ = ["warm_up"]
 

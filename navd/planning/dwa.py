@@ -10,8 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.footprint import Footprint
-from navd.geometry.pose import Pose2
+from navd.geometry import Footprint, Pose2
 from navd.planning._distance_kernels import distance_to
 from navd.planning._dwa_kernels import (
     METRICS,

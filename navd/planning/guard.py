@@ -16,9 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.footprint import Footprint
-from navd.geometry.mount import SensorMounts
-from navd.geometry.scan import scan_points
+from navd.geometry import Footprint, SensorMounts, scan_points
 from navd.planning._guard_kernels import sweep_clearance
 
 __all__ = ["GuardSettings", "guard_scale", "warm_up_guard"]

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.scan import laser_points
+from navd.geometry import laser_points
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import LaserScan, PoseEstimate
-from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.guard import GUARD_REACH_M, guard_scale, warm_up_guard
 from navd.planning.layers import LIVE_SCAN_S
 from navd.planning.settings import guard_settings

@@ -19,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ALL_AROUND, FieldOfView
+from navd.geometry import ALL_AROUND, FieldOfView, Pose2
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
 from navd.planning.errors import GoalRefusedError
 from navd.planning.zones import ZoneMasks

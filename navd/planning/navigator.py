@@ -19,9 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.angles import angle_between, wrap_angle
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ALL_AROUND, FieldOfView
+from navd.geometry import ALL_AROUND, FieldOfView, Pose2, angle_between, wrap_angle
 from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
 from navd.planning.dwa import DwaChoice, LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import laser_points
+from navd.geometry import Pose2, laser_points
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     CancelGoal,
     CostmapUpdate,
@@ -61,7 +61,6 @@ from navd.lifecycle.messages import (
     VelocityCommand,
     ViewInterest,
 )
-from navd.lifecycle.module import Module, ModuleContext
 from navd.planning.costmap import ros_costmap
 from navd.planning.dwa import arc
 from navd.planning.errors import PlanningError

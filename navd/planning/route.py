@@ -7,7 +7,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.planning._distance_kernels import any_within, nearest_on_polyline
 from navd.planning.dwa import PathField, path_field
 

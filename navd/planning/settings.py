@@ -8,9 +8,7 @@ import math
 from dataclasses import dataclass
 
 from navd.config import NavdConfig, PlanningConfig, RobotConfig, SafetyConfig, TeleopConfig
-from navd.geometry.footprint import Footprint
-from navd.geometry.limits import RobotLimits
-from navd.geometry.mount import SensorMounts
+from navd.geometry import Footprint, RobotLimits, SensorMounts
 from navd.planning.costmap import CostmapSettings
 from navd.planning.dwa import DwaSettings
 from navd.planning.global_planner import SearchSettings

@@ -5,8 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import StrEnum
 
-from navd.geometry.angles import angle_between
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2, angle_between
 
 __all__ = ["StuckMonitor", "StuckPhase", "StuckSettings", "StuckState"]
 

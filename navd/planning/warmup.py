@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 
-from navd.geometry.pose import IDENTITY
-from navd.geometry.scan import scan_points
+from navd.geometry import IDENTITY, scan_points
 from navd.planning.costmap import GridFrame, build_costmap
 from navd.planning.global_planner import GlobalPlanner
 from navd.planning.goal import NavGoal

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.raster_file import RasterFileError, occupancy_of, read_image, read_map_yaml
+from navd.geometry import RasterFileError, occupancy_of, read_image, read_map_yaml
 from navd.planning.costmap import GridFrame
 from navd.planning.errors import PlanningError
 

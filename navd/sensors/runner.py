@@ -22,7 +22,7 @@ from typing import Protocol
 
 import serial
 
-from navd.drivers.serial_port import open_exclusive
+from navd.drivers import open_exclusive
 from navd.logs import get_logger
 from navd.sensors.ld06 import PacketReader, ScanAssembler
 from navd.sensors.nmea import NmeaReader

@@ -27,13 +27,18 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
-from navd.planning.errors import PlanningError
-from navd.planning.goal import GoalState, NavGoal
-from navd.planning.guard import GUARD_REACH_M, guard_scale, warm_up_guard
-from navd.planning.navigator import Navigator
-from navd.planning.settings import NavigatorSettings, guard_settings
+from navd.geometry import Pose2, scan_points
+from navd.planning import (
+    GUARD_REACH_M,
+    GoalState,
+    NavGoal,
+    Navigator,
+    NavigatorSettings,
+    PlanningError,
+    guard_scale,
+    guard_settings,
+    warm_up_guard,
+)
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.body import Body
 from navd.sim.errors import SimError

@@ -10,9 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
-from navd.drivers.kinematics import WheelCalibration, body_velocity, wheel_speeds
-from navd.geometry.angles import wrap_angle
-from navd.geometry.footprint import Footprint
+from navd.drivers import WheelCalibration, body_velocity, wheel_speeds
+from navd.geometry import Footprint, wrap_angle
 from navd.sim._sim_kernels import footprint_contact
 from navd.sim.world import World
 

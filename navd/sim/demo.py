@@ -277,8 +277,10 @@ def _cold() -> bool:
 
 
 def _load_built_map(path: Path) -> Any:
-    from navd.slam.errors import MapFileError  # noqa: PLC0415
-    from navd.slam.map_io import load_map  # noqa: PLC0415
+    from navd.slam import (  # noqa: PLC0415
+        MapFileError,
+        load_map,
+    )
 
     try:
         return load_map(path)

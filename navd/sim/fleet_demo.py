@@ -19,10 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from navd.fleetctl.control import drive_group, fleet_view
-from navd.fleetctl.group import GroupGoal
-from navd.fleetctl.group_map import GroupMap
-from navd.geometry.pose import Pose2
+from navd.fleetctl import GroupGoal, GroupMap, drive_group, fleet_view
+from navd.geometry import Pose2
 from navd.sim.broker import LocalBroker
 from navd.sim.errors import SimError
 from navd.sim.fleet import fleet_sessions

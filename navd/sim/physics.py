@@ -16,9 +16,8 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.config import NavdConfig
-from navd.drivers.kinematics import WheelCalibration
-from navd.geometry.footprint import Footprint
-from navd.geometry.pose import Pose2
+from navd.drivers import WheelCalibration
+from navd.geometry import Footprint, Pose2
 from navd.sim.body import Body, command_velocity, encode_wheels
 from navd.sim.world import World
 

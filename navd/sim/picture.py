@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.offline.picture import encode_png
+from navd.offline import encode_png
 from navd.sim.world import World
 
 __all__ = ["demo_picture", "fleet_picture"]

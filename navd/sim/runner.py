@@ -19,7 +19,7 @@ import contextlib
 import time
 
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.sim.body import Body
 from navd.sim.links import RECONNECT_S, PtyChassis, SensorLinks
 from navd.sim.lockstep import Lockstep

@@ -17,9 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.estimation.geo import GeoFrame
-from navd.geometry.mount import SensorMounts
-from navd.geometry.pose import Pose2
+from navd.estimation import GeoFrame
+from navd.geometry import Pose2, SensorMounts
 from navd.sim._sim_kernels import cast_rays
 from navd.sim.physics import SimRobot
 from navd.sim.settings import SimSettings

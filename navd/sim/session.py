@@ -23,7 +23,7 @@ from typing import Any
 import tomli_w
 
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.sim.errors import SimError
 from navd.sim.runner import Simulator
 from navd.sim.settings import SimSettings

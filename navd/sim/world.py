@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry import IDENTITY, Pose2
 from navd.sim.errors import WorldError
 
 __all__ = ["Mover", "World", "load_world", "office"]
@@ -237,8 +237,10 @@ def load_world(path: Path) -> World:
     if not path.is_file():
         raise WorldError(f"world file {path} does not exist")
     if path.suffix in (".yaml", ".yml"):
-        from navd.slam.errors import MapFileError  # noqa: PLC0415
-        from navd.slam.map_io import load_map  # noqa: PLC0415
+        from navd.slam import (  # noqa: PLC0415
+            MapFileError,
+            load_map,
+        )
 
         try:
             grid = load_map(path)

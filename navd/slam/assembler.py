@@ -16,8 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ALL_AROUND, ScanPoints
+from navd.geometry import ALL_AROUND, Pose2, ScanPoints
 
 __all__ = ["AssembledScan", "ScanAssembler"]
 

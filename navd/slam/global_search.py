@@ -15,7 +15,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, Match
 from navd.slam.occupancy import FIELD_PEAK, LikelihoodField, OccupancyGrid

@@ -16,8 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import FieldOfView, ScanPoints
+from navd.geometry import FieldOfView, Pose2, ScanPoints
 from navd.slam.errors import MapFileError
 from navd.slam.keyframe import Keyframe
 from navd.slam.occupancy import OccupancyGrid

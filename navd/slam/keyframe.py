@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints
+from navd.geometry import Pose2, ScanPoints
 
 __all__ = ["Keyframe"]
 

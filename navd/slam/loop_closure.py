@@ -53,8 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints
+from navd.geometry import Pose2, ScanPoints
 from navd.slam.global_search import global_search
 from navd.slam.keyframe import Keyframe
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio

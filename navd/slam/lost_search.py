@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam.global_search import relocalize
 from navd.slam.matcher import Match, rival_ratio
 from navd.slam.occupancy import OccupancyGrid

@@ -25,14 +25,8 @@ from typing import Any, BinaryIO
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.raster_file import (
-    FREE_THRESH,
-    OCCUPIED_THRESH,
-    MapYaml,
-    RasterFileError,
-    read_image,
-)
-from navd.geometry.raster_file import read_map_yaml as read_raster_yaml
+from navd.geometry import FREE_THRESH, OCCUPIED_THRESH, MapYaml, RasterFileError, read_image
+from navd.geometry import read_map_yaml as read_raster_yaml
 from navd.slam.errors import MapFileError
 from navd.slam.graph_file import MapGraph, graph_arrays, graph_from_arrays
 from navd.slam.occupancy import OccupancyGrid

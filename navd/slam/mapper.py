@@ -19,8 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints
+from navd.geometry import Pose2, ScanPoints
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe

@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid
 from navd.slam.settings import MapperSettings

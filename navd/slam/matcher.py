@@ -33,7 +33,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam import _grid_kernels as k
 from navd.slam.occupancy import FIELD_PEAK, LikelihoodField
 from navd.slam.weak_axis import weak_axis

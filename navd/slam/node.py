@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import laser_points
+from navd.geometry import Pose2, laser_points
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     FindPoseRequest,
     InitialPose,
@@ -41,7 +41,6 @@ from navd.lifecycle.messages import (
     SlamTracking,
     WheelOdometry,
 )
-from navd.lifecycle.module import Module, ModuleContext
 from navd.slam.assembler import ScanAssembler
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files

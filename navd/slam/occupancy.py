@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints
+from navd.geometry import Pose2, ScanPoints
 from navd.slam import _grid_kernels as k
 from navd.slam.tiles import TiledArray
 

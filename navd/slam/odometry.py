@@ -18,8 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.angles import wrap_angle
-from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry import IDENTITY, Pose2, wrap_angle
 from navd.slam import _odometry_kernels as kernels
 from navd.slam.voxel import voxel_downsample
 

@@ -28,8 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.angles import wrap_angles
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2, wrap_angles
 
 __all__ = ["Edge", "graph_distances", "optimize"]
 

@@ -16,10 +16,9 @@ import threading
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints
+from navd.geometry import Pose2, ScanPoints
+from navd.lifecycle import ModuleContext
 from navd.lifecycle.messages import InitialPose, Message, PoseFound, TrackingLost
-from navd.lifecycle.module import ModuleContext
 from navd.slam.global_search import relocalize
 from navd.slam.lost_search import LostSearch, fit_on_map
 from navd.slam.mapper import ScanMapper

@@ -10,7 +10,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam.keyframe import Keyframe
 from navd.slam.settings import MapperSettings
 

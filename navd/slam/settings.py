@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from navd.config import LidarConfig, NavdConfig, SlamConfig
-from navd.geometry.mount import SensorMounts
+from navd.geometry import SensorMounts
 from navd.slam.odometry import ScanOdometrySettings
 
 __all__ = ["MapperSettings", "SlamSettings", "scan_odometry_settings"]

@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam.global_search import relocalize
 from navd.slam.mapper import ScanMapper
 from navd.slam.matcher import rival_ratio

@@ -49,7 +49,8 @@ from foxglove import Context, StatusLevel
 from foxglove.websocket import Capability, WebSocketServer
 
 from navd import __version__
-from navd.drivers.convert import control_message
+from navd.drivers import control_message
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     CostmapUpdate,
     Goal,
@@ -61,9 +62,8 @@ from navd.lifecycle.messages import (
     RobotState,
     ViewInterest,
 )
-from navd.lifecycle.module import Module, ModuleContext
 from navd.logs import add_log_tap, remove_log_tap
-from navd.planning.zones import RECHECK_S
+from navd.planning import RECHECK_S
 from navd.viz import scene
 from navd.viz.channels import LiveChannels
 from navd.viz.commands import viewer_request

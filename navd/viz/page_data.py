@@ -22,9 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.footprint import CIRCLE
-from navd.geometry.mount import LidarMount
-from navd.geometry.scan import laser_points
+from navd.geometry import CIRCLE, LidarMount, laser_points
 from navd.lifecycle.messages import Goal, LaserScan, MapUpdate, Path, PoseEstimate
 from navd.viz.settings import VizSettings
 

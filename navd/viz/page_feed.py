@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from navd.geometry.mount import LidarMount
+from navd.geometry import LidarMount
 from navd.lifecycle.messages import Goal, LaserScan, MapUpdate, Path, PoseEstimate
 from navd.viz import page_data
 from navd.viz.channels import LiveChannels

@@ -28,9 +28,7 @@ from pydantic import ValidationError
 
 from navd import __version__
 from navd.config import NavdConfig
-from navd.lifecycle.clock import SimClock
-from navd.lifecycle.daemon import Daemon
-from navd.lifecycle.lockstep import Lockstep
+from navd.lifecycle import Daemon, Lockstep, Module, SimClock
 from navd.lifecycle.messages import (
     DriveCommand,
     GoalStatus,
@@ -41,7 +39,6 @@ from navd.lifecycle.messages import (
 from navd.lifecycle.messages import (
     Path as Route,
 )
-from navd.lifecycle.module import Module
 from navd.viz.errors import RecordingError
 from navd.viz.record_codec import OUTPUTS
 from navd.viz.recording_reader import Recording

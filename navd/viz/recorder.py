@@ -20,8 +20,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from navd.config import NavdConfig
-from navd.config.loader import redacted, redacted_changes
+from navd.config import NavdConfig, redacted, redacted_changes
+from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     ConfigChange,
     InitialPose,
@@ -31,7 +31,6 @@ from navd.lifecycle.messages import (
     RecordingState,
     RecordRequest,
 )
-from navd.lifecycle.module import Module, ModuleContext
 from navd.viz.record_codec import INFO, INPUTS, OUTPUTS, topic_of
 from navd.viz.recording_writer import CLOSE_TIMEOUT_S, RecordingWriter, WriterSettings
 

@@ -39,9 +39,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from navd.geometry.footprint import CIRCLE, Footprint
-from navd.geometry.mount import LidarMount
-from navd.geometry.pose import Pose2
+from navd.geometry import CIRCLE, Footprint, LidarMount, Pose2
 from navd.lifecycle.messages import (
     CostmapUpdate,
     Goal,
@@ -51,7 +49,7 @@ from navd.lifecycle.messages import (
     PoseEstimate,
 )
 from navd.lifecycle.messages import LaserScan as NavdScan
-from navd.planning.costmap import GridFrame
+from navd.planning import GridFrame
 
 __all__ = [
     "BASE_LINK",

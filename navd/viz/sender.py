@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from navd.lifecycle.clock import Clock
+from navd.lifecycle import Clock
 from navd.viz import scene
 
 __all__ = ["Sender"]

@@ -5,10 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-from navd.config import NavdConfig
-from navd.config.fields import is_loopback
-from navd.geometry.footprint import Footprint
-from navd.geometry.mount import SensorMounts
+from navd.config import NavdConfig, is_loopback
+from navd.geometry import Footprint, SensorMounts
 
 __all__ = ["VizSettings"]
 

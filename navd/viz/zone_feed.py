@@ -9,7 +9,7 @@ from collections.abc import Callable
 
 from foxglove.channels import GridChannel
 
-from navd.planning.zones import ZoneMasks
+from navd.planning import ZoneMasks
 from navd.viz import scene
 from navd.viz.sender import Sender
 

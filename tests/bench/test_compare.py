@@ -10,9 +10,14 @@ import pytest
 
 from navd.bench.compare import _route_cost_m
 from navd.config import NavdConfig
-from navd.planning.costmap import Costmap, GridFrame, build_costmap
-from navd.planning.global_planner import GlobalPlanner, SearchSettings
-from navd.planning.settings import costmap_settings
+from navd.planning import (
+    Costmap,
+    GlobalPlanner,
+    GridFrame,
+    SearchSettings,
+    build_costmap,
+    costmap_settings,
+)
 
 
 def _costmap(cells: int, seed: int) -> Costmap:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from navd.cli import main
-from navd.sim.session import free_port
+from navd.sim import free_port
 
 
 @pytest.mark.parametrize(

@@ -18,12 +18,11 @@ from pydantic import BaseModel
 
 from navd.config import ConfigError, NavdConfig, apply_changes
 from navd.config.fields import restart_required
-from navd.estimation.node import EstimationNode
-from navd.lifecycle.daemon import Daemon
+from navd.estimation import EstimationNode
+from navd.lifecycle import Daemon, parts_of
 from navd.lifecycle.messages import PoseMeasurement
-from navd.lifecycle.settings import parts_of
-from navd.sim.session import free_port
-from navd.slam.node import SlamNode
+from navd.sim import free_port
+from navd.slam import SlamNode
 from navd.wire import ConfigAppliedFrame, ConfigFrame, ConfigRejectedFrame
 from tests.conftest import room_scan
 from tests.drivers.conftest import connected, record, running_daemon, until

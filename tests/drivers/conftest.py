@@ -10,7 +10,7 @@ from typing import Any
 from navd.app import build_modules
 from navd.config import parse_config
 from navd.drivers.tcp.server import TcpServer
-from navd.lifecycle.daemon import Daemon
+from navd.lifecycle import Daemon
 from navd.lifecycle.messages import Message
 from navd.wire import AsyncClient, Hello, Reply
 

@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 
 from navd.config import NavdConfig
-from navd.sim.session import free_port
+from navd.sim import free_port
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from navd.sim.session import Session
+from navd.sim import Session
 from navd.wire import ConnectionClosedError, MissionFrame, MissionStatusFrame, Reply
 
 ENDED = ("completed", "failed", "canceled")

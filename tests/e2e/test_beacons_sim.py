@@ -15,8 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.sim.session import Session, session
-from navd.sim.world import from_shapes, office
+from navd.sim import Session, from_shapes, office, session
 from navd.wire import (
     InitialPoseFrame,
     MissionFrame,

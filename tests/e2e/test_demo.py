@@ -15,8 +15,7 @@ import numpy as np
 import tomli_w
 from PIL import Image
 
-from navd.sim.demo import run_demo
-from navd.sim.world import from_shapes
+from navd.sim import from_shapes, run_demo
 from tests.e2e.conftest import REPO, run_navd
 
 # A 6 m x 3 m room with a box in the middle of the straight line to the goal.

@@ -16,14 +16,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.fleetctl.control import drive_group, fleet_view
-from navd.fleetctl.group import GroupGoal
-from navd.fleetctl.group_map import GroupMap
-from navd.geometry.pose import Pose2
-from navd.sim.fleet import fleet_sessions
-from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons
-from navd.sim.session import Session
-from navd.sim.world import from_shapes
+from navd.fleetctl import GroupGoal, GroupMap, drive_group, fleet_view
+from navd.geometry import Pose2
+from navd.sim import (
+    OFFICE_ANCHORS,
+    Session,
+    fleet_sessions,
+    from_shapes,
+    office_with_beacons,
+    on_beacons,
+)
 from tests.fleet.broker import Broker
 
 pytest.importorskip("aiomqtt", reason="aiomqtt missing")

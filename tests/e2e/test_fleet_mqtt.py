@@ -21,8 +21,7 @@ from typing import Any
 
 import pytest
 
-from navd.sim.session import Session, session
-from navd.sim.world import from_shapes, office
+from navd.sim import Session, from_shapes, office, session
 from navd.wire import GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.fleet.broker import Broker
 from tests.fleet.vda5050_schemas import check

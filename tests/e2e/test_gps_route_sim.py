@@ -13,9 +13,8 @@ from typing import Any
 
 import pytest
 
-from navd.estimation.geo import GeoFrame
-from navd.sim.session import session
-from navd.sim.world import from_shapes
+from navd.estimation import GeoFrame
+from navd.sim import from_shapes, session
 from navd.wire import MissionFrame, SubscribeFrame
 from tests.e2e.missions import follow_mission
 

@@ -14,8 +14,7 @@ from typing import Any, BinaryIO
 import pytest
 import tomli_w
 
-from navd.sim.session import session
-from navd.sim.world import from_shapes
+from navd.sim import from_shapes, session
 from navd.wire import AsyncClient, GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.e2e.conftest import REPO, free_port
 

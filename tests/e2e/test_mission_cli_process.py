@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from navd.sim.session import free_port
+from navd.sim import free_port
 from tests.e2e.conftest import REPO, run_navd
 
 pytestmark = pytest.mark.e2e

@@ -11,8 +11,7 @@ from typing import Any
 
 import pytest
 
-from navd.sim.session import Session, session
-from navd.sim.world import office
+from navd.sim import Session, office, session
 from navd.wire import InitialPoseFrame, MissionControlFrame, MissionFrame, MissionStatusFrame
 from tests.e2e.missions import follow_mission
 

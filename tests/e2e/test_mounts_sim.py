@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from navd.sim.session import session
-from navd.sim.world import from_shapes
-from navd.slam.map_io import load_map
+from navd.sim import from_shapes, session
+from navd.slam import load_map
 from navd.wire import SaveMapFrame
 from tests.drivers.conftest import until
 from tests.e2e.test_scenarios import HALL, outcome, start, tolerant_iou

@@ -13,8 +13,7 @@ from typing import Any
 
 import pytest
 
-from navd.sim.session import free_port, session
-from navd.sim.world import from_shapes
+from navd.sim import free_port, from_shapes, session
 from navd.wire import CancelFrame, InitialPoseFrame
 from tests.e2e.conftest import run_navd
 from tests.e2e.test_safety_process import Lidar

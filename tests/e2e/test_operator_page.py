@@ -18,8 +18,7 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 
-from navd.sim.session import Session, free_port, session
-from navd.sim.world import from_shapes
+from navd.sim import Session, free_port, from_shapes, session
 from navd.wire import GoalStatusFrame, InitialPoseFrame, StatusFrame, SubscribeFrame
 from tests.e2e.test_scenarios import HALL
 

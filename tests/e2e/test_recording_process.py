@@ -16,11 +16,8 @@ from typing import Any
 import pytest
 
 from navd.app import build_modules
-from navd.sim.session import session
-from navd.sim.world import from_shapes
-from navd.viz.playback import play
-from navd.viz.recording_reader import read_recording
-from navd.viz.recording_writer import recording_files
+from navd.sim import from_shapes, session
+from navd.viz import play, read_recording, recording_files
 from tests.e2e.test_scenarios import HALL, start
 
 pytestmark = pytest.mark.e2e

@@ -16,9 +16,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from navd.sim.session import Session, session
-from navd.sim.world import World, from_shapes
-from navd.slam.map_io import load_map
+from navd.sim import Session, World, from_shapes, session
+from navd.slam import load_map
 from navd.wire import (
     ConnectionClosedError,
     GoalFrame,

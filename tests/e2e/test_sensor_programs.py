@@ -16,9 +16,8 @@ import numpy as np
 import pytest
 
 from navd.lifecycle.messages import GpsFix, LaserScan
-from navd.sensors.ld06 import encode_packet
-from navd.viz.recording_reader import read_recording
-from navd.viz.recording_writer import recording_files
+from navd.sensors import encode_packet
+from navd.viz import read_recording, recording_files
 from navd.wire import Client, StatusFrame, SubscribeFrame
 from tests.e2e.ptys import linked_pty
 from tests.sensors.test_nmea import GGA

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import tomli_w
 
-from navd.sim.session import free_port
+from navd.sim import free_port
 from tests.e2e.conftest import run_navd
 
 

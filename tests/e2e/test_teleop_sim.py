@@ -12,8 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from navd.sim.session import Session, session
-from navd.sim.world import from_shapes
+from navd.sim import Session, from_shapes, session
 from navd.wire import InitialPoseFrame, TeleopFrame
 
 pytestmark = pytest.mark.e2e

@@ -12,8 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.sim.session import free_port, session
-from navd.sim.world import from_shapes
+from navd.sim import free_port, from_shapes, session
 from tests.e2e.test_scenarios import HALL, outcome, start, tolerant_iou
 from tests.viz.foxglove_client import FoxgloveClient
 

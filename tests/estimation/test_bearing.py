@@ -9,7 +9,7 @@ import pytest
 
 from navd.bench.ukf_reference import angle_mean
 from navd.estimation.bearing import bearing_to_yaw
-from navd.geometry.angles import wrap_angle
+from navd.geometry import wrap_angle
 
 PI = math.pi
 

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 from navd.bench.motion_scenario import FigureEight, SensorSuite, SpinInPlace, drive, replay
-from navd.config import NavdConfig
-from navd.config.loader import apply_changes
+from navd.config import NavdConfig, apply_changes
 from navd.estimation.estimator import Localization, StateEstimator
 from navd.estimation.settings import EstimatorSettings
-from navd.geometry.mount import rotation_rpy
+from navd.geometry import rotation_rpy
 from navd.lifecycle.messages import (
     BeaconObservation,
     CompassHeading,

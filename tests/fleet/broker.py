@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from navd.sim.broker import LocalBroker, mosquitto_path
+from navd.sim import LocalBroker, mosquitto_path
 
 
 def Broker(folder: Path) -> LocalBroker:  # noqa: N802 - reads as the class it makes

@@ -16,10 +16,8 @@ import pytest
 from navd.config import NavdConfig
 from navd.fleet import node as fleet_node
 from navd.fleet.node import FleetNode
-from navd.lifecycle.bus import Bus
+from navd.lifecycle import Bus, ModuleContext, WorkerPool
 from navd.lifecycle.messages import PoseEstimate, RobotState
-from navd.lifecycle.module import ModuleContext
-from navd.lifecycle.workers import WorkerPool
 from tests.fleet.vda5050_schemas import check
 
 

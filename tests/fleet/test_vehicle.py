@@ -16,7 +16,7 @@ from navd.config import NavdConfig
 from navd.fleet import reports
 from navd.fleet.settings import FleetSettings
 from navd.fleet.vehicle import CANCEL_STOP_S, RETRY_S, Vehicle
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
 from tests.fleet.vda5050_schemas import check
 

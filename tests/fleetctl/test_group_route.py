@@ -16,9 +16,8 @@ from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import DEFAULT_RADIUS_M, GroupMap
 from navd.fleetctl.group_route import GroupWay, lay_out
-from navd.sim.world import office
-from navd.slam.map_io import save_map
-from navd.slam.occupancy import OccupancyGrid
+from navd.sim import office
+from navd.slam import OccupancyGrid, save_map
 from tests.fleet.vda5050_schemas import check
 
 RES_M = 0.05

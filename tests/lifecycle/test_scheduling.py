@@ -8,8 +8,7 @@ import threading
 
 import pytest
 
-from navd.config import parse_config
-from navd.config.errors import ConfigError
+from navd.config import ConfigError, parse_config
 from navd.lifecycle import scheduling
 from navd.lifecycle.scheduling import request_slice, thread_slice_s
 

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.messages import CancelGoal, GeoGoal, Goal, GoalStatus, Message
 from navd.lifecycle.messages.mission import MissionRequest, MissionStatus, MissionStep
 from navd.missions.executor import STAGING_M, MissionExecutor

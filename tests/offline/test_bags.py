@@ -17,7 +17,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from navd.bench.synthetic_room import cast
 from navd.cli import main
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.bags import inspect_bag, is_bag, read_bag
 from navd.offline.errors import LogFormatError
 from navd.offline.relations import read_tum

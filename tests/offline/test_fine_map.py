@@ -11,8 +11,7 @@ import pytest
 
 from navd.bench.synthetic_room import WALLS, cast
 from navd.config import ConfigError, parse_config
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.geometry import Pose2, ScanPoints, scan_points
 from navd.offline.fine_map import (
     REFINE_YAW_RAD,
     THIN_CELL_M,
@@ -22,11 +21,14 @@ from navd.offline.fine_map import (
     refine_pose,
 )
 from navd.offline.refinement import FineRefinement
-from navd.slam.keyframe import Keyframe
-from navd.slam.mapper import ScanMapper
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
-from navd.slam.settings import MapperSettings
-from navd.slam.voxel import voxel_downsample
+from navd.slam import (
+    Keyframe,
+    LikelihoodField,
+    MapperSettings,
+    OccupancyGrid,
+    ScanMapper,
+    voxel_downsample,
+)
 
 SETTINGS = MapperSettings.defaults()
 FINE_M = SETTINGS.resolution_m / 2  # a replay's fine cell by default

@@ -15,15 +15,12 @@ import pytest
 
 from navd.bench.synthetic_room import cast
 from navd.cli import main
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.offline.errors import LogFormatError
 from navd.offline.logfiles import open_log, read_carmen
 from navd.offline.relations import Relation, evaluate, read_relations, read_tum
 from navd.offline.replay import tum_line
-from navd.slam.global_search import relocalize
-from navd.slam.map_io import load_map, load_map_state
-from navd.slam.voxel import voxel_downsample
+from navd.slam import load_map, load_map_state, relocalize, voxel_downsample
 from tests.datasets import dataset
 
 

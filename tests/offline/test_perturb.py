@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.offline.logfiles import LogScan
 from navd.offline.perturb import perturb
 

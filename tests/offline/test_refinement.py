@@ -7,13 +7,9 @@ import math
 import numpy as np
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.geometry import Pose2, ScanPoints, scan_points
 from navd.offline.refinement import FIELD_MARGIN_M, FineRefinement
-from navd.slam.keyframe import Keyframe
-from navd.slam.mapper import ScanMapper
-from navd.slam.settings import MapperSettings
-from navd.slam.voxel import voxel_downsample
+from navd.slam import Keyframe, MapperSettings, ScanMapper, voxel_downsample
 
 SETTINGS = MapperSettings.defaults(keep_trajectory=True)  # a replay's
 

@@ -6,8 +6,7 @@ import math
 
 import pytest
 
-from navd.geometry.mount import LidarMount
-from navd.geometry.pose import Pose2
+from navd.geometry import LidarMount, Pose2
 from navd.offline.replay import replay_mount
 
 CONFIGURED = LidarMount(Pose2(0.1, 0.0, 0.0), 0.2)

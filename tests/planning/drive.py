@@ -14,10 +14,7 @@ import numpy.typing as npt
 
 from navd.bench.synthetic_room import cast
 from navd.config import NavdConfig
-from navd.geometry.angles import wrap_angle
-from navd.geometry.footprint import Footprint
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Footprint, Pose2, scan_points, wrap_angle
 from navd.planning.errors import PlanningError
 from navd.planning.goal import GoalState, NavGoal, Step
 from navd.planning.navigator import Navigator

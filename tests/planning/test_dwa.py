@@ -10,8 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from navd.config import NavdConfig
-from navd.geometry.footprint import Footprint
-from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry import IDENTITY, Footprint, Pose2
 from navd.planning._dwa_kernels import (
     CHAMFER_RATIO,
     bucket_points,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
-from navd.geometry.pose import IDENTITY
+from navd.geometry import IDENTITY
 from navd.planning.goal import GoalState, NavGoal
 from navd.planning.horizon import COARSE_MAX_CELLS
 from navd.planning.navigator import Navigator

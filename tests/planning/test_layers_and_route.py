@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
-from navd.geometry.pose import IDENTITY, Pose2
-from navd.geometry.scan import ALL_AROUND, FieldOfView
+from navd.geometry import ALL_AROUND, IDENTITY, FieldOfView, Pose2
 from navd.planning.errors import GoalRefusedError
 from navd.planning.layers import FRAME_MARGIN_M, Layers
 from navd.planning.route import Route

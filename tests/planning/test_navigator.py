@@ -10,7 +10,7 @@ import pytest
 
 from navd.bench.synthetic_room import WALLS
 from navd.config import NavdConfig
-from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry import IDENTITY, Pose2
 from navd.planning.dwa import LocalPlanner
 from navd.planning.errors import GoalRefusedError
 from navd.planning.goal import GoalState, NavGoal

@@ -12,9 +12,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
-from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount, SensorMounts
-from navd.geometry.pose import IDENTITY, Pose2
+from navd.geometry import IDENTITY, Footprint, LidarMount, Pose2, SensorMounts
 from navd.lifecycle.messages import LaserScan
 from navd.planning.guard import GuardSettings, guard_scale
 from navd.planning.guard_node import CollisionGuard

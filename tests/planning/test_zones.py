@@ -15,8 +15,7 @@ import pytest
 from PIL import Image
 
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
-from navd.geometry.raster_file import MapYaml, occupancy_of
+from navd.geometry import MapYaml, Pose2, occupancy_of
 from navd.planning.costmap import GridFrame
 from navd.planning.errors import PlanningError
 from navd.planning.goal import NavGoal

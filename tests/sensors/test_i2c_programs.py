@@ -13,8 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.config import ConfigError, load_config
-from navd.config.edit import set_table_keys
+from navd.config import ConfigError, load_config, set_table_keys
 from navd.lifecycle.messages import CompassHeading, DeviceConnected, Imu
 from navd.sensors.calibration import record_turn
 from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from navd.config import NavdConfig
-from navd.drivers.kinematics import WheelCalibration, wheel_command, wheel_speeds
+from navd.drivers import WheelCalibration, wheel_command, wheel_speeds
 from navd.sim.body import Body, command_velocity, decode_wheels, encode_wheels
 from navd.sim.errors import WorldError
 from navd.sim.world import Mover, from_shapes, load_world, office
@@ -142,8 +142,7 @@ def test_movers_turn_back_rather_than_walk_into_the_robot() -> None:
 
 @pytest.mark.parametrize("datum", [False, True])
 def test_the_compass_reads_the_true_yaw_back_through_the_daemons_conversion(datum: bool) -> None:
-    from navd.estimation.bearing import bearing_to_yaw
-    from navd.estimation.geo import GeoFrame
+    from navd.estimation import GeoFrame, bearing_to_yaw
     from navd.sim.physics import SimRobot
     from navd.sim.sensors import SensorModels
     from navd.sim.settings import SimSettings

@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import FieldOfView, ScanPoints
+from navd.geometry import FieldOfView, Pose2, ScanPoints
 from navd.slam.assembler import ScanAssembler
 
 FRONT = FieldOfView(0.1, 0.0, -0.5 * math.pi, math.pi)

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam import _grid_kernels as k
 from navd.slam import global_search as global_search_module
 from navd.slam.global_search import COARSE_MAX_CELLS, _coarse_factor, global_search, relocalize

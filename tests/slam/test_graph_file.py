@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam.errors import MapFileError
 from navd.slam.graph_file import MapGraph
 from navd.slam.map_io import load_map, load_map_state, save_map

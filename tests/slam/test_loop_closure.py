@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.geometry import Pose2, ScanPoints, scan_points
 from navd.slam.keyframe import Keyframe
 from navd.slam.loop_closure import (
     LOOP_FAR_EVERY_KEYFRAMES,

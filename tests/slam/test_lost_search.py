@@ -8,8 +8,7 @@ import math
 import numpy as np
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.geometry import Pose2, ScanPoints, scan_points
 from navd.slam.lost_search import LostSearch
 from navd.slam.mapper import ScanMapper
 from navd.slam.occupancy import OccupancyGrid

@@ -11,8 +11,7 @@ import yaml
 from PIL import Image
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam import map_io, occupancy
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import clean_leftovers, load_map, read_map_yaml, save_map

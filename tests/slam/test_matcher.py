@@ -10,8 +10,7 @@ import numpy.typing as npt
 import pytest
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam import _grid_kernels as k
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
 from navd.slam.occupancy import LikelihoodField, OccupancyGrid

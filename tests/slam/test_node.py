@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.messages import (
     InitialPose,
     LocalizationState,
@@ -137,7 +137,7 @@ async def test_the_map_is_saved_on_shutdown_only_once_one_was_drawn(tmp_path: Pa
 
 def _room_map(folder: Path) -> Path:
     """The test room mapped from four poses, saved as ``folder/room.yaml``."""
-    from navd.geometry.scan import scan_points
+    from navd.geometry import scan_points
     from navd.slam.map_io import save_map
     from navd.slam.occupancy import OccupancyGrid
 

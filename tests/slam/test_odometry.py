@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam import _odometry_kernels as kernels
 from navd.slam import odometry as odometry_module
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.slam.pose_graph import (
     Edge,
     _graph,
@@ -72,7 +72,7 @@ def test_consistent_edges_leave_the_poses_alone() -> None:
 
 def test_the_mapper_finds_loops_when_asked() -> None:
     from navd.bench.synthetic_room import cast
-    from navd.geometry.scan import scan_points
+    from navd.geometry import scan_points
     from navd.slam.mapper import ScanMapper
     from navd.slam.settings import MapperSettings
 

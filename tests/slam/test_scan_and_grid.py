@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import ScanPoints, scan_points
+from navd.geometry import Pose2, ScanPoints, scan_points
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.tiles import TILE
 from navd.slam.voxel import voxel_downsample

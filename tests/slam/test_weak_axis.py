@@ -9,8 +9,7 @@ import numpy.typing as npt
 import pytest
 
 from navd.bench.synthetic_room import cast
-from navd.geometry.pose import Pose2
-from navd.geometry.scan import scan_points
+from navd.geometry import Pose2, scan_points
 from navd.slam.matcher import WEAK_AXIS_RATIO
 from navd.slam.voxel import voxel_downsample
 from navd.slam.weak_axis import MIN_SEGMENTS, weak_axis

@@ -9,9 +9,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from navd.config import NavdConfig
-from navd.geometry.mount import LidarMount
-from navd.offline.logfiles import LogScan, open_log
-from navd.offline.replay import replay
+from navd.geometry import LidarMount
+from navd.offline import LogScan, open_log, replay
 from navd.slam.settings import MapperSettings
 from tests.datasets import dataset
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from navd.config import parse_config
-from navd.lifecycle.daemon import Daemon
+from navd.lifecycle import Daemon, StateView
 from navd.lifecycle.messages import (
     CostmapUpdate,
     LaserScan,
@@ -22,7 +22,6 @@ from navd.lifecycle.messages import (
     SafetyState,
     ViewInterest,
 )
-from navd.lifecycle.state_view import StateView
 from navd.logs import add_log_tap, get_logger, remove_log_tap
 from navd.viz import node as viz_node
 from navd.viz.listener import Throttle

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from navd.config import NavdConfig
-from navd.geometry.mount import LidarMount
+from navd.geometry import LidarMount
 from navd.lifecycle.messages import LaserScan, MapUpdate, PoseEstimate
 from navd.viz import page_data
 from navd.viz.settings import VizSettings

@@ -9,9 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.geometry.footprint import Footprint
-from navd.geometry.mount import LidarMount
-from navd.geometry.pose import Pose2
+from navd.geometry import Footprint, LidarMount, Pose2
 from navd.lifecycle.messages import Goal, LaserScan, MapUpdate, Path, PoseEstimate
 from navd.viz import scene
 from navd.viz.layout import live_layout

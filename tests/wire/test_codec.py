@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navd.drivers.convert import control_message, sensor_message
+from navd.drivers import control_message, sensor_message
 from navd.lifecycle.messages import (
     BeaconObservation,
     CompassHeading,

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from navd.drivers.convert import sensor_message
+from navd.drivers import sensor_message
 from navd.lifecycle.messages import GpsFix, Imu, LaserScan, WheelOdometry
 from navd.wire import FixFrame, ImuFrame, OdomFrame, ScanFrame, WireError, decode_sensor
 

@@ -10,9 +10,7 @@ import asyncio
 from collections.abc import Callable, Iterable
 
 from navd.drivers.tcp.session import Server, Session
-from navd.lifecycle.clock import SimClock
-from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.lockstep import Lockstep
+from navd.lifecycle import LifecycleError, Lockstep, SimClock
 from navd.lifecycle.messages import DeviceKind
 from navd.wire import ClockAck, ErrorFrame, PingFrame, Pong, WireError, decode_clock
 

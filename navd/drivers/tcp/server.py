@@ -31,14 +31,13 @@ from navd.drivers.tcp.settings import (
 )
 from navd.drivers.tcp.status_board import StatusBoard
 from navd.drivers.tcp.watch import SilenceWatch
-from navd.lifecycle.errors import MessageError
+from navd.lifecycle import MessageError, Module, ModuleContext
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
     DeviceLost,
     DeviceResumed,
 )
-from navd.lifecycle.module import Module, ModuleContext
 from navd.wire import (
     PROTOCOL_VERSION,
     SENSOR_FRAMES,

@@ -13,9 +13,8 @@ from typing import Protocol
 from navd.drivers.tcp.connection import Connection
 from navd.drivers.tcp.settings import TcpSettings
 from navd.drivers.timesync import StampMapper
+from navd.lifecycle import Live, ModuleContext
 from navd.lifecycle.messages import DeviceKind
-from navd.lifecycle.module import ModuleContext
-from navd.lifecycle.settings import Live
 from navd.wire import ClockFrame
 
 __all__ = ["ARRIVALS_KEPT", "Role", "Server", "Session"]

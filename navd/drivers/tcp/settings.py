@@ -6,9 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from navd.config import NavdConfig
-from navd.config.loader import redacted
-from navd.geometry.mount import SensorMounts
+from navd.config import NavdConfig, redacted
+from navd.geometry import SensorMounts
 from navd.lifecycle.messages import DeviceKind
 
 __all__ = [

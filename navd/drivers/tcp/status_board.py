@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 
+from navd.lifecycle import ModuleContext
 from navd.lifecycle.messages import GoalStatus, LocalizationState, RobotState
-from navd.lifecycle.module import ModuleContext
 from navd.wire import (
     AppliedInfo,
     BeaconInfo,

@@ -15,8 +15,8 @@ from collections.abc import Callable, Iterable
 
 from navd.drivers.tcp.session import Session
 from navd.drivers.tcp.settings import TcpSettings
+from navd.lifecycle import ModuleContext
 from navd.lifecycle.messages import DeviceKind, DeviceStale
-from navd.lifecycle.module import ModuleContext
 from navd.wire import ErrorFrame
 
 __all__ = ["SilenceWatch", "stale_after_s"]

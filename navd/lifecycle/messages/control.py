@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from navd.config import NavdConfig
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.errors import MessageError
 from navd.lifecycle.messages.base import (
     Message,

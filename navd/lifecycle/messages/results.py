@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from navd.geometry.pose import Pose2
+from navd.geometry import Pose2
 from navd.lifecycle.errors import MessageError
 from navd.lifecycle.messages.base import (
     FloatArray,

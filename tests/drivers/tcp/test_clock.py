@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from navd.lifecycle.clock import SimClock
+from navd.lifecycle import SimClock
 from navd.lifecycle.messages import LaserScan
 from navd.wire import ClockAck, ClockFrame, ErrorFrame, Welcome
 from tests.drivers.conftest import connected, hello, record, running_daemon
