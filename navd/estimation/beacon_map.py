@@ -18,12 +18,15 @@ beacon answering under the same id).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
+from navd.config import BeaconPlaceConfig
 from navd.geometry import wrap_angle
+from navd.lifecycle.messages import BeaconPlace
 
 __all__ = ["BeaconMap", "LearntBeacon", "RobotPose"]
 
@@ -243,6 +246,16 @@ class BeaconMap:
         beacon.covariance = _no_surer_than(covariance, pose)
         self.revision += 1
         return True
+
+    def places(self, known: Mapping[str, BeaconPlaceConfig]) -> tuple[BeaconPlace, ...]:
+        """Every beacon with a place: the ``known`` ones (the config's), then those learnt so
+        far."""
+        places = [BeaconPlace(b, p.x_m, p.y_m, 0.0, False, 0) for b, p in known.items()]
+        for beacon_id, learnt in self.beacons.items():
+            if learnt.mean is not None and beacon_id not in known:
+                x, y = (float(v) for v in learnt.mean)
+                places.append(BeaconPlace(beacon_id, x, y, learnt.std_m, True, learnt.observations))
+        return tuple(places)
 
 
 def _best_crossing(

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import math
 
+from navd.config import WorldConfig
 from navd.geometry import wrap_angle
+from navd.lifecycle.messages import CompassHeading
 
-__all__ = ["bearing_to_yaw"]
+__all__ = ["bearing_to_yaw", "compass_yaw"]
 
 
 def bearing_to_yaw(
@@ -41,3 +43,23 @@ def bearing_to_yaw(
     # A direction's angle from grid east is its angle from true east minus the grid's turn.
     grid_yaw = enu_yaw - grid_convergence_rad
     return wrap_angle(grid_yaw - map_rotation_rad)
+
+
+def compass_yaw(
+    heading: CompassHeading,
+    world: WorldConfig,
+    *,
+    grid_convergence_rad: float,
+    mount_yaw_rad: float,
+) -> float:
+    """[rad] the robot's map yaw from a compass's ``heading``: the bearing converted
+    (``bearing_to_yaw``, with the world's declination and map rotation), then turned by the
+    compass's mount (its forward axis's yaw on the robot)."""
+    yaw = bearing_to_yaw(
+        heading.bearing_deg,
+        declination_deg=world.magnetic_declination_deg,
+        magnetic=not heading.true_north,
+        grid_convergence_rad=grid_convergence_rad,
+        map_rotation_rad=world.map_rotation_rad,
+    )
+    return wrap_angle(yaw - mount_yaw_rad)

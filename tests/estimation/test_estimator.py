@@ -370,12 +370,12 @@ def test_a_reflected_range_is_left_out_of_the_start() -> None:
 
 
 def test_the_position_spread_is_the_largest_eigenvalue_of_the_position_block() -> None:
-    from navd.estimation.estimator import _largest_eigenvalue
+    from navd.estimation.localization import largest_eigenvalue
 
     rng = np.random.default_rng(4)
     blocks = [rng.normal(size=(2, 2)) for _ in range(200)]
     cases = [m @ m.T for m in blocks] + [np.zeros((2, 2)), np.diag([4.0, 4.0]), np.diag([0, 9.0])]
     for cov in cases:
         expected = np.linalg.eigvalsh(cov)[-1]
-        got = _largest_eigenvalue(cov[0, 0], cov[0, 1], cov[1, 1])
+        got = largest_eigenvalue(cov[0, 0], cov[0, 1], cov[1, 1])
         assert got == pytest.approx(expected, rel=1e-12, abs=1e-15)
