@@ -9,8 +9,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from navd.config import FleetConfig
-from navd.fleet.vda5050 import PROTOCOL_VERSION, timestamp
-from navd.fleet.vehicle import INSTANT_ACTIONS, Vehicle
+from navd.fleet.action_states import INSTANT_ACTIONS
+from navd.fleet.vda5050 import PROTOCOL_VERSION, Node, timestamp
+from navd.fleet.vehicle import Vehicle
 from navd.geometry import Footprint, RobotLimits
 
 __all__ = ["Robot", "connection", "driving", "factsheet", "state", "visualization"]
@@ -77,12 +78,49 @@ def driving(robot: Robot) -> bool:
     return abs(v) > STANDING_MPS or abs(w) > STANDING_RADPS
 
 
+def order_fields(vehicle: Vehicle) -> dict[str, Any]:
+    """The state message's order fields (its other fields are the node's)."""
+    return {
+        "orderId": vehicle.order_id,
+        "orderUpdateId": vehicle.order_update_id,
+        "lastNodeId": vehicle.last_node_id,
+        "lastNodeSequenceId": vehicle.last_node_sequence_id,
+        "nodeStates": [_node_state(n) for n in vehicle.nodes],
+        "edgeStates": [
+            {"edgeId": e.edgeId, "sequenceId": e.sequenceId, "released": e.released}
+            for e in vehicle.edges
+        ],
+        "actionStates": [
+            {
+                "actionId": s.action.actionId,
+                "actionType": s.action.actionType,
+                "actionStatus": s.status,
+                **({"resultDescription": s.result} if s.result else {}),
+            }
+            for s in vehicle.actions.values()
+        ],
+        "paused": vehicle.paused,
+        "errors": list(vehicle.errors),
+    }
+
+
+def _node_state(node: Node) -> dict[str, Any]:
+    state: dict[str, Any] = {
+        "nodeId": node.nodeId,
+        "sequenceId": node.sequenceId,
+        "released": node.released,
+    }
+    if node.nodePosition is not None:
+        state["nodePosition"] = node.nodePosition.model_dump(exclude_none=True)
+    return state
+
+
 def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any]:
     """The state message."""
     v, w = robot.velocity
     message: dict[str, Any] = {
         **head,
-        **vehicle.order_state(),
+        **order_fields(vehicle),
         "driving": driving(robot),
         "operatingMode": "MANUAL" if robot.manual else "AUTOMATIC",
         # navd reads no battery: the state says so (the field is required)
