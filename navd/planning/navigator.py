@@ -14,21 +14,22 @@ tests drive it from a loop. The pieces:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from navd.geometry import ALL_AROUND, FieldOfView, Pose2, angle_between, wrap_angle
-from navd.planning.costmap import Costmap, CostmapSettings, GridFrame, build_costmap
-from navd.planning.dwa import DwaChoice, LocalPlanner, Window
+from navd.planning.costmap import Costmap, build_costmap
+from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError
-from navd.planning.global_planner import GlobalPlanner, PlannedPath, SearchSettings
+from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.goal import GoalState, NavGoal, Step
-from navd.planning.horizon import COARSE_CELL_M, COARSE_MAX_CELLS, CoarseLayers, plan_far
+from navd.planning.horizon import COARSE_CELL_M, COARSE_MAX_CELLS, CoarseLayers
 from navd.planning.layers import Layers
+from navd.planning.plan_request import PlanRequest
 from navd.planning.route import Route
 from navd.planning.settings import NavigatorSettings, goal_too_far
+from navd.planning.spot_turns import SpotTurns
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
 __all__ = ["Navigator", "PlanRequest"]
@@ -44,59 +45,6 @@ STUCK_CLEAR_RADIUS_M = 1.5
 # abeam or behind it is driven to facing the way, then turned on (steering for the goal's
 # heading with the goal abeam had the robot creep sideways).
 APPROACH_ALIGN_RAD = math.radians(45.0)
-# [rad] a turn on the spot aims the local planner at most this far ahead of the robot's
-# heading: the local planner reads a heading nearer pi ahead as one the other way round when
-# the robot still turns the other way. Over the default 2 s horizon it caps a turn on the
-# spot at 1.25 rad/s (the yaw-rate table allows 1.5 standing).
-MAX_TURN_AIM_RAD = 2.5
-# A robot standing (below STANDING_MPS [m/s]) with its route more than TURN_FIRST_RAD off its
-# heading turns on the spot until it faces the route within ROUTE_FACED_RAD, as Nav2's
-# rotation shim does; the local planner's own turn toward it slowed as the error shrank, and
-# crept forward meanwhile (4.5 s to turn 1.5 rad). A turn on the spot that cannot go toward
-# the route at TURN_USEFUL_SHARE of the rate it wants (something in the way of the robot's
-# corners) is left to the local planner until the robot has moved.
-TURN_FIRST_RAD = math.radians(60.0)
-ROUTE_FACED_RAD = math.radians(15.0)
-STANDING_MPS = 0.02
-TURN_USEFUL_SHARE = 0.5
-
-
-@dataclass(frozen=True, slots=True)
-class PlanRequest:
-    """Everything A* needs, copied out of the navigator so it can run in another thread."""
-
-    frame: GridFrame
-    obstacles: npt.NDArray[np.bool_]
-    unknown: npt.NDArray[np.bool_]
-    settings: CostmapSettings
-    search: SearchSettings
-    start_xy_m: tuple[float, float]
-    goal_xy_m: tuple[float, float]
-    coarse: CoarseLayers | None = None  # a far goal's whole area (the layers: the window)
-
-    def costmap(self) -> Costmap:
-        """The layers inflated, with the settings of when it was asked (heavy)."""
-        return build_costmap(self.frame, self.obstacles, self.unknown, self.settings)
-
-    def solve(self, planner: GlobalPlanner, costmap: Costmap | None = None) -> PlannedPath:
-        """Run A* (heavy) on ``costmap``, or on the layers inflated now.
-
-        Raises:
-            GoalUnreachableError, StartBlockedError: from A*.
-        """
-        if costmap is None:
-            costmap = self.costmap()
-        if self.coarse is not None:
-            settings = (self.settings, self.search)
-            return plan_far(
-                costmap,
-                self.coarse,
-                settings=settings,
-                start_xy_m=self.start_xy_m,
-                goal_xy_m=self.goal_xy_m,
-                fine_planner=planner,
-            )
-        return planner.plan(costmap, self.start_xy_m, self.goal_xy_m, self.search)
 
 
 class Navigator:
@@ -123,8 +71,7 @@ class Navigator:
         self._failing_since: float | None = None
         self._plan_reason: str | None = None
         self._stuck_replans = 0
-        self._turning_first = False  # turning on the spot to face the route (see step)
-        self._turn_refused = False  # ... and it could not: not again until the robot moved
+        self.turns = SpotTurns()  # turning on the spot to face the route (see step)
         self._last_error = ""
         self._fail_reason = ""
 
@@ -159,8 +106,7 @@ class Navigator:
         self._moving_since = None
         self._failing_since = None
         self._stuck_replans = 0
-        self._turning_first = False
-        self._turn_refused = False
+        self.turns.reset()
         self._plan_reason = "new goal"
         self.stuck.reset()
 
@@ -360,8 +306,8 @@ class Navigator:
         carrot = route.carrot(pose, s.lookahead_m)
         if aligning:
             error = 0.0 if goal.yaw_rad is None else wrap_angle(goal.yaw_rad - pose.yaw)
-            target, window = self._turn_on_the_spot(
-                pose, self.profile.turn_rate(error), (goal.x_m, goal.y_m)
+            target, window = self.turns.aim(
+                self.local, self._command, pose, self.profile.turn_rate(error), (goal.x_m, goal.y_m)
             )
         else:
             # Near the goal, arrive facing its heading, but only if the goal lies ahead along
@@ -383,21 +329,19 @@ class Navigator:
             cap = self.profile.speed_cap(remaining, now - self._moving_since)
             if goal.max_speed_mps is not None:
                 cap = min(cap, goal.max_speed_mps)
-            zones = self.map_layers.zones
-            if zones.speed is not None:  # a speed zone here, or where the robot is heading
-                fraction = min(
-                    zones.speed_fraction_at(pose.x, pose.y),
-                    zones.speed_fraction_at(carrot[0], carrot[1]),
-                )
-                cap = min(cap, fraction * self.profile.max_speed_mps)
+            zoned = self.map_layers.zones.speed_fraction_on((pose.x, pose.y), carrot)
+            cap = min(cap, zoned * self.profile.max_speed_mps)
             window = Window(
                 cap,
                 min_speed_mps=min(stuck.min_speed_mps, cap),
                 backward=stuck.phase is StuckPhase.BACKING,
             )
         obstacles = self.map_layers.local_points(pose, s.local_radius_m, now)
-        turning = self._faces_route_first(pose, carrot, stuck.phase, aligning=aligning)
-        choice = self._turn_toward(pose, carrot, obstacles, route) if turning else None
+        choice, turns, command = None, self.turns, self._command
+        if turns.faces_route_first(command, pose, carrot, stuck.phase, aligning=aligning):
+            choice = turns.toward(  # None when it cannot turn there usefully
+                self.local, self.profile, command, pose, carrot, obstacles=obstacles, route=route
+            )
         if choice is None:  # (a turn on the spot that would touch something: not that way)
             choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
         if choice is None:
@@ -421,64 +365,6 @@ class Navigator:
             phase=stuck.phase,
         )
 
-    def _turn_on_the_spot(
-        self, pose: Pose2, rate: float, at: tuple[float, float]
-    ) -> tuple[Pose2, Window]:
-        """The local planner's target and window for turning on the spot at ``rate`` [rad/s]
-        (the profile's ``turn_rate``, signed).
-
-        The local planner picks the turn whose horizon ends nearest the heading it is given:
-        it is given the heading that rate reaches within the horizon.
-        """
-        horizon = self.local.settings.horizon_s
-        # A robot still turning the other way ends its horizon that far round already: the
-        # aim comes nearer, or it would read as a heading that way round.
-        against = min(math.copysign(1.0, rate) * self._command[1], 0.0) * horizon
-        reach = max(min(abs(rate) * horizon, MAX_TURN_AIM_RAD + against), 0.0)
-        return Pose2(at[0], at[1], pose.yaw + math.copysign(reach, rate)), Window(
-            0.0, rotate_only=True
-        )
-
-    def _turn_toward(
-        self, pose: Pose2, point: tuple[float, float], obstacles: FloatArray, route: Route
-    ) -> DwaChoice | None:
-        """The local planner's turn on the spot toward ``point``; None, and no such turn again
-        until the robot has moved, if it cannot turn there usefully (see TURN_USEFUL_SHARE)."""
-        toward = math.atan2(point[1] - pose.y, point[0] - pose.x)
-        wanted = self.profile.turn_rate(wrap_angle(toward - pose.yaw))
-        target, window = self._turn_on_the_spot(pose, wanted, point)
-        choice = self.local.choose(pose, self._command, obstacles, route.field, target, window)
-        side = math.copysign(1.0, wanted)
-        now_toward = side * self._command[1]  # [rad/s] negative: still turning the other way
-        step = self.local.settings.angular_accel_radps2 * self.local.settings.period_s
-        if now_toward < 0.0:  # still turning the other way: it must slow that turn
-            useful = now_toward + TURN_USEFUL_SHARE * step
-        else:
-            useful = TURN_USEFUL_SHARE * min(abs(wanted), now_toward + step)
-        if choice is None or side * choice.angular_radps < useful:
-            self._turning_first = False
-            self._turn_refused = True
-            return None
-        return choice
-
-    def _faces_route_first(
-        self, pose: Pose2, carrot: tuple[float, float], phase: StuckPhase, *, aligning: bool
-    ) -> bool:
-        """Whether to turn on the spot toward the route before driving on (see
-        TURN_FIRST_RAD); never while stuck handling pushes or backs the robot, nor at the goal
-        (turning to its heading)."""
-        if aligning:
-            self._turning_first = False
-            return False
-        off = angle_between(pose.yaw, math.atan2(carrot[1] - pose.y, carrot[0] - pose.x))
-        standing = abs(self._command[0]) < STANDING_MPS
-        self._turn_refused = self._turn_refused and standing
-        if self._turn_refused:
-            return False
-        keep = off > ROUTE_FACED_RAD if self._turning_first else standing and off > TURN_FIRST_RAD
-        self._turning_first = phase is StuckPhase.MOVING and keep
-        return self._turning_first
-
     def _stuck(self, now: float, pose: Pose2, remaining: float) -> Step:
         """StuckDetected: forget nearby scan obstacles and replan, or give up."""
         self._command = (0.0, 0.0)
@@ -491,19 +377,13 @@ class Navigator:
                 f"stuck: no progress after {limit} replans "
                 f"(max_stuck_time_s {self.settings.max_stuck_time_s} s each)"
             )
-            return Step(
-                0.0, 0.0, self.state, remaining, reason=self._fail_reason, stuck_detected=True
-            )
-        self.map_layers.forget_around(pose.x, pose.y, STUCK_CLEAR_RADIUS_M)
-        self._plan_reason = "stuck recovery"
+            reason, phase = self._fail_reason, StuckPhase.MOVING
+        else:
+            self.map_layers.forget_around(pose.x, pose.y, STUCK_CLEAR_RADIUS_M)
+            self._plan_reason = "stuck recovery"
+            reason, phase = "stuck: replanning", StuckPhase.STUCK
         return Step(
-            0.0,
-            0.0,
-            self.state,
-            remaining,
-            reason="stuck: replanning",
-            stuck_detected=True,
-            phase=StuckPhase.STUCK,
+            0.0, 0.0, self.state, remaining, reason=reason, stuck_detected=True, phase=phase
         )
 
     @property

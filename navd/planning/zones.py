@@ -163,6 +163,11 @@ class ZoneMasks:
         value = self.speed.value_at(x_m, y_m)
         return 1.0 if value <= 0 else min(value, 100) / 100.0
 
+    def speed_fraction_on(self, *points_m: tuple[float, float]) -> float:
+        """The lowest top speed at any of ``points_m`` (where the robot is, where it heads),
+        as a fraction of the robot's (1: no speed zone)."""
+        return min((self.speed_fraction_at(x, y) for x, y in points_m), default=1.0)
+
 
 def _stamp(yaml_path: Path) -> tuple[int, int]:
     """The modification times [ns] of a mask's YAML and of the image it names.
