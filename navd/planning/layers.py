@@ -22,6 +22,15 @@ import numpy.typing as npt
 from navd.geometry import ALL_AROUND, FieldOfView, Pose2
 from navd.planning.costmap import GridFrame, ObstacleLayer, keep_out_mask, static_layer
 from navd.planning.errors import GoalRefusedError
+from navd.planning.lattice import (
+    aligned,
+    cells_near,
+    cells_of,
+    overlap,
+    pooled,
+    snap,
+    window_around,
+)
 from navd.planning.zones import ZoneMasks
 
 __all__ = ["FRAME_MARGIN_M", "LayerSettings", "Layers"]
@@ -211,7 +220,7 @@ class Layers:
         half = self.settings.window_m / 2.0
         x, y = center_xy_m
         res, anchor = self._lattice()
-        return self._layers_on(_snap((x - half, y - half, x + half, y + half), res, anchor), now)
+        return self._layers_on(snap((x - half, y - half, x + half, y + half), res, anchor), now)
 
     def coarse_snapshot(
         self, now: float, points_m: list[tuple[float, float]], max_cells: int, min_cell_m: float
@@ -237,11 +246,11 @@ class Layers:
         unknown = np.ones(coarse.shape, dtype=np.bool_)
         if self.map is not None:
             map_frame, occupied, map_unknown = self.map
-            obstacles |= _pooled(coarse, k, map_frame, occupied)
-            unknown &= ~_pooled(coarse, k, map_frame, ~map_unknown)
+            obstacles |= pooled(coarse, k, map_frame, occupied)
+            unknown &= ~pooled(coarse, k, map_frame, ~map_unknown)
         layer = self.obstacles
-        if layer is not None and _aligned(layer.frame, (fine.origin_x_m, fine.origin_y_m)):
-            obstacles |= _pooled(coarse, k, layer.frame, layer.active(now))
+        if layer is not None and aligned(layer.frame, (fine.origin_x_m, fine.origin_y_m)):
+            obstacles |= pooled(coarse, k, layer.frame, layer.active(now))
         obstacles |= self.keep_out(coarse)
         return coarse, obstacles, unknown
 
@@ -254,7 +263,7 @@ class Layers:
         unknown = np.ones(frame.shape, dtype=np.bool_)
         if self.map is not None:
             map_frame, occupied, map_unknown = self.map
-            inside = _overlap(frame, map_frame)
+            inside = overlap(frame, map_frame)
             if inside is not None:
                 outer, inner = inside
                 obstacles[outer] = occupied[inner]
@@ -300,13 +309,13 @@ class Layers:
         parts = [self.scan_points]
         if self.map is not None:
             frame, occupied, _ = self.map
-            parts.append(_cells_near(frame, occupied, pose, radius_m))
+            parts.append(cells_near(frame, occupied, pose, radius_m))
         layer = self.obstacles
         if layer is not None:
-            window = _window(layer.frame, pose, radius_m)
+            window = window_around(layer.frame, pose, radius_m)
             if window is not None and not any(v.all_around for v in self.views):
                 remembered = layer.last_seen[window] >= now - layer.persistence_s
-                marks = _cells_of(layer.frame, remembered, window)
+                marks = cells_of(layer.frame, remembered, window)
                 local = pose.inverse().transform(marks)
                 unseen = self.views[0].unseen(local)
                 for view in self.views[1:]:
@@ -314,7 +323,7 @@ class Layers:
                 parts.append(marks[unseen])
             if self.has_keep_out():
                 frame = layer.frame
-                parts.append(_cells_near(frame, self.keep_out(frame), pose, radius_m))
+                parts.append(cells_near(frame, self.keep_out(frame), pose, radius_m))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
     def _lattice(self) -> tuple[float, tuple[float, float]]:
@@ -345,97 +354,9 @@ class Layers:
                 max(hi_y, m.origin_y_m + m.rows * res),
             )
         layer = self.obstacles
-        if layer is not None and layer.frame.resolution_m == res and _aligned(layer.frame, anchor):
+        if layer is not None and layer.frame.resolution_m == res and aligned(layer.frame, anchor):
             marks = layer.active_bounds(now)
             if marks is not None:
                 lo_x, lo_y = min(lo_x, marks[0]), min(lo_y, marks[1])
                 hi_x, hi_y = max(hi_x, marks[2]), max(hi_y, marks[3])
-        return _snap((lo_x, lo_y, hi_x, hi_y), res, anchor)
-
-
-def _snap(
-    box: tuple[float, float, float, float], res: float, anchor: tuple[float, float]
-) -> GridFrame:
-    """The frame of whole cells of the lattice through ``anchor`` covering ``box`` [m]
-    (x0, y0, x1, y1)."""
-    lo_x, lo_y, hi_x, hi_y = box
-    ox = anchor[0] + math.floor(round((lo_x - anchor[0]) / res, 6)) * res
-    oy = anchor[1] + math.floor(round((lo_y - anchor[1]) / res, 6)) * res
-    cols = math.ceil(round((hi_x - ox) / res, 6))
-    rows = math.ceil(round((hi_y - oy) / res, 6))
-    return GridFrame(res, ox, oy, rows, cols)
-
-
-def _aligned(frame: GridFrame, anchor: tuple[float, float]) -> bool:
-    """True if ``frame``'s cells lie on the lattice through ``anchor``."""
-    for offset in (frame.origin_x_m - anchor[0], frame.origin_y_m - anchor[1]):
-        cells = offset / frame.resolution_m
-        if abs(cells - round(cells)) > 1e-6:
-            return False
-    return True
-
-
-def _overlap(
-    outer: GridFrame, inner: GridFrame
-) -> tuple[tuple[slice, slice], tuple[slice, slice]] | None:
-    """The slices of ``outer`` and of ``inner`` covering the cells both hold (same lattice),
-    or None if they share none."""
-    r = round((inner.origin_y_m - outer.origin_y_m) / outer.resolution_m)
-    c = round((inner.origin_x_m - outer.origin_x_m) / outer.resolution_m)
-    r0, c0 = max(r, 0), max(c, 0)
-    r1, c1 = min(r + inner.rows, outer.rows), min(c + inner.cols, outer.cols)
-    if r1 <= r0 or c1 <= c0:
-        return None
-    return (slice(r0, r1), slice(c0, c1)), (slice(r0 - r, r1 - r), slice(c0 - c, c1 - c))
-
-
-def _pooled(coarse: GridFrame, k: int, fine: GridFrame, mask: BoolArray) -> BoolArray:
-    """``mask`` (on ``fine``, whose lattice has blocks of k x k cells that are ``coarse``'s
-    cells) pooled onto ``coarse``: a coarse cell is set if any of its fine cells is."""
-    res = fine.resolution_m
-    r = round((fine.origin_y_m - coarse.origin_y_m) / res)  # fine cells from coarse's corner
-    c = round((fine.origin_x_m - coarse.origin_x_m) / res)
-    out = np.zeros(coarse.shape, dtype=np.bool_)
-    if not mask.any():
-        return out
-    # cut to the coarse frame, then pad to whole blocks
-    top, left = max(-r, 0), max(-c, 0)
-    part = mask[top:, left:]
-    r, c = r + top, c + left
-    pad_r, pad_c = r % k, c % k
-    rows = math.ceil((part.shape[0] + pad_r) / k) * k
-    cols = math.ceil((part.shape[1] + pad_c) / k) * k
-    padded = np.zeros((rows, cols), dtype=np.bool_)
-    padded[pad_r : pad_r + part.shape[0], pad_c : pad_c + part.shape[1]] = part
-    blocks: BoolArray = np.asarray(padded.reshape(rows // k, k, cols // k, k).any(axis=(1, 3)))
-    br, bc = r // k, c // k
-    rr = min(blocks.shape[0], coarse.rows - br)
-    cc = min(blocks.shape[1], coarse.cols - bc)
-    if rr > 0 and cc > 0:
-        out[br : br + rr, bc : bc + cc] = blocks[:rr, :cc]
-    return out
-
-
-def _window(frame: GridFrame, pose: Pose2, radius_m: float) -> tuple[slice, slice] | None:
-    """The cells of ``frame`` in a square of half-size radius_m around pose (None if none)."""
-    r0, c0 = frame.cell_of(pose.x - radius_m, pose.y - radius_m)
-    r1, c1 = frame.cell_of(pose.x + radius_m, pose.y + radius_m)
-    r0, c0 = max(r0, 0), max(c0, 0)
-    r1, c1 = min(r1 + 1, frame.rows), min(c1 + 1, frame.cols)
-    if r1 <= r0 or c1 <= c0:
-        return None
-    return slice(r0, r1), slice(c0, c1)
-
-
-def _cells_of(frame: GridFrame, mask: BoolArray, window: tuple[slice, slice]) -> FloatArray:
-    """[m] centres of the cells set in ``mask``, the ``window`` of ``frame`` it covers."""
-    cells = np.argwhere(mask) + np.array([window[0].start, window[1].start])
-    return frame.centers_of(cells.astype(np.int64))
-
-
-def _cells_near(frame: GridFrame, mask: BoolArray, pose: Pose2, radius_m: float) -> FloatArray:
-    """[m] centres of the ``mask`` cells within a square of half-size radius_m around pose."""
-    window = _window(frame, pose, radius_m)
-    if window is None:
-        return np.empty((0, 2))
-    return _cells_of(frame, mask[window], window)
+        return snap((lo_x, lo_y, hi_x, hi_y), res, anchor)
