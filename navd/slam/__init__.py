@@ -7,11 +7,12 @@ No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads
 from navd.slam.errors import MapFileError, SlamError
 from navd.slam.global_search import relocalize
 from navd.slam.keyframe import Keyframe
+from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.map_io import SavedMap, load_map, load_map_state, save_map
 from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper
 from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.node import SlamNode
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.settings import MapperSettings, scan_odometry_settings

@@ -17,8 +17,9 @@ import numpy.typing as npt
 
 from navd.geometry import Pose2
 from navd.slam import _grid_kernels as k
+from navd.slam.likelihood_field import FIELD_PEAK, LikelihoodField
 from navd.slam.matcher import CorrelativeMatcher, Match
-from navd.slam.occupancy import FIELD_PEAK, LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import OccupancyGrid
 
 __all__ = ["global_search", "relocalize"]
 

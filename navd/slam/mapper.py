@@ -1,14 +1,11 @@
 """Scan-to-map SLAM: each scan is matched onto the map around its predicted pose, then
 inserted into the occupancy grid at keyframes.
 
-The prediction is the last pose moved by the odometry since the last scan (wheel odometry,
-or scan odometry, ``odometry.py``); without odometry, the last pose. The map the scan is matched
-onto is a likelihood field of the occupancy grid around the prediction, rebuilt when the
-grid changed or the robot left its window. A match is judged on the scan points that land
-on mapped ground: scans whose fit there is below ``min_score`` keep the predicted pose and
-are not inserted (counted), except on new ground (most points where the map has seen
-nothing), which is mapped from the predicted pose so the map keeps growing ahead of the
-robot.
+The prediction is the last pose moved by the odometry since the last scan (wheel or scan
+odometry); without odometry, the last pose. The scan is matched onto ``tracking_field``. A
+match is judged on the scan points that land on mapped ground: scans whose fit there is below
+``min_score`` keep the predicted pose and are not inserted (counted), except on new ground,
+which is mapped from the predicted pose so the map keeps growing ahead of the robot.
 """
 
 from __future__ import annotations
@@ -23,52 +20,21 @@ from navd.geometry import Pose2, ScanPoints
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import Keyframe
+from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.loop_closure import LoopCloser
 from navd.slam.match_repair import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, MatchRepair
 from navd.slam.matcher import CorrelativeMatcher
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.reported_pose import PoseRefiner
+from navd.slam.scan_result import ScanResult, TrackingCounts
 from navd.slam.settings import MapperSettings
+from navd.slam.tracking_field import TrackingField
 from navd.slam.voxel import voxel_downsample
 
 __all__ = ["ScanMapper", "ScanResult"]
 
 FloatArray = npt.NDArray[np.float64]
-
-
-@dataclass(frozen=True, slots=True)
-class ScanResult:
-    """Where a scan was taken.
-
-    Attributes:
-        pose: the robot's pose in the map.
-        covariance: 3x3 covariance of (x, y, yaw) from the match (the prior's, if unmatched).
-        score: mean likelihood under the matched points, in [0, 1] (0: not matched).
-        matched: True if scan matching set the pose.
-        keyframe: True if the scan was inserted into the map.
-    """
-
-    pose: Pose2
-    covariance: FloatArray
-    score: float
-    matched: bool
-    keyframe: bool
-
-
-@dataclass
-class _Counts:
-    scans: int = 0
-    matched: int = 0
-    weak_matches: int = 0
-    exploring: int = 0
-    keyframes: int = 0
-    fields_built: int = 0
-    optimizations: int = 0
-    repaired: int = 0
-    repair_ambiguous: int = 0
-    doubtful: int = 0
-    lost: int = 0
 
 
 # Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
@@ -103,8 +69,7 @@ class ScanMapper:
 
     Attributes:
         settings: what it runs on.
-        fine: refines the pose each matched scan is reported at (a replay's fine map), or
-            None: reported as matched.
+        fine: refines each matched scan's reported pose (a replay's fine map), or None.
     """
 
     settings: MapperSettings = field(default_factory=MapperSettings.defaults)
@@ -124,7 +89,7 @@ class ScanMapper:
         # trajectory follows the keyframes when the pose graph moves them.
         self._anchors: list[tuple[int, Pose2]] = []
         self.loops = LoopCloser(s)
-        self.counts = _Counts()
+        self.counts = TrackingCounts()
         self.heading_trust = HeadingTrust()
         self._last_odom: Pose2 | None = None
         self._weak_run = 0  # scans in a row that did not match the map
@@ -135,9 +100,7 @@ class ScanMapper:
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
         # The next keyframe starts a new chain (after a load or a pose set from outside).
         self._new_session = False
-        self._field: LikelihoodField | None = None
-        self._field_revision = -1
-        self._field_center = Pose2(0.0, 0.0, 0.0)
+        self.tracking = TrackingField()  # what scans are matched on, around the robot
 
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the search window, thresholds, updating_map) at once."""
@@ -146,7 +109,7 @@ class ScanMapper:
         if self.fine is not None:
             self.fine.configure(settings)
         self.loops.configure(settings)
-        self._field = None
+        self.tracking.forget()
         self.doubt.configure(settings)
         self._weak_run = 0
         self._misfit_run = 0
@@ -168,7 +131,7 @@ class ScanMapper:
         self._anchors = []
         self._new_session = True
         self.loops.held = []  # (their keyframe indices were of the keyframes replaced)
-        self._field = None
+        self.tracking.forget()
         if self.fine is not None:
             self.fine.clear()
 
@@ -199,30 +162,12 @@ class ScanMapper:
         """After the last scan: let go of what only matching new scans uses (the tracking
         field and the fine map), so that writing the map out has that memory. Adding a scan
         afterwards matches it without the fine refinement."""
-        self._field = None
+        self.tracking.forget()
         self.fine = None
 
     def tracking_counts(self) -> dict[str, int | float]:
         """How tracking went so far: the replay summary's and the daemon status's counts."""
-        c = self.counts
-        return {
-            "scans": c.scans,
-            "matched": c.matched,
-            "weak_matches": c.weak_matches,
-            "exploring": c.exploring,
-            "doubtful": c.doubtful,
-            "repaired": c.repaired,
-            "repair_ambiguous": c.repair_ambiguous,
-            "lost": c.lost,
-            "keyframes": c.keyframes,
-            "loop_checks": self.loops.counts.checks,
-            "loops_found": self.loops.counts.found,
-            "loops_ambiguous": self.loops.counts.ambiguous,
-            "loops_far_held": self.loops.counts.far_held,
-            "loops_far_confirmed": self.loops.counts.far_confirmed,
-            "graph_optimizations": c.optimizations,
-            "heading_prior_weight_per_rad2": round(self.matcher.prior_weight_per_rad2, 3),
-        }
+        return self.counts.as_dict(self.loops.counts, self.matcher.prior_weight_per_rad2)
 
     def _anchor(self, pose: Pose2) -> None:
         index = len(self.keyframes) - 1
@@ -423,7 +368,7 @@ class ScanMapper:
         # The old grid and field go before the new grid is drawn: a large map's tiles are
         # never held twice (fr-clinic's are 45 MB). Until this returns the grid is partly
         # drawn: whoever shares the mapper across threads holds their lock around it.
-        self._field = None
+        self.tracking.forget()
         self.grid = OccupancyGrid(self.grid.resolution) if base is None else base.copy()
         for frame in self.keyframes:
             if frame.scan is not None and frame.mapped:
@@ -450,15 +395,6 @@ class ScanMapper:
 
     def _field_around(self, prior: Pose2) -> LikelihoodField:
         """The likelihood field for matching near ``prior`` (reused while still valid)."""
-        s = self.settings
-        reach = s.max_range_m + s.search_xy_m
-        stale = self._field is None or self._field_revision != self.grid.revision
-        moved = np.hypot(prior.x - self._field_center.x, prior.y - self._field_center.y)
-        if stale or moved > s.max_range_m * 0.25:
-            radius = reach + s.max_range_m * 0.25
-            self._field = self.grid.likelihood_field(prior, radius, s.blur_sigma_m)
-            self._field_revision = self.grid.revision
-            self._field_center = prior
-            self.counts.fields_built += 1
-        assert self._field is not None
-        return self._field
+        field, drawn = self.tracking.around(self.grid, prior, self.settings)
+        self.counts.fields_built += drawn
+        return field

@@ -21,8 +21,9 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry import Pose2
+from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import OccupancyGrid
 from navd.slam.settings import MapperSettings
 
 __all__ = ["LOST_RUN", "MIN_KNOWN_POINTS", "REPAIR_KNOWN_FRACTION", "MatchRepair"]

@@ -35,7 +35,7 @@ import numpy.typing as npt
 
 from navd.geometry import Pose2
 from navd.slam import _grid_kernels as k
-from navd.slam.occupancy import FIELD_PEAK, LikelihoodField
+from navd.slam.likelihood_field import FIELD_PEAK, LikelihoodField
 from navd.slam.weak_axis import weak_axis
 
 __all__ = ["CorrelativeMatcher", "Match", "rival_ratio"]

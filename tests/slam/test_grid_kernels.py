@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from navd.slam import _grid_kernels as k
-from navd.slam.occupancy import gaussian_kernel
+from navd.slam.likelihood_field import gaussian_kernel
 from navd.slam.tiles import TILE, TiledArray
 from tests.slam import grid_reference as ref
 
@@ -361,7 +361,7 @@ def test_the_pull_along_an_axis_is_bounded_from_below_over_every_block(angle: fl
 
 @pytest.mark.parametrize("block", [2, 4, 8, 64])
 def test_field_bounds_built_by_doubling_equal_the_reference(block: int) -> None:
-    from navd.slam.occupancy import LikelihoodField
+    from navd.slam.likelihood_field import LikelihoodField
 
     values = np.random.default_rng(block).random((97, 130)).astype(np.float32)
     field = LikelihoodField(values, 0.0, 0.0, 0.05)
@@ -372,7 +372,7 @@ def test_field_bounds_built_by_doubling_equal_the_reference(block: int) -> None:
 
 
 def test_a_field_given_in_another_layout_is_kept_c_ordered_float32() -> None:
-    from navd.slam.occupancy import LikelihoodField
+    from navd.slam.likelihood_field import LikelihoodField
 
     values = np.random.default_rng(3).random((40, 60))[:, ::2]  # float64, strided
     field = LikelihoodField(values, 0.0, 0.0, 0.05)

@@ -12,8 +12,9 @@ import pytest
 from navd.bench.synthetic_room import cast
 from navd.geometry import Pose2, scan_points
 from navd.slam import _grid_kernels as k
+from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.matcher import CorrelativeMatcher, rival_ratio
-from navd.slam.occupancy import LikelihoodField, OccupancyGrid
+from navd.slam.occupancy import OccupancyGrid
 from navd.slam.settings import MapperSettings
 from navd.slam.voxel import voxel_downsample
 
