@@ -13,8 +13,6 @@ from navd.config.loader import (
     dump_toml,
     load_config,
     parse_config,
-    redacted,
-    redacted_changes,
     toml_key,
 )
 from navd.config.localization import EstimationConfig, SlamConfig, WorldConfig
@@ -28,6 +26,7 @@ from navd.config.mounts import (
 )
 from navd.config.planning import PlanningConfig
 from navd.config.record import RecordConfig
+from navd.config.redaction import redacted, redacted_changes
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
 from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig

@@ -11,7 +11,6 @@ import difflib
 import re
 import textwrap
 import tomllib
-import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -20,8 +19,9 @@ import tomli_w
 from pydantic import BaseModel, ValidationError
 
 from navd.config.errors import ConfigError
-from navd.config.fields import is_secret, privileged, restart_required
+from navd.config.fields import privileged, restart_required
 from navd.config.model import NavdConfig
+from navd.config.redaction import REDACTED, field_secret, model_at
 
 __all__ = [
     "RESTART_ONLY",
@@ -33,11 +33,7 @@ __all__ = [
     "dump_toml",
     "load_config",
     "parse_config",
-    "redacted",
-    "redacted_changes",
 ]
-
-REDACTED = "<redacted>"
 
 
 # Keys that moved or went away: an older config file is told where to, not just "unknown".
@@ -159,30 +155,6 @@ def changed_keys(old: NavdConfig, new: NavdConfig) -> tuple[str, ...]:
     """The dotted keys whose value differs between two configs, in model order."""
     before, after = _flatten(old.model_dump()), _flatten(new.model_dump())
     return tuple(k for k in after if before.get(k) != after[k])
-
-
-def redacted(config: NavdConfig) -> dict[str, Any]:
-    """The config as plain data for a log line: every secret set is replaced by a marker."""
-    data = config.model_dump(mode="json")
-    for section_name, section in data.items():
-        model = NavdConfig.model_fields[section_name].annotation
-        assert isinstance(model, type) and issubclass(model, BaseModel)
-        for name, value in section.items():
-            if value is not None and is_secret(model, name):
-                section[name] = REDACTED
-    return data
-
-
-def redacted_changes(changes: Mapping[str, object]) -> dict[str, object]:
-    """Dotted-key changes (as ``apply_changes`` takes them) with every secret's value
-    replaced by a marker, for a log line or a recording."""
-
-    def walk(prefix: tuple[str, ...], value: object) -> object:
-        if isinstance(value, Mapping):
-            return {k: walk((*prefix, str(k)), v) for k, v in value.items()}
-        return REDACTED if _field_secret(prefix) else value
-
-    return {key: walk(tuple(key.split(".")), value) for key, value in changes.items()}
 
 
 def dump_toml(config: NavdConfig, *, comments: bool = False) -> str:
@@ -334,13 +306,13 @@ def _did_you_mean(name: str, options: list[str]) -> str:
 def _field_description(loc: tuple[int | str, ...]) -> str | None:
     """The description of the field at ``loc``, walking nested models (and the entries of a
     table of named tables)."""
-    parent = _model_at(loc[:-1]) if loc else None
+    parent = model_at(loc[:-1]) if loc else None
     name = loc[-1] if loc else None
     if parent is not None and isinstance(name, str) and name in parent.model_fields:
         return parent.model_fields[name].description
     # a part of a field's value (an item of a list): the nearest field that has words
     for end in range(len(loc) - 1, 0, -1):
-        parent = _model_at(loc[: end - 1])
+        parent = model_at(loc[: end - 1])
         name = loc[end - 1]
         if parent is not None and isinstance(name, str) and name in parent.model_fields:
             return parent.model_fields[name].description
@@ -354,7 +326,7 @@ def _describe(err: ValidationError) -> list[str]:
         key = ".".join(str(part) for part in loc) or "the config"
         kind = error["type"]
         if kind == "extra_forbidden":
-            parent = _model_at(loc[:-1])
+            parent = model_at(loc[:-1])
             problems.append(_unknown(key, list(parent.model_fields) if parent else []))
             continue
         if kind in ("model_type", "model_attributes_type", "dict_type"):
@@ -366,42 +338,9 @@ def _describe(err: ValidationError) -> list[str]:
             continue
         value = error.get("input")
         shown = "" if isinstance(value, Mapping) else f" = {value!r}"
-        if _field_secret(loc):
+        if field_secret(loc):
             shown = f" = {REDACTED}"
         description = _field_description(loc)
         expected = f" (expected {description})" if description else ""
         problems.append(f"{key}{shown}: {message}{expected}")
     return problems
-
-
-def _field_secret(loc: tuple[int | str, ...]) -> bool:
-    """True if ``loc`` names a secret field (its value is never echoed)."""
-    parent = _model_at(loc[:-1]) if loc else None
-    name = loc[-1] if loc else None
-    return (
-        parent is not None
-        and isinstance(name, str)
-        and name in parent.model_fields
-        and is_secret(parent, name)
-    )
-
-
-def _model_at(loc: tuple[int | str, ...]) -> type[BaseModel] | None:
-    """The model at ``loc`` in the config (a table of named tables, like the sensor mounts,
-    is looked through: its key names an entry, not a field); None where there is none."""
-    model: type[BaseModel] = NavdConfig
-    parts = list(loc)
-    while parts:
-        part = parts.pop(0)
-        if not isinstance(part, str) or part not in model.model_fields:
-            return None
-        annotation = model.model_fields[part].annotation
-        if typing.get_origin(annotation) is dict:
-            if not parts:
-                return None  # the table of tables itself
-            parts.pop(0)  # an entry's name (a device id)
-            annotation = typing.get_args(annotation)[1]
-        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
-            return None
-        model = annotation
-    return model

@@ -3,7 +3,7 @@ process, never inside a robot)."""
 
 from navd.fleetctl.control import drive_group, fleet_view
 from navd.fleetctl.errors import FleetControlError, GroupGoalError
-from navd.fleetctl.group import GroupGoal
+from navd.fleetctl.group_goal import GroupGoal
 from navd.fleetctl.group_map import GroupMap
 
 __all__ = [

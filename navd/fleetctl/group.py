@@ -34,7 +34,8 @@ import numpy.typing as npt
 
 from navd.fleet import PROTOCOL_VERSION, timestamp
 from navd.fleetctl.errors import GroupGoalError
-from navd.fleetctl.formation import Formation, shape_error
+from navd.fleetctl.formation import shape_error
+from navd.fleetctl.group_goal import GroupGoal
 from navd.fleetctl.group_map import GroupMap
 from navd.fleetctl.group_route import GroupWay, lay_out
 
@@ -56,48 +57,6 @@ CAUGHT_UP_M = 0.05
 # back row is from the robot ahead at a step's start (0.78 m at 1.5 m spacing), and than a
 # column's next robot is from the one ahead (0.75 m): those are paced as usual.
 IN_THE_WAY_M = 0.7
-
-
-@dataclass(frozen=True, slots=True)
-class GroupGoal:
-    """What the group is asked.
-
-    Attributes:
-        x_m, y_m: [m] where the group's centre goes (map frame).
-        heading_rad: [rad] which way the formation faces there (None: the way it drives).
-        formation: line, column or triangle.
-        spacing_m: [m] between neighbouring robots. A robot in a triangle's back row drives
-            spacing / 2 beside the lane of the one ahead; below about 1.5 m for robots of
-            0.4 m, that lane is within the clearance navd keeps from another robot (its
-            size, its own and ``safety`` margins): the back row bends round the robot ahead
-            and is paused and restarted over and over, and a 1.5 m step takes 10-20 s instead
-            of 7 s (three simulated robots; 1.2 m spacing against 1.5 m).
-        step_m: [m] the centre's way is released this much at a time (a column: half its
-            spacing at a time, see ``way``).
-        start_delay_s: [s] all robots start this long after the orders go out.
-        speed_mps: [m/s] the group's top speed (each edge's maxSpeed): slow enough that a
-            robot told to wait stops short of running ahead.
-    """
-
-    x_m: float
-    y_m: float
-    heading_rad: float | None = None
-    formation: Formation = "triangle"
-    spacing_m: float = 1.5
-    step_m: float = 1.5
-    start_delay_s: float = 2.0
-    speed_mps: float = 0.3
-
-    def __post_init__(self) -> None:
-        numbers = [self.x_m, self.y_m, self.spacing_m, self.step_m, self.start_delay_s]
-        numbers += [self.speed_mps] + ([] if self.heading_rad is None else [self.heading_rad])
-        if not all(math.isfinite(v) for v in numbers):
-            raise GroupGoalError(f"a group goal's numbers must be finite: {self}")
-        if min(self.spacing_m, self.step_m, self.speed_mps) <= 0 or self.start_delay_s < 0:
-            raise GroupGoalError(
-                f"a group goal's spacing_m, step_m and speed_mps must be > 0 and its "
-                f"start_delay_s >= 0: {self}"
-            )
 
 
 @dataclass
