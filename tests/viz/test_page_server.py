@@ -34,7 +34,7 @@ def _get(server: PageServer, path: str, method: str = "GET") -> tuple[int, str, 
 def test_the_page_and_its_files_are_served_with_their_types(page: PageServer) -> None:
     status, kind, body = _get(page, "/")
     assert status == 200 and kind.startswith("text/html")
-    assert b'<canvas id="map"' in body and b'src="page.js"' in body
+    assert b'<canvas id="map"' in body and b'type="module" src="page.js"' in body
     for path, wanted in (("/page.js", "text/javascript"), ("/page.css", "text/css")):
         status, kind, body = _get(page, path)
         assert status == 200 and kind.startswith(wanted) and body == PAGE_FILES[path]

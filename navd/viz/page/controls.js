@@ -1,0 +1,117 @@
+// What the operator does: on the map, tap for a goal, drag for the initial pose, the wheel
+// to zoom; the joystick to drive by hand (held, it drives at 10 Hz; let go, one stop and
+// silence: the daemon's deadman); cancel, fit, and the token.
+import { pointer, state, view } from "./model.js";
+import { fit, requestDraw, screenToMap } from "./picture.js";
+import { say } from "./panel.js";
+import { command } from "./stream.js";
+
+const DRAG_PX = 12;          // a press that moves less than this is a tap (a goal)
+const TELEOP_PERIOD_MS = 100; // joystick commands go out at 10 Hz (the daemon's deadman: 0.5 s)
+
+const canvas = document.getElementById("map");
+
+function onMap(event) {
+  const r = canvas.getBoundingClientRect();
+  return [event.clientX - r.left, event.clientY - r.top];
+}
+
+export function listenToTheMap() {
+  canvas.addEventListener("pointerdown", (event) => {
+    canvas.setPointerCapture(event.pointerId);
+    const [x, y] = onMap(event);
+    pointer.press = { x0: x, y0: y, x, y, dragging: false };
+  });
+  canvas.addEventListener("pointermove", (event) => {
+    const press = pointer.press;
+    if (!press) return;
+    [press.x, press.y] = onMap(event);
+    press.dragging = press.dragging || Math.hypot(press.x - press.x0, press.y - press.y0) > DRAG_PX;
+    requestDraw();
+  });
+  canvas.addEventListener("pointerup", () => {
+    const press = pointer.press;
+    if (!press) return;
+    const [x, y] = screenToMap(press.x0, press.y0);
+    if (press.dragging) {
+      const yaw = Math.atan2(-(press.y - press.y0), press.x - press.x0);
+      command({ type: "initial_pose", x, y, yaw });
+      say(`initial pose (${x.toFixed(2)}, ${y.toFixed(2)}) sent`);
+    } else {
+      command({ type: "goal", x, y });
+      say(`goal (${x.toFixed(2)}, ${y.toFixed(2)}) sent`);
+    }
+    pointer.press = null;
+    requestDraw();
+  });
+  canvas.addEventListener("pointercancel", () => { pointer.press = null; requestDraw(); });
+  canvas.addEventListener("wheel", (event) => {
+    event.preventDefault();
+    const [px, py] = onMap(event);
+    const [x, y] = screenToMap(px, py);
+    view.scale *= Math.exp(-event.deltaY * 0.001);
+    view.zoomed = true;
+    const [x2, y2] = screenToMap(px, py);
+    view.cx += x - x2;
+    view.cy += y - y2;
+    requestDraw();
+  }, { passive: false });
+}
+
+export function listenToTheJoystick() {
+  const stick = document.getElementById("joystick");
+  const knob = document.getElementById("knob");
+  let held = null;
+  let timer = null;
+
+  function stickCommand() {
+    const limits = state.info ? state.info.teleop : { max_linear: 0.3, max_angular: 0.8 };
+    command({ type: "teleop", linear_x: -held.dy * limits.max_linear,
+      angular_z: -held.dx * limits.max_angular });
+  }
+
+  function moveKnob(event) {
+    const r = stick.getBoundingClientRect();
+    const radius = r.width / 2;
+    let dx = (event.clientX - r.left - radius) / radius;
+    let dy = (event.clientY - r.top - radius) / radius;
+    const length = Math.hypot(dx, dy);
+    if (length > 1) { dx /= length; dy /= length; }
+    held = { dx, dy };
+    knob.style.transform = `translate(${dx * radius * 0.7}px, ${dy * radius * 0.7}px)`;
+  }
+
+  function release() {
+    if (!held) return;
+    clearInterval(timer);
+    held = { dx: 0, dy: 0 };
+    stickCommand();
+    held = null;
+    knob.style.transform = "";
+  }
+
+  stick.addEventListener("pointerdown", (event) => {
+    stick.setPointerCapture(event.pointerId);
+    moveKnob(event);
+    stickCommand();
+    timer = setInterval(stickCommand, TELEOP_PERIOD_MS);
+  });
+  stick.addEventListener("pointermove", (event) => { if (held) moveKnob(event); });
+  stick.addEventListener("pointerup", release);
+  stick.addEventListener("pointercancel", release);
+  stick.addEventListener("lostpointercapture", release);
+  // A hidden tab's timers slow to one a second: stop rather than drive in bursts unattended.
+  document.addEventListener("visibilitychange", () => { if (document.hidden) release(); });
+  window.addEventListener("blur", release);
+}
+
+export function listenToTheButtons() {
+  document.getElementById("cancel").addEventListener("click", () => {
+    command({ type: "cancel" });
+    say("cancel sent");
+  });
+  document.getElementById("fit").addEventListener("click", () => { view.zoomed = false; fit(); });
+  const tokenInput = document.getElementById("token");
+  tokenInput.value = localStorage.getItem("navd-token") || "";
+  tokenInput.addEventListener("change", () => localStorage.setItem("navd-token", tokenInput.value));
+}
