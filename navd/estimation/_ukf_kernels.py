@@ -8,8 +8,8 @@ the 2n + 1 points through the linear model and takes the unscented transform (ya
 as wrapped offsets from the central point, see ``ukf.angle_mean``), then redraws the points
 from the predicted mean and covariance; update passes them through the measurement rows and
 applies the Kalman gain. The gate, the yaw variance cap and the symmetrization are those of
-``ukf.PoseUkf``. In Python with numpy a step took 100 to 150 µs, nearly all of it in the
-overhead of some sixty small array calls; here it is a few µs.
+``ukf.PoseUkf``. One kernel call a step: in numpy the overhead of some sixty small array
+calls was most of a step's cost (docs/estimation.md).
 
 Measurement rows are given by code (``ROW_CODES`` in ``ukf``): 0 x, 1 y, 2 yaw (an angle),
 3 yaw rate, 4 and 5 acceleration forward and left, 6 and 7 velocity forward and left (the

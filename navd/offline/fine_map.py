@@ -1,43 +1,23 @@
-"""The fine map: the keyframes near the robot drawn again at a finer cell than the map's,
-on which each tracked pose is refined before it is reported.
+"""The fine map: the keyframes near the robot drawn again at a finer cell than the map's, on
+which each tracked pose is refined before it is reported (a replay's trajectory; the daemon
+reports the match itself, docs/slam.md, pipeline step 6, says why and what was measured).
 
-Why: a grid places each wall in the cell its rays end in, so on the 5 cm map a wall sits
-anywhere within 2.5 cm of where it was seen, and a match on it is as coarse. A scan drawn
-with two others into a grid of the bench room, put up to 2.5 cm off its pose and searched
-again within a map cell, comes back 2.8 cm from its pose on average on 5 cm cells and 1.1
-cm on 2.5 cm cells (tests/slam/test_fine_map.py).
-
-What it changes: only the pose reported for each matched scan, which is the trajectory a
-replay writes (the daemon does not refine: docs/slam.md, pipeline step 6, says why).
-Tracking, the map, the keyframes and the loop closures go on from the match on the map
-exactly as without it. Feeding the refined pose
-back into tracking was measured first (docs/slam.md, "Finer cells for the Intel lab"): it
-gave the Intel lab 0.0227 m but lost four of fr-clinic's five perturbed runs.
+A grid places each wall in the cell its rays end in, so a match on a 5 cm map is as coarse as
+its cells; drawn again at 2.5 cm, a scan's position is found again nearer where it was taken.
+Only the reported pose changes: tracking, the map, the keyframes and the loop closures go on
+from the match on the map.
 
 The refinement searches positions within one map cell of the match and headings within
-``REFINE_YAW_RAD`` of it, pulled toward the match as tracking pulls toward the odometry
-(``slam.prior_weight_per_m2``), and along the scan's weak axis with half the tracking's
-extra pull there: along a corridor the finer walls hold the scan no better than the coarse
-ones did. Measured before the heading was searched too: free along the axis, aces 0.0412
-against 0.0399 m; with the whole extra pull, the Intel lab 0.0256 against 0.0253 m.
+``REFINE_YAW_RAD`` of it, pulled toward the match as tracking pulls toward the odometry, and
+along the scan's weak axis with ``REFINE_AXIS_SHARE`` of tracking's extra pull there.
 
-Memory: a whole building at 2.5 cm holds four times the cells of the map (fr-clinic: 180 MB
-more). This map draws only the keyframes within half the lidar's range of the robot (their
-scans hold the walls near it finely; those of keyframes up to the field's 13 m gave the
-same poses to 0.1 mm on the Intel lab and fr-clinic, and redrew the fine map so often that
-the Intel lab's replay took half as long again), keeps what it drew while the robot moves
-on, and is drawn anew with only what is near when it has grown past ``max_tiles`` tiles
-(checked when a keyframe is added and when a field is drawn; an update in between may pass
-it by what the keyframes newly in reach add). After a re-solve of the pose graph the mapper
-clears it and it is drawn again, near the robot, at the new poses. Drawn anew, it draws one
-keyframe per place (``THIN_CELL_M``, ``THIN_YAW_RAD``), the newest; every new keyframe is
-drawn as it comes.
-
-Cost: the field the refinement reads (1045 x 1045 cells at the defaults) is drawn anew only
-when the mapper asks (the robot has moved 1 m, or this map was drawn anew), and brought up
-to date with each new keyframe's hits in between (``update``). Each field handed out shares
-its cells with the next: ``field`` and ``update`` write into the last one's array, so a
-field is good until the next call.
+Memory and time: the map draws only the keyframes within half the lidar's range of the robot,
+keeps what it drew while the robot moves on, and is drawn anew around the robot (one keyframe
+per place: ``THIN_CELL_M``, ``THIN_YAW_RAD``) when it grows past ``max_tiles`` tiles or after
+a re-solve of the pose graph. The field the refinement reads is drawn anew only when the
+mapper asks (``refinement``) and brought up to date with each new keyframe's hits in between
+(``update``); each field handed out shares its cells with the next: ``field`` and ``update``
+write into the last one's array, so a field is good until the next call.
 """
 
 from __future__ import annotations
@@ -56,9 +36,7 @@ FloatArray = npt.NDArray[np.float64]
 __all__ = ["MAX_TILES", "FineMap", "fine_keep_cells", "fine_refiner", "refine_pose"]
 
 # Tiles this map may grow to before it is drawn anew around the robot (64 x 64 float32
-# cells, 16 KB each: 6 MB). fr-clinic's replay peaked at 292 MB with 384, 302 MB with 512
-# and 308 MB with 1024 when keyframes up to 13 m off were drawn (target 300; 285 MB with
-# 384 and those within 6 m); with 256 it redrew so often that it took a quarter longer.
+# cells, 16 KB each: 6 MB; docs/slam.md, pipeline step 6, gives the peaks of other sizes).
 MAX_TILES = 384
 # The refinement's search: headings within this of the match [rad] (0.29 degrees, about
 # half the tracking's rotation step), in steps of half of it.
@@ -67,10 +45,8 @@ REFINE_YAW_RAD = 0.005
 # extra pull there (``slam.prior_axis_weight_per_m2``).
 REFINE_AXIS_SHARE = 0.5
 # When the map is drawn anew (after a re-solve of the pose graph, or past ``max_tiles``), one
-# keyframe is drawn per place: a square of this side [m] and this much heading [rad]. The
-# keyframes of the passes through a place see the same walls; the Intel lab redrew 330 on
-# average at each of its 61 re-solves. With one per place its keyframe draws fell from 22173
-# to 13681, and its figures stayed (0.0241 against 0.0244 m, its dump 0.0247 against 0.0248).
+# keyframe is drawn per place: a square of this side [m] and this much heading [rad] (the
+# passes through a place see the same walls).
 THIN_CELL_M = 0.5
 THIN_YAW_RAD = math.pi / 4
 
@@ -202,9 +178,9 @@ class FineMap:
         keyframes within ``reach_m`` of ``center`` not drawn yet are drawn (one per place),
         and the hits of every keyframe drawn since are stamped in
         (``OccupancyGrid.stamp_points``: cells a keyframe freed stay stamped until the field
-        is drawn anew). About 0.1 ms a keyframe where drawing the Intel lab's 1045 x 1045
-        cells anew took 2.6 ms. Stamped into ``field``'s array; returned as a new field
-        (no bounds cached), or ``field`` itself if nothing was drawn since.
+        is drawn anew): a small part of drawing the field anew. Stamped into ``field``'s
+        array; returned as a new field (no bounds cached), or ``field`` itself if nothing was
+        drawn since.
 
         The grid must be the one ``field`` was drawn from: after ``clear``, or a redraw
         within ``max_tiles``, draw the field anew instead.

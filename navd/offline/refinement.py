@@ -4,10 +4,8 @@ is refined, and what it changes).
 
 The field is drawn anew when the robot has moved ``FIELD_MARGIN_M`` from its centre, or the
 fine map was drawn anew (after a re-solve of the pose graph, or past its budget of tiles),
-and brought up to date with each keyframe drawn in between (``FineMap.update``). Drawn anew
-at every keyframe instead, the Intel lab's replay took 36.9 s against 34.1 s; drawn only
-when the robot moved and not brought up to date between, its dump gave 0.0255 m and aces
-0.0401 m (docs/slam.md, "Finer cells for the Intel lab").
+and brought up to date with each keyframe drawn in between (``FineMap.update``): docs/slam.md
+(pipeline step 6) gives what the other choices cost.
 """
 
 from __future__ import annotations

@@ -6,15 +6,14 @@ envelope of parabolas of Felzenszwalb and Huttenlocher (2012, "Distance transfor
 sampled functions"), linear in the cells. The distances are exact: the square root of a
 whole number of squared cells, as ``scipy.ndimage.distance_transform_edt`` gives them (the
 test compares the two), without loading scipy.ndimage (9 MB of the daemon's resident memory
-for this one function). It is most of what building a costmap costs: 30-38 ms of 38-47 at
-2000² cells here (71 of 88 when the envelope also ran down the columns).
+for this one function). It is most of what building a costmap costs (``navd bench planning``).
 
 ``any_within`` says whether any of a few points (stations along a route) lies within a radius
 of any of many (a scan's obstacle points), stopping at the first such pair: the route's
-blocked check, asked at every scan (a broadcast of every pair took about 1 ms a scan).
+blocked check, asked at every scan.
 
 ``nearest_on_polyline`` finds the point of a route nearest the robot, asked several times a
-control step (in numpy, some ten small array calls: 150 us of the daemon's 20 Hz step).
+control step.
 """
 
 from __future__ import annotations

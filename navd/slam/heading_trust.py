@@ -16,14 +16,11 @@ errors are known it is ``START_WEIGHT``.
 
 The floor matters more than it looks. Each error is the odometry's step less the matched
 step, so the matcher's own heading noise is in the spread too, and it grows with the
-lidar's range noise: 3 cm of it took the Intel lab's weight from 6.5 (no noise, no floor)
-to 2.9, the prior then pulled too little to hold a fast turn, and one wrong match in a turn
-lost the map (3.7 m mean error). The floor of 5 (a sigma of about 0.5° per scan, the Intel
-lab's own wheels) keeps that pull: with it the Intel lab holds 0.04 m under 3 cm of noise,
-0.046 m with half its beams, and 0.03 m with wheels 5 % long, which broke it before
-(0.18 m); a floor of 4 let one unperturbed Intel replay lose its map (2.7 m). The price: a
-robot whose wheels are much worse than the Intel lab's gets a stronger heading prior than
-its odometry merits.
+lidar's range noise: without a floor a noisy lidar lowers the weight until the prior pulls
+too little to hold a fast turn. The floor (a sigma of about 0.5° per scan) keeps that pull
+(docs/slam.md, "Measured history", gives the replays that chose it). The price: a robot
+whose wheels are much worse than that gets a stronger heading prior than its odometry
+merits.
 """
 
 from __future__ import annotations

@@ -38,9 +38,7 @@ graph (robust: a wrong one that slipped through pulls less than a right one).
    ``LOOP_CONFIRM_KEYFRAMES`` keyframes later is found where the first match and the
    tracking between them put it (within ``LOOP_CONFIRM_XY_M`` and
    ``LOOP_CONFIRM_YAW_RAD``); then both are used, each tying its own new keyframe to the
-   old pass. fr-clinic with an 8 m lidar comes back to its first corridors 24.5 m and 11.5
-   degrees off after 1000 s, lost; a 30 m cap alone closed that loop but let a wrong one
-   into the unperturbed log.
+   old pass (docs/slam.md, "Measured history", says which log asked for it).
 """
 
 from __future__ import annotations
