@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 from navd.config import NavdConfig
-from navd.drivers import ChassisDriver
-from navd.drivers.tcp.server import TcpServer
+from navd.drivers import ChassisDriver, TcpServer
 from navd.estimation import EstimationNode
-from navd.lifecycle import Module, SafetyGate, StateView
+from navd.lifecycle import Module, SafetyGate
 from navd.missions import MissionNode
 from navd.planning import CollisionGuard, PlannerNode
 from navd.slam import SlamNode
@@ -30,7 +29,6 @@ def build_modules(config: NavdConfig) -> list[Module]:
         # before anything that decides or hears: a recording from start-up misses nothing,
         # and stops after them
         Recorder(),
-        StateView(),  # what the outside is told: the status, live view and fleet read it
         EstimationNode(),
         SlamNode(),
         PlannerNode(),

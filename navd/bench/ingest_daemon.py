@@ -12,7 +12,7 @@ import asyncio
 from pathlib import Path
 
 from navd.config import load_config
-from navd.drivers.tcp.server import TcpServer
+from navd.drivers import TcpServer
 from navd.lifecycle import Daemon, SafetyGate
 from navd.logs import configure_logging
 

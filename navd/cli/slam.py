@@ -142,6 +142,11 @@ def _mapper_settings(args: argparse.Namespace, settings: MapperSettings) -> Mapp
             f"--fine-resolution {fine}: must be at least 0.005 m and at most the map's cell, "
             f"slam.resolution_m ({settings.resolution_m} m)"
         )
+    if fine is not None and fine < settings.resolution_m and not settings.loop_closure:
+        raise ValueError(
+            f"--fine-resolution {fine}: the fine map is drawn from the keyframes' scans, which "
+            "only loop closure keeps; turn loop closure on, or leave --fine-resolution out"
+        )
     return settings
 
 

@@ -44,7 +44,7 @@ from navd.lifecycle.messages import (
 __all__ = ["ChassisDriver"]
 
 MAX_FEEDBACK_LINE = 256
-TRAFFIC_ID = "chassis"  # the chassis's name in the line counters (and in WheelOdometry)
+LINE_COUNT_ID = "chassis"  # the chassis's name in the line counters (and in WheelOdometry)
 
 
 class ChassisDriver(Module):
@@ -207,7 +207,7 @@ class ChassisDriver(Module):
         line = format_command(left, right, self.settings.value.line_ending)
         try:
             self._port.write(line)
-            self.ctx.traffic.add_sent(TRAFFIC_ID)
+            self.ctx.line_counts.add_sent(LINE_COUNT_ID)
         except serial.SerialTimeoutException:
             self.writes_stalled += 1  # nobody reads the UART: drop this line, not the port
             if self.writes_stalled == 1 or self.writes_stalled % 100 == 0:
@@ -237,7 +237,7 @@ class ChassisDriver(Module):
             line = bytes(self._rx[:end]).strip()
             del self._rx[: end + 1]
             if line:
-                self.ctx.traffic.take(TRAFFIC_ID, 1, functools.partial(self._feedback, line))
+                self.ctx.line_counts.take(LINE_COUNT_ID, 1, functools.partial(self._feedback, line))
         if len(self._rx) > MAX_FEEDBACK_LINE:
             self.ctx.log.warning("chassis_feedback_garbled", bytes=len(self._rx))
             self._rx.clear()
@@ -267,7 +267,7 @@ class ChassisDriver(Module):
             WheelOdometry(
                 stamp=now,
                 received=now,
-                device_id=TRAFFIC_ID,
+                device_id=LINE_COUNT_ID,
                 linear_mps=linear,
                 angular_radps=angular,
             )

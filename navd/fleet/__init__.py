@@ -1,6 +1,7 @@
 """The fleet: navd as a VDA 5050 vehicle on an MQTT broker (the vehicle's order logic, its
 reports, the connection), an edge room that reaches the rest through the bus."""
 
+from navd.fleet import reports
 from navd.fleet.errors import BrokerUrlError, FleetError
 from navd.fleet.mqtt import Broker, connect
 from navd.fleet.node import FleetNode
@@ -17,5 +18,6 @@ __all__ = [
     "Topics",
     "Vehicle",
     "connect",
+    "reports",
     "timestamp",
 ]

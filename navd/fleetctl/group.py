@@ -37,7 +37,7 @@ from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import shape_error
 from navd.fleetctl.group_goal import GroupGoal
 from navd.fleetctl.group_map import GroupMap
-from navd.fleetctl.group_route import GroupWay, lay_out
+from navd.fleetctl.group_route import GroupRoute, lay_out
 
 __all__ = ["GroupDrive", "GroupGoal"]
 
@@ -124,7 +124,7 @@ class GroupDrive:
         self.group_id = group_id
         self.goal = goal
         here = np.array([(x, y) for _, _, x, y in robots], dtype=np.float64)
-        self.way: GroupWay = lay_out(
+        self.way: GroupRoute = lay_out(
             here,
             (goal.x_m, goal.y_m),
             goal_heading_rad=goal.heading_rad,
@@ -237,7 +237,7 @@ class GroupDrive:
         """[m] the group's shape error at ``now_s``: each robot's last heard position carried
         on to then at its speed (they are heard at different times), against where the way
         puts it at the group's progress through the released step (the mean of the robots'
-        shares of it; ``GroupWay.target_m``), laid over as well as it fits
+        shares of it; ``GroupRoute.target_m``), laid over as well as it fits
         (``formation.shape_error``). NaN until every robot has said where it is."""
         if any(m.position is None for m in self.members):
             return math.nan

@@ -29,7 +29,7 @@ from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import Formation, assign, places, slots
 from navd.fleetctl.group_map import GroupMap
 
-__all__ = ["GroupWay", "lay_out"]
+__all__ = ["GroupRoute", "lay_out"]
 
 FloatArray = npt.NDArray[np.float64]
 # [m] a formation's place must be this much clearer of walls than a robot needs: robots are
@@ -81,7 +81,7 @@ class _Polyline:
 
 
 @dataclass(frozen=True)
-class GroupWay:
+class GroupRoute:
     """Each robot's place and heading at each step, and the group's shape there.
 
     Attributes:
@@ -130,7 +130,7 @@ def lay_out(
     spacing_m: float,
     step_m: float,
     group_map: GroupMap | None = None,
-) -> GroupWay:
+) -> GroupRoute:
     """The group's way (see the module docstring) from where the robots stand.
 
     Raises:
@@ -191,7 +191,7 @@ def lay_out(
         places_m[:, k] = step_places[k][slot]
         headings_rad[:, k] = step_headings[k][slot]
         stations_m[:, k] = step_stations[k][slot]
-    return GroupWay(places_m, headings_rad, tuple(shapes), route, stations_m)
+    return GroupRoute(places_m, headings_rad, tuple(shapes), route, stations_m)
 
 
 class _Layer:

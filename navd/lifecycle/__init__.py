@@ -13,6 +13,7 @@ from navd.lifecycle.errors import (
 from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.memory_release import release_compiler_code, release_freed_memory
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager, ModuleState
+from navd.lifecycle.requests import control_message
 from navd.lifecycle.safety import SafetyGate
 from navd.lifecycle.settings import Live, parts_of
 from navd.lifecycle.state_view import StateView
@@ -41,6 +42,7 @@ __all__ = [
     "StateView",
     "Supervisor",
     "WorkerPool",
+    "control_message",
     "parts_of",
     "percentile",
     "release_compiler_code",

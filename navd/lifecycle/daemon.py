@@ -23,7 +23,7 @@ from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
 from navd.lifecycle.daemon_settings import LifecycleSettings, LoggingSettings
 from navd.lifecycle.lag import LoopLagMonitor
-from navd.lifecycle.line_counts import Traffic
+from navd.lifecycle.line_counts import LineCounts
 from navd.lifecycle.messages import (
     ConfigApplied,
     DaemonStatus,
@@ -35,6 +35,7 @@ from navd.lifecycle.module import Module, ModuleContext, ModuleManager
 from navd.lifecycle.scheduling import request_slice, thread_slice_s
 from navd.lifecycle.sdnotify import SystemdNotifier
 from navd.lifecycle.settings import Live
+from navd.lifecycle.state_view import StateView
 from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.workers import WorkerPool
 from navd.logs import current_level, get_logger, set_level
@@ -79,7 +80,7 @@ class Daemon:
         if clock is None:
             clock = SimClock() if lc.clock == "simulated" else MonotonicClock()
         self.clock: Clock = clock
-        self.traffic = Traffic(defer=lc.clock == "simulated")
+        self.line_counts = LineCounts(defer=lc.clock == "simulated")
         self.supervisor = Supervisor(lc.max_handler_failures, lc.failure_window_s)
         self.bus = Bus(
             self.clock,
@@ -88,6 +89,8 @@ class Daemon:
             max_cascade=lc.max_dispatch_cascade,
         )
         self.config_service = ConfigService(self.bus, self.clock, config)
+        # the robot as the outside is told it, heard before any module's handlers
+        self.state_view = StateView(self.bus, self.clock)
         self.workers = WorkerPool(self.bus, lc.worker_threads, inline=lc.clock == "simulated")
         self.lag = LoopLagMonitor(lc.lag_sample_period_s, lc.lag_window)
         self.manager = ModuleManager(modules, self._context, lc.transition_timeout_s)
@@ -223,7 +226,7 @@ class Daemon:
             clock=self.clock,
             workers=self.workers,
             config=lambda: self.config_service.current,
-            traffic=self.traffic,
+            line_counts=self.line_counts,
             prepare_kernels=self._prepare_kernels,
         )
 

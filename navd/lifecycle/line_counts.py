@@ -20,12 +20,12 @@ import itertools
 from collections import Counter
 from collections.abc import Callable, Mapping
 
-__all__ = ["Traffic"]
+__all__ = ["LineCounts"]
 
 MAX_HELD = 10_000  # batches held at most: with no clock client moving time, memory stays bounded
 
 
-class Traffic:
+class LineCounts:
     """Counters of lines received from and sent to each device id. Event loop only.
 
     Args:

@@ -4,7 +4,7 @@ With ``lifecycle.clock = "simulated"`` the daemon's clock stands still until a c
 (a simulator) moves it. Each step the simulator names the lines it has sent each device; the
 daemon lets any start-up work still running beside the loop finish (the first step may wait
 for kernels to compile), waits until it has read the named lines, handles them in device
-order (see ``Traffic``), lets the work they started finish, then moves time to the requested
+order (see ``LineCounts``), lets the work they started finish, then moves time to the requested
 instant one timer deadline at a time, letting every timer's work (and every worker job it
 starts) finish before the next deadline, and answers with the lines it has written each
 device (the chassis's wheel commands), so the simulator can read exactly those.
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from navd.lifecycle.clock import SimClock
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.line_counts import Traffic
+from navd.lifecycle.line_counts import LineCounts
 from navd.lifecycle.workers import WorkerPool
 
 __all__ = ["Lockstep", "StepReport"]
@@ -51,13 +51,13 @@ class Lockstep:
     Args:
         clock: the daemon's simulated clock.
         workers: the pool whose jobs must finish before time moves on.
-        traffic: the drivers' line counters.
+        line_counts: the drivers' line counters.
     """
 
-    def __init__(self, clock: SimClock, workers: WorkerPool, traffic: Traffic) -> None:
+    def __init__(self, clock: SimClock, workers: WorkerPool, line_counts: LineCounts) -> None:
         self.clock = clock
         self.workers = workers
-        self.traffic = traffic
+        self.line_counts = line_counts
         self._lock = asyncio.Lock()
 
     async def step_to(
@@ -81,12 +81,12 @@ class Lockstep:
             # Work begun beside the loop (kernels compiling at start-up) finishes first, so
             # no job of this step compiles on the loop; only the first step waits here.
             await self.workers.wait_idle()
-            missing = await self.traffic.wait_received(expected, timeout_s)
-            self.traffic.release()
+            missing = await self.line_counts.wait_received(expected, timeout_s)
+            self.line_counts.release()
             await self.settle()
             await self.clock.run_to(time_s, settle=self.settle)
             await self.settle()
-            return StepReport(self.clock.now(), missing, dict(self.traffic.sent))
+            return StepReport(self.clock.now(), missing, dict(self.line_counts.sent))
 
     async def settle(self) -> None:
         """Let the loop run until no task has more to do at this instant and no worker job

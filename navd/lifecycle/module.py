@@ -22,7 +22,7 @@ from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
-from navd.lifecycle.line_counts import Traffic
+from navd.lifecycle.line_counts import LineCounts
 from navd.lifecycle.messages import ConfigApplied, Message
 from navd.lifecycle.settings import Derive, Live
 from navd.lifecycle.workers import Job, WorkerPool
@@ -47,7 +47,7 @@ class ModuleState(StrEnum):
 
 class ModuleContext:
     """What a module may use: the bus, the clock, the workers, its settings and the line
-    counters drivers keep per device (``traffic``, for a simulated clock).
+    counters drivers keep per device (``line_counts``, for a simulated clock).
 
     Everything done through the context is attributed to the module (handler failures,
     worker slots, background tasks).
@@ -61,7 +61,7 @@ class ModuleContext:
         clock: Clock,
         workers: WorkerPool,
         config: Callable[[], NavdConfig],
-        traffic: Traffic | None = None,
+        line_counts: LineCounts | None = None,
         prepare_kernels: Callable[[], None] | None = None,
     ) -> None:
         self.name = name
@@ -69,7 +69,7 @@ class ModuleContext:
         self.bus = bus
         self.clock = clock
         self.workers = workers
-        self.traffic = traffic if traffic is not None else Traffic()
+        self.line_counts = line_counts if line_counts is not None else LineCounts()
         self.log: FilteringBoundLogger = get_logger(name)
         self._config = config
         self._tasks: set[asyncio.Task[None]] = set()

@@ -51,8 +51,8 @@ class Live(Generic[S]):
 
     @property
     def name(self) -> str:
-        """What the holder holds, for logs: its value's type."""
-        return type(self.value).__name__
+        """What the holder holds, for logs: the function that derives it."""
+        return getattr(self.derive, "__qualname__", type(self.value).__name__)
 
     def update(self, config: NavdConfig) -> bool:
         """Re-derive from ``config``; if the value differs, call ``on_change(old, new)`` and

@@ -5,14 +5,18 @@ localization, scan matching, the wheel command, who drives, the safety gate, the
 mission, the daemon's health, recording, config changes, beacons) and publishes a
 ``RobotState`` with the latest of each whenever one changes. The three encoders of that
 state (the TCP status frame, the live view, the VDA 5050 state) read it from there, each in
-its own format, and none assembles it again.
+its own format, and none assembles it again. The daemon keeps it, as it keeps the config
+service: every daemon has it, whichever modules it runs.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any
 
+from navd.lifecycle.bus import Bus
+from navd.lifecycle.clock import Clock
 from navd.lifecycle.messages import (
     BeaconPlaces,
     ConfigApplied,
@@ -31,42 +35,48 @@ from navd.lifecycle.messages import (
     SlamTracking,
 )
 from navd.lifecycle.messages.state import ConfigHistory, RobotState
-from navd.lifecycle.module import Module, ModuleContext
 
 __all__ = ["StateView"]
 
 
-class StateView(Module):
-    """Keeps ``RobotState`` and publishes it on every change (see the module docstring)."""
+class StateView:
+    """Keeps ``RobotState`` and publishes it on every change (see the module docstring).
 
-    def __init__(self) -> None:
-        super().__init__("state")
+    Args:
+        bus: where it hears the parts and publishes the state (its handlers counted as
+            ``MODULE``'s).
+        clock: the daemon's.
+    """
+
+    MODULE = "state_view"
+
+    def __init__(self, bus: Bus, clock: Clock) -> None:
+        self._bus = bus
+        self._clock = clock
         self.state = RobotState(stamp=0.0, received=0.0, changed=frozenset())
-
-    async def on_configure(self, ctx: ModuleContext) -> None:
-        self.ctx = ctx
-        ctx.subscribe(PoseEstimate, self._pose)
-        ctx.subscribe(LocalizationState, self._localization)
-        ctx.subscribe(SlamTracking, self._slam)
-        ctx.subscribe(DriveCommand, self._drive)
-        ctx.subscribe(DriveMode, self._mode)
-        ctx.subscribe(SafetyState, self._safety)
-        ctx.subscribe(Goal, self._goal)
-        ctx.subscribe(GoalStatus, self._goal_status)
-        ctx.subscribe(MissionStatus, self._mission)
-        ctx.subscribe(DaemonStatus, self._daemon)
-        ctx.subscribe(RecordingState, self._recording)
-        ctx.subscribe(ConfigApplied, self._config_applied)
-        ctx.subscribe(ConfigRejected, self._config_rejected)
-        ctx.subscribe(BeaconPlaces, self._beacons)
+        hear = functools.partial(bus.subscribe, module=self.MODULE)
+        hear(PoseEstimate, self._pose)
+        hear(LocalizationState, self._localization)
+        hear(SlamTracking, self._slam)
+        hear(DriveCommand, self._drive)
+        hear(DriveMode, self._mode)
+        hear(SafetyState, self._safety)
+        hear(Goal, self._goal)
+        hear(GoalStatus, self._goal_status)
+        hear(MissionStatus, self._mission)
+        hear(DaemonStatus, self._daemon)
+        hear(RecordingState, self._recording)
+        hear(ConfigApplied, self._config_applied)
+        hear(ConfigRejected, self._config_rejected)
+        hear(BeaconPlaces, self._beacons)
 
     def _change(self, source: Message, part: str, **values: Any) -> None:
         """Take ``values`` for ``part`` (heard in ``source``) and publish the state."""
-        now = self.ctx.clock.now()
+        now = self._clock.now()
         self.state = dataclasses.replace(
             self.state, stamp=source.stamp, received=now, changed=frozenset((part,)), **values
         )
-        self.ctx.publish(self.state)
+        self._bus.publish(self.state)
 
     def _pose(self, pose: PoseEstimate) -> None:
         self._change(pose, "pose", pose=pose)

@@ -23,9 +23,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from navd.geometry import Pose2, wrap_angle
-from navd.lifecycle.messages import CancelGoal, GeoGoal, Goal, GoalStatus, Message
-from navd.lifecycle.messages.mission import (
+from navd.lifecycle.messages import (
     BEACON_STEPS,
+    CancelGoal,
+    GeoGoal,
+    Goal,
+    GoalStatus,
+    Message,
     MissionRequest,
     MissionStatus,
     MissionStep,

@@ -9,8 +9,15 @@ from __future__ import annotations
 
 from navd.geometry import Pose2
 from navd.lifecycle import Module, ModuleContext
-from navd.lifecycle.messages import BeaconPlaces, GoalStatus, Message, PoseEstimate
-from navd.lifecycle.messages.mission import MissionCommand, MissionRequest, MissionStatus
+from navd.lifecycle.messages import (
+    BeaconPlaces,
+    GoalStatus,
+    Message,
+    MissionCommand,
+    MissionRequest,
+    MissionStatus,
+    PoseEstimate,
+)
 from navd.missions.executor import MissionExecutor, no_mission
 from navd.missions.settings import MissionSettings
 
@@ -31,9 +38,10 @@ class MissionNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        # the config's beacons, before the estimator publishes them with the learnt ones
-        known = ctx.settings(MissionSettings.from_config).value.beacon_places
-        self._places = {b: (x, y) for b, x, y in known}
+        # the config's beacons (they need a restart), before the estimator publishes them with
+        # the learnt ones
+        self.settings = ctx.settings(MissionSettings.from_config)
+        self._places = self.settings.value.places()
         ctx.subscribe(MissionRequest, self._on_request)
         ctx.subscribe(MissionCommand, self._on_command)
         ctx.subscribe(GoalStatus, self._on_goal_status)
@@ -47,6 +55,9 @@ class MissionNode(Module):
         mission = self.mission
         if mission is not None and not mission.ended:
             self._publish(mission.command("cancel", self.ctx.clock.now(), self._pose)[0])
+
+    def settings_in_use(self) -> tuple[object, ...]:
+        return (self.settings.value,)
 
     def _publish(self, messages: list[Message]) -> None:
         for message in messages:

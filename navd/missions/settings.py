@@ -21,6 +21,10 @@ class MissionSettings:
 
     beacon_places: tuple[tuple[str, float, float], ...]
 
+    def places(self) -> dict[str, tuple[float, float]]:
+        """[m] the known beacons' places by id."""
+        return {b: (x, y) for b, x, y in self.beacon_places}
+
     @classmethod
     def from_config(cls, config: NavdConfig) -> MissionSettings:
         """The settings the beacons section describes."""

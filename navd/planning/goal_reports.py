@@ -6,6 +6,7 @@ costmap of the last plan)."""
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 from structlog.typing import FilteringBoundLogger
@@ -42,7 +43,10 @@ class GoalReports:
     def __init__(self, clock: Clock, log: FilteringBoundLogger) -> None:
         self._clock = clock
         self._log = log
-        self.last_state: GoalState | None = None  # the state last said of the goal in hand
+        # The state last said of the goal in hand, and when: said from the event loop and from
+        # the workers, so changed under a lock of their own.
+        self._lock = threading.Lock()
+        self.last_state: GoalState | None = None
         self._status_at = -math.inf
 
     def stop(self) -> VelocityCommand:
@@ -58,8 +62,9 @@ class GoalReports:
         """The status of the goal the navigator holds (remembered, so a step does not repeat
         it); ``shown`` replaces the state's name (an active goal shown as paused)."""
         message = self.plain(goal_id, shown or state, reason)
-        self.last_state = state
-        self._status_at = message.stamp
+        with self._lock:
+            self.last_state = state
+            self._status_at = message.stamp
         return message
 
     def plain(self, goal_id: str, state: str, reason: str = "") -> GoalStatus:
@@ -69,11 +74,12 @@ class GoalReports:
 
     def due(self, goal_id: str, step: Step, stamp: float) -> GoalStatus | None:
         """The step's status if its state changed or the last is ``STATUS_PERIOD_S`` old."""
-        changed = step.state is not self.last_state
-        if not changed and stamp - self._status_at < STATUS_PERIOD_S:
-            return None
-        self.last_state = step.state
-        self._status_at = stamp
+        with self._lock:
+            changed = step.state is not self.last_state
+            if not changed and stamp - self._status_at < STATUS_PERIOD_S:
+                return None
+            self.last_state = step.state
+            self._status_at = stamp
         if changed and step.state is not GoalState.ACTIVE:
             self._log.info("goal_done", goal_id=goal_id, state=str(step.state), reason=step.reason)
         return GoalStatus(

@@ -1,14 +1,46 @@
-"""The simulator: a robot that speaks the real protocols (the chassis pty and TCP sensors)."""
+"""The simulator: a robot that speaks the real protocols (the chassis pty and TCP sensors).
 
-from navd.sim.barn import run_barn
-from navd.sim.broker import LocalBroker, mosquitto_path
-from navd.sim.demo import run_demo
+Its members load when asked for (a benchmark that starts a broker does not load the
+simulated robot's kernels).
+"""
+
+from typing import TYPE_CHECKING
+
+from navd.lazy_face import lazy_members
 from navd.sim.errors import SimError, WorldError
-from navd.sim.fleet import fleet_sessions
-from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons, run_fleet_demo
-from navd.sim.session import Session, free_port, session
-from navd.sim.standalone import run_sim
-from navd.sim.world import World, from_shapes, load_world, office
+
+if TYPE_CHECKING:
+    from navd.sim.barn import run_barn
+    from navd.sim.broker import LocalBroker, mosquitto_path
+    from navd.sim.demo import run_demo
+    from navd.sim.fleet import fleet_sessions
+    from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons, run_fleet_demo
+    from navd.sim.session import Session, free_port, session
+    from navd.sim.standalone import run_sim
+    from navd.sim.world import World, from_shapes, load_world, office
+
+__getattr__ = lazy_members(
+    __name__,
+    {
+        "LocalBroker": "broker",
+        "OFFICE_ANCHORS": "fleet_demo",
+        "Session": "session",
+        "World": "world",
+        "fleet_sessions": "fleet",
+        "free_port": "session",
+        "from_shapes": "world",
+        "load_world": "world",
+        "mosquitto_path": "broker",
+        "office": "world",
+        "office_with_beacons": "fleet_demo",
+        "on_beacons": "fleet_demo",
+        "run_barn": "barn",
+        "run_demo": "demo",
+        "run_fleet_demo": "fleet_demo",
+        "run_sim": "standalone",
+        "session": "session",
+    },
+)
 
 __all__ = [
     "OFFICE_ANCHORS",

@@ -96,7 +96,7 @@ class ScanMapper:
         # scans in a row on mapped ground that did not fit it, or fitted doubtfully
         self._misfit_run = 0
         self.last_good: Pose2 | None = None  # the last pose a scan fitted the map at
-        self.doubt = MatchRepair(s, self.counts)
+        self.repair = MatchRepair(s, self.counts)
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
         # The next keyframe starts a new chain (after a load or a pose set from outside).
         self._new_session = False
@@ -110,7 +110,7 @@ class ScanMapper:
             self.fine.configure(settings)
         self.loops.configure(settings)
         self.tracking.forget()
-        self.doubt.configure(settings)
+        self.repair.configure(settings)
         self._weak_run = 0
         self._misfit_run = 0
 
@@ -240,7 +240,7 @@ class ScanMapper:
         on_mapped_ground = known_points >= MIN_KNOWN_POINTS and known >= REPAIR_KNOWN_FRACTION
         doubtful = False
         if on_mapped_ground:
-            match, known, doubtful = self.doubt.check(
+            match, known, doubtful = self.repair.check(
                 self.grid,
                 self._field_around,
                 points,
@@ -280,7 +280,7 @@ class ScanMapper:
             self._misfit()
         else:
             self._misfit_run = 0
-        self.doubt.record(fit)
+        self.repair.record(fit)
         pose = Pose2(float(match.pose.x), float(match.pose.y), float(match.pose.yaw))
         if odometry_step:
             self.heading_trust.record(pose.yaw - prior.yaw)

@@ -90,7 +90,7 @@ class SlamNode(Module):
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
-        self._finder = Relocalizer(ctx)
+        self._relocalizer = Relocalizer(ctx)
         self.settings = ctx.settings(SlamSettings.from_config, self._settings_changed)
         # What the mapper and scan odometry were built with: a change is applied between scans,
         # in a worker, so one scan never mixes a new mount with an old mapper.
@@ -113,7 +113,7 @@ class SlamNode(Module):
                 cells=self.mapper.grid.shape,
                 keyframes=len(self.mapper.keyframes),  # a saved graph goes on growing
             )
-            self._finder.ask(GLOBAL)  # where on this map? the first scan searches all of it
+            self._relocalizer.ask(GLOBAL)  # where on this map? the first scan searches all of it
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(WheelOdometry, self._on_wheels)
         ctx.subscribe(InitialPose, self._on_initial_pose)
@@ -197,12 +197,12 @@ class SlamNode(Module):
                 if self._scan_odometry is None:
                     self._scan_odometry = ScanOdometry(settings.odometry)
                 odom = self._scan_odometry.register(points.hits)
-            messages, searched = self._finder.before(self.mapper, mapper, stamp, points, odom)
+            messages, searched = self._relocalizer.before(self.mapper, mapper, stamp, points, odom)
             if searched:  # lost: the scan went into the search, not the map
                 return (*messages, *self._now_and_then())
             result = self.mapper.add(stamp, points, odom)
             now = self.ctx.clock.now()
-            lost = self._finder.after(self.mapper, mapper, stamp)
+            lost = self._relocalizer.after(self.mapper, mapper, stamp)
             if lost is not None:
                 messages.append(lost)
             else:
@@ -240,8 +240,8 @@ class SlamNode(Module):
     def _on_initial_pose(self, pose: InitialPose) -> None:
         # A person's guess: the next scan searches around it (±1 m, ±30°) on the map. (The
         # seeds this module sends the estimate come back here too: they are no guess.)
-        if not self._finder.sent(pose):
-            self._finder.ask(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
+        if not self._relocalizer.sent(pose):
+            self._relocalizer.ask(Pose2(pose.x_m, pose.y_m, pose.yaw_rad))
 
     def _on_save(self, request: SaveMapRequest) -> None:
         settings = self.settings.value
@@ -261,7 +261,7 @@ class SlamNode(Module):
         if not self._map_drawn:
             self.ctx.log.warning("pose_find_ignored", reason="no map yet: nothing to search")
             return
-        self._finder.ask(GLOBAL, reseed=True)  # (its own lock: a search may hold the mapper's)
+        self._relocalizer.ask(GLOBAL, reseed=True)  # (its own lock: a search may hold the mapper's)
 
     def _on_load(self, request: LoadMapRequest) -> None:
         folder = request.folder or self.settings.value.map_dir
@@ -284,7 +284,7 @@ class SlamNode(Module):
             grid = saved.grid
             self._map_drawn = not grid.empty
             # the estimate, in the old map's frame, starts again too
-            self._finder.ask(GLOBAL, reseed=True)
+            self._relocalizer.ask(GLOBAL, reseed=True)
             self._map_revision = grid.revision
             self._map_published_at = now
             # under the lock: the next scan job draws into this very grid

@@ -49,8 +49,7 @@ from foxglove import Context, StatusLevel
 from foxglove.websocket import Capability, WebSocketServer
 
 from navd import __version__
-from navd.drivers import control_message
-from navd.lifecycle import Module, ModuleContext
+from navd.lifecycle import Module, ModuleContext, control_message
 from navd.lifecycle.messages import (
     CostmapUpdate,
     Goal,

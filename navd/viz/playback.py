@@ -257,7 +257,7 @@ async def play(
     try:
         await asyncio.wait_for(daemon.ready.wait(), STEP_TIMEOUT_S)
         assert isinstance(daemon.clock, SimClock)  # replay_config asks for simulated time
-        feed = _Feed(daemon, Lockstep(daemon.clock, daemon.workers, daemon.traffic), replayed)
+        feed = _Feed(daemon, Lockstep(daemon.clock, daemon.workers, daemon.line_counts), replayed)
         for topic, message in recording.messages():
             await feed.take(topic, message)
         await feed.finish()

@@ -197,8 +197,21 @@ def decode(topic: str, data: bytes) -> Message:
         raise RecordCodecError(f"{topic!r} is not a topic navd records")
     try:
         fields = json.loads(data)
+        if kind is MissionStatus and "info" not in fields:
+            fields = _flat_mission_status(fields)  # recorded before December 2026
         hints = _hints(kind)
         values = {name: _typed(hints[name], value) for name, value in fields.items()}
         return kind(**values)
     except (ValueError, TypeError, KeyError) as err:
         raise RecordCodecError(f"{topic}: not a {kind.__name__}: {err}") from err
+
+
+def _flat_mission_status(fields: dict[str, Any]) -> dict[str, Any]:
+    """A MissionStatus recorded with its progress's fields beside its stamps, as the message
+    held them before its progress was the wire's ``MissionInfo``: nested as it is now (NaN,
+    recorded as "NaN", read as unknown)."""
+    stamps: dict[str, Any] = {k: fields.pop(k) for k in ("stamp", "received") if k in fields}
+    for key in ("distance_m", "eta_s"):
+        if fields.get(key) in ("NaN", "Infinity", "-Infinity"):
+            fields[key] = None
+    return {**stamps, "info": fields}

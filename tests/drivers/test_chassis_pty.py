@@ -265,13 +265,13 @@ async def test_a_new_command_rate_applies_at_once_without_a_restart(tmp_path: Pa
             daemon,
             _,
         ):
-            await until(lambda: daemon.traffic.sent["chassis"] >= 1)  # open: "0 0" written
+            await until(lambda: daemon.line_counts.sent["chassis"] >= 1)  # open: "0 0" written
             clock = daemon.clock
 
             async def lines_in(seconds: float) -> int:
-                before = daemon.traffic.sent["chassis"]
+                before = daemon.line_counts.sent["chassis"]
                 await clock.run_to(clock.now() + seconds)
-                return daemon.traffic.sent["chassis"] - before
+                return daemon.line_counts.sent["chassis"] - before
 
             assert abs(await lines_in(1.0) - 20) <= 1
             now = clock.now()

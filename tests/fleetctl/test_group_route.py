@@ -15,7 +15,7 @@ from navd.cli.fleet import DEFAULT_RADIUS_M as CLI_RADIUS_M
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal
 from navd.fleetctl.group_map import DEFAULT_RADIUS_M, GroupMap
-from navd.fleetctl.group_route import GroupWay, lay_out
+from navd.fleetctl.group_route import GroupRoute, lay_out
 from navd.sim import office
 from navd.slam import OccupancyGrid, save_map
 from tests.fleet.vda5050_schemas import check
@@ -45,7 +45,7 @@ def _two_rooms() -> npt.NDArray[np.bool_]:
 ROBOTS = np.array([[1.5, 2.0], [1.5, 5.0], [2.5, 3.5]])
 
 
-def _way() -> tuple[GroupMap, GroupWay]:
+def _way() -> tuple[GroupMap, GroupRoute]:
     walls = GroupMap.of_grid(_two_rooms(), ORIGIN, RES_M)
     way = lay_out(
         ROBOTS,

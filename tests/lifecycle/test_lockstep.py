@@ -9,7 +9,7 @@ import pytest
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import SimClock, ticks
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.line_counts import Traffic
+from navd.lifecycle.line_counts import LineCounts
 from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.messages import VelocityCommand
 from navd.lifecycle.workers import WorkerPool
@@ -25,7 +25,7 @@ async def test_timers_fire_at_each_deadline_and_their_worker_jobs_finish_before_
     clock: SimClock, bus: Bus
 ) -> None:
     pool = WorkerPool(bus, threads=2)
-    lockstep = Lockstep(clock, pool, Traffic())
+    lockstep = Lockstep(clock, pool, LineCounts())
     ticked: list[float] = []
     results: list[tuple[float, float]] = []  # (job value, simulated time of its result)
     bus.subscribe(
@@ -50,19 +50,19 @@ async def test_timers_fire_at_each_deadline_and_their_worker_jobs_finish_before_
 
 
 async def test_a_step_takes_in_the_named_lines_before_time_moves(clock: SimClock, bus: Bus) -> None:
-    traffic = Traffic()
-    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), traffic)
+    counts = LineCounts()
+    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), counts)
     arrived_at: list[float] = []
 
     async def lidar() -> None:
         for _ in range(3):
             await asyncio.sleep(0.01)  # the lines are slow to come, in real time
-            traffic.add_received("lidar0")
+            counts.add_received("lidar0")
             arrived_at.append(clock.now())
 
     t0 = clock.now()
     feeder = asyncio.create_task(lidar())
-    traffic.add_sent("chassis", 7)
+    counts.add_sent("chassis", 7)
     report = await lockstep.step_to(t0 + 1.0, {"lidar0": 3}, timeout_s=5.0)
     await feeder
     assert arrived_at == [t0, t0, t0]
@@ -74,14 +74,14 @@ async def test_a_step_takes_in_the_named_lines_before_time_moves(clock: SimClock
 async def test_lines_that_never_come_are_reported_and_time_moves_on(
     clock: SimClock, bus: Bus
 ) -> None:
-    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), Traffic())
+    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), LineCounts())
     report = await lockstep.step_to(clock.now() + 0.5, {"imu0": 2}, timeout_s=0.05)
     assert report.missing == {"imu0": 2}
     assert report.time_s == clock.now()
 
 
 async def test_time_never_goes_backwards(clock: SimClock, bus: Bus) -> None:
-    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), Traffic())
+    lockstep = Lockstep(clock, WorkerPool(bus, threads=1), LineCounts())
     later = clock.now() + 2.0
     await lockstep.step_to(later, {}, timeout_s=1.0)
     with pytest.raises(LifecycleError, match="cannot go backwards"):

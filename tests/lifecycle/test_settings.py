@@ -68,7 +68,7 @@ def test_a_module_context_swaps_its_settings_when_a_change_is_applied(bus: Bus) 
     bus.publish(_applied(bus, _changed(config, {"robot.max_linear_speed_mps": 0.3})))
     assert limits.value == Limits(0.3)
     assert seen_by_handler == [Limits(0.3)]
-    assert [h.name for h in ctx.holders] == ["Limits"]
+    assert [h.name for h in ctx.holders] == ["Limits.from_config"]
 
 
 def test_a_failing_on_change_counts_against_its_module_only(bus: Bus) -> None:

@@ -8,8 +8,16 @@ import math
 import pytest
 
 from navd.geometry import Pose2
-from navd.lifecycle.messages import CancelGoal, GeoGoal, Goal, GoalStatus, Message
-from navd.lifecycle.messages.mission import MissionRequest, MissionStatus, MissionStep
+from navd.lifecycle.messages import (
+    CancelGoal,
+    GeoGoal,
+    Goal,
+    GoalStatus,
+    Message,
+    MissionRequest,
+    MissionStatus,
+    MissionStep,
+)
 from navd.missions.executor import STAGING_M, MissionExecutor
 
 HERE = Pose2(0.0, 0.0, 0.0)

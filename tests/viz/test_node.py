@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from navd.config import parse_config
-from navd.lifecycle import Daemon, StateView
+from navd.lifecycle import Daemon
 from navd.lifecycle.messages import (
     CostmapUpdate,
     LaserScan,
@@ -55,7 +55,7 @@ async def viewed_daemon(
         }
     )
     node = VizNode()
-    daemon = Daemon(config, [StateView(), node], handle_signals=False)
+    daemon = Daemon(config, [node], handle_signals=False)
     task = asyncio.create_task(daemon.run())
     try:
         await asyncio.wait_for(daemon.ready.wait(), 30.0)

@@ -23,6 +23,7 @@ from navd.lifecycle.messages import (
     ManualCommand,
     MapUpdate,
     Message,
+    MissionStatus,
     Path,
     PoseEstimate,
     SaveMapRequest,
@@ -135,3 +136,17 @@ def test_inputs_outputs_and_info_are_on_their_own_topics() -> None:
 def test_what_cannot_be_read_back_is_named(topic: str, data: bytes, named: str) -> None:
     with pytest.raises(RecordCodecError, match=named):
         decode(topic, data)
+
+
+def test_a_mission_status_recorded_before_its_progress_was_nested_reads_back() -> None:
+    # As recordings of November 2026 hold it: the progress's fields beside the stamps, an
+    # unknown distance as "NaN".
+    flat = (
+        b'{"stamp":3.0,"received":3.0,"mission_id":"m1","name":"patrol","state":"running",'
+        b'"step":2,"steps":4,"round":1,"rounds":1,"kind":"goto","event":"progress",'
+        b'"distance_m":"NaN","eta_s":7.5,"message":"","reason":"","done":1,"failed":0}'
+    )
+    status = decode("/navd/info/MissionStatus", flat)
+    assert isinstance(status, MissionStatus)
+    assert (status.stamp, status.info.mission_id, status.info.step) == (3.0, "m1", 2)
+    assert status.info.distance_m is None and status.info.eta_s == 7.5

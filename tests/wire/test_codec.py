@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from navd.drivers import control_message, sensor_message
+from navd.drivers import sensor_message
+from navd.lifecycle import control_message
 from navd.lifecycle.messages import (
     BeaconObservation,
     CompassHeading,

@@ -32,7 +32,7 @@ class ClockRole:
         self._timeout_s = lockstep_timeout_s
         clock = server.ctx.clock
         self.lockstep = (
-            Lockstep(clock, server.ctx.workers, server.ctx.traffic)
+            Lockstep(clock, server.ctx.workers, server.ctx.line_counts)
             if isinstance(clock, SimClock)
             else None
         )

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
-from navd.drivers.convert import control_message
 from navd.drivers.tcp.session import Server, Session
 from navd.drivers.tcp.settings import readable_config
 from navd.drivers.tcp.status_board import goal_info
@@ -32,6 +31,7 @@ from navd.lifecycle.messages import (
     PoseFound,
     SaveMapRequest,
 )
+from navd.lifecycle.requests import control_message
 from navd.wire import (
     Ack,
     ConfigAppliedFrame,

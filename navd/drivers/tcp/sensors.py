@@ -1,7 +1,7 @@
 """The sensor role: lidar, IMU, GPS, compass, wheel odometry and beacon lines become bus messages.
 
 The fast path of the server. The lines of one read are counted (a simulated clock waits for
-them, see ``Traffic``) and handled together: one arrival time, one staleness check, then each
+them, see ``LineCounts``) and handled together: one arrival time, one staleness check, then each
 line decoded, stamped on the daemon clock and published. A bad line is answered with an error
 naming the field; the lines around it are used.
 """
@@ -32,10 +32,10 @@ class SensorRole:
     def lines(self, session: Session, lines: list[bytes]) -> None:
         count = sum(1 for line in lines if line and not line.isspace())
         handle = functools.partial(self._handle, session, lines)
-        self._server.ctx.traffic.take(session.device_id, count, handle)
+        self._server.ctx.line_counts.take(session.device_id, count, handle)
 
     def closed(self, session: Session) -> None:
-        self._server.ctx.traffic.add_received(session.device_id)  # the end counts as a line
+        self._server.ctx.line_counts.add_received(session.device_id)  # the end counts as a line
 
     def _handle(self, session: Session, lines: list[bytes]) -> None:
         """Lines that arrived together (at once, or on simulated time at the next step, in

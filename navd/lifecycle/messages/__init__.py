@@ -7,7 +7,7 @@ ROS: SI units, right-handed frames, x forward, y left, z up, yaw counter-clockwi
 
 Arrays inside messages are copied and made read-only, so a message cannot change after it
 was published. Construction checks only what is cheap and always wrong (a negative range
-limit, a NaN stamp); wire-level validation lives in the drivers.
+limit, a NaN stamp); wire-level validation lives in ``navd.wire``.
 """
 
 from navd.lifecycle.messages.base import DeviceKind, Message, Vector3, describe
@@ -38,6 +38,7 @@ from navd.lifecycle.messages.control import (
     ViewInterest,
 )
 from navd.lifecycle.messages.mission import (
+    BEACON_STEPS,
     MISSION_ACTIONS,
     MissionCommand,
     MissionRequest,
@@ -78,6 +79,7 @@ from navd.lifecycle.messages.sensors import (
 from navd.lifecycle.messages.state import ConfigHistory, RobotState
 
 __all__ = [
+    "BEACON_STEPS",
     "MISSION_ACTIONS",
     "BeaconObservation",
     "BeaconPlace",
