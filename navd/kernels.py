@@ -1,8 +1,8 @@
 """numba's cache of the daemon's kernels, filled in a process of its own.
 
 Compiling the kernels (on the first start, and the first after an upgrade of navd or numba)
-leaves LLVM holding memory the process never hands back: here a daemon that compiled them
-idled at 405 MB, one that loaded them from the cache at 224 MB. So a daemon that finds the
+leaves LLVM holding memory the process never hands back (docs/performance.md, "Memory", has
+the figures). So a daemon that finds the
 cache cold has a child process compile them and exit, which frees all of it, and then loads
 them from the cache like any later start. ``navd kernels`` fills the cache ahead of time (the
 set-up and ``deploy/install.sh`` run it), so a robot's first start is no slower than the next.

@@ -114,8 +114,7 @@ def _load_kernels() -> None:
     handed back, as the daemon does after its warm-ups: LLVM's code (some 70 MB that no scan
     runs) and the heap it freed. A child process fills numba's cache first with whatever the
     warm-ups call that it lacks, as the daemon's start does on a cold cache: compiling in
-    this process raises its peak (fr-clinic with a cold cache: 297 MB of VmHWM, 261 MB with
-    the child; the child costs about 2 s when the cache is full)."""
+    this process would raise its peak (docs/slam.md has the figures)."""
     from navd.kernels import KernelCache  # noqa: PLC0415 - only replay needs it
     from navd.lifecycle import release_compiler_code, release_freed_memory  # noqa: PLC0415
     from navd.offline import warm_up  # noqa: PLC0415
@@ -164,7 +163,13 @@ def _replay(args: argparse.Namespace) -> int:
         )
         return EXIT_USAGE
     from navd.geometry import LidarMount  # noqa: PLC0415 - only replay needs SLAM
-    from navd.offline import LogFormatError, OfflineError, open_recording, replay, replay_mount  # noqa: PLC0415  # noqa: PLC0415
+    from navd.offline import (  # noqa: PLC0415
+        LogFormatError,
+        OfflineError,
+        open_recording,
+        replay,
+        replay_mount,
+    )
     from navd.slam import (  # noqa: PLC0415
         MapperSettings,
         SlamError,

@@ -5,7 +5,7 @@ from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConf
 from navd.config.edit import set_table_keys
 from navd.config.errors import ConfigError
 from navd.config.fields import is_loopback
-from navd.config.fleet import FleetConfig
+from navd.config.fleet import FleetConfig, split_broker_url
 from navd.config.loader import (
     apply_changes,
     changed_keys,
@@ -66,5 +66,6 @@ __all__ = [
     "redacted",
     "redacted_changes",
     "set_table_keys",
+    "split_broker_url",
     "toml_key",
 ]

@@ -4,17 +4,34 @@ from __future__ import annotations
 
 import re
 from typing import Literal
-from urllib.parse import urlsplit
+from urllib.parse import SplitResult, urlsplit
 
 from pydantic import Field, field_validator, model_validator
 
 from navd.config.fields import Section, restart
 
-__all__ = ["FleetConfig"]
+__all__ = ["FleetConfig", "split_broker_url"]
 
 # VDA 5050 topic levels (manufacturer, serial number, interface name) may not hold MQTT's
 # wildcards or separators; the specification asks for A-Z a-z 0-9 _ . : - only.
 _TOPIC_LEVEL = re.compile(r"^[A-Za-z0-9_.:\-]{1,64}$")
+
+
+def split_broker_url(url: str) -> SplitResult:
+    """``url``'s parts, checked to be ``mqtt://HOST[:PORT]`` or ``mqtts://HOST[:PORT]`` with a
+    port that parses (a user and password may come before the host).
+
+    Raises:
+        ValueError: it is not, saying what to write instead.
+    """
+    try:
+        parts = urlsplit(url)
+        parts.port  # noqa: B018 - parses the port, raising on a bad one
+    except ValueError as err:
+        raise ValueError(f"broker URL {url!r}: {err}") from err
+    if parts.scheme not in ("mqtt", "mqtts") or not parts.hostname:
+        raise ValueError(f"broker URL {url!r} must be mqtt://HOST[:PORT] or mqtts://HOST[:PORT]")
+    return parts
 
 
 class FleetConfig(Section):
@@ -73,16 +90,10 @@ class FleetConfig(Section):
 
     @model_validator(mode="after")
     def _broker(self) -> FleetConfig:
-        url = urlsplit(self.broker_url)
-        if url.scheme not in ("mqtt", "mqtts") or not url.hostname:
-            raise ValueError(
-                f"fleet.broker_url {self.broker_url!r} must be mqtt://HOST[:PORT] or "
-                "mqtts://HOST[:PORT]"
-            )
         try:
-            url.port  # noqa: B018 - parses the port, raising on a bad one
+            url = split_broker_url(self.broker_url)
         except ValueError as err:
-            raise ValueError(f"fleet.broker_url {self.broker_url!r}: {err}") from err
+            raise ValueError(f"fleet.broker_url: {err}") from err
         if (self.cert_file is None) != (self.key_file is None):
             raise ValueError("fleet.cert_file and fleet.key_file must be set together")
         if url.scheme == "mqtt" and (self.ca_file or self.cert_file):

@@ -41,7 +41,7 @@ from navd.estimation.motion_model import (
     Y,
     transition_matrix,
 )
-from navd.estimation.range_start import place_from_ranges
+from navd.estimation.range_start import RangeStart
 from navd.estimation.settings import EstimatorSettings
 from navd.estimation.ukf import MAX_YAW_STD_RAD, Measurement, PoseUkf
 from navd.geometry import wrap_angle
@@ -98,8 +98,7 @@ class StateEstimator:
         ).polynomial
         self.history = EventFilter(PoseUkf(settings.ukf), settings.history, settings.estimation)
         self.beacon_map = BeaconMap(settings.beacons.gate_chi2)
-        # the latest range to each known beacon: (stamp [s], range [m], std [m])
-        self._ranges: dict[str, tuple[float, float, float]] = {}
+        self._range_start = RangeStart()  # ranges to known beacons, until they place it
 
     @property
     def geo(self) -> GeoFrame | None:
@@ -179,11 +178,7 @@ class StateEstimator:
             return None
         variance = fix.horizontal_accuracy_m**2
         if not self.history.initialized:
-            compass = self._last_compass_yaw
-            if compass is not None and now - compass.stamp < 1.0:
-                yaw, yaw_std = compass.yaw_rad, compass.std_rad
-            else:
-                yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
+            yaw, yaw_std = self._start_heading(now)
             dx, dy = self._antenna_m(fix.device_id, yaw)
             x, y = x - dx, y - dy
             self.history.start(fix.stamp, x, y, yaw, np.diag([variance, variance, yaw_std**2]))
@@ -268,9 +263,17 @@ class StateEstimator:
             return None
         point = (place.x_m, place.y_m)
         if not self.history.initialized:
+            found = None
             if seen.has_range:
-                self._ranges[seen.beacon_id] = (seen.stamp, seen.range_m, seen.range_std_m)
-                self._start_from_ranges(seen.stamp)
+                found = self._range_start.add(
+                    seen.beacon_id, seen.stamp, seen.range_m, seen.range_std_m, beacons.known
+                )
+            if found is not None:  # where the latest ranges agree (``range_start``)
+                yaw, yaw_std = self._start_heading(seen.stamp)
+                cov = np.zeros((3, 3))
+                cov[:2, :2] = found[1]
+                cov[2, 2] = yaw_std**2
+                self.history.start(seen.stamp, float(found[0][0]), float(found[0][1]), yaw, cov)
             return None
         rows: tuple[Row, ...] = ()
         values: list[float] = []
@@ -287,25 +290,6 @@ class StateEstimator:
         return self.history.insert_logged(
             Event(seen.stamp, "beacon", measurement, beacons.gate_chi2), now
         )
-
-    def _start_from_ranges(self, stamp: float) -> None:
-        """Start the filter where the latest ranges to known beacons agree, once there are
-        enough of them within RANGE_START_S of ``stamp`` (``range_start``); the heading from a
-        recent compass reading, else unknown."""
-        found = place_from_ranges(self._ranges, self.settings.beacons.known, stamp)
-        if found is None:
-            return  # too few ranges, beacons in a line, or no place most agree on: wait
-        xy, cov = found
-        compass = self._last_compass_yaw
-        if compass is not None and stamp - compass.stamp < 1.0:
-            yaw, yaw_std = compass.yaw_rad, compass.std_rad
-        else:
-            yaw, yaw_std = 0.0, MAX_YAW_STD_RAD
-        cov3 = np.zeros((3, 3))
-        cov3[:2, :2] = cov
-        cov3[2, 2] = yaw_std**2
-        self.history.start(stamp, float(xy[0]), float(xy[1]), yaw, cov3)
-        self._ranges.clear()
 
     def beacon_places(self) -> tuple[BeaconPlace, ...]:
         """Every beacon with a place: the config's, then those learnt so far."""
@@ -368,6 +352,14 @@ class StateEstimator:
 
     # --- helpers --------------------------------------------------------------------------
 
+    def _start_heading(self, at: float) -> tuple[float, float]:
+        """[rad] the heading, and its std, a start from a place alone takes at ``at`` [s]:
+        a compass reading's from the last second, else unknown."""
+        compass = self._last_compass_yaw
+        if compass is not None and at - compass.stamp < 1.0:
+            return compass.yaw_rad, compass.std_rad
+        return 0.0, MAX_YAW_STD_RAD
+
     def _antenna_m(
         self, device_id: str, yaw_rad: float | None, stamp: float = 0.0
     ) -> tuple[float, float]:
@@ -394,7 +386,6 @@ class StateEstimator:
     ) -> Measurement:
         """The sensor's rows with the IMU window's and the no-sliding constraint's
         (``event_rows``)."""
-        return event_measurement(
-            rows, z, r, self.madgwick.window_mean(stamp, self.settings.estimation.imu_window_s),
-            self.settings.estimation, points=points,
-        )  # fmt: skip
+        est = self.settings.estimation
+        imu = self.madgwick.window_mean(stamp, est.imu_window_s)
+        return event_measurement(rows, z, r, imu, est, points=points)

@@ -52,9 +52,9 @@ def open_projections_here() -> None:
     """Open pyproj's database on the calling thread, before a fix needs it there.
 
     pyproj keeps one PROJ context, with its open database, per thread. The first frame made
-    on a thread opens it: 2.1-5.5 ms here, against 0.2-0.4 ms for a frame after it, whatever
-    its zone. A frame made on another thread costs 1.3 ms at its first projection on this
-    one. The daemon projects GPS fixes on its event loop, so it calls this there at start.
+    on a thread opens it, some ten times the cost of a later frame (docs/outdoors.md), and a
+    frame made on another thread pays again at its first projection on this one. The daemon
+    projects GPS fixes on its event loop, so it calls this there at start.
     """
     Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform(9.0, 0.0)
 

@@ -15,6 +15,7 @@ __all__ = [
     "RANGE_START_BEACONS",
     "RANGE_START_S",
     "RANGE_START_SIGMAS",
+    "RangeStart",
     "agreeing_place",
     "place_from_ranges",
     "trilaterate",
@@ -29,6 +30,31 @@ RANGE_START_S = 1.0
 RANGE_START_BEACONS = 3
 # A range farther than this many of its sigmas from the place they agree on is left out.
 RANGE_START_SIGMAS = 4.0
+
+
+class RangeStart:
+    """The latest range to each known beacon, kept until together they place the robot."""
+
+    def __init__(self) -> None:
+        # by beacon id: stamp [s], range [m], its std [m]
+        self._latest: dict[str, tuple[float, float, float]] = {}
+
+    def add(
+        self,
+        beacon_id: str,
+        stamp: float,
+        range_m: float,
+        std_m: float,
+        known: Mapping[str, BeaconPlaceConfig],
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """Keep a range to the known beacon ``beacon_id``; the place [m] and its covariance
+        once the latest ranges agree on one (``place_from_ranges``; the ranges are then
+        forgotten), else None."""
+        self._latest[beacon_id] = (stamp, range_m, std_m)
+        found = place_from_ranges(self._latest, known, stamp)
+        if found is not None:
+            self._latest.clear()
+        return found
 
 
 def place_from_ranges(

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import ssl
 from dataclasses import dataclass
-from urllib.parse import urlsplit
 
 import aiomqtt
 
+from navd.config import split_broker_url
 from navd.fleet.errors import BrokerUrlError
 
 __all__ = ["MQTTS_PORT", "MQTT_PORT", "Broker", "connect"]
@@ -60,17 +60,13 @@ class Broker:
             BrokerUrlError: the URL is not ``mqtt://HOST[:PORT]`` or ``mqtts://HOST[:PORT]``.
         """
         try:
-            parts = urlsplit(url)
-            port = parts.port
+            parts = split_broker_url(url)
         except ValueError as err:
-            raise BrokerUrlError(f"broker URL {url!r}: {err}") from err
-        if parts.scheme not in ("mqtt", "mqtts") or not parts.hostname:
-            raise BrokerUrlError(
-                f"broker URL {url!r} must be mqtt://HOST[:PORT] or mqtts://HOST[:PORT]"
-            )
+            raise BrokerUrlError(str(err)) from err
+        port = parts.port
         tls = parts.scheme == "mqtts"
         return cls(
-            host=parts.hostname,
+            host=str(parts.hostname),  # (split_broker_url checked there is one)
             port=port or (MQTTS_PORT if tls else MQTT_PORT),
             tls=tls,
             username=username if username is not None else parts.username,

@@ -118,8 +118,7 @@ class WorkerPool:
             release_freed_memory()
             # LLVM's code pages out of the resident set as each set-up ends, not only after
             # the last: a set-up still loading kernels reads back from the page cache only
-            # the pages it runs, and the start-up peak is 20-30 MB lower (212-220 against
-            # 240-246 MB under the ingest benchmark).
+            # the pages it runs, which keeps the start-up peak lower (docs/performance.md).
             released = release_compiler_code()
             with contextlib.suppress(RuntimeError):  # the loop may be gone
                 loop.call_soon_threadsafe(

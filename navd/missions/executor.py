@@ -8,11 +8,9 @@ clock; a pause step waits for "continue". A failed step follows its policy: skip
 resuming sends it again. A goal of the mission's that someone else cancels (a person's new
 goal) pauses the mission rather than failing the step.
 
-Beacon steps are driven as a list of waypoints worked out when the step starts, from the
-beacons' places as the estimator last published them: one per beacon to visit (the goal
-stops short of it along the way the robot comes, facing it), or the two sides of a gate
-(square to the line between its beacons, the robot's side first). A beacon with no place
-fails the step, which then follows its policy.
+Beacon steps are driven as a list of waypoints (``waypoints.py``) worked out when the step
+starts, from the beacons' places as the estimator last published them. A beacon with no
+place fails the step, which then follows its policy.
 """
 
 from __future__ import annotations
@@ -22,7 +20,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from navd.geometry import Pose2, wrap_angle
+from navd.geometry import Pose2
 from navd.lifecycle.messages import (
     BEACON_STEPS,
     CancelGoal,
@@ -35,12 +33,11 @@ from navd.lifecycle.messages import (
     MissionStep,
 )
 from navd.missions.errors import UnknownBeaconError
+from navd.missions.waypoints import Waypoint, approach_pose, beacon_waypoints, waypoint_pose
 from navd.wire import MissionInfo
 
-__all__ = ["GATE_SIDE_M", "STAGING_M", "MissionExecutor", "no_mission"]
+__all__ = ["MissionExecutor", "no_mission"]
 
-STAGING_M = 1.0  # [m] an approach first drives to this much before its slow part
-GATE_SIDE_M = 1.0  # [m] a gate is passed from this far before its line to this far beyond
 ENDED = ("completed", "failed", "canceled")
 
 
@@ -51,17 +48,6 @@ def no_mission(now: float, reason: str) -> MissionStatus:
         event="refused", reason=reason,
     )  # fmt: skip
     return MissionStatus(stamp=now, received=now, info=info)
-
-
-@dataclass(frozen=True, slots=True)
-class _Waypoint:
-    """Where a beacon step drives next: a pose, or (``short_m`` set) a point to stop short
-    of, facing it, along the way the robot comes."""
-
-    x_m: float
-    y_m: float
-    yaw_rad: float | None = None
-    short_m: float | None = None
 
 
 @dataclass
@@ -94,7 +80,7 @@ class MissionExecutor:
         self._approach_from: Pose2 | None = None
         # [m] beacon places by id, as last published (the node keeps it current)
         self.places: Mapping[str, tuple[float, float]] = {}
-        self._waypoints: list[_Waypoint] = []  # a beacon step's, the current one first
+        self._waypoints: list[Waypoint] = []  # a beacon step's, the current one first
 
     @property
     def ended(self) -> bool:
@@ -206,7 +192,7 @@ class MissionExecutor:
         self._approach_from = pose
         if step.kind in BEACON_STEPS:
             try:
-                self._waypoints = self._beacon_waypoints(step, pose)
+                self._waypoints = beacon_waypoints(step, self.places, pose)
             except UnknownBeaconError as err:
                 return [*out, *self._step_failed(now, pose, str(err.args[0]))]
         return [*out, *self._drive(now, pose, final=False)]
@@ -234,8 +220,6 @@ class MissionExecutor:
             f"{self.legs}{suffix}"
         )
         self.leg = _Leg(goal_id, final or step.kind != "approach")
-        if step.kind in BEACON_STEPS:
-            return [self._waypoint_goal(now, goal_id, pose, step)]
         if step.kind == "goto_gps":
             return [
                 GeoGoal(
@@ -248,8 +232,10 @@ class MissionExecutor:
                 )
             ]
         x, y, yaw, speed = step.x_m, step.y_m, step.yaw_rad, step.speed_mps
-        if step.kind == "approach":
-            x, y, yaw = self._approach_pose(step, pose, final)
+        if step.kind in BEACON_STEPS:
+            x, y, yaw = waypoint_pose(self._waypoints[0], pose)
+        elif step.kind == "approach":
+            x, y, yaw = approach_pose(step, self._approach_from or pose, final=final)
             if not final:
                 speed = None  # the way there at the robot's own speed
         return [
@@ -263,85 +249,6 @@ class MissionExecutor:
                 max_speed_mps=speed,
             )
         ]
-
-    def _beacon_waypoints(self, step: MissionStep, pose: Pose2 | None) -> list[_Waypoint]:
-        """The waypoints of a beacon, gate or visit_beacons step.
-
-        Raises:
-            LookupError: a beacon it names has no place (its args[0] says which).
-        """
-        places = self.places
-        wanted = step.beacons or tuple(sorted(places))
-        if not wanted:
-            raise UnknownBeaconError("no beacon has a place yet: list them under [beacons.known]")
-        missing = [b for b in wanted if b not in places]
-        if missing:
-            known = ", ".join(sorted(places)) or "none"
-            raise UnknownBeaconError(f"beacon {', '.join(missing)} has no place (known: {known})")
-        if step.kind == "gate":
-            (ax, ay), (bx, by) = places[wanted[0]], places[wanted[1]]
-            mx, my = (ax + bx) / 2.0, (ay + by) / 2.0
-            across = math.atan2(bx - ax, -(by - ay))  # square to the line a -> b
-            if (
-                pose is not None
-                and math.cos(across) * (mx - pose.x) + math.sin(across) * (my - pose.y) < 0.0
-            ):
-                across = wrap_angle(across + math.pi)  # cross from the robot's side
-            c, s = math.cos(across), math.sin(across)
-            return [
-                _Waypoint(mx - GATE_SIDE_M * c, my - GATE_SIDE_M * s, across),
-                _Waypoint(mx + GATE_SIDE_M * c, my + GATE_SIDE_M * s, across),
-            ]
-        # nearest next, from where the robot is (or the first listed)
-        left = list(dict.fromkeys(wanted))
-        here = (pose.x, pose.y) if pose is not None else places[left[0]]
-        order: list[_Waypoint] = []
-        while left:
-            nearest = min(left, key=lambda b: math.dist(here, places[b]))
-            left.remove(nearest)
-            here = places[nearest]
-            order.append(_Waypoint(*here, short_m=step.stop_distance_m))
-        return order
-
-    def _waypoint_goal(
-        self, now: float, goal_id: str, pose: Pose2 | None, step: MissionStep
-    ) -> Goal:
-        """The goal of the beacon step's current waypoint (short of a beacon: along the way
-        from the robot, facing the beacon)."""
-        point = self._waypoints[0]
-        x, y, yaw = point.x_m, point.y_m, point.yaw_rad
-        if point.short_m is not None and pose is not None:
-            heading = math.atan2(y - pose.y, x - pose.x)
-            if math.hypot(x - pose.x, y - pose.y) > point.short_m:
-                x -= point.short_m * math.cos(heading)
-                y -= point.short_m * math.sin(heading)
-            else:  # already that near: stay, and face it
-                x, y = pose.x, pose.y
-            yaw = wrap_angle(heading)
-        return Goal(
-            stamp=now,
-            received=now,
-            goal_id=goal_id,
-            x_m=x,
-            y_m=y,
-            yaw_rad=yaw,
-            max_speed_mps=step.speed_mps,
-        )
-
-    def _approach_pose(
-        self, step: MissionStep, pose: Pose2 | None, final: bool
-    ) -> tuple[float, float, float]:
-        """Where an approach stops (``final``), or stages: along its yaw, or along the line
-        from where the robot started the step."""
-        if step.yaw_rad is not None:
-            heading = step.yaw_rad
-        else:
-            start = self._approach_from or pose or Pose2(step.x_m - 1.0, step.y_m, 0.0)
-            heading = math.atan2(step.y_m - start.y, step.x_m - start.x)
-        back = step.stop_distance_m + (0.0 if final else STAGING_M)
-        x = step.x_m - back * math.cos(heading)
-        y = step.y_m - back * math.sin(heading)
-        return x, y, wrap_angle(heading)
 
     def _step_done(self, now: float, pose: Pose2 | None) -> list[Message]:
         self.done += 1

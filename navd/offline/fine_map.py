@@ -160,8 +160,7 @@ class FineMap:
             missing = np.flatnonzero(close)
         for i in self._thin(missing):  # in the order they were made, as the map draws them
             self._draw(keyframes, int(i))
-        # Drawn in the last field's array: a new array for each left the heap fragmented
-        # (fr-clinic's peak 317 MB against 300, when a field was drawn at every keyframe).
+        # Drawn in the last field's array: a new array for each fragments the heap.
         field = self.grid.likelihood_field(center, radius_m, sigma_m, out=self._values)
         self._values = field.values
         self._pending = []

@@ -62,8 +62,7 @@ class VelocityProfile:
         angular acceleration a still stops it there, sqrt(a |e|), if that is less.
 
         A rate that only shrinks with the error (the local planner's choice when asked to end
-        its horizon facing the goal's heading) slows exponentially: turning the last 1.5 rad
-        took 4 s where this profile takes under 2.
+        its horizon facing the goal's heading) slows exponentially near the end of the turn.
         """
         brake = math.sqrt(self.max_yaw_accel_radps2 * abs(error_rad))
         return math.copysign(min(self.yaw_rate_cap(0.0), brake), error_rad)

@@ -15,7 +15,8 @@ if TYPE_CHECKING:
     from navd.sim.demo import run_demo
     from navd.sim.fleet import fleet_sessions
     from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons, run_fleet_demo
-    from navd.sim.session import Session, free_port, session
+    from navd.sim.ports import free_port
+    from navd.sim.session import Session, session
     from navd.sim.standalone import run_sim
     from navd.sim.world import World, from_shapes, load_world, office
 
@@ -27,7 +28,7 @@ __getattr__ = lazy_members(
         "Session": "session",
         "World": "world",
         "fleet_sessions": "fleet",
-        "free_port": "session",
+        "free_port": "ports",
         "from_shapes": "world",
         "load_world": "world",
         "mosquitto_path": "broker",

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from navd.sim.errors import SimError
+from navd.sim.ports import free_port
 
 __all__ = ["LocalBroker", "mosquitto_path"]
 
@@ -22,13 +23,6 @@ def mosquitto_path() -> str | None:
     if found is None and Path("/usr/sbin/mosquitto").is_file():
         found = "/usr/sbin/mosquitto"
     return found
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 class LocalBroker:
@@ -43,7 +37,7 @@ class LocalBroker:
         if binary is None:
             raise SimError("mosquitto is not installed (apt-get install mosquitto)")
         self.binary = binary
-        self.port = _free_port()
+        self.port = free_port()
         self.config = folder / "mosquitto.conf"
         self.config.write_text(
             # run as whoever started it (as root mosquitto would become "mosquitto" and lose

@@ -36,8 +36,9 @@ import numpy as np
 
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
+from navd.sim.ports import free_port
 from navd.sim.runner import Simulator
-from navd.sim.session import Session, free_port, session
+from navd.sim.session import Session, session
 from navd.sim.world import World
 from navd.wire import (
     CancelFrame,

@@ -13,7 +13,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import signal
-import socket
 import sys
 from collections.abc import AsyncIterator, Mapping
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ import tomli_w
 from navd.config import NavdConfig
 from navd.geometry import Pose2
 from navd.sim.errors import SimError
+from navd.sim.ports import free_port
 from navd.sim.runner import Simulator
 from navd.sim.settings import SimSettings
 from navd.sim.world import World
@@ -33,13 +33,6 @@ from navd.wire import AsyncClient, ClientError
 __all__ = ["Session", "free_port", "session"]
 
 READY_TIMEOUT_S = 30.0
-
-
-def free_port() -> int:
-    """A TCP port nobody listens on now."""
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:

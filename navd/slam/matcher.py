@@ -269,7 +269,7 @@ def rival_ratio(
     offsets = np.arange(-limit, limit + 1) * res
     distance = np.hypot(offsets[None, :], offsets[:, None])
     allowed = (distance > exclude_m) & (distance <= radius_m)
-    # Searched best-first over blocks (the field's bounds, as the matcher's): the window
-    # scored cell by cell took 6 ms a loop check at its 4.7 m median radius (Intel lab).
+    # Searched best-first over blocks (the field's bounds, as the matcher's), not cell by
+    # cell: the window is several metres wide.
     bounds = tuple(field.bound(1 << level) for level in range(RIVAL_LEVELS + 1))
     return k.best_among(bounds, px, py, c, s, tx, ty, allowed) / own

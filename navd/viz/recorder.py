@@ -14,13 +14,10 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import json
 import math
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
 
-from navd.config import NavdConfig, redacted, redacted_changes
+from navd.config import redacted_changes
 from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     ConfigChange,
@@ -32,49 +29,16 @@ from navd.lifecycle.messages import (
     RecordRequest,
 )
 from navd.viz.record_codec import INFO, INPUTS, OUTPUTS, topic_of
-from navd.viz.recording_writer import CLOSE_TIMEOUT_S, RecordingWriter, WriterSettings
+from navd.viz.recording_writer import CLOSE_TIMEOUT_S, RecordingWriter
+from navd.viz.settings import RecorderSettings
 
 __all__ = ["Recorder", "RecorderSettings"]
 
-MB = 1_000_000
 # Messages kept while the writer is set up (some 10 ms; a slow disk: a few seconds at most).
 MAX_EARLY = 20_000
 # A recording's starting pose is never given as more certain than this [m], [rad].
 MIN_SEED_STD_M = 0.01
 MIN_SEED_STD_RAD = 0.005
-
-
-@dataclass(frozen=True, slots=True)
-class RecorderSettings:
-    """The record section's values, and the config as a recording carries it.
-
-    Attributes:
-        enabled: record from start-up.
-        writer: where and how files are written.
-        map_period_s: [s] least time between two recorded maps.
-        config_json: the whole config without its secrets (JSON).
-    """
-
-    enabled: bool
-    writer: WriterSettings
-    map_period_s: float
-    config_json: bytes = field(repr=False)
-
-    @classmethod
-    def from_config(cls, config: NavdConfig) -> RecorderSettings:
-        """The settings the record section describes; the token is never recorded."""
-        record = config.record
-        return cls(
-            enabled=record.enabled,
-            writer=WriterSettings(
-                folder=Path(record.dir),
-                max_file_bytes=int(record.max_file_mb * MB),
-                budget_bytes=int(record.budget_mb * MB),
-                flush_period_s=record.flush_period_s,
-            ),
-            map_period_s=record.map_period_s,
-            config_json=json.dumps(redacted(config)).encode(),
-        )
 
 
 class Recorder(Module):

@@ -1,14 +1,19 @@
-"""The live view's settings."""
+"""The live view's settings and the recorder's."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
-from navd.config import NavdConfig, is_loopback
+from navd.config import NavdConfig, is_loopback, redacted
 from navd.geometry import Footprint, SensorMounts
+from navd.viz.recording_writer import WriterSettings
 
-__all__ = ["VizSettings"]
+__all__ = ["RecorderSettings", "VizSettings"]
+
+MB = 1_000_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,4 +86,37 @@ class VizSettings:
             token=config.tcp.token,
             teleop_linear_mps=config.teleop.max_linear_speed_mps,
             teleop_angular_radps=config.teleop.max_angular_speed_radps,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class RecorderSettings:
+    """The record section's values, and the config as a recording carries it.
+
+    Attributes:
+        enabled: record from start-up.
+        writer: where and how files are written.
+        map_period_s: [s] least time between two recorded maps.
+        config_json: the whole config without its secrets (JSON).
+    """
+
+    enabled: bool
+    writer: WriterSettings
+    map_period_s: float
+    config_json: bytes = field(repr=False)
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> RecorderSettings:
+        """The settings the record section describes; the token is never recorded."""
+        record = config.record
+        return cls(
+            enabled=record.enabled,
+            writer=WriterSettings(
+                folder=Path(record.dir),
+                max_file_bytes=int(record.max_file_mb * MB),
+                budget_bytes=int(record.budget_mb * MB),
+                flush_period_s=record.flush_period_s,
+            ),
+            map_period_s=record.map_period_s,
+            config_json=json.dumps(redacted(config)).encode(),
         )

@@ -18,7 +18,8 @@ from navd.lifecycle.messages import (
     MissionStatus,
     MissionStep,
 )
-from navd.missions.executor import STAGING_M, MissionExecutor
+from navd.missions.executor import MissionExecutor
+from navd.missions.waypoints import STAGING_M
 
 HERE = Pose2(0.0, 0.0, 0.0)
 

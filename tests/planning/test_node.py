@@ -267,25 +267,31 @@ async def test_a_goal_waits_while_the_robot_is_lost_and_goes_on_once_it_is_found
 async def test_a_search_failing_the_same_way_is_logged_once_a_while_not_at_every_tick(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    searches = 0
+
     def occupied(*args: object, **kwargs: object) -> object:
+        nonlocal searches
+        searches += 1
         raise GoalUnreachableError("goal (3.00, 0.00) m is occupied: another robot", "occupied")
 
     monkeypatch.setattr(GlobalPlanner, "plan", occupied)
-    async with running_daemon() as (daemon, port):
-        (planner,) = [m for m in daemon.manager.modules if isinstance(m, PlannerNode)]
-        said: list[dict[str, Any]] = []
+    said: list[dict[str, Any]] = []
 
-        def heard(event: Mapping[str, Any]) -> None:
-            said.append(dict(event))
+    def heard(event: Mapping[str, Any]) -> None:
+        said.append(dict(event))
 
-        add_log_tap(heard)
-        control = await connected(port, "control", "ui")
-        await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
-        await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
-        await asyncio.sleep(1.5)  # tried again at every tick: some thirty searches
-        failed = [s for s in said if s["event"] == "plan_failed"]
-        assert len(failed) == 1 and failed[0]["repeats"] == 0
-        assert "occupied: another robot" in failed[0]["error"]
-        assert planner.nav.goal is not None  # still waiting for the goal to clear
+    add_log_tap(heard)
+    try:
+        async with running_daemon() as (daemon, port):
+            (planner,) = [m for m in daemon.manager.modules if isinstance(m, PlannerNode)]
+            control = await connected(port, "control", "ui")
+            await control.request(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.05))
+            await control.request(GoalFrame(x=3.0, y=0.0, goal_id="g1"))
+            await until(lambda: searches >= 5, timeout_s=30.0)  # tried again at every tick
+            failed = [s for s in said if s["event"] == "plan_failed"]
+            assert len(failed) == 1 and failed[0]["repeats"] == 0
+            assert "occupied: another robot" in failed[0]["error"]
+            assert planner.nav.goal is not None  # still waiting for the goal to clear
+            await control.close()
+    finally:
         remove_log_tap(heard)
-        await control.close()

@@ -1,0 +1,15 @@
+"""A free TCP port on loopback, for a daemon, a broker or a view started beside others."""
+
+from __future__ import annotations
+
+import socket
+
+__all__ = ["free_port"]
+
+
+def free_port() -> int:
+    """A TCP port nobody listens on now on 127.0.0.1 (the system picks it; another process
+    could take it before the caller binds it, which a caller that binds at once never saw)."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
