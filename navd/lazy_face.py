@@ -15,9 +15,17 @@ def lazy_members(package: str, members: Mapping[str, str]) -> Callable[[str], ob
     """A module ``__getattr__`` for ``package`` that imports ``members`` (name -> the module
     under ``package`` defining it) on first use.
 
-    Raises (from the returned function):
-        AttributeError: ``name`` is not one of ``members``.
+    A member may not share its name with a module of the package: importing that module
+    (from anywhere) sets the package's attribute of that name to the module, which then
+    hides the member.
+
+    Raises:
+        ValueError: a member is named like one of the modules.
+        AttributeError (from the returned function): ``name`` is not one of ``members``.
     """
+    clashes = sorted(set(members) & set(members.values()))
+    if clashes:
+        raise ValueError(f"{package}: members named like its modules: {', '.join(clashes)}")
 
     def member(name: str) -> object:
         module = members.get(name)

@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from navd.sim.fleet import fleet_sessions
     from navd.sim.fleet_demo import OFFICE_ANCHORS, office_with_beacons, on_beacons, run_fleet_demo
     from navd.sim.ports import free_port
-    from navd.sim.session import Session, session
+    from navd.sim.sim_session import Session, session
     from navd.sim.standalone import run_sim
     from navd.sim.world import World, from_shapes, load_world, office
 
@@ -25,7 +25,7 @@ __getattr__ = lazy_members(
     {
         "LocalBroker": "broker",
         "OFFICE_ANCHORS": "fleet_demo",
-        "Session": "session",
+        "Session": "sim_session",
         "World": "world",
         "fleet_sessions": "fleet",
         "free_port": "ports",
@@ -39,7 +39,7 @@ __getattr__ = lazy_members(
         "run_demo": "demo",
         "run_fleet_demo": "fleet_demo",
         "run_sim": "standalone",
-        "session": "session",
+        "session": "sim_session",
     },
 )
 

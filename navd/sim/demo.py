@@ -38,7 +38,7 @@ from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
 from navd.sim.ports import free_port
 from navd.sim.runner import Simulator
-from navd.sim.session import Session, session
+from navd.sim.sim_session import Session, session
 from navd.sim.world import World
 from navd.wire import (
     CancelFrame,

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry import Pose2
-from navd.sim.session import Session, session
+from navd.sim.sim_session import Session, session
 from navd.sim.world import World
 
 __all__ = ["fleet_sessions"]

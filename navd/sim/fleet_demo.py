@@ -25,7 +25,7 @@ from navd.sim.broker import LocalBroker
 from navd.sim.errors import SimError
 from navd.sim.fleet import fleet_sessions
 from navd.sim.picture import fleet_picture
-from navd.sim.session import Session
+from navd.sim.sim_session import Session
 from navd.sim.world import World, from_shapes, office
 
 __all__ = [
