@@ -244,8 +244,8 @@ def _start_clients(  # noqa: PLR0917 - the load's parameters
     clients: list[subprocess.Popen[str]] = []
     for role, rate in STREAMS:
         if role == "lidar" and lidar_program:
-            device = [sys.executable, "-m", "navd.bench.ld06_device", "--seconds", str(seconds)]
-            device += ["--points", str(lidar_program)]
+            device = [sys.executable, "-m", "navd.sim.devices.process", "ld06"]
+            device += ["--seconds", str(seconds), "--points", str(lidar_program)]
             clients.append(
                 subprocess.Popen(device, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
             )

@@ -38,16 +38,18 @@ TESLA_TO_MICROTESLA = 1e6
 
 
 def _scan(frame: ScanFrame, device_id: str, stamp: float, received: float) -> Message:
+    ranges = frame.ranges_array()
     return LaserScan(
         stamp=stamp,
         received=received,
         device_id=device_id,
         angle_min=frame.angle_min,
         angle_increment=frame.angle_increment,
-        ranges=frame.ranges_array(),
+        ranges=ranges,
         range_min=frame.range_min,
         range_max=frame.range_max,
         time_increment=frame.time_increment,
+        intensities=frame.intensities_array(),
     )
 
 

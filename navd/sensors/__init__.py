@@ -3,9 +3,11 @@
 from navd.sensors.calibration import record_turn
 from navd.sensors.errors import CalibrationError, ChipError, SensorError
 from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor
+from navd.sensors.kinds import KINDS
 from navd.sensors.ld06 import POINTS, encode_packet
+from navd.sensors.link import Link
 from navd.sensors.magnetometer import CompassCalibration
-from navd.sensors.runner import KINDS, Link, run_sensor
+from navd.sensors.runner import run_sensor
 
 __all__ = [
     "KINDS",

@@ -19,13 +19,13 @@ from dataclasses import dataclass
 from navd.sensors.bno055 import Bno055
 from navd.sensors.errors import ChipError
 from navd.sensors.i2c import Chip, I2cBus
+from navd.sensors.link import Link
 from navd.sensors.magnetometer import CompassCalibration, Hmc5883l, Qmc5883l
 from navd.sensors.mpu import Mpu
 from navd.sensors.runner import (
     BACKOFF_S,
     MAX_BACKOFF_S,
     SUMMARY_PERIOD_S,
-    Link,
     Trouble,
     drain_replies,
 )

@@ -18,9 +18,12 @@ bytes  field    meaning
 
 Angles grow clockwise seen from above (the lidar turns clockwise), from its front (the
 cable side faces back). A point's angle is interpolated between the packet's start and end.
-A distance of 0 is no return. One revolution (the start angle wrapping past 360°) becomes
-one ScanFrame, in the ROS convention: counter-clockwise from the front, ``angle_min`` -π,
-a fixed increment, NaN (``null``) where no point fell.
+A distance of 0 is no return. The time field is read as the lidar's clock when the
+packet's last point was measured; ``device_clock`` places it on this computer's clock, and
+each point is that time less the points after it (their spacing over the speed). A turn ends
+at the point where the angle passes 0 (inside a packet, not at the packet's end) and is sent
+at once, as one ScanFrame in the order its rays were measured (``revolution_scan``), with
+the intensities and the time between rays.
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from navd.sensors.revolution_scan import turn_scan
+from navd.sensors.device_clock import DeviceClock
+from navd.sensors.turn_builder import TurnBuilder
 from navd.wire import ScanFrame
 
 __all__ = [
@@ -50,8 +54,9 @@ PACKET_BYTES = 47
 POLYNOMIAL = 0x4D
 RANGE_MIN_M = 0.02
 RANGE_MAX_M = 12.0
-# Bins of the scan a turn becomes: 0.5 deg, finer than the ~0.8 deg between points at 10 Hz.
-SCAN_BINS = 720
+BAUD = 230400
+PACKET_LINE_S = PACKET_BYTES * 10 / BAUD  # [s] a packet's time on the line (8N1)
+CLOCK_WRAP_S = 30.0  # [s] the lidar's millisecond counter wraps at 30000
 _PACKET = struct.Struct("<BBHH" + "HB" * POINTS + "HHB")
 
 
@@ -134,9 +139,15 @@ class PacketReader:
 
     def feed(self, data: bytes) -> list[Ld06Packet]:
         """Take ``data``; the packets it completed."""
+        return [packet for packet, _ in self.feed_timed(data, 0.0)]
+
+    def feed_timed(self, data: bytes, read_s: float) -> list[tuple[Ld06Packet, float]]:
+        """Take ``data``, read at ``read_s`` [s]; the packets it completed, each with when
+        it arrived at the latest (``read_s`` less the time on the line of the bytes after
+        it in ``data``)."""
         buffer = self._buffer
         buffer.extend(data)
-        packets: list[Ld06Packet] = []
+        packets: list[tuple[Ld06Packet, float]] = []
         while True:
             start = buffer.find(bytes([HEADER, VER_LEN]))
             if start < 0:
@@ -156,10 +167,10 @@ class PacketReader:
                 del buffer[:1]  # look for the next header inside it
                 continue
             del buffer[:PACKET_BYTES]
-            packets.append(_decode(raw))
+            after = len(buffer) if len(buffer) < len(data) else len(data)
+            packets.append((_decode(raw), read_s - after * PACKET_LINE_S / PACKET_BYTES))
 
 
-@dataclass
 class ScanAssembler:
     """Packets in, one ScanFrame per turn out (see the module docstring).
 
@@ -167,38 +178,39 @@ class ScanAssembler:
         min_intensity: points below this intensity are taken as no return.
     """
 
-    min_intensity: int = 1
-    _angles: list[npt.NDArray[np.float64]] = field(default_factory=list)
-    _ranges: list[npt.NDArray[np.float64]] = field(default_factory=list)
-    _last_start: float | None = None
-    _stamp: float = 0.0
+    def __init__(self, min_intensity: int = 1) -> None:
+        self.min_intensity = min_intensity
+        self.clock = DeviceClock(CLOCK_WRAP_S)
+        self.turns = TurnBuilder(RANGE_MIN_M, RANGE_MAX_M)
 
-    def add(self, packet: Ld06Packet, stamp: float) -> ScanFrame | None:
-        """Take a packet received at ``stamp`` [s, this computer's clock]; the turn it
-        completed, if it did."""
-        done = None
-        if self._last_start is not None and packet.start_deg < self._last_start:
-            done = self._scan()  # the angle wrapped: a turn is complete
-        if not self._angles:
-            self._stamp = stamp
-        self._last_start = packet.start_deg
-        ranges = np.array(packet.distances_m)
-        weak = np.array(packet.intensities) < self.min_intensity
-        ranges[(ranges <= 0.0) | weak] = np.nan
-        self._angles.append(packet.angles_deg())
-        self._ranges.append(ranges)
-        return done
+    def add(self, packet: Ld06Packet, arrived_s: float) -> ScanFrame | None:
+        """Take a packet that arrived at ``arrived_s`` [s, this computer's clock] at the
+        latest; the turn it completed, if it did."""
+        scans = self.add_many([(packet, arrived_s)])
+        return scans[-1] if scans else None
 
-    def _scan(self) -> ScanFrame | None:
-        angles_cw = np.concatenate(self._angles)
-        ranges = np.concatenate(self._ranges)
-        self._angles.clear()
-        self._ranges.clear()
-        return turn_scan(
-            angles_cw,
-            ranges,
-            stamp=self._stamp,
-            bins=SCAN_BINS,
-            range_min_m=RANGE_MIN_M,
-            range_max_m=RANGE_MAX_M,
+    def add_many(self, packets: list[tuple[Ld06Packet, float]]) -> list[ScanFrame]:
+        """Take packets of one read, each with when it arrived at the latest; the turns
+        they completed (one pass over all their points)."""
+        if not packets:
+            return []
+        count = len(packets)
+        last_s = np.empty(count)
+        point_s = np.empty(count)
+        angles = np.empty((count, POINTS))
+        for k, (packet, arrived_s) in enumerate(packets):
+            last_s[k] = self.clock.host_time(packet.time_ms / 1000.0, arrived_s - PACKET_LINE_S)
+            span = (packet.end_deg - packet.start_deg) % 360.0
+            point_s[k] = span / (POINTS - 1) / packet.speed_dps if packet.speed_dps > 0 else 0.0
+            angles[k] = packet.start_deg + span * _FRACTIONS
+        times = last_s[:, None] - point_s[:, None] * _POINTS_AFTER
+        ranges = np.array([p.distances_m for p, _ in packets], dtype=np.float64)
+        intensities = np.array([p.intensities for p, _ in packets], dtype=np.float64)
+        ranges[(ranges <= 0.0) | (intensities < self.min_intensity)] = np.nan
+        return self.turns.add(
+            np.mod(angles, 360.0).ravel(), ranges.ravel(), times.ravel(), intensities.ravel()
         )
+
+
+_FRACTIONS = np.arange(POINTS) / (POINTS - 1)  # a point's place between start and end
+_POINTS_AFTER = np.arange(POINTS - 1, -1, -1, dtype=np.float64)  # points after it

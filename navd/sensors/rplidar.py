@@ -1,37 +1,26 @@
-"""Slamtec RPLIDAR A1/A2/A3/C1/S1 on a serial port: requests, responses, and turns as scans.
+"""A Slamtec RPLIDAR on a serial port: the conversation that starts it, and turns as scans.
 
-Written from Slamtec's "RPLIDAR Interface Protocol and Application Notes". A request is
-``0xA5 cmd`` with, for commands that take one, a payload size, the payload and an XOR
-checksum of every byte before it. An answer starts with a 7-byte descriptor: ``0xA5 0x5A``,
-a 30-bit length and 2-bit send mode (little-endian), and a data type.
+The conversation (``rplidar_protocol`` has the bytes): STOP, then GET_HEALTH (a health
+error is answered with RESET, and the banner the lidar prints while it restarts is read as
+such, not as bad input), GET_INFO (model, firmware, serial: logged once), the A2/A3 motor's
+PWM, then the scan modes by GET_LIDAR_CONF: how many, the typical one, and each one's name,
+longest range, time per sample and answer type. A firmware that does not answer those
+(before 1.24) is offered the two modes every RPLIDAR has, Standard and Express. The mode
+asked for by name (``--scan-mode``) is started, else the lidar's typical mode when navd reads
+its answers (standard samples, express and dense capsules; not ultra capsules), else the
+readable mode with the most samples a second. ``range_max`` is the mode's own, else the
+series' (A1/A2/C1 12 m, A3 25 m, S1 40 m), unless given.
 
-========== ===== =============================================================
-request    cmd   answer
-========== ===== =============================================================
-STOP       0x25  none; the lidar stops sending
-RESET      0x40  none; the core restarts (after a health error)
-GET_HEALTH 0x52  type 0x06, 3 bytes: status (0 good, 1 warning, 2 error), error u16
-GET_INFO   0x50  type 0x04, 20 bytes: model, firmware minor, major, hardware, serial[16]
-SCAN       0x20  type 0x81, then 5-byte samples until STOP (standard scan)
-EXPRESS    0x82  type 0x82, then 84-byte capsules until STOP (legacy express scan)
-MOTOR_PWM  0xF0  none; the A2/A3 motor duty (0-1023; 0 stops it)
-========== ===== =============================================================
+Requests keep Slamtec's spacing: nothing within ``STOP_GAP_S`` after STOP, nothing until
+``RESET_SETTLE_S`` after RESET. A request left unanswered for ``ANSWER_TIMEOUT_S`` is logged
+with what was asked and the conversation starts again; after ``RETRIES`` of those, with a
+RESET. The A1's motor runs while the adapter's DTR line is low.
 
-A standard sample: byte 0 is quality << 2 | !S << 1 | S (S: the first sample of a new
-turn), byte 1 is angle_q6[6:0] << 1 | 1, byte 2 angle_q6[14:7], bytes 3-4 the distance in
-quarter millimetres; a sample whose check bits are wrong is skipped a byte at a time.
-
-An express capsule: sync nibbles 0xA and 0x5 in the high halves of bytes 0-1, their low
-halves the XOR checksum of bytes 2-83; bytes 2-3 the start angle (q6, bit 15 the new-scan
-flag); then 16 cabins of two samples, each a 14-bit distance [mm] with the top two bits of
-a 6-bit angle offset dθ [1/8 deg] below it, and a byte of the two offsets' low nibbles. A
-capsule's 32 samples lie between its start angle and the next capsule's: sample k is at
-start + k (next - start) / 32 - dθ_k, so a capsule is decoded when the next one comes. dθ is
-read as Slamtec's own SDK reads it, unsigned (0 to 63/8 deg).
-
-Angles grow clockwise from the lidar's front; a distance of 0 is no return. The A1's motor
-runs while the serial adapter's DTR line is low; the A2 and A3 take a PWM duty; the C1 and
-S1 spin by themselves. One turn becomes one ScanFrame (``turns.turn_scan``).
+Each sample is placed in time by when its bytes arrived (the read's time less the line time
+of the bytes after it); a capsule's samples are spread over the time from it to the next.
+The turns become scans (``turn_builder``): standard samples end a turn at their start flag,
+capsules where the angle passes the front. Standard samples keep their quality as the
+intensity.
 """
 
 from __future__ import annotations
@@ -39,163 +28,188 @@ from __future__ import annotations
 import enum
 import math
 import struct
+import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
-import numpy.typing as npt
 
-from navd.sensors.revolution_scan import turn_scan
-from navd.wire import ScanFrame, SensorFrame
+from navd.sensors.rplidar_capsules import (
+    SAMPLES,
+    capsule_checksum,
+    capsule_points,
+    capsule_start,
+    capsule_synced,
+)
+from navd.sensors.rplidar_modes import ModeQuery, choose_mode
+from navd.sensors.rplidar_protocol import (
+    ANSWER,
+    CAPSULE_BYTES,
+    DESCRIPTOR_BYTES,
+    READABLE,
+    SAMPLE_BYTES,
+    SYNC,
+    Answer,
+    Command,
+    RplidarInfo,
+    ScanModeInfo,
+    request,
+    series_range_max_m,
+)
+from navd.sensors.turn_builder import TurnBuilder
+from navd.wire import SensorFrame
 
-__all__ = [
-    "CAPSULE_BYTES",
-    "Command",
-    "RplidarDecoder",
-    "RplidarInfo",
-    "ScanMode",
-    "capsule_checksum",
-    "request",
-]
+__all__ = ["LEGACY_MODES", "RplidarDecoder"]
 
-SYNC = 0xA5
-ANSWER = 0x5A
-DESCRIPTOR_BYTES = 7
-SAMPLE_BYTES = 5
-CAPSULE_BYTES = 84
-CABINS = 16
 DEFAULT_PWM = 660  # the A2/A3 motor duty Slamtec's SDK starts with
 RANGE_MIN_M = 0.15
-RANGE_MAX_M = 12.0
-SCAN_BINS = 720  # 0.5 deg: finer than any model's spacing at 10 Hz
-
-
-class Command(enum.IntEnum):
-    """Request bytes (see the module docstring)."""
-
-    STOP = 0x25
-    RESET = 0x40
-    SCAN = 0x20
-    EXPRESS_SCAN = 0x82
-    GET_INFO = 0x50
-    GET_HEALTH = 0x52
-    SET_MOTOR_PWM = 0xF0
-
-
-class Answer(enum.IntEnum):
-    """Descriptor data types."""
-
-    INFO = 0x04
-    HEALTH = 0x06
-    SCAN = 0x81
-    EXPRESS = 0x82
-
-
-class ScanMode(enum.Enum):
-    """Which scan the lidar is asked for."""
-
-    STANDARD = "standard"
-    EXPRESS = "express"
-
-
-def request(command: Command, payload: bytes | None = None) -> bytes:
-    """The bytes of a request, with its size and checksum when it has a payload."""
-    if payload is None:
-        return bytes([SYNC, command])
-    body = bytes([SYNC, command, len(payload)]) + payload
-    checksum = 0
-    for byte in body:
-        checksum ^= byte
-    return body + bytes([checksum])
-
-
-def capsule_checksum(capsule: bytes) -> int:
-    """XOR of an express capsule's bytes 2-83."""
-    checksum = 0
-    for byte in capsule[2:CAPSULE_BYTES]:
-        checksum ^= byte
-    return checksum
-
-
-@dataclass(frozen=True, slots=True)
-class RplidarInfo:
-    """What GET_INFO says: the model byte, firmware and hardware versions, serial number."""
-
-    model: int
-    firmware: str
-    hardware: int
-    serial: str
-
-    @property
-    def series(self) -> str:
-        """ "A1", "A2", "A3" by the model byte's high nibble; else the byte itself."""
-        return {1: "A1", 2: "A2", 3: "A3"}.get(self.model >> 4, f"model 0x{self.model:02X}")
-
+STOP_GAP_S = 0.002  # [s] after STOP, before the next request (Slamtec asks for 1 ms)
+RESET_SETTLE_S = 0.5  # [s] after RESET, before the next request (the core restarts)
+ANSWER_TIMEOUT_S = 1.0  # [s] a request this long unanswered is asked again
+CONF_TIMEOUT_S = 0.3  # [s] GET_LIDAR_CONF this long unanswered: an older firmware
+RETRIES = 3  # unanswered conversations before a RESET
+BANNER_CHARS = 200
+# The modes of a firmware that does not describe its own (Standard: 2 kHz on the A1).
+LEGACY_MODES = (
+    ScanModeInfo(0, "Standard", math.nan, 500.0, Answer.SCAN),
+    ScanModeInfo(0, "Express", math.nan, 250.0, Answer.EXPRESS),
+)
 
 _DESCRIPTOR = struct.Struct("<BBIB")
 _SAMPLE = struct.Struct("<BBBH")
-_CABIN = struct.Struct("<HHB")
 
 
-@dataclass
+class _Step(enum.Enum):
+    """Where the conversation is."""
+
+    IDLE = "idle"
+    HEALTH = "health"
+    INFO = "info"
+    CONF = "conf"
+    RESET = "reset"
+    SCAN = "scan"
+
+
 class RplidarDecoder:
-    """Talks to one RPLIDAR: asks its health and info, starts its motor and scan, and turns
-    the samples into one ScanFrame per turn.
+    """Talks to one RPLIDAR and turns its samples into one ScanFrame per turn.
 
     Args:
-        mode: standard or express scan.
-        notes: told what the lidar says of itself (its info, a health warning), for the log.
+        mode: the scan mode by name ("standard", "express", "denseboost"...; any case), or
+            None for the lidar's own choice (see the module docstring).
+        baud: the line's rate [bit/s] (for the bytes' time on the line).
+        range_max_m: [m] overrides the mode's longest range.
+        notes: told what the lidar says of itself and what goes wrong, for the log.
+        clock, sleep: time.monotonic and time.sleep (tests give their own).
 
     Attributes:
-        skipped_bytes, bad_checksums, health_errors: counts of bad input.
         info: what the lidar said it is, once it has.
+        modes: its scan modes, once known; ``scan_mode`` the one running.
+        skipped_bytes, bad_checksums, health_errors, banner_bytes: counts.
     """
 
-    mode: ScanMode = ScanMode.STANDARD
-    notes: Callable[[str, dict[str, object]], None] = lambda event, fields: None
-    skipped_bytes: int = 0
-    bad_checksums: int = 0
-    health_errors: int = 0
-    info: RplidarInfo | None = None
-    _write: Callable[[bytes], None] = lambda data: None
-    _buffer: bytearray = field(default_factory=bytearray)
-    _stream: Answer | None = None  # the multi-answer being streamed, if any
-    _capsule: tuple[float, bytes] | None = None  # the last express capsule, awaiting the next
-    _angles: list[float] = field(default_factory=list)
-    _ranges: list[float] = field(default_factory=list)
-    _turn_stamp: float = 0.0
+    def __init__(
+        self,
+        mode: str | None = None,
+        *,
+        baud: int = 115200,
+        range_max_m: float | None = None,
+        notes: Callable[[str, dict[str, object]], None] = lambda event, fields: None,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        self.wanted = mode.lower() if mode else None
+        self.byte_s = 10.0 / baud
+        self.range_max_m = range_max_m
+        self.notes = notes
+        self.clock = clock
+        self.sleep = sleep
+        self.info: RplidarInfo | None = None
+        self.modes: list[ScanModeInfo] = []
+        self.scan_mode: ScanModeInfo | None = None
+        self.skipped_bytes = self.bad_checksums = self.health_errors = self.banner_bytes = 0
+        self._write: Callable[[bytes], None] = lambda data: None
+        self._buffer = bytearray()
+        self._step = _Step.IDLE
+        self._asked: tuple[str, float] = ("", math.inf)  # what was asked, and when
+        self._quiet_until = 0.0  # no request before this [s]
+        self._failures = 0
+        self._stream: Answer | None = None
+        self._capsule: tuple[float, bytes, float] | None = None  # start, bytes, arrival
+        self._modes = ModeQuery()
+        self._banner = bytearray()
+        self.turns = TurnBuilder(RANGE_MIN_M, range_max_m or 12.0)
 
     # --- the device's side --------------------------------------------------------------
 
     def opened(self, write: Callable[[bytes], None], set_dtr: Callable[[bool], None]) -> None:
-        """The port is open: start the A1's motor (DTR low), stop any scan, ask its health."""
+        """The port is open: start the A1's motor (DTR low) and the conversation."""
         self._write = write
         set_dtr(False)
         self.restart()
 
     def restart(self) -> None:
-        """Start over (a device that fell silent mid-scan): stop, then ask its health."""
+        """Start the conversation over: stop any scan, then ask its health."""
         self._send(request(Command.STOP))
-        self._send(request(Command.GET_HEALTH))
+        self._quiet_until = self.clock() + STOP_GAP_S
+        self._ask(request(Command.GET_HEALTH), _Step.HEALTH, "GET_HEALTH")
 
     def closing(self, set_dtr: Callable[[bool], None]) -> None:
         """Stop the scan and the motor before the port closes."""
         self._send(request(Command.STOP))
-        if self.info is not None and self.info.series in ("A2", "A3"):
+        self._quiet_until = self.clock() + STOP_GAP_S
+        if self.info is not None and self.info.spins_by_pwm:
             self._send(request(Command.SET_MOTOR_PWM, struct.pack("<H", 0)))
         set_dtr(True)
 
+    def tick(self, now: float) -> None:
+        """Time passed: a reset that has settled is followed up, an unanswered request
+        asked again (see the module docstring)."""
+        what, asked_at = self._asked
+        if self._step is _Step.RESET and now >= self._quiet_until:
+            if self._banner:
+                text = self._banner.decode("ascii", errors="replace").strip()
+                self.notes("lidar_reset_banner", {"text": text[:BANNER_CHARS]})
+                self._banner.clear()
+            self._ask(request(Command.GET_HEALTH), _Step.HEALTH, "GET_HEALTH")
+        elif self._step is _Step.CONF and now - asked_at > CONF_TIMEOUT_S:
+            self.notes("lidar_modes_unknown", {"asked": what, "using": "Standard, Express"})
+            self._start(list(LEGACY_MODES))
+        elif self._step in (_Step.HEALTH, _Step.INFO) and now - asked_at > ANSWER_TIMEOUT_S:
+            self._failures += 1
+            self.notes("lidar_not_answering", {"asked": what, "tries": self._failures})
+            if self._failures % RETRIES == 0:
+                self._reset()
+            else:
+                self.restart()
+
     def _send(self, data: bytes) -> None:
+        wait = self._quiet_until - self.clock()
+        if wait > 0:
+            self.sleep(wait)
         # A new request ends what was being streamed: the next bytes answer it.
         self._stream = None
         self._capsule = None
         self._buffer.clear()
         self._write(data)
 
+    def _ask(self, data: bytes, step: _Step, what: str) -> None:
+        self._send(data)
+        self._step = step
+        self._asked = (what, self.clock())
+
+    def _reset(self) -> None:
+        self._send(request(Command.RESET))
+        self._step = _Step.RESET
+        self._quiet_until = self.clock() + RESET_SETTLE_S
+        self.turns.clear()
+
     # --- bytes in, frames out -----------------------------------------------------------
 
-    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
-        """Take bytes read at ``stamp`` [s]; the turns they completed."""
+    def feed(self, data: bytes, read_s: float) -> list[SensorFrame]:
+        """Take bytes read at ``read_s`` [s]; the turns they completed."""
+        if self._step is _Step.RESET:  # the banner the lidar prints as it restarts
+            self.banner_bytes += len(data)
+            self._banner.extend(data[: max(BANNER_CHARS - len(self._banner), 0)])
+            return []
         self._buffer.extend(data)
         frames: list[SensorFrame] = []
         while True:
@@ -203,9 +217,9 @@ class RplidarDecoder:
                 if not self._descriptor():
                     return frames
             elif self._stream is Answer.SCAN:
-                if not self._sample(stamp, frames):
+                if not self._sample(read_s, frames):
                     return frames
-            elif not self._express(stamp, frames):
+            elif not self._capsule_in(read_s, frames):
                 return frames
 
     def counts(self) -> dict[str, int]:
@@ -218,6 +232,10 @@ class RplidarDecoder:
     def _skip(self, count: int) -> None:
         self.skipped_bytes += count
         del self._buffer[:count]
+
+    def _arrival(self, read_s: float) -> float:
+        """[s] when the bytes just taken off the buffer arrived at the latest."""
+        return read_s - len(self._buffer) * self.byte_s
 
     def _descriptor(self) -> bool:
         """Read one answer (a descriptor and, for single answers, its data); False when more
@@ -233,18 +251,21 @@ class RplidarDecoder:
             return False
         _, _, size_mode, kind = _DESCRIPTOR.unpack_from(buffer)
         size, multiple = size_mode & 0x3FFFFFFF, size_mode >> 30 == 1
-        if multiple and kind in (Answer.SCAN, Answer.EXPRESS):
+        if multiple and kind in READABLE:
             del buffer[:DESCRIPTOR_BYTES]
             self._stream = Answer(kind)
+            self._step = _Step.SCAN
             return True
         if len(buffer) < DESCRIPTOR_BYTES + size:
             return False
         body = bytes(buffer[DESCRIPTOR_BYTES : DESCRIPTOR_BYTES + size])
         del buffer[: DESCRIPTOR_BYTES + size]
-        if kind == Answer.HEALTH and size == 3:
+        if kind == Answer.HEALTH and size == 3 and self._step is _Step.HEALTH:
             self._health(body)
-        elif kind == Answer.INFO and size == 20:
+        elif kind == Answer.INFO and size == 20 and self._step is _Step.INFO:
             self._info(body)
+        elif kind == Answer.LIDAR_CONF and self._step is _Step.CONF and self._modes.answer(body):
+            self._next_question()
         else:
             self.skipped_bytes += DESCRIPTOR_BYTES + size  # an answer not asked for
         return True
@@ -254,15 +275,16 @@ class RplidarDecoder:
         if status == 2:
             self.health_errors += 1
             self.notes("lidar_health_error", {"error_code": error})
-            self._send(request(Command.RESET))  # the protocol's remedy; asked again when silent
+            self._reset()  # the protocol's remedy
             return
         if status == 1:
             self.notes("lidar_health_warning", {"error_code": error})
-        self._send(request(Command.GET_INFO))
+        self._ask(request(Command.GET_INFO), _Step.INFO, "GET_INFO")
 
     def _info(self, body: bytes) -> None:
         model, minor, major, hardware = body[:4]
         self.info = RplidarInfo(model, f"{major}.{minor:02d}", hardware, body[4:20].hex().upper())
+        self._failures = 0
         self.notes(
             "lidar_info",
             {
@@ -271,15 +293,49 @@ class RplidarDecoder:
                 "serial": self.info.serial,
             },
         )
-        if self.info.series in ("A2", "A3"):
+        if self.info.spins_by_pwm:
             self._send(request(Command.SET_MOTOR_PWM, struct.pack("<H", DEFAULT_PWM)))
-        if self.mode is ScanMode.EXPRESS:
-            # legacy express scan: working mode 0 and four reserved bytes
-            self._send(request(Command.EXPRESS_SCAN, bytes(5)))
-        else:
-            self._send(request(Command.SCAN))
+        self._modes = ModeQuery()
+        self._next_question()
 
-    def _sample(self, stamp: float, frames: list[SensorFrame]) -> bool:
+    def _next_question(self) -> None:
+        question = self._modes.next_request()
+        if question is None:
+            self._start(self._modes.modes())
+        else:
+            self._ask(question, _Step.CONF, self._modes.asking)
+
+    def _start(self, modes: list[ScanModeInfo]) -> None:
+        """Choose the scan mode and start it."""
+        self.modes = modes
+        chosen = choose_mode(modes, self.wanted)
+        if chosen is None:
+            self.notes(
+                "lidar_scan_mode_refused",
+                {"asked": self.wanted, "readable": [m.name for m in modes if m.readable]},
+            )
+            self._step = _Step.IDLE
+            return
+        self.scan_mode = chosen
+        if self.range_max_m is None:
+            known = chosen.max_distance_m
+            self.turns.range_max_m = known if known > 0 else series_range_max_m(self.info)
+        self.notes(
+            "lidar_scan_mode",
+            {
+                "mode": chosen.name,
+                "range_max_m": self.turns.range_max_m,
+                "samples_per_s": round(1e6 / chosen.us_per_sample),
+                "modes": [m.name for m in modes],
+            },
+        )
+        if chosen.answer == Answer.SCAN and chosen.mode_id == 0:
+            self._ask(request(Command.SCAN), _Step.SCAN, "SCAN")
+        else:  # working mode, then four reserved bytes
+            payload = struct.pack("<BI", chosen.mode_id, 0)
+            self._ask(request(Command.EXPRESS_SCAN, payload), _Step.SCAN, "EXPRESS_SCAN")
+
+    def _sample(self, read_s: float, frames: list[SensorFrame]) -> bool:
         buffer = self._buffer
         if len(buffer) < SAMPLE_BYTES:
             return False
@@ -289,18 +345,28 @@ class RplidarDecoder:
             self._skip(1)  # out of step: find the next sample boundary
             return True
         del buffer[:SAMPLE_BYTES]
-        angle = ((high << 7) | (low >> 1)) / 64.0
+        at = self._arrival(read_s) - SAMPLE_BYTES * self.byte_s
         if start:
-            self._end_turn(stamp, frames)
+            scan = self.turns.end_turn()
+            if scan is not None:
+                frames.append(scan)
+        quality = flags >> 2
         distance = distance_q2 / 4000.0
-        self._point(angle, distance if distance > 0.0 and flags >> 2 else math.nan, stamp)
+        frames.extend(
+            self.turns.add(
+                np.array([((high << 7) | (low >> 1)) / 64.0]),
+                np.array([distance if distance > 0.0 and quality else math.nan]),
+                np.array([at]),
+                np.array([float(quality)]),
+            )
+        )
         return True
 
-    def _express(self, stamp: float, frames: list[SensorFrame]) -> bool:
+    def _capsule_in(self, read_s: float, frames: list[SensorFrame]) -> bool:
         buffer = self._buffer
         if len(buffer) < CAPSULE_BYTES:
             return False
-        if buffer[0] >> 4 != 0xA or buffer[1] >> 4 != 0x5:
+        if not capsule_synced(bytes(buffer[:2])):
             self._skip(1)
             return True
         capsule = bytes(buffer[:CAPSULE_BYTES])
@@ -309,56 +375,19 @@ class RplidarDecoder:
             self._skip(1)
             return True
         del buffer[:CAPSULE_BYTES]
-        word = capsule[2] | (capsule[3] << 8)
-        start_deg = (word & 0x7FFF) / 64.0
-        if word & 0x8000:  # a new scan began: the capsule before belongs to no turn
+        arrived = self._arrival(read_s)
+        start_deg, new_scan = capsule_start(capsule)
+        kind = self._stream
+        assert kind is not None
+        if new_scan:  # a new scan began: what came before belongs to no turn
             self._capsule = None
-            self._end_turn(stamp, frames)
+            self.turns.clear()
         if self._capsule is not None:
-            previous_deg, previous = self._capsule
-            self._capsule_points(previous_deg, previous, start_deg, stamp)
-            if start_deg < previous_deg:
-                # the capsules' start angles passed the front: the turn is complete (its
-                # samples near 0 deg may read a little below, as 359; they are this turn's)
-                self._end_turn(stamp, frames)
-        self._capsule = (start_deg, capsule)
+            previous_deg, previous, previous_at = self._capsule
+            angles, ranges = capsule_points(kind, previous, previous_deg, start_deg)
+            count = SAMPLES[kind]
+            span = max(arrived - previous_at, 0.0)
+            times = previous_at - CAPSULE_BYTES * self.byte_s + span * np.arange(count) / count
+            frames.extend(self.turns.add(angles, ranges, times))
+        self._capsule = (start_deg, capsule, arrived)
         return True
-
-    def _capsule_points(
-        self, start_deg: float, capsule: bytes, next_deg: float, stamp: float
-    ) -> None:
-        step = ((next_deg - start_deg) % 360.0) / (2 * CABINS)
-        for j in range(CABINS):
-            first, second, nibbles = _CABIN.unpack_from(capsule, 4 + 5 * j)
-            for k, (word, low) in enumerate(((first, nibbles & 0xF), (second, nibbles >> 4))):
-                offset = ((word & 0x3) << 4) | low  # unsigned, as the maker's SDK reads it
-                angle = (start_deg + step * (2 * j + k) - offset / 8.0) % 360.0
-                distance = (word >> 2) / 1000.0
-                self._point(angle, distance if distance > 0.0 else math.nan, stamp)
-
-    def _point(self, angle_deg: float, range_m: float, stamp: float) -> None:
-        if not self._angles:
-            self._turn_stamp = stamp
-        self._angles.append(angle_deg)
-        self._ranges.append(range_m)
-
-    def _end_turn(self, stamp: float, frames: list[SensorFrame]) -> None:
-        if len(self._angles) >= 2:
-            scan = self._scan()
-            if scan is not None:
-                frames.append(scan)
-        self._angles.clear()
-        self._ranges.clear()
-        self._turn_stamp = stamp
-
-    def _scan(self) -> ScanFrame | None:
-        angles: npt.NDArray[np.float64] = np.array(self._angles)
-        ranges: npt.NDArray[np.float64] = np.array(self._ranges)
-        return turn_scan(
-            angles,
-            ranges,
-            stamp=self._turn_stamp,
-            bins=SCAN_BINS,
-            range_min_m=RANGE_MIN_M,
-            range_max_m=RANGE_MAX_M,
-        )

@@ -3,10 +3,16 @@
 Each side is (re)opened with backoff (``BACKOFF_S`` doubling to ``MAX_BACKOFF_S``), so the
 program may start before the device is plugged in or before navd runs, and outlives both
 coming and going: a port that vanishes, a device that stops answering, a daemon restarted.
-Bytes become frames through the kind's decoder; bad bytes and checksum failures are counted.
-Every kind of trouble is logged once when it starts (and once when it ends), never once per
-byte; the counts are logged every ``SUMMARY_PERIOD_S``. navd sees the device go stale by
-itself when its frames stop.
+
+The port is read as bytes arrive (a wait on the port, then whatever it holds), at most every
+``READ_PAUSE_S``: a turn's scan leaves for navd within milliseconds of its last packet, and
+the decoder places each packet in time by the device's own clock or by when its bytes came,
+never by when the program happened to read them. Bytes become frames through the kind's
+decoder; bad bytes and checksum failures are counted. Every kind of trouble is logged once
+when it starts (again if its reason changes) and once when it ends, never once per byte; the
+counts are logged every ``SUMMARY_PERIOD_S``. Bytes that keep coming without one good frame
+for ``WRONG_KIND_S`` are logged as such: the device is likely not the kind given, or not at
+that baud rate. navd sees the device go stale by itself when its frames stop.
 """
 
 from __future__ import annotations
@@ -16,188 +22,45 @@ import os
 import select
 import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
 import serial
 
 from navd.drivers import open_exclusive
 from navd.logs import get_logger
-from navd.sensors.ld06 import PacketReader, ScanAssembler
-from navd.sensors.nmea import NmeaReader
-from navd.sensors.rplidar import RplidarDecoder, ScanMode
-from navd.wire import Client, ClientError, Role, SensorFrame
+from navd.sensors.kinds import KINDS
+from navd.sensors.link import Link
+from navd.wire import Client, ClientError
 
-__all__ = ["KINDS", "Decoder", "Link", "SensorKind", "Trouble", "drain_replies", "run_sensor"]
+__all__ = ["Trouble", "drain_replies", "run_sensor"]
 
 BACKOFF_S = 0.5
 MAX_BACKOFF_S = 10.0
 SILENT_S = 2.0  # [s] an open device that sends nothing this long is reported silent
 SUMMARY_PERIOD_S = 60.0
-READ_BYTES = 4096
-
-
-class Decoder(Protocol):
-    """A device's bytes in, navd's frames out; a device that must be asked to send is asked
-    when its port opens, and asked again when it falls silent."""
-
-    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]: ...
-
-    def counts(self) -> dict[str, int]: ...
-
-    def opened(self, device: serial.Serial) -> None: ...
-
-    def silent(self) -> None: ...
-
-    def closing(self, device: serial.Serial) -> None: ...
-
-
-class _Streaming:
-    """A device that streams by itself: nothing to ask."""
-
-    def opened(self, device: serial.Serial) -> None:
-        """Nothing to start."""
-
-    def silent(self) -> None:
-        """Nothing to ask again."""
-
-    def closing(self, device: serial.Serial) -> None:
-        """Nothing to stop."""
-
-
-def _set_dtr(device: serial.Serial) -> Callable[[bool], None]:
-    def set_dtr(level: bool) -> None:
-        # a pseudo-terminal or an adapter without modem lines has no DTR: nothing to do
-        with contextlib.suppress(OSError, serial.SerialException):
-            device.dtr = level
-
-    return set_dtr
-
-
-class _Rplidar:
-    """A Slamtec RPLIDAR: asked for its health, info and scan; one scan per turn."""
-
-    def __init__(self, mode: ScanMode) -> None:
-        self.log = get_logger("sensor")
-        self.lidar = RplidarDecoder(mode, notes=self._note)
-
-    def _note(self, event: str, fields: dict[str, object]) -> None:
-        level = self.log.info if event == "lidar_info" else self.log.warning
-        level(event, **fields)
-
-    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
-        return self.lidar.feed(data, stamp)
-
-    def counts(self) -> dict[str, int]:
-        return self.lidar.counts()
-
-    def opened(self, device: serial.Serial) -> None:
-        self.lidar.opened(device.write, _set_dtr(device))
-
-    def silent(self) -> None:
-        self.lidar.restart()
-
-    def closing(self, device: serial.Serial) -> None:
-        with contextlib.suppress(OSError, serial.SerialException):
-            self.lidar.closing(_set_dtr(device))
-
-
-class _Ld06(_Streaming):
-    """LD06 packets, one scan per turn."""
-
-    def __init__(self) -> None:
-        self.reader = PacketReader()
-        self.turns = ScanAssembler()
-
-    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
-        frames: list[SensorFrame] = []
-        for packet in self.reader.feed(data):
-            scan = self.turns.add(packet, stamp)
-            if scan is not None:
-                frames.append(scan)
-        return frames
-
-    def counts(self) -> dict[str, int]:
-        return {
-            "skipped_bytes": self.reader.skipped_bytes,
-            "bad_checksums": self.reader.bad_checksums,
-        }
-
-
-class _Nmea(_Streaming):
-    """NMEA sentences, fixes and headings."""
-
-    def __init__(self) -> None:
-        self.reader = NmeaReader()
-
-    def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
-        return self.reader.feed(data, stamp)
-
-    def counts(self) -> dict[str, int]:
-        return {"bad_checksums": self.reader.bad_checksums, "unparsed": self.reader.unparsed}
-
-
-@dataclass(frozen=True, slots=True)
-class SensorKind:
-    """What a kind of device is to navd and how it is read.
-
-    Attributes:
-        role: the navd role its frames go under.
-        baud: the device's usual serial rate.
-        decoder: makes a fresh decoder.
-    """
-
-    role: Role
-    baud: int
-    decoder: Callable[[], Decoder]
-
-
-KINDS: dict[str, SensorKind] = {
-    "rplidar": SensorKind("lidar", 115200, lambda: _Rplidar(ScanMode.STANDARD)),
-    "rplidar-express": SensorKind("lidar", 115200, lambda: _Rplidar(ScanMode.EXPRESS)),
-    "ld06": SensorKind("lidar", 230400, _Ld06),
-    "ld19": SensorKind("lidar", 230400, _Ld06),
-    "stl19p": SensorKind("lidar", 230400, _Ld06),
-    "nmea": SensorKind("gps", 9600, _Nmea),
-}
+WAIT_S = 0.05  # [s] longest wait for bytes before looking at the clock again
+READ_PAUSE_S = 0.01  # [s] least time between two reads: a wakeup carries a few packets
+WRONG_KIND_S = 3.0  # [s] of bytes without a good frame: the device is likely another kind
+WRONG_KIND_BYTES = 2000
 
 
 class Trouble:
-    """Each kind of trouble logged once when it begins and once when it ends."""
+    """Each kind of trouble logged once when it begins (again when its ``error`` changes:
+    navd refused, then full, then down) and once when it ends."""
 
     def __init__(self) -> None:
         self.log = get_logger("sensor")
-        self._active: set[str] = set()
+        self._active: dict[str, object] = {}
 
-    def begin(self, kind: str, **fields: object) -> None:
-        if kind not in self._active:
-            self._active.add(kind)
-            self.log.warning(kind, **fields)
+    def begin(self, event: str, **fields: object) -> None:
+        reason = fields.get("error")
+        if event not in self._active or self._active[event] != reason:
+            self._active[event] = reason
+            self.log.warning(event, **fields)
 
-    def end(self, kind: str, event: str, **fields: object) -> None:
-        if kind in self._active:
-            self._active.discard(kind)
+    def end(self, trouble: str, event: str, **fields: object) -> None:
+        if trouble in self._active:
+            del self._active[trouble]
             self.log.info(event, **fields)
-
-
-@dataclass(frozen=True, slots=True)
-class Link:
-    """Where a sensor program reads and where it sends.
-
-    Attributes:
-        port, baud: the device's serial port and rate.
-        host, navd_port: where navd listens.
-        device_id: the name navd knows the device by.
-        token: navd's ``tcp.token``, when it has one.
-    """
-
-    port: str
-    baud: int
-    host: str
-    navd_port: int
-    device_id: str
-    token: str | None = None
 
 
 class _Program:
@@ -205,8 +68,9 @@ class _Program:
 
     def __init__(self, kind: str, link: Link) -> None:
         self.sensor = KINDS[kind]
+        self.kind = kind
         self.link = link
-        self.decoder = self.sensor.decoder()
+        self.decoder = self.sensor.decoder(link)
         self.trouble = Trouble()
         self.device: serial.Serial | None = None
         self.client: Client | None = None
@@ -215,10 +79,12 @@ class _Program:
         self.summary_at = time.monotonic()
         self.logged: dict[str, int] = {}
         self.navd = f"{link.host}:{link.navd_port}"
+        self.framed_at = time.monotonic()  # when the last good frame came
+        self.unframed_bytes = 0  # bytes since then
 
     def open_device(self) -> bool:
         try:
-            self.device = open_exclusive(self.link.port, self.link.baud, timeout=0.1)
+            self.device = open_exclusive(self.link.port, self.link.baud, timeout=0)
         except (serial.SerialException, OSError) as err:
             self.trouble.begin("device_unavailable", port=self.link.port, error=str(err))
             return False
@@ -252,16 +118,21 @@ class _Program:
         return True
 
     def step(self) -> None:
-        """Read what the device sent, and send navd the frames it makes."""
-        assert self.device is not None and self.client is not None
+        """Wait for the device's bytes, and send navd the frames they make."""
+        device, client = self.device, self.client
+        assert device is not None and client is not None
         try:
-            data = self.device.read(READ_BYTES)
-        except (serial.SerialException, OSError) as err:
-            self.trouble.begin("device_lost", port=self.link.port, error=str(err))
-            self.device.close()
-            self.device = None
+            ready = select.select([device.fileno()], [], [], WAIT_S)[0]
+            data = device.read(max(device.in_waiting, 1)) if ready else b""
+        except (serial.SerialException, OSError, ValueError) as err:
+            self._lose_device(err)
             return
         now = time.monotonic()
+        try:
+            self.decoder.tick(now)
+        except (serial.SerialException, OSError) as err:
+            self._lose_device(err)
+            return
         if not data:
             if now - self.heard_at > SILENT_S:
                 silent_s = round(now - self.heard_at, 1)
@@ -271,21 +142,53 @@ class _Program:
                     try:
                         self.decoder.silent()
                     except (serial.SerialException, OSError) as err:
-                        self.trouble.begin("device_lost", port=self.link.port, error=str(err))
-                        self.device.close()
-                        self.device = None
+                        self._lose_device(err)
             return
         self.heard_at = now
         self.trouble.end("device_silent", "device_speaks", port=self.link.port)
         try:
-            for frame in self.decoder.feed(data, now):
-                self.client.send(frame)
-            drain_replies(self.client, self.trouble)
+            frames = self.decoder.feed(data, now)
+            for frame in frames:
+                client.send(frame)
+            drain_replies(client, self.trouble)
         except OSError as err:
             self.trouble.begin("navd_lost", navd=self.navd, error=str(err))
-            self.client.close()
+            client.close()
             self.client = None
+            return
+        self._framing(now, len(data), bool(frames))
         self.count(now)
+        time.sleep(READ_PAUSE_S)  # let a few packets gather: fewer wakeups, same latency
+
+    def _lose_device(self, err: Exception) -> None:
+        self.trouble.begin("device_lost", port=self.link.port, error=str(err))
+        if self.device is not None:
+            with contextlib.suppress(OSError, serial.SerialException):
+                self.device.close()
+        self.device = None
+
+    def _framing(self, now: float, received: int, framed: bool) -> None:
+        """Bytes that keep coming without a good frame: say what is likely wrong, once."""
+        if framed:
+            self.framed_at, self.unframed_bytes = now, 0
+            self.trouble.end("not_this_kind", "device_frames", port=self.link.port)
+            return
+        self.unframed_bytes += received
+        skipped = self.decoder.counts().get("skipped_bytes", 0)
+        if (
+            now - self.framed_at > WRONG_KIND_S
+            and self.unframed_bytes > WRONG_KIND_BYTES
+            and skipped > self.unframed_bytes // 2
+        ):
+            self.trouble.begin(
+                "not_this_kind",
+                port=self.link.port,
+                kind=self.kind,
+                baud=self.link.baud,
+                bytes_without_a_frame=self.unframed_bytes,
+                error=f"no {self.kind} frame in {self.unframed_bytes} bytes: is the device a "
+                f"{self.kind}, at {self.link.baud} baud? (KIND, --baud)",
+            )
 
     def count(self, now: float) -> None:
         """Log each counter the first time it moves, and all of them now and then."""

@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 from pydantic import BeforeValidator, Field, model_validator
 
-from navd.wire.base import MAX_RAYS, Covariance, FrameId
+from navd.wire.base import Covariance, FrameId
 from navd.wire.sensor_frames import FixFrame, ImuFrame, OdomFrame, ScanFrame, SensorFrame
 
 __all__ = [
@@ -71,12 +71,11 @@ def _navsat_status(value: Any) -> Any:
 
 class RosScanFrame(ScanFrame):
     """A sensor_msgs/LaserScan: its header gives the stamp; ``angle_max`` is checked against
-    the rest, ``scan_time`` and ``intensities`` are taken and not used."""
+    the rest; ``scan_time`` is taken and not used."""
 
     frame_id: FrameId = None
     angle_max: float | None = Field(None, allow_inf_nan=False)
     scan_time: float | None = Field(None, ge=0, allow_inf_nan=False)
-    intensities: list[float | None] | None = Field(None, max_length=MAX_RAYS)
 
     @model_validator(mode="before")
     @classmethod
@@ -85,15 +84,6 @@ class RosScanFrame(ScanFrame):
 
     @model_validator(mode="after")
     def _ros_consistent(self) -> RosScanFrame:
-        if (
-            self.intensities
-            and self.ranges is not None
-            and len(self.intensities) != len(self.ranges)
-        ):
-            raise ValueError(
-                f"intensities: {len(self.intensities)} values for {len(self.ranges)} ranges "
-                f"(give one per ray, or none)"
-            )
         if self.angle_max is not None and self.ranges is not None and self.ranges:
             last = self.angle_min + self.angle_increment * (len(self.ranges) - 1)
             if abs(last - self.angle_max) > abs(self.angle_increment):

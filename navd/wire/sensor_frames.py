@@ -28,7 +28,13 @@ __all__ = [
 
 
 class ScanFrame(Frame):
-    """A lidar sweep (sensor_msgs/LaserScan); ``ranges`` or ``ranges_f32``, not both."""
+    """A lidar sweep (sensor_msgs/LaserScan); ``ranges`` or ``ranges_f32``, not both.
+
+    ``stamp`` is the time of the first ray; ``time_increment`` [s] the time from one ray to
+    the next (a turning lidar's rays are measured one after the other, so a robot that moves
+    meanwhile sees each from a slightly different place); ``intensities`` one per ray, in the
+    device's own units (reflectivity or signal strength), empty or absent when it has none.
+    """
 
     model_config = ConfigDict(strict=True, extra="forbid", frozen=True, allow_inf_nan=True)
 
@@ -41,6 +47,7 @@ class ScanFrame(Frame):
     time_increment: float = Field(0.0, ge=0, allow_inf_nan=False)
     ranges: list[float | None] | None = Field(None, max_length=MAX_RAYS)
     ranges_f32: str | None = Field(None, max_length=(MAX_RAYS * 4 * 4) // 3 + 4)
+    intensities: list[float | None] | None = Field(None, max_length=MAX_RAYS)
 
     @model_validator(mode="after")
     def _consistent(self) -> ScanFrame:
@@ -50,11 +57,23 @@ class ScanFrame(Frame):
             )
         if self.angle_increment == 0.0:
             raise ValueError("angle_increment: must be non-zero")
+        if self.intensities and len(self.intensities) != self._rays():
+            raise ValueError(
+                f"intensities: {len(self.intensities)} values for {self._rays()} ranges "
+                "(give one per ray, or none)"
+            )
         if self.range_max <= self.range_min:
             raise ValueError(
                 f"range_max: must exceed range_min ({self.range_min}), got {self.range_max}"
             )
         return self
+
+    def _rays(self) -> int:
+        """How many rays the ranges hold (for ``ranges_f32``, from its base64 length)."""
+        if self.ranges is not None:
+            return len(self.ranges)
+        text = (self.ranges_f32 or "").rstrip("=")
+        return (len(text) * 3 // 4) // 4
 
     def ranges_array(self) -> np.ndarray[Any, np.dtype[np.float32]]:
         """[m] the ranges as float32; null becomes NaN (an invalid ray).
@@ -72,6 +91,12 @@ class ScanFrame(Frame):
         if len(raw) % 4:
             raise WireError("ranges_f32", f"{len(raw)} bytes is not a whole number of float32")
         return np.frombuffer(raw, dtype="<f4").astype(np.float32)
+
+    def intensities_array(self) -> np.ndarray[Any, np.dtype[np.float32]] | None:
+        """The intensities as float32 (null becomes NaN), None when the frame has none."""
+        if not self.intensities:
+            return None
+        return np.array(self.intensities, dtype=np.float32)
 
 
 class ImuFrame(Frame):

@@ -6,8 +6,6 @@ waited for."""
 from __future__ import annotations
 
 import math
-import os
-import select
 import subprocess
 import sys
 import threading
@@ -18,9 +16,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.e2e.ptys import linked_pty
+from navd.sim.devices import RplidarDevice, SerialLine
 from tests.e2e.test_viz_process import logged
-from tests.sensors.rplidar_emulator import RplidarEmulator
 from tests.sensors.test_rplidar import room
 from tests.viz.foxglove_client import FoxgloveClient
 
@@ -37,31 +34,16 @@ def _wait(predicate: Any, timeout_s: float = 10.0) -> bool:
     return bool(predicate())
 
 
-class _SerialDevice(threading.Thread):
-    """The emulated lidar on the pseudo-terminal's device end: answers what it hears and
-    streams ten turns a second while asked to scan, unless told to hang."""
-
-    def __init__(self, master: int, emulator: RplidarEmulator) -> None:
-        super().__init__(daemon=True)
-        self.master, self.emulator = master, emulator
-        self.hung = threading.Event()
-        self.stop = threading.Event()
-
-    def run(self) -> None:
-        next_turn = time.monotonic()
-        while not self.stop.is_set():
-            try:
-                ready = select.select([self.master], [], [], 0.02)[0]
-                if ready:
-                    answer = self.emulator.hear(os.read(self.master, 4096))
-                    if answer and not self.hung.is_set():
-                        os.write(self.master, answer)
-                if time.monotonic() >= next_turn:
-                    next_turn += 0.1
-                    if not self.hung.is_set():
-                        os.write(self.master, self.emulator.turn())
-            except OSError:
-                return  # the port was pulled
+def _a1_on(
+    link: Path,
+) -> tuple[RplidarDevice, SerialLine, threading.Event, threading.Thread]:
+    """An A1 on a serial line at ``link``, at its own rate and rhythm, serving until told."""
+    line = SerialLine(link)
+    device = RplidarDevice(room, model="A1")
+    stop = threading.Event()
+    serving = threading.Thread(target=device.serve, args=(line, stop), daemon=True)
+    serving.start()
+    return device, line, stop, serving
 
 
 async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port(
@@ -73,10 +55,8 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
     logged(daemon, "ready")
     tcp_port = logged(daemon, "listening")["port"]
     viewer = await FoxgloveClient.open(logged(daemon, "viz_listening")["port"])
-    master, slave, link = linked_pty(tmp_path)
-    emulator = RplidarEmulator(room, model=0x18)  # an A1
-    device = _SerialDevice(master, emulator)
-    device.start()
+    link = tmp_path / "ttyUSB0"
+    device, line, stop, serving = _a1_on(link)
     log_path = tmp_path / "sensor.log"
     log = log_path.open("w")
     navd = f"127.0.0.1:{tcp_port}"
@@ -88,28 +68,28 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
     try:
         await viewer.wait_for_topics({"/scan"})
         await viewer.subscribe("/scan")
-        _, shown = await viewer.receive("/scan", timeout_s=30.0)
+        for _ in range(2):  # the first turn may be partial: the second is whole
+            _, shown = await viewer.receive("/scan", timeout_s=30.0)
         ranges = np.array(shown.ranges, dtype=float)
         angles = np.linspace(shown.start_angle, shown.end_angle, ranges.size)
+        angles = np.remainder(angles + math.pi, 2 * math.pi) - math.pi  # (clockwise order)
         right = np.abs(angles + math.pi / 2) < math.radians(5)  # the wall on its right
         left = np.abs(angles - math.pi / 2) < math.radians(5)
         assert np.nanmax(np.abs(ranges[right] - 1.0)) < 0.005
         assert np.nanmax(np.abs(ranges[left] - 3.0)) < 0.005
-        assert emulator.requests[:4] == [0x25, 0x52, 0x50, 0x20]  # stop, health, info, scan
+        assert device.requests[:3] == [0x25, 0x52, 0x50]  # stop, health, info
+        assert 0x82 in device.requests and device.deaf_requests == []  # its typical mode
         # The lidar stops mid-scan (its firmware hung): the program asks it again.
-        asked = len(emulator.requests)
-        device.hung.set()
-        _wait(lambda: len(emulator.requests) > asked)
-        assert emulator.requests[asked:][:2] == [0x25, 0x52], "not asked again when silent"
-        device.hung.clear()
-        emulator.requests.clear()
-        assert _wait(lambda: 0x20 in emulator.requests), "the scan was not started again"
+        device.frozen.set()
+        asked = len(device.requests)
+        time.sleep(2.5)  # silent for longer than the program's 2 s
+        device.frozen.clear()
+        assert _wait(lambda: device.requests[asked:][:2] == [0x25, 0x52]), "not asked again"
+        assert _wait(lambda: device.streaming is not None), "the scan was not started again"
         # The port vanishes (the USB adapter pulled out): said once, waited for.
-        device.stop.set()
-        device.join(2.0)
-        link.unlink()
-        os.close(master)
-        os.close(slave)
+        stop.set()
+        serving.join(2.0)
+        line.close()
         time.sleep(2.0)
         assert program.poll() is None, "the sensor program died with its port"
     finally:

@@ -8,6 +8,7 @@ import math
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ import numpy as np
 import pytest
 
 from navd.lifecycle.messages import GpsFix, LaserScan
-from navd.sensors import encode_packet
+from navd.sim.devices import Ld06Device, SerialLine
 from navd.viz import read_recording, recording_files
 from navd.wire import Client, StatusFrame, SubscribeFrame
 from tests.e2e.ptys import linked_pty
@@ -25,17 +26,13 @@ from tests.sensors.test_nmea import GGA
 pytestmark = pytest.mark.e2e
 
 
-def _ld06_turn(k0: int) -> bytes:
-    """One turn of a square room 3 m around, as 30 packets."""
-    packets = []
-    for k in range(30):
-        start = 12.0 * k
-        packets.append(encode_packet(3600, start, start + 11.0, [3.0] * 12, (k0 + k) * 3))
-    return b"".join(packets)
-
-
-def _device(kind: str, step: int) -> bytes:
-    return _ld06_turn(step) if kind == "ld06" else (GGA + "\r\n").encode()
+def _nmea_fixes(master: int, stop: threading.Event) -> None:
+    """A receiver sending one GGA a tenth of a second."""
+    while not stop.wait(0.1):
+        try:
+            os.write(master, (GGA + "\r\n").encode())
+        except OSError:
+            return  # the port was pulled
 
 
 def _devices(port: int) -> dict[str, Any]:
@@ -53,16 +50,18 @@ def _received(folder: Path) -> list[Any]:
 
 def _check_values(kind: str, messages: list[Any]) -> None:
     assert len(messages) >= 3
-    for message in messages:
+    for message in messages[1:]:  # (a program's first turn begins where it began reading)
         assert message.device_id == f"{kind}0"
         # stamped by the program at the device's bytes, mapped onto navd's clock: never
         # after their arrival, and not long before it
         assert 0.0 <= message.received - message.stamp < 0.5
-        if kind == "ld06":
-            assert message.angle_min == pytest.approx(-math.pi)
-            assert message.angle_increment == pytest.approx(math.pi / 360)
+        if kind == "ld06":  # a turn from the lidar's front, clockwise, in the order measured
+            assert message.angle_min == pytest.approx(0.0, abs=0.01)
+            assert message.angle_increment == pytest.approx(-math.pi / 360)
+            assert message.time_increment == pytest.approx(0.1 / 720, rel=0.05)
             seen = message.ranges[np.isfinite(message.ranges)]
             assert seen.size > 300 and np.allclose(seen, 3.0, atol=0.001)  # the 3 m room
+            assert message.intensities is not None
         else:
             assert message.latitude_deg == pytest.approx(48.1173, abs=1e-6)
             assert message.longitude_deg == pytest.approx(11.516667, abs=1e-6)
@@ -75,8 +74,22 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
 ) -> None:
     folder = tmp_path / "recorded"
     daemon, port = daemon_on_port(f'[record]\nenabled = true\ndir = "{folder}"\n')
-    master, slave, link = linked_pty(tmp_path)
-    device = str(link)
+    stop = threading.Event()
+    if kind == "ld06":  # an LD06 in a round room 3 m across, at its own rate and rhythm
+        line = SerialLine(tmp_path / "ttyUSB0")
+        lidar = Ld06Device(lambda angle_deg: (3.0, 120))
+        device_thread = threading.Thread(target=lidar.stream, args=(line, stop), daemon=True)
+        link, unplug = tmp_path / "ttyUSB0", line.close
+    else:
+        master, slave, link = linked_pty(tmp_path)
+        device_thread = threading.Thread(target=_nmea_fixes, args=(master, stop), daemon=True)
+
+        def unplug() -> None:
+            link.unlink()
+            os.close(master)
+            os.close(slave)
+
+    device_thread.start()
     log = (tmp_path / "sensor.log").open("w")
     program = subprocess.Popen(
         [
@@ -86,7 +99,7 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
             "sensor",
             kind,
             "--port",
-            device,
+            str(link),
             "--navd",
             f"127.0.0.1:{port}",
             "--device-id",
@@ -98,21 +111,17 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
     try:
         deadline = time.monotonic() + 20.0
         seen = None
-        step = 0
         while time.monotonic() < deadline:
-            os.write(master, _device(kind, step))
-            step += 1
-            time.sleep(0.1)
-            if step % 10 == 0:
-                seen = _devices(port).get(f"{kind}0")
-                if seen is not None and seen.accepted > 2:
-                    break
+            time.sleep(1.0)
+            seen = _devices(port).get(f"{kind}0")
+            if seen is not None and seen.accepted > 2:
+                break
         assert seen is not None and seen.kind == role and seen.accepted > 2
         assert seen.rejected == 0
         # The port vanishes (a USB adapter pulled out): the program says so and waits.
-        link.unlink()
-        os.close(master)
-        os.close(slave)
+        stop.set()
+        device_thread.join(2.0)
+        unplug()
         time.sleep(2.0)
         assert program.poll() is None, "the sensor program died with its port"
     finally:

@@ -17,7 +17,7 @@ from navd.config import ConfigError, load_config, set_table_keys
 from navd.lifecycle.messages import CompassHeading, DeviceConnected, Imu
 from navd.sensors.calibration import record_turn
 from navd.sensors.i2c_runner import I2cOptions, run_i2c_sensor
-from navd.sensors.runner import Link
+from navd.sensors.link import Link
 from tests.drivers.conftest import record, running_daemon, until
 from tests.sensors.chip_fakes import (
     GRAVITY,

@@ -36,6 +36,7 @@ class LaserScan(Message):
         range_min: [m] smallest valid range.
         range_max: [m] largest valid range.
         time_increment: [s] time between consecutive rays (0 if unknown).
+        intensities: one per ray in the device's units (read-only float32), or None.
     """
 
     device_id: str
@@ -45,6 +46,7 @@ class LaserScan(Message):
     range_min: float
     range_max: float
     time_increment: float = 0.0
+    intensities: npt.NDArray[np.float32] | None = None
 
     def __post_init__(self) -> None:
         Message.__post_init__(self)
@@ -60,6 +62,13 @@ class LaserScan(Message):
         if self.time_increment < 0.0:
             raise MessageError(f"time_increment must be >= 0, got {self.time_increment}")
         object.__setattr__(self, "ranges", read_only("ranges", self.ranges, np.float32, 1))
+        if self.intensities is not None:
+            values = read_only("intensities", self.intensities, np.float32, 1)
+            if values.size != self.ranges.size:
+                raise MessageError(
+                    f"intensities: {values.size} values for {self.ranges.size} ranges"
+                )
+            object.__setattr__(self, "intensities", values)
 
     @property
     def angles(self) -> FloatArray:
