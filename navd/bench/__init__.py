@@ -2,8 +2,8 @@
 
 Each benchmark is a module of its own with a ``run`` that returns its figures, imported only
 when asked for (it imports what it times); the others are the programs and fixtures they
-start (a sensor client, a viewer, an LD06 on a pseudo-terminal, a synthetic room, the
-reference UKF).
+start (a sensor client, a viewer, a synthetic room, the reference UKF); the device
+emulators they read are ``navd.sim.devices``.
 """
 
 __all__ = [
@@ -11,6 +11,7 @@ __all__ = [
     "estimation",
     "fleet",
     "ingest",
+    "lidar_program",
     "planning",
     "safety",
     "scan",

@@ -66,6 +66,19 @@ def add_commands(commands: Commands) -> None:
         "safety", help="ms from a lidar or IMU going silent or away to the wheels stopping"
     )
     safety.add_argument("--trials", type=int, default=10, help="trials of each case")
+    safety.add_argument(
+        "--lidar-program",
+        choices=("ld06", "rplidar"),
+        help="instead: `navd sensor KIND` on an emulated lidar at its baud rate and rhythm, "
+        "the daemon driven by hand (stale events, safety holds, delivery, freeze to stop)",
+    )
+    safety.add_argument("--model", default="A1", help="--lidar-program rplidar: the model")
+    safety.add_argument(
+        "--seconds", type=float, default=60.0, help="--lidar-program: [s] measured driving"
+    )
+    safety.add_argument(
+        "--busy", type=int, default=0, help="--lidar-program: CPU-bound processes beside it"
+    )
     safety.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     safety.set_defaults(handler=_safety)
     compare = names.add_parser(
@@ -132,6 +145,18 @@ def _fleet(args: argparse.Namespace) -> int:
 
 
 def _safety(args: argparse.Namespace) -> int:
+    if args.lidar_program:
+        from navd.bench import lidar_program  # noqa: PLC0415
+
+        figures = lidar_program.run(
+            args.lidar_program,
+            seconds=args.seconds,
+            busy=args.busy,
+            model=args.model,
+            freezes=args.trials,
+        )
+        print_figures(figures, args.json)
+        return EXIT_OK
     from navd.bench import safety  # noqa: PLC0415
 
     print_figures(safety.run(trials=args.trials), args.json)

@@ -69,6 +69,16 @@ def add_commands(commands: Commands) -> None:
     )
     sensor.add_argument("--baud", type=int, help="serial rate (default: the kind's usual one)")
     sensor.add_argument(
+        "--scan-mode",
+        help="rplidar: the scan mode by name, e.g. Standard, Express, DenseBoost (default: the "
+        "lidar's typical mode, if navd reads it, else its fastest one navd reads)",
+    )
+    sensor.add_argument(
+        "--range-max",
+        type=float,
+        help="[m] a lidar's longest trusted range (default: what the lidar says, else its model's)",
+    )
+    sensor.add_argument(
         "--device-id", help="the name navd knows it by (default: KIND-PORTNAME, e.g. ld06-ttyUSB0)"
     )
     sensor.add_argument(
@@ -99,6 +109,9 @@ def _sensor(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_USAGE
+    if args.range_max is not None and not 0.1 <= args.range_max <= 100.0:
+        print(f"navd sensor: --range-max {args.range_max} must be 0.1 to 100 m", file=sys.stderr)
+        return EXIT_USAGE
     try:
         address = None if args.address is None else int(args.address, 0)
     except ValueError:
@@ -112,6 +125,8 @@ def _sensor(args: argparse.Namespace) -> int:
         navd_port=int(port_text),
         device_id=device_id,
         token=args.token or os.environ.get("NAVD_TOKEN"),
+        scan_mode=args.scan_mode,
+        range_max_m=args.range_max,
     )
     if args.kind == "calibrate-compass":
         return _calibrate(args, link, address)

@@ -12,7 +12,7 @@ from typing import Protocol
 import serial
 
 from navd.logs import get_logger
-from navd.sensors.ld06 import PacketReader, ScanAssembler
+from navd.sensors.ld06 import RANGE_MAX_M, PacketReader, ScanAssembler
 from navd.sensors.link import Link
 from navd.sensors.nmea import NmeaReader
 from navd.sensors.rplidar import RplidarDecoder
@@ -102,7 +102,7 @@ class _Ld06(_Streaming):
 
     def __init__(self, link: Link) -> None:
         self.reader = PacketReader()
-        self.turns = ScanAssembler()
+        self.turns = ScanAssembler(range_max_m=link.range_max_m or RANGE_MAX_M)
 
     def feed(self, data: bytes, stamp: float) -> list[SensorFrame]:
         return list(self.turns.add_many(self.reader.feed_timed(data, stamp)))

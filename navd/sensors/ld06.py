@@ -40,6 +40,7 @@ from navd.wire import ScanFrame
 
 __all__ = [
     "PACKET_BYTES",
+    "RANGE_MAX_M",
     "Ld06Packet",
     "PacketReader",
     "ScanAssembler",
@@ -176,12 +177,13 @@ class ScanAssembler:
 
     Args:
         min_intensity: points below this intensity are taken as no return.
+        range_max_m: [m] the longest range trusted (the LD06's 12 m unless told).
     """
 
-    def __init__(self, min_intensity: int = 1) -> None:
+    def __init__(self, min_intensity: int = 1, range_max_m: float = RANGE_MAX_M) -> None:
         self.min_intensity = min_intensity
         self.clock = DeviceClock(CLOCK_WRAP_S)
-        self.turns = TurnBuilder(RANGE_MIN_M, RANGE_MAX_M)
+        self.turns = TurnBuilder(RANGE_MIN_M, range_max_m)
 
     def add(self, packet: Ld06Packet, arrived_s: float) -> ScanFrame | None:
         """Take a packet that arrived at ``arrived_s`` [s, this computer's clock] at the

@@ -14,13 +14,10 @@ series' (A1/A2/C1 12 m, A3 25 m, S1 40 m), unless given.
 Requests keep Slamtec's spacing: nothing within ``STOP_GAP_S`` after STOP, nothing until
 ``RESET_SETTLE_S`` after RESET. A request left unanswered for ``ANSWER_TIMEOUT_S`` is logged
 with what was asked and the conversation starts again; after ``RETRIES`` of those, with a
-RESET. The A1's motor runs while the adapter's DTR line is low.
+RESET.
 
-Each sample is placed in time by when its bytes arrived (the read's time less the line time
-of the bytes after it); a capsule's samples are spread over the time from it to the next.
-The turns become scans (``turn_builder``): standard samples end a turn at their start flag,
-capsules where the angle passes the front. Standard samples keep their quality as the
-intensity.
+The scan's bytes become turns in ``rplidar_stream``; the A1's motor runs while the
+adapter's DTR line is low.
 """
 
 from __future__ import annotations
@@ -31,22 +28,11 @@ import struct
 import time
 from collections.abc import Callable
 
-import numpy as np
-
-from navd.sensors.rplidar_capsules import (
-    SAMPLES,
-    capsule_checksum,
-    capsule_points,
-    capsule_start,
-    capsule_synced,
-)
 from navd.sensors.rplidar_modes import ModeQuery, choose_mode
 from navd.sensors.rplidar_protocol import (
     ANSWER,
-    CAPSULE_BYTES,
     DESCRIPTOR_BYTES,
     READABLE,
-    SAMPLE_BYTES,
     SYNC,
     Answer,
     Command,
@@ -55,6 +41,7 @@ from navd.sensors.rplidar_protocol import (
     request,
     series_range_max_m,
 )
+from navd.sensors.rplidar_stream import ScanStream, StreamCounts
 from navd.sensors.turn_builder import TurnBuilder
 from navd.wire import SensorFrame
 
@@ -125,15 +112,15 @@ class RplidarDecoder:
         self.info: RplidarInfo | None = None
         self.modes: list[ScanModeInfo] = []
         self.scan_mode: ScanModeInfo | None = None
-        self.skipped_bytes = self.bad_checksums = self.health_errors = self.banner_bytes = 0
+        self.skipped_bytes = self.health_errors = self.banner_bytes = 0
         self._write: Callable[[bytes], None] = lambda data: None
         self._buffer = bytearray()
         self._step = _Step.IDLE
         self._asked: tuple[str, float] = ("", math.inf)  # what was asked, and when
         self._quiet_until = 0.0  # no request before this [s]
         self._failures = 0
-        self._stream: Answer | None = None
-        self._capsule: tuple[float, bytes, float] | None = None  # start, bytes, arrival
+        self._stream: ScanStream | None = None
+        self._streamed = StreamCounts()  # bad input of every stream so far
         self._modes = ModeQuery()
         self._banner = bytearray()
         self.turns = TurnBuilder(RANGE_MIN_M, range_max_m or 12.0)
@@ -187,7 +174,6 @@ class RplidarDecoder:
             self.sleep(wait)
         # A new request ends what was being streamed: the next bytes answer it.
         self._stream = None
-        self._capsule = None
         self._buffer.clear()
         self._write(data)
 
@@ -211,21 +197,15 @@ class RplidarDecoder:
             self._banner.extend(data[: max(BANNER_CHARS - len(self._banner), 0)])
             return []
         self._buffer.extend(data)
-        frames: list[SensorFrame] = []
-        while True:
-            if self._stream is None:
-                if not self._descriptor():
-                    return frames
-            elif self._stream is Answer.SCAN:
-                if not self._sample(read_s, frames):
-                    return frames
-            elif not self._capsule_in(read_s, frames):
-                return frames
+        while self._stream is None:
+            if not self._descriptor():
+                return []
+        return list(self._stream.take(self._buffer, read_s))
 
     def counts(self) -> dict[str, int]:
         return {
-            "skipped_bytes": self.skipped_bytes,
-            "bad_checksums": self.bad_checksums,
+            "skipped_bytes": self.skipped_bytes + self._streamed.skipped_bytes,
+            "bad_checksums": self._streamed.bad_checksums,
             "health_errors": self.health_errors,
         }
 
@@ -253,7 +233,11 @@ class RplidarDecoder:
         size, multiple = size_mode & 0x3FFFFFFF, size_mode >> 30 == 1
         if multiple and kind in READABLE:
             del buffer[:DESCRIPTOR_BYTES]
-            self._stream = Answer(kind)
+            mode = self.scan_mode
+            self._stream = ScanStream(
+                Answer(kind), self.byte_s, self.turns, mode.us_per_sample if mode else 0.0
+            )
+            self._streamed.add(self._stream)
             self._step = _Step.SCAN
             return True
         if len(buffer) < DESCRIPTOR_BYTES + size:
@@ -334,60 +318,3 @@ class RplidarDecoder:
         else:  # working mode, then four reserved bytes
             payload = struct.pack("<BI", chosen.mode_id, 0)
             self._ask(request(Command.EXPRESS_SCAN, payload), _Step.SCAN, "EXPRESS_SCAN")
-
-    def _sample(self, read_s: float, frames: list[SensorFrame]) -> bool:
-        buffer = self._buffer
-        if len(buffer) < SAMPLE_BYTES:
-            return False
-        flags, low, high, distance_q2 = _SAMPLE.unpack_from(buffer)
-        start, inverse, check = flags & 1, (flags >> 1) & 1, low & 1
-        if start == inverse or not check:
-            self._skip(1)  # out of step: find the next sample boundary
-            return True
-        del buffer[:SAMPLE_BYTES]
-        at = self._arrival(read_s) - SAMPLE_BYTES * self.byte_s
-        if start:
-            scan = self.turns.end_turn()
-            if scan is not None:
-                frames.append(scan)
-        quality = flags >> 2
-        distance = distance_q2 / 4000.0
-        frames.extend(
-            self.turns.add(
-                np.array([((high << 7) | (low >> 1)) / 64.0]),
-                np.array([distance if distance > 0.0 and quality else math.nan]),
-                np.array([at]),
-                np.array([float(quality)]),
-            )
-        )
-        return True
-
-    def _capsule_in(self, read_s: float, frames: list[SensorFrame]) -> bool:
-        buffer = self._buffer
-        if len(buffer) < CAPSULE_BYTES:
-            return False
-        if not capsule_synced(bytes(buffer[:2])):
-            self._skip(1)
-            return True
-        capsule = bytes(buffer[:CAPSULE_BYTES])
-        if (capsule[0] & 0xF) | ((capsule[1] & 0xF) << 4) != capsule_checksum(capsule):
-            self.bad_checksums += 1
-            self._skip(1)
-            return True
-        del buffer[:CAPSULE_BYTES]
-        arrived = self._arrival(read_s)
-        start_deg, new_scan = capsule_start(capsule)
-        kind = self._stream
-        assert kind is not None
-        if new_scan:  # a new scan began: what came before belongs to no turn
-            self._capsule = None
-            self.turns.clear()
-        if self._capsule is not None:
-            previous_deg, previous, previous_at = self._capsule
-            angles, ranges = capsule_points(kind, previous, previous_deg, start_deg)
-            count = SAMPLES[kind]
-            span = max(arrived - previous_at, 0.0)
-            times = previous_at - CAPSULE_BYTES * self.byte_s + span * np.arange(count) / count
-            frames.extend(self.turns.add(angles, ranges, times))
-        self._capsule = (start_deg, capsule, arrived)
-        return True

@@ -122,6 +122,8 @@ def _descriptor(size: int, multiple: bool, kind: int) -> bytes:
 
 
 def _sample(angle_deg: float, distance_m: float, start: bool, quality: int) -> bytes:
+    """A standard sample; ``quality`` is 6 bits (0-63, clamped)."""
+    quality = max(0, min(quality, 63))
     angle_q6 = round(angle_deg * 64) & 0x7FFF
     flags = (quality << 2) | ((not start) << 1) | int(start)
     distance_q2 = min(round(distance_m * 4000), 0xFFFF)
