@@ -76,10 +76,15 @@ class ImuMountConfig(Section):
 
 
 class GpsMountConfig(Section):
-    """A GNSS antenna's place on the robot: a fix is where the antenna is, not the centre."""
+    """A GNSS antenna's place on the robot: a fix is where the antenna is, not the centre;
+    and, for a dual-antenna receiver, which way its baseline points: the true heading it
+    reports (HDT) is the heading of the line from its primary to its secondary antenna."""
 
     x_m: float = Field(0.0, ge=-5, le=5, description="[m] antenna x in base_link (forward)")
     y_m: float = Field(0.0, ge=-5, le=5, description="[m] antenna y in base_link (left)")
+    heading_yaw_rad: float = _yaw(  # type: ignore[assignment]
+        "dual-antenna baseline (primary to secondary antenna; 0: the secondary straight ahead)"
+    )
     frame_id: str | None = _FRAME_ID
 
 

@@ -67,7 +67,8 @@ class SensorMounts:
         lidars: lidar mounts by device id; default_lidar: the ``lidar`` section's.
         imus: [rad] each IMU's (roll, pitch, yaw) to base_link.
         gps: [m] each GNSS antenna's (x, y) in base_link.
-        compasses: [rad] each compass's forward-axis yaw in base_link.
+        compasses: [rad] each compass's forward-axis yaw in base_link (a dual-antenna GNSS
+            receiver's baseline yaw under its gps id).
         frame_ids: the ROS frame_id each mounted device's frames may carry.
     """
 
@@ -90,7 +91,9 @@ class SensorMounts:
             lidars={k: LidarMount.of(v) for k, v in m.lidars.items()},
             imus={k: (v.roll_rad, v.pitch_rad, v.yaw_rad) for k, v in m.imus.items()},
             gps={k: (v.x_m, v.y_m) for k, v in m.gps.items()},
-            compasses={k: v.yaw_rad for k, v in m.compasses.items()},
+            # a dual-antenna receiver's heading comes from its gps id, through its baseline
+            compasses={k: v.heading_yaw_rad for k, v in m.gps.items()}
+            | {k: v.yaw_rad for k, v in m.compasses.items()},
             frame_ids=frame_ids,
         )
 

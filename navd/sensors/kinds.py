@@ -124,7 +124,13 @@ class _Nmea(_Streaming):
         return self.reader.feed(data, stamp)
 
     def counts(self) -> dict[str, int]:
-        return {"bad_checksums": self.reader.bad_checksums, "unparsed": self.reader.unparsed}
+        reader = self.reader
+        return {
+            "bad_checksums": reader.bad_checksums,
+            "unparsed": reader.unparsed,
+            "out_of_range": reader.out_of_range,
+            "not_measured": reader.not_measured,
+        }
 
 
 @dataclass(frozen=True, slots=True)

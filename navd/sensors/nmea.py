@@ -1,17 +1,26 @@
 """Any NMEA 0183 GNSS receiver: sentences in, fix and heading frames out (parsed with
 pynmea2).
 
-- GGA gives the position, the altitude and the fix quality (0: no fix, sent as ``status``
-  -1 so navd ignores it; 1: GPS, ``status`` 0; 2: DGPS/SBAS, 1; 4 and 5: RTK, 2);
-- GST gives the position's 1-sigma errors: the horizontal accuracy is their root sum of
-  squares; without GST it is the HDOP times ``UERE_M`` (a typical single-receiver error);
+- GGA gives the position, the altitude and the fix quality. The quality sets the status
+  (sensor_msgs/NavSatStatus: 1 GPS and 3 PPS are 0, a fix; 2 DGPS/SBAS is 1, augmented by
+  satellites; 4 RTK fixed and 5 RTK float are 2, augmented from the ground) and, without a
+  GST, the accuracy: the HDOP times the error of one range for that kind of fix
+  (``RANGE_ERROR_M``: 4 m alone, 1 m with DGPS, 0.3 m RTK float, 0.02 m RTK fixed). 0 (no
+  fix) is sent as status -1, which navd ignores; 6 (dead reckoning), 7 (entered by hand) and
+  8 (simulated) are not positions the receiver measured: they are counted and not sent. The
+  altitude sent is above the WGS84 ellipsoid, as the protocol asks: GGA's height above the
+  geoid plus its geoid separation (as given when the receiver leaves the separation out).
+- GST gives the position's 1-sigma errors along latitude and longitude: the horizontal
+  accuracy is the larger of the two (navd takes it as each axis's sigma), while fresh.
 - RMC with status V (void) marks the position invalid until an A comes;
 - VTG is read and not sent (navd estimates velocity itself);
 - HDT, from a dual-antenna receiver, gives a true heading (a ``heading`` frame with
-  ``true_north``), of accuracy ``HDT_ACCURACY_DEG``.
+  ``true_north``) of accuracy ``HDT_ACCURACY_DEG``, sent on the same connection as the fixes
+  (navd turns it into the robot's heading through ``mounts.gps.ID.heading_yaw_rad``).
 
-Sentences with a bad checksum or that cannot be parsed are counted and skipped; talkers (GP,
-GN, GL, GA...) are all accepted.
+Sentences with a bad checksum or that cannot be parsed are counted and skipped, as are
+sentences whose values cannot be (a latitude of 99°): the program never stops on what a
+receiver sends. Talkers (GP, GN, GL, GA...) are all accepted.
 """
 
 from __future__ import annotations
@@ -24,12 +33,16 @@ import pynmea2
 
 from navd.wire import FixFrame, HeadingFrame, SensorFrame
 
-__all__ = ["HDT_ACCURACY_DEG", "UERE_M", "NmeaReader"]
+__all__ = ["HDT_ACCURACY_DEG", "RANGE_ERROR_M", "UERE_M", "NmeaReader"]
 
-UERE_M = 4.0  # [m] user equivalent range error of a plain receiver: accuracy = HDOP x this
+# [m] the error of one range by GGA fix quality: without GST, accuracy = HDOP x this
+RANGE_ERROR_M = {1: 4.0, 3: 4.0, 2: 1.0, 5: 0.3, 4: 0.02}
+UERE_M = RANGE_ERROR_M[1]  # a plain receiver's
+NAVSAT_STATUS = {1: 0, 3: 0, 2: 1, 4: 2, 5: 2}  # by fix quality (see the module docstring)
+NOT_MEASURED = {6: "dead_reckoning", 7: "entered_by_hand", 8: "simulated"}
 HDT_ACCURACY_DEG = 1.0  # [deg] what a dual-antenna heading is taken to be good to
 GST_MAX_AGE_S = 2.0  # [s] a GST older than this no longer tells the accuracy
-_RTK = {4, 5}
+NO_HDOP_ACCURACY_M = 99.0  # [m] a fix without HDOP or GST: barely a position
 
 
 @dataclass
@@ -39,10 +52,15 @@ class NmeaReader:
     Attributes:
         bad_checksums: sentences whose checksum did not match.
         unparsed: sentences pynmea2 could not read (or not NMEA at all).
+        out_of_range: sentences whose values cannot be (a latitude beyond 90°).
+        not_measured: fixes the receiver did not measure (dead reckoning, by hand,
+            simulated), not sent.
     """
 
     bad_checksums: int = 0
     unparsed: int = 0
+    out_of_range: int = 0
+    not_measured: int = 0
     _accuracy_m: float | None = None
     _accuracy_at: float = -math.inf
     _valid: bool = True
@@ -98,7 +116,7 @@ class NmeaReader:
             self.unparsed += 1
             return
         if math.isfinite(lat) and math.isfinite(lon) and lat > 0 and lon > 0:
-            self._accuracy_m = math.hypot(lat, lon)
+            self._accuracy_m = max(lat, lon)
             self._accuracy_at = stamp
 
     def _gga(self, sentence: Any, stamp: float) -> FixFrame | None:
@@ -107,35 +125,42 @@ class NmeaReader:
             latitude = float(sentence.latitude)
             longitude = float(sentence.longitude)
             altitude = float(getattr(sentence, "altitude", 0.0) or 0.0)
+            separation = float(getattr(sentence, "geo_sep", 0.0) or 0.0)
             hdop = float(getattr(sentence, "horizontal_dil", "") or "nan")
         except (TypeError, ValueError):
             self.unparsed += 1
             return None
+        if quality in NOT_MEASURED:
+            self.not_measured += 1
+            return None
         accuracy = self._accuracy_m if stamp - self._accuracy_at <= GST_MAX_AGE_S else None
         if accuracy is None:
-            accuracy = hdop * UERE_M if math.isfinite(hdop) and hdop > 0 else 99.0
-        # sensor_msgs/NavSatStatus: -1 no fix, 0 fix, 1 with satellite augmentation (DGPS,
-        # SBAS), 2 with ground-based augmentation (RTK)
-        if quality == 0 or not self._valid:
-            status = -1
-        elif quality in _RTK:
-            status = 2
-        else:
-            status = 1 if quality == 2 else 0
-        return FixFrame(
-            stamp=stamp,
-            latitude=latitude,
-            longitude=longitude,
-            altitude=altitude,
-            horizontal_accuracy=accuracy,
-            status=status,
-        )
+            per_range = RANGE_ERROR_M.get(quality, UERE_M)
+            accuracy = hdop * per_range if math.isfinite(hdop) and hdop > 0 else None
+        if accuracy is None:
+            accuracy = NO_HDOP_ACCURACY_M
+        status = -1 if quality == 0 or not self._valid else NAVSAT_STATUS.get(quality, 0)
+        try:
+            return FixFrame(
+                stamp=stamp,
+                latitude=latitude,
+                longitude=longitude,
+                altitude=altitude + separation,
+                horizontal_accuracy=accuracy,
+                status=status,
+            )
+        except ValueError:  # pydantic's ValidationError is one: a latitude of 99°, say
+            self.out_of_range += 1
+            return None
 
     def _hdt(self, sentence: Any, stamp: float) -> HeadingFrame | None:
         try:
             heading = float(sentence.heading)
         except (TypeError, ValueError):
             self.unparsed += 1
+            return None
+        if not math.isfinite(heading):
+            self.out_of_range += 1
             return None
         return HeadingFrame(
             stamp=stamp,

@@ -41,6 +41,7 @@ WAIT_S = 0.05  # [s] longest wait for bytes before looking at the clock again
 READ_PAUSE_S = 0.01  # [s] least time between two reads: a wakeup carries a few packets
 WRONG_KIND_S = 3.0  # [s] of bytes without a good frame: the device is likely another kind
 WRONG_KIND_BYTES = 2000
+LEFT_OUT = frozenset({"not_measured"})  # counters of good input left out on purpose
 
 
 class Trouble:
@@ -195,7 +196,9 @@ class _Program:
         counts = self.decoder.counts()
         for name, count in counts.items():
             if count and not self.logged.get(name):
-                self.trouble.log.warning("bad_input", counter=name, count=count)
+                # what the device says of itself (a receiver dead reckoning) is no bad input
+                event = "input_left_out" if name in LEFT_OUT else "bad_input"
+                self.trouble.log.warning(event, counter=name, count=count)
             self.logged[name] = count
         if now - self.summary_at >= SUMMARY_PERIOD_S:
             self.summary_at = now

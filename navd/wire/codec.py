@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from typing import Annotated, Any, TypeVar, get_args
+from typing import Annotated, Any, TypeVar, Union, get_args
 
 from pydantic import Field, TypeAdapter, ValidationError
 
@@ -19,7 +19,7 @@ from navd.wire.control_frames import ClockRequest, ControlRequest
 from navd.wire.errors import WireError
 from navd.wire.replies import Reply, ReplyPart
 from navd.wire.ros_frames import ROS_SENSOR_FRAMES
-from navd.wire.sensor_frames import SENSOR_FRAMES, SensorFrame
+from navd.wire.sensor_frames import ALSO_SENT, SENSOR_FRAMES, SensorFrame
 
 __all__ = [
     "TAGS",
@@ -45,7 +45,8 @@ _HELLO: TypeAdapter[Hello] = TypeAdapter(Hello)
 _CONTROL: TypeAdapter[ControlRequest] = TypeAdapter(_tagged(ControlRequest))
 _CLOCK: TypeAdapter[ClockRequest] = TypeAdapter(_tagged(ClockRequest))
 _SENSOR: dict[str, TypeAdapter[SensorFrame | PingFrame]] = {
-    role: TypeAdapter(_tagged(frame | PingFrame)) for role, frame in SENSOR_FRAMES.items()
+    role: TypeAdapter(_tagged(Union[(frame, *ALSO_SENT.get(role, ()), PingFrame)]))
+    for role, frame in SENSOR_FRAMES.items()
 }
 _ROS_SENSOR: dict[str, TypeAdapter[SensorFrame | PingFrame]] = {
     role: TypeAdapter(_tagged(frame | PingFrame)) for role, frame in ROS_SENSOR_FRAMES.items()

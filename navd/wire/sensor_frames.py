@@ -16,6 +16,7 @@ from navd.wire.base import DEVICE_ID_PATTERN, MAX_RAYS, Covariance, Frame, Stamp
 from navd.wire.errors import WireError
 
 __all__ = [
+    "ALSO_SENT",
     "SENSOR_FRAMES",
     "BeaconFrame",
     "FixFrame",
@@ -173,7 +174,9 @@ class OdomFrame(Frame):
 
 SensorFrame = ScanFrame | ImuFrame | FixFrame | HeadingFrame | OdomFrame | BeaconFrame
 
-# The data frame of each sensor role.
+# The data frame of each sensor role; ``ALSO_SENT`` the others a role may send (a
+# dual-antenna GNSS receiver is one device: its true heading comes on its gps connection).
+ALSO_SENT: dict[str, tuple[type[SensorFrame], ...]] = {"gps": (HeadingFrame,)}
 SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
     "lidar": ScanFrame,
     "imu": ImuFrame,

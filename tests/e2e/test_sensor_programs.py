@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.lifecycle.messages import GpsFix, LaserScan
-from navd.sim.devices import Ld06Device, SerialLine
+from navd.lifecycle.messages import CompassHeading, GpsFix, LaserScan
+from navd.sim.devices import GnssState, Ld06Device, NmeaDevice, SerialLine
 from navd.viz import read_recording, recording_files
 from navd.wire import Client, StatusFrame, SubscribeFrame
 from tests.e2e.ptys import linked_pty
@@ -134,3 +134,64 @@ def test_a_sensor_program_streams_a_serial_device_and_outlives_its_port(
     said = (tmp_path / "sensor.log").read_text()
     assert "device_lost" in said or "device_unavailable" in said
     assert said.count("device_unavailable") <= 1  # said once, not once per retry
+
+
+def test_an_rtk_receiver_with_two_antennas_places_and_heads_the_robot(
+    daemon_on_port: Any, tmp_path: Path
+) -> None:
+    """RTK fixed without GST arrives good to centimetres, and its HDT heading, sent on the
+    same connection, turns the robot: true north is the map's +y (less the grid's
+    convergence, under 2 deg here)."""
+    folder = tmp_path / "recorded"
+    daemon, port = daemon_on_port(
+        f'[record]\nenabled = true\ndir = "{folder}"\n'
+        "[world]\ndatum_latitude_deg = 48.1173\ndatum_longitude_deg = 11.516667\n"
+    )
+    line = SerialLine(tmp_path / "ttyACM0")
+    receiver = NmeaDevice(GnssState(quality=4, heading_deg=0.0), rate_hz=5.0, baud=38400)
+    stop = threading.Event()
+    streaming = threading.Thread(target=receiver.stream, args=(line, stop), daemon=True)
+    streaming.start()
+    program = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "navd",
+            "sensor",
+            "nmea",
+            "--port",
+            str(tmp_path / "ttyACM0"),
+            "--baud",
+            "38400",
+            "--navd",
+            f"127.0.0.1:{port}",
+            "--device-id",
+            "gnss0",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        pose = None
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and pose is None:
+            time.sleep(0.5)
+            with Client("127.0.0.1", port, device_id="watcher", timeout_s=5.0) as ui:
+                ui.request(SubscribeFrame(rate_hz=20))
+                pose = ui.receive_type(StatusFrame).pose
+        assert pose is not None, "the fixes and heading did not place the robot"
+        assert math.hypot(pose.x, pose.y) < 0.1
+        assert abs(math.remainder(pose.yaw - math.pi / 2, 2 * math.pi)) < math.radians(3)
+    finally:
+        program.terminate()
+        program.wait(10)
+        stop.set()
+        streaming.join(2.0)
+        line.close()
+    daemon.proc.terminate()
+    daemon.proc.wait(10)
+    (file,) = recording_files(folder)
+    fixes = [m for _, m in read_recording(file).messages() if isinstance(m, GpsFix)]
+    headings = [m for _, m in read_recording(file).messages() if isinstance(m, CompassHeading)]
+    assert fixes and all(f.horizontal_accuracy_m <= 0.05 for f in fixes)
+    assert headings and all(h.device_id == "gnss0" and h.true_north for h in headings)

@@ -251,6 +251,26 @@ def test_a_compass_turned_on_its_mount_gives_the_robots_heading() -> None:
     assert max(errors) < math.radians(10)
 
 
+def test_a_dual_antenna_heading_comes_through_the_receivers_baseline_mount() -> None:
+    # The receiver's second antenna sits to the robot's left: its HDT heading is the
+    # robot's bearing minus 90°, and it comes under the receiver's own id ("gps").
+    suite = SensorSuite(lidar_hz=0, gps_hz=5, compass_hz=10)
+    messages = [
+        dataclasses.replace(m, device_id="gps", bearing_deg=(m.bearing_deg - 90.0) % 360.0)
+        if isinstance(m, CompassHeading)
+        else m
+        for m in drive(PATH, suite, 30.0)
+    ]
+    config = _mounted(gps={"gps": {"heading_yaw_rad": math.pi / 2}})
+    estimates = replay(StateEstimator(EstimatorSettings.from_config(config)), messages)
+    errors = [
+        abs(math.remainder(e.yaw_rad - PATH.at(e.stamp).yaw, 2 * math.pi))
+        for e in estimates
+        if e.stamp >= 10.0
+    ]
+    assert max(errors) < math.radians(10)
+
+
 def test_an_imu_mounted_sideways_and_upside_down_is_turned_into_base_link() -> None:
     # The same drive with the IMU rolled half a turn and yawed 90°: what the filter is fed
     # must match what an aligned IMU gives.

@@ -1,11 +1,12 @@
-"""NMEA sentences as navd's frames: position, accuracy, fix quality, true heading, and bad
-sentences counted."""
+"""NMEA sentences as navd's frames: position, ellipsoidal altitude, accuracy by fix quality
+and from GST per axis, true heading; fixes not measured left out, and bad or impossible
+sentences counted, never fatal."""
 
 from __future__ import annotations
 
 import pytest
 
-from navd.sensors.nmea import UERE_M, NmeaReader
+from navd.sensors.nmea import RANGE_ERROR_M, UERE_M, NmeaReader
 from navd.wire import FixFrame, HeadingFrame
 
 
@@ -24,7 +25,8 @@ def test_a_gga_gives_a_fix_with_the_hdop_accuracy() -> None:
     (fix,) = NmeaReader().feed((GGA + "\r\n").encode(), stamp=5.0)
     assert isinstance(fix, FixFrame)
     assert fix.latitude == pytest.approx(48.1173) and fix.longitude == pytest.approx(11.516667)
-    assert fix.altitude == 545.4 and fix.status == 0 and fix.stamp == 5.0
+    assert fix.status == 0 and fix.stamp == 5.0
+    assert fix.altitude == pytest.approx(545.4 + 46.9)  # above the ellipsoid, not the geoid
     assert fix.horizontal_accuracy == pytest.approx(0.9 * UERE_M)
 
 
@@ -33,16 +35,39 @@ def test_gst_errors_give_the_accuracy_while_fresh() -> None:
     gst = nmea("GNGST,172814.0,0.006,0.023,0.020,273.6,0.03,0.04,0.031")
     reader.line(gst, stamp=1.0)
     (fix,) = reader.feed((GGA + "\n").encode(), stamp=1.5)
-    assert isinstance(fix, FixFrame) and fix.horizontal_accuracy == pytest.approx(0.05)
+    # 0.03 m along latitude, 0.04 m along longitude: each axis's sigma is at most 0.04 m
+    assert isinstance(fix, FixFrame) and fix.horizontal_accuracy == pytest.approx(0.04)
     (old,) = reader.feed((GGA + "\n").encode(), stamp=10.0)  # the GST is too old by now
     assert isinstance(old, FixFrame) and old.horizontal_accuracy == pytest.approx(0.9 * UERE_M)
 
 
-@pytest.mark.parametrize(("quality", "status"), [("0", -1), ("1", 0), ("2", 1), ("4", 2)])
-def test_fix_quality_maps_to_navsat_status(quality: str, status: int) -> None:
+@pytest.mark.parametrize(
+    ("quality", "status", "accuracy_m"),
+    [("0", -1, 3.6), ("1", 0, 3.6), ("2", 1, 0.9), ("5", 2, 0.27), ("4", 2, 0.018)],
+)
+def test_fix_quality_sets_the_status_and_without_gst_the_accuracy(
+    quality: str, status: int, accuracy_m: float
+) -> None:
     gga = nmea(f"GNGGA,123519,4807.038,N,01131.000,E,{quality},08,0.9,545.4,M,46.9,M,,")
     fix = NmeaReader().line(gga, stamp=0.0)
     assert isinstance(fix, FixFrame) and fix.status == status
+    assert fix.horizontal_accuracy == pytest.approx(accuracy_m)
+    assert RANGE_ERROR_M[4] <= 0.05  # RTK fixed is centimetres
+
+
+@pytest.mark.parametrize("quality", ["6", "7", "8"])
+def test_a_fix_the_receiver_did_not_measure_is_left_out(quality: str) -> None:
+    reader = NmeaReader()
+    gga = nmea(f"GNGGA,123519,4807.038,N,01131.000,E,{quality},08,0.9,545.4,M,46.9,M,,")
+    assert reader.line(gga, stamp=0.0) is None and reader.not_measured == 1
+
+
+def test_impossible_values_are_counted_not_fatal() -> None:
+    reader = NmeaReader()
+    north_of_the_pole = nmea("GPGGA,123519,9959.940,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,")
+    assert reader.line(north_of_the_pole, stamp=0.0) is None
+    assert reader.out_of_range == 1
+    assert isinstance(reader.line(GGA, stamp=0.1), FixFrame)  # and the next one is read
 
 
 def test_a_void_rmc_marks_positions_invalid_until_valid_again() -> None:

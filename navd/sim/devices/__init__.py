@@ -4,7 +4,16 @@ makers' protocol documents, not from navd's drivers, and each checked against an
 host library in the tests (lds2d, rplidar, pyrplidar, pynmea2)."""
 
 from navd.sim.devices.ld06_device import Ld06Device
+from navd.sim.devices.nmea_device import GnssState, NmeaDevice
 from navd.sim.devices.rplidar_device import MODELS, RplidarDevice
 from navd.sim.devices.serial_line import SerialLine, UartWriter
 
-__all__ = ["MODELS", "Ld06Device", "RplidarDevice", "SerialLine", "UartWriter"]
+__all__ = [
+    "MODELS",
+    "GnssState",
+    "Ld06Device",
+    "NmeaDevice",
+    "RplidarDevice",
+    "SerialLine",
+    "UartWriter",
+]

@@ -14,6 +14,7 @@ import pytest
 from navd.drivers.tcp.server import TcpServer
 from navd.lifecycle.messages import (
     CancelGoal,
+    CompassHeading,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -21,6 +22,7 @@ from navd.lifecycle.messages import (
     DeviceStale,
     Goal,
     GoalStatus,
+    GpsFix,
     Imu,
     InitialPose,
     LaserScan,
@@ -35,8 +37,10 @@ from navd.wire import (
     ConfigRejectedFrame,
     ConnectionClosedError,
     ErrorFrame,
+    FixFrame,
     GoalFrame,
     GoalStatusFrame,
+    HeadingFrame,
     Hello,
     ImuFrame,
     InitialPoseFrame,
@@ -86,6 +90,20 @@ async def test_sensor_frames_become_typed_messages_on_the_daemon_clock() -> None
         assert all(g <= 0.1 + 1e-9 for g in gaps)
         await lidar.close()
         await imu.close()
+
+
+async def test_a_dual_antenna_receiver_sends_its_heading_on_its_gps_connection() -> None:
+    async with running_daemon() as (daemon, port):
+        headings = record(daemon, CompassHeading)
+        fixes = record(daemon, GpsFix)
+        gps = await connected(port, "gps", "gnss0")
+        gps.send(FixFrame(stamp=1.0, latitude=48.1, longitude=11.5, horizontal_accuracy=0.02))
+        gps.send(HeadingFrame(stamp=1.0, bearing_deg=274.0, accuracy_deg=0.5, true_north=True))
+        await until(lambda: len(headings) == 1 and len(fixes) == 1)
+        (heading,) = headings
+        assert heading.device_id == "gnss0" and heading.true_north
+        assert heading.bearing_deg == 274.0
+        await gps.close()
 
 
 async def test_hot_plug_is_published_and_the_device_list_follows() -> None:
