@@ -11,6 +11,11 @@ heading (16 LSB per degree, clockwise from magnetic north), and CALIB_STAT 0x35.
 sample goes to navd as an IMU; the heading, at most ``heading_rate_hz``, as a compass
 reading whose accuracy follows the magnetometer's calibration status (0-3): a heading
 from an uncalibrated magnetometer is not sent.
+
+The chip's heading is that of its +y axis (Bosch: 0 when +y points north). navd's compass
+readings are the bearing of the device's +x axis, the axis its mount's yaw gives, as for
+every other compass: the chip's x axis points 90° clockwise of its y axis (z up), so the
+bearing sent is the heading plus 90°. A chip mounted with x forward needs no mount yaw.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ UNIT_SEL, OPR_MODE, PWR_MODE = 0x3B, 0x3D, 0x3E
 CONFIG_MODE, NDOF_MODE = 0x00, 0x0C
 # [deg] 1-sigma heading accuracy by the magnetometer's calibration status (1, 2, 3)
 HEADING_ACCURACY_DEG = {1: 15.0, 2: 6.0, 3: 3.0}
+Y_TO_X_DEG = 90.0  # [deg] from the bearing of the chip's +y axis to that of its +x axis
 
 
 class Bno055:
@@ -87,7 +93,7 @@ class Bno055:
             if mag_status == 0:
                 self.uncalibrated += 1  # its heading is not to be trusted yet
             else:
-                heading = (v[9] / 16.0) % 360.0
+                heading = (v[9] / 16.0 + Y_TO_X_DEG) % 360.0
                 frames.append(
                     HeadingFrame(
                         stamp=stamp,

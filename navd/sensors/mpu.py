@@ -2,12 +2,17 @@
 
 Written from InvenSense's register maps (RM-MPU-6000A, RM-MPU-9250A) and the AK8963
 datasheet. Set-up: reset (PWR_MGMT_1 0x6B = 0x80), wake on the gyro's PLL (0x01), the
-digital low-pass filter at 44 Hz (CONFIG 0x1A = 3, so the gyro samples at 1 kHz), the
-sample rate divider SMPLRT_DIV 0x19 = 1000 / rate - 1, the gyro at ±500 °/s (GYRO_CONFIG
-0x1B = 0x08: 65.5 LSB per °/s) and the accelerometer at ±4 g (ACCEL_CONFIG 0x1C = 0x08:
-8192 LSB per g). Each poll reads the 14 bytes from ACCEL_XOUT_H 0x3B: accelerations,
-temperature, angular rates, big-endian. WHO_AM_I 0x75 says 0x68 (MPU-6050) or 0x71/0x73
-(MPU-9250/9255).
+digital low-pass filter at 44 Hz (CONFIG 0x1A = 3, so the gyro samples at 1 kHz; on the
+MPU-9250 it filters the gyro only, and the accelerometer's own filter is set to 44.8 Hz too,
+ACCEL_CONFIG2 0x1D = 3), the sample rate divider SMPLRT_DIV 0x19 = 1000 / rate - 1, the gyro
+at ±500 °/s (GYRO_CONFIG 0x1B = 0x08: 65.5 LSB per °/s) and the accelerometer at ±4 g
+(ACCEL_CONFIG 0x1C = 0x08: 8192 LSB per g). Each poll reads the 14 bytes from ACCEL_XOUT_H
+0x3B: accelerations, temperature, angular rates, big-endian. WHO_AM_I 0x75 says 0x68
+(MPU-6050) or 0x71/0x73 (MPU-9250/9255).
+
+A chip that lost power for a moment (a brown-out) answers but sleeps, in its reset state,
+and reads all zeros: a block of 14 zero bytes is never a measurement (gravity and the
+temperature are never both nil), so it is no sample, and the chip is set up again at once.
 
 On the MPU-9250 the magnetometer is reached through the bypass (INT_PIN_CFG 0x37 = 0x02)
 at 0x0C: WIA 0x00 says 0x48; its sensitivity adjustments ASA 0x10-0x12 are read in fuse
@@ -37,6 +42,7 @@ SMPLRT_DIV = 0x19
 CONFIG = 0x1A
 GYRO_CONFIG = 0x1B
 ACCEL_CONFIG = 0x1C
+ACCEL_CONFIG2 = 0x1D  # MPU-9250 only
 INT_PIN_CFG = 0x37
 ACCEL_XOUT_H = 0x3B
 GYRO_LSB_PER_DPS = 65.5
@@ -79,6 +85,7 @@ class Mpu:
         bus.write_byte_data(address, GYRO_CONFIG, 0x08)
         bus.write_byte_data(address, ACCEL_CONFIG, 0x08)
         if self.kind == "mpu9250":
+            bus.write_byte_data(address, ACCEL_CONFIG2, 0x03)  # the accelerometer at 44.8 Hz
             self._setup_magnetometer()
 
     def _setup_magnetometer(self) -> None:
@@ -99,6 +106,8 @@ class Mpu:
         if self._polls % max(round(self.rate_hz), 1) == 0:
             self._check_awake()
         raw = self.bus.read_i2c_block_data(self.address, ACCEL_XOUT_H, 14)
+        if not any(raw):
+            raise OSError("the chip reads all zeros (it lost power and reset): setting it up again")
         values = [int16_be(raw[i], raw[i + 1]) for i in range(0, 14, 2)]
         ax, ay, az, _temperature, gx, gy, gz = values
         accel = tuple(v / ACCEL_LSB_PER_G * GRAVITY_MPS2 for v in (ax, ay, az))

@@ -58,6 +58,28 @@ def test_an_mpu9250_adds_its_magnetometer_in_the_imus_axes() -> None:
     assert mpu.counts()["mag_overflows"] == 1
 
 
+def test_an_mpu9250s_accelerometer_is_filtered_like_its_gyro() -> None:
+    chip = FakeMpu(who=0x71)
+    Mpu(FakeBus(chip), "mpu9250").setup()
+    assert chip.regs[0x1A] == 0x03 and chip.regs[0x1D] == 0x03  # 44 Hz and 44.8 Hz
+    six = FakeMpu(who=0x68)
+    Mpu(FakeBus(six), "mpu6050").setup()
+    assert 0x1D not in six.regs  # the MPU-6050's CONFIG filters both; 0x1D is not its
+
+
+def test_a_chip_that_browned_out_gives_no_zero_sample_and_is_set_up_again() -> None:
+    chip = FakeMpu(who=0x68, accel_g=(0.0, 0.0, 1.0))
+    mpu = Mpu(FakeBus(chip), "mpu6050", rate_hz=200.0)
+    mpu.setup()
+    assert len(mpu.poll(1.0)) == 1
+    chip.write(0x68, 0x6B, 0x80)  # a brown-out: the chip is in its reset state, asleep
+    with pytest.raises(OSError, match="all zeros"):
+        mpu.poll(1.005)  # the very next poll, not a second of zeros later
+    mpu.setup()
+    (frame,) = mpu.poll(1.2)
+    assert isinstance(frame, ImuFrame) and frame.linear_acceleration[2] > 9.0
+
+
 def test_the_wrong_chip_is_refused_by_what_it_says() -> None:
     with pytest.raises(ChipError, match="says 0x68, not an MPU9250"):
         Mpu(FakeBus(FakeMpu(who=0x68)), "mpu9250").setup()
@@ -78,7 +100,8 @@ def test_a_bno055_gives_its_imu_data_and_its_heading_as_a_compass() -> None:
     assert isinstance(imu, ImuFrame) and isinstance(heading, HeadingFrame)
     np.testing.assert_allclose(imu.angular_velocity, [0.0, 0.1, 0.5], atol=0.002)
     np.testing.assert_allclose(imu.linear_acceleration, [0.0, 0.0, GRAVITY], atol=0.01)
-    assert heading.bearing_deg == pytest.approx(123.5, abs=0.07)
+    # the chip's heading is its +y axis's; navd's compass bearing is its +x axis's
+    assert heading.bearing_deg == pytest.approx(123.5 + 90.0, abs=0.07)
     assert heading.accuracy_deg == 3.0  # fully calibrated magnetometer
     assert len(bno.poll(2.05)) == 1  # headings at 10 Hz, IMU samples at every poll
     chip.mag_calibration = 0

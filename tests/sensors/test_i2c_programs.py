@@ -111,7 +111,8 @@ async def test_a_bno055_is_an_imu_and_a_compass_to_navd() -> None:
             await until(lambda: len(headings) >= 2 and len(samples) >= 10, 10.0)
             assert {c.device_id for c in connected} == {"bno", "bno-heading"}
             assert headings[-1].device_id == "bno-heading"
-            assert headings[-1].bearing_deg == pytest.approx(250.0, abs=0.07)
+            # the chip's +y axis heads 250 deg: its +x axis, the one navd's mount turns, 340
+            assert headings[-1].bearing_deg == pytest.approx(340.0, abs=0.07)
         finally:
             stop.set()
             await asyncio.to_thread(thread.join, 5.0)
