@@ -5,7 +5,7 @@ from __future__ import annotations
 from navd.config import NavdConfig
 from navd.drivers import ChassisDriver, TcpServer
 from navd.estimation import EstimationNode
-from navd.lifecycle import Module, SafetyGate
+from navd.lifecycle import BatteryWatch, Module, SafetyGate
 from navd.missions import MissionNode
 from navd.planning import CollisionGuard, PlannerNode
 from navd.slam import SlamNode
@@ -32,6 +32,7 @@ def build_modules(config: NavdConfig) -> list[Module]:
         EstimationNode(),
         SlamNode(),
         PlannerNode(),
+        BatteryWatch(),
         MissionNode(),  # stops before the planner: its goal is cancelled while it listens
         TcpServer(),
     ]

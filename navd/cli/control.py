@@ -292,6 +292,22 @@ def format_status(frame: StatusFrame) -> str:
     if frame.recording:
         mode += ", recording"
     return (
-        f"{frame.robot} [{mode}] {where} | {moving} | {target} | devices: {devices} | "
-        f"lag p99 {lag_text} | safety: {safety}"
+        f"{frame.robot} [{mode}] {where} | {moving} | {target} | {_battery_text(frame)}"
+        f"devices: {devices} | lag p99 {lag_text} | safety: {safety}"
     )
+
+
+def _battery_text(frame: StatusFrame) -> str:
+    """ "battery 76% 12.1 V charging (low) | ", or "" without a battery sensor."""
+    battery = frame.battery
+    if battery is None:
+        return ""
+    parts = ["battery"]
+    if battery.percentage is not None:
+        parts.append(f"{battery.percentage * 100:.0f}%")
+    parts.append(f"{battery.voltage:.1f} V")
+    if battery.charging:
+        parts.append("charging")
+    if battery.alarm != "ok":
+        parts.append(f"({battery.alarm})")
+    return " ".join(parts) + " | "

@@ -1,5 +1,6 @@
 """The one TOML configuration, validated by pydantic: load, check, change, dump."""
 
+from navd.config.battery import BatteryConfig
 from navd.config.beacons import BeaconPlaceConfig, BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.edit import set_table_keys
@@ -32,6 +33,7 @@ from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
 
 __all__ = [
+    "BatteryConfig",
     "BeaconPlaceConfig",
     "BeaconsConfig",
     "ChassisConfig",

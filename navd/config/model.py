@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from navd.config.battery import BatteryConfig
 from navd.config.beacons import BeaconsConfig
 from navd.config.body import ChassisConfig, LidarConfig, RobotConfig, SafetyConfig
 from navd.config.fleet import FleetConfig
@@ -51,6 +52,7 @@ class NavdConfig(BaseModel):
     viz: VizConfig = Field(default_factory=VizConfig)
     record: RecordConfig = Field(default_factory=RecordConfig)
     fleet: FleetConfig = Field(default_factory=FleetConfig)
+    battery: BatteryConfig = Field(default_factory=BatteryConfig)
 
     @model_validator(mode="after")
     def _across_sections(self) -> NavdConfig:

@@ -16,10 +16,13 @@ from navd.config.fields import Matrix2, Section, Vector2, restart
 
 __all__ = [
     "CompassMountConfig",
+    "ContactMountConfig",
+    "DepthMountConfig",
     "GpsMountConfig",
     "ImuMountConfig",
     "LidarMountConfig",
     "MountsConfig",
+    "RangeMountConfig",
 ]
 
 # The device ids a hello may give (the protocol's pattern, repeated here: config sits below
@@ -111,6 +114,61 @@ class CompassMountConfig(Section):
         return self
 
 
+class RangeMountConfig(Section):
+    """A range sensor (ultrasonic, time of flight) on the robot: where it is and which way
+    its cone points."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] sensor x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] sensor y in base_link (left)")
+    yaw_rad: float = _yaw("the cone's axis")  # type: ignore[assignment]
+    frame_id: str | None = _FRAME_ID
+
+
+class ContactMountConfig(Section):
+    """A bumper or a cliff sensor: the point of the robot's outline it watches, and which
+    way it faces (moving the other way is backing away from what it felt)."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] the point's x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] the point's y in base_link (left)")
+    facing_rad: float | None = Field(
+        None,
+        ge=-_PI,
+        le=_PI,
+        description="[rad] the direction it faces in base_link (default: from the robot's "
+        "centre out through the point)",
+    )
+
+
+class DepthMountConfig(Section):
+    """A depth camera's pose on the robot (roll, then pitch, then yaw of its body axes: x
+    forward, y left, z up) and the band of heights its points are obstacles in."""
+
+    x_m: float = Field(0.0, ge=-5, le=5, description="[m] camera x in base_link (forward)")
+    y_m: float = Field(0.0, ge=-5, le=5, description="[m] camera y in base_link (left)")
+    z_m: float = Field(0.3, ge=-5, le=5, description="[m] camera height above the floor")
+    roll_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about x")
+    pitch_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about y (down +)")
+    yaw_rad: float = Field(0.0, ge=-_PI, le=_PI, description="[rad] rotation about z")
+    min_height_m: float = Field(
+        0.05, ge=0, le=5, description="[m] lower points are the floor, not obstacles"
+    )
+    max_height_m: float = Field(
+        1.2, gt=0, le=10, description="[m] higher points are above the robot, not obstacles"
+    )
+    max_range_m: float = Field(
+        4.0, gt=0, le=50, description="[m] farther points are too noisy to mark"
+    )
+    frame_id: str | None = _FRAME_ID
+
+    @model_validator(mode="after")
+    def _band(self) -> DepthMountConfig:
+        if self.max_height_m <= self.min_height_m:
+            raise ValueError(
+                f"max_height_m {self.max_height_m} must be above min_height_m {self.min_height_m}"
+            )
+        return self
+
+
 class MountsConfig(Section):
     """Sensor mounts by device id: ``[mounts.lidars.front]``, ``[mounts.gps.gnss0]``..."""
 
@@ -140,10 +198,29 @@ class MountsConfig(Section):
         **restart("compass mounts by device id (none: aligned with base_link)"),
     )
 
+    ranges: dict[str, RangeMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"sonar_front": {"x_m": 0.2, "yaw_rad": 0.0}}],
+        **restart("range sensor mounts by sensor name (a reading without one is refused)"),
+    )
+    contacts: dict[str, ContactMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"bumper_left": {"x_m": 0.18, "y_m": 0.1}, "cliff_front": {"x_m": 0.22}}],
+        **restart(
+            "bumper and cliff sensor mounts by sensor name (without one, a triggered sensor "
+            "holds every motion until it is released)"
+        ),
+    )
+    depth: dict[str, DepthMountConfig] = Field(
+        default_factory=dict,
+        examples=[{"camera": {"x_m": 0.15, "z_m": 0.35, "pitch_rad": 0.3}}],
+        **restart("depth camera mounts by sensor name (points without one are refused)"),
+    )
+
     @model_validator(mode="after")
     def _ids(self) -> MountsConfig:
         seen: dict[str, str] = {}
-        for kind in ("lidars", "imus", "gps", "compasses"):
+        for kind in ("lidars", "imus", "gps", "compasses", "ranges", "contacts", "depth"):
             for device_id in getattr(self, kind):
                 if not _DEVICE_ID.match(device_id):
                     raise ValueError(

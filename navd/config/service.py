@@ -222,6 +222,29 @@ class TcpConfig(Section):
         description="[s] wheel odometry silent this long is stale (it holds the robot only "
         "with no lidar)",
     )
+    range_timeout_s: float = Field(
+        0.5,
+        gt=0,
+        le=60,
+        description="[s] a range sensor silent this long is stale: its obstacles are dropped "
+        "(it does not hold the robot)",
+    )
+    contact_timeout_s: float = Field(
+        0.5,
+        gt=0,
+        le=60,
+        description="[s] a bumper or cliff sensor silent this long is stale and holds the "
+        "robot (send the state at least this often)",
+    )
+    points_timeout_s: float = Field(
+        1.0,
+        gt=0,
+        le=60,
+        description="[s] a depth camera silent this long is stale: its obstacles are dropped",
+    )
+    battery_timeout_s: float = Field(
+        10.0, gt=0, le=3600, description="[s] a battery sensor silent this long is stale"
+    )
 
     @model_validator(mode="after")
     def _token_beyond_loopback(self) -> TcpConfig:

@@ -9,21 +9,29 @@ from typing import Any
 
 from navd.geometry import wrap_angle
 from navd.lifecycle.messages import (
+    BatteryState,
     BeaconObservation,
     CompassHeading,
+    Contact,
+    DepthPoints,
     GpsFix,
     Imu,
     LaserScan,
     Message,
+    RangeReading,
     Vector3,
     WheelOdometry,
 )
 from navd.wire import (
+    BatteryFrame,
     BeaconFrame,
+    ContactFrame,
     FixFrame,
     HeadingFrame,
     ImuFrame,
     OdomFrame,
+    PointsFrame,
+    RangeFrame,
     RosFixFrame,
     RosImuFrame,
     RosOdomFrame,
@@ -113,7 +121,58 @@ def _odom(frame: OdomFrame, device_id: str, stamp: float, received: float) -> Me
     )
 
 
+def _range(frame: RangeFrame, device_id: str, stamp: float, received: float) -> Message:
+    reading = math.inf if frame.range is None else max(frame.range, frame.min_range)
+    return RangeReading(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        sensor=frame.sensor or device_id,
+        range_m=reading,
+        field_of_view_rad=frame.field_of_view,
+        min_range_m=frame.min_range,
+        max_range_m=frame.max_range,
+    )
+
+
+def _contact(frame: ContactFrame, device_id: str, stamp: float, received: float) -> Message:
+    return Contact(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        sensor=frame.sensor or device_id,
+        kind=frame.kind,
+        triggered=frame.triggered,
+    )
+
+
+def _points(frame: PointsFrame, device_id: str, stamp: float, received: float) -> Message:
+    return DepthPoints(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        sensor=frame.sensor or device_id,
+        points_m=frame.points_array(),
+    )
+
+
+def _battery(frame: BatteryFrame, device_id: str, stamp: float, received: float) -> Message:
+    return BatteryState(
+        stamp=stamp,
+        received=received,
+        device_id=device_id,
+        voltage_v=frame.voltage,
+        current_a=math.nan if frame.current is None else frame.current,
+        percentage=math.nan if frame.percentage is None else frame.percentage,
+        charging=frame.charging,
+    )
+
+
 _CONVERTERS: dict[type[Any], Callable[[Any, str, float, float], Message | None]] = {
+    RangeFrame: _range,
+    ContactFrame: _contact,
+    PointsFrame: _points,
+    BatteryFrame: _battery,
     ScanFrame: _scan,
     ImuFrame: _imu,
     FixFrame: _fix,

@@ -152,6 +152,9 @@ class FleetNode(Module):
             held=state.held,
             manual=state.manual,
             map_id=self.settings.value.map_id,
+            battery=None
+            if state.battery is None
+            else (state.battery.percentage, state.battery.voltage_v, state.battery.charging),
         )
 
     # --- the broker -----------------------------------------------------------------------

@@ -34,6 +34,8 @@ class Robot:
         held: why the safety gate holds the robot (empty: it does not).
         manual: an operator drives by hand.
         map_id: the map the pose is on.
+        battery: [0, 1] charge, [V], charging, or None without a battery sensor (charge
+            and charging may be NaN and None when the sensor does not say).
     """
 
     pose: tuple[float, float, float] | None
@@ -42,6 +44,7 @@ class Robot:
     held: tuple[str, ...]
     manual: bool
     map_id: str
+    battery: tuple[float, float, bool | None] | None = None
 
 
 def header(header_id: int, now_unix_s: float, manufacturer: str, serial: str) -> dict[str, Any]:
@@ -115,6 +118,35 @@ def _node_state(node: Node) -> dict[str, Any]:
     return state
 
 
+def _battery_state(robot: Robot) -> dict[str, Any]:
+    """batteryState: the charge [%] and the voltage as the sensor says (the field is
+    required: without a battery sensor, or a charge it says, 100 %, and ``information``
+    says it is not measured)."""
+    if robot.battery is None:
+        return {"batteryCharge": 100.0, "charging": False}
+    charge, voltage, charging = robot.battery
+    state: dict[str, Any] = {
+        "batteryCharge": round(charge * 100.0, 1) if math.isfinite(charge) else 100.0,
+        "batteryVoltage": round(voltage, 2),
+        "charging": bool(charging),
+    }
+    return state
+
+
+def _battery_unknown(robot: Robot) -> list[dict[str, str]]:
+    battery = robot.battery
+    if battery is not None and math.isfinite(battery[0]):
+        return []
+    why = "no battery sensor" if battery is None else "the battery sensor gives no charge"
+    return [
+        {
+            "infoType": "batteryUnknown",
+            "infoLevel": "INFO",
+            "infoDescription": f"{why}: batteryCharge is not measured",
+        }
+    ]
+
+
 def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any]:
     """The state message."""
     v, w = robot.velocity
@@ -123,14 +155,9 @@ def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any
         **order_fields(vehicle),
         "driving": driving(robot),
         "operatingMode": "MANUAL" if robot.manual else "AUTOMATIC",
-        # navd reads no battery: the state says so (the field is required)
-        "batteryState": {"batteryCharge": 100.0, "charging": False},
+        "batteryState": _battery_state(robot),
         "information": [
-            {
-                "infoType": "batteryUnknown",
-                "infoLevel": "INFO",
-                "infoDescription": "navd reads no battery: batteryCharge is not measured",
-            },
+            *_battery_unknown(robot),
             *(
                 {"infoType": "safetyHold", "infoLevel": "INFO", "infoDescription": why}
                 for why in robot.held

@@ -8,6 +8,8 @@ footprint's distance); no asyncio, no bus.
 from navd.geometry._angle_kernels import wrap as wrap_angle_kernel
 from navd.geometry._footprint_kernels import footprint_distance
 from navd.geometry.angles import angle_between, wrap_angle, wrap_angles
+from navd.geometry.body_mounts import BodyMounts, ContactMount, DepthMount
+from navd.geometry.body_points import band_points, cone_points
 from navd.geometry.errors import GeometryError, RasterFileError, UnknownMountError
 from navd.geometry.footprint import CIRCLE, Footprint
 from navd.geometry.limits import RobotLimits
@@ -36,6 +38,9 @@ __all__ = [
     "FREE_THRESH",
     "IDENTITY",
     "OCCUPIED_THRESH",
+    "BodyMounts",
+    "ContactMount",
+    "DepthMount",
     "FieldOfView",
     "Footprint",
     "GeometryError",
@@ -49,6 +54,8 @@ __all__ = [
     "SensorMounts",
     "UnknownMountError",
     "angle_between",
+    "band_points",
+    "cone_points",
     "footprint_distance",
     "laser_points",
     "occupancy_of",

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from navd.config import LidarConfig, LidarMountConfig, MountsConfig
+from navd.geometry.body_mounts import BodyMounts
 from navd.geometry.errors import UnknownMountError
 from navd.geometry.pose import Pose2
+from navd.geometry.rotation import rotation_rpy
 
 __all__ = ["LidarMount", "SensorMounts", "rotation_rpy"]
 
@@ -40,21 +41,6 @@ class LidarMount:
         return cls(Pose2(lidar.x_m, lidar.y_m, lidar.yaw_rad), lidar.min_range_m, lidar.upside_down)
 
 
-def rotation_rpy(roll_rad: float, pitch_rad: float, yaw_rad: float) -> FloatArray:
-    """The 3 x 3 rotation R = Rz(yaw) Ry(pitch) Rx(roll): a vector in the sensor's axes,
-    multiplied by R, is the same vector in base_link's."""
-    cr, sr = math.cos(roll_rad), math.sin(roll_rad)
-    cp, sp = math.cos(pitch_rad), math.sin(pitch_rad)
-    cy, sy = math.cos(yaw_rad), math.sin(yaw_rad)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
 @dataclass(frozen=True, slots=True)
 class SensorMounts:
     """Every sensor's mount, by device id, as the config gives them.
@@ -70,6 +56,7 @@ class SensorMounts:
         compasses: [rad] each compass's forward-axis yaw in base_link (a dual-antenna GNSS
             receiver's baseline yaw under its gps id).
         frame_ids: the ROS frame_id each mounted device's frames may carry.
+        body: the range sensors', bumpers', cliff sensors' and depth cameras' mounts.
     """
 
     default_lidar: LidarMount
@@ -78,6 +65,7 @@ class SensorMounts:
     gps: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     compasses: Mapping[str, float] = field(default_factory=dict)
     frame_ids: Mapping[str, str] = field(default_factory=dict)
+    body: BodyMounts = field(default_factory=lambda: BodyMounts({}, {}, {}))
 
     @classmethod
     def of(cls, m: MountsConfig, lidar: LidarConfig) -> SensorMounts:
@@ -95,6 +83,7 @@ class SensorMounts:
             compasses={k: v.heading_yaw_rad for k, v in m.gps.items()}
             | {k: v.yaw_rad for k, v in m.compasses.items()},
             frame_ids=frame_ids,
+            body=BodyMounts.of(m),
         )
 
     def lidar(self, device_id: str) -> LidarMount:

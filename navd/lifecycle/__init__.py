@@ -1,5 +1,6 @@
 """The event loop: typed messages, dispatch, workers, module lifecycle, clock, supervision."""
 
+from navd.lifecycle.battery_watch import BatteryWatch
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock, MonotonicClock, SimClock, ticks
 from navd.lifecycle.daemon import Daemon
@@ -22,6 +23,7 @@ from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.workers import WorkerPool
 
 __all__ = [
+    "BatteryWatch",
     "Bus",
     "Clock",
     "Daemon",

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from navd.config import NavdConfig
 from navd.geometry import RobotLimits
 
-__all__ = ["LifecycleSettings", "LoggingSettings", "gate_limits"]
+__all__ = ["BatteryLevels", "LifecycleSettings", "LoggingSettings", "gate_limits"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,3 +69,19 @@ class LoggingSettings:
 def gate_limits(config: NavdConfig) -> RobotLimits:
     """The robot's limits, which the safety gate clamps every command to."""
     return RobotLimits.of(config.robot)
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryLevels:
+    """[0, 1] the charges at which the battery is low and critical, and the margin above a
+    threshold at which its alarm ends."""
+
+    low: float
+    critical: float
+    recover: float
+
+    @classmethod
+    def from_config(cls, config: NavdConfig) -> BatteryLevels:
+        """The levels the battery section describes."""
+        b = config.battery
+        return cls(b.low_percent / 100.0, b.critical_percent / 100.0, b.recover_percent / 100.0)

@@ -7,7 +7,10 @@ been seen (see ``SafetyGate``), or a SafeStop (a faulted module, lost localizati
 cleared by its key. It clamps what it passes to the robot's speed limits, then lets its
 limiters (the collision guard) reduce it, again at every scan while the command stands. The
 chassis driver adds the last guard: with no fresh request for ``safety.reaction_timeout_s``
-(a DriveCommand's stamp is its request's) it writes zero itself.
+(a DriveCommand's stamp is its request's) it writes zero itself. A triggered bumper or cliff
+sensor stops the robot at once and then lets through only motion that backs away from it
+(``contact_holds``); a bumper or cliff sensor that falls silent or leaves holds the robot
+like a lidar.
 """
 
 from __future__ import annotations
@@ -16,8 +19,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
+from navd.lifecycle.contact_holds import ContactHolds, contact_mounts
 from navd.lifecycle.daemon_settings import gate_limits
 from navd.lifecycle.messages import (
+    Contact,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -44,7 +49,7 @@ class SpeedLimiter(Protocol):
 
 # Kinds whose silence or loss holds the robot whenever one was there: the lidar sees the
 # obstacles and localizes; the IMU's rates feed every pose.
-ESSENTIAL = frozenset({DeviceKind.LIDAR, DeviceKind.IMU})
+ESSENTIAL = frozenset({DeviceKind.LIDAR, DeviceKind.IMU, DeviceKind.CONTACT})
 # Kinds that hold the robot only while no lidar is there (then they are what localizes it).
 WITHOUT_LIDAR = frozenset({DeviceKind.GPS, DeviceKind.WHEEL_ODOMETRY, DeviceKind.BEACON})
 # Device holds listed one by one in the reasons; more are summed up (a bounded status frame).
@@ -86,6 +91,7 @@ class SafetyGate(Module):
         self._fresh: dict[str, DeviceKind] = {}  # devices connected and speaking
         self._most: dict[DeviceKind, int] = {}  # the most of each kind that spoke at once
         self._device_holds: dict[str, _DeviceHold] = {}  # by device id
+        self._contacts = ContactHolds()  # triggered bumpers and cliff sensors
         self._limiters = tuple(limiters)
         self._request: VelocityCommand | None = None  # the last command asked for
         self._driven = (0.0, 0.0)  # [m/s, rad/s] what the gate last let through
@@ -93,17 +99,19 @@ class SafetyGate(Module):
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
         self.settings = ctx.settings(gate_limits)
+        self.contact_mounts = ctx.settings(contact_mounts)
         ctx.subscribe(VelocityCommand, self._on_velocity)
         ctx.subscribe(LaserScan, self._on_scan)
         ctx.subscribe(DeviceStale, self._on_gone)
         ctx.subscribe(DeviceLost, self._on_gone)
         ctx.subscribe(DeviceResumed, self._on_back)
         ctx.subscribe(DeviceConnected, self._on_back)
+        ctx.subscribe(Contact, self._on_contact)
         ctx.subscribe(SafeStop, self._on_safe_stop)
         ctx.subscribe(SafeStopCleared, self._on_cleared)
 
     def settings_in_use(self) -> tuple[object, ...]:
-        return (self.settings.value,)
+        return (self.settings.value, self.contact_mounts.value)
 
     @property
     def reasons(self) -> tuple[str, ...]:
@@ -112,7 +120,7 @@ class SafetyGate(Module):
         if len(devices) > MAX_LISTED_DEVICES:
             more = len(devices) - MAX_LISTED_DEVICES
             devices = [*devices[:MAX_LISTED_DEVICES], f"and {more} more devices gone"]
-        return (*self._reasons.values(), *devices)
+        return (*self._reasons.values(), *self._contacts.reasons(), *devices)
 
     @property
     def held(self) -> bool:
@@ -127,6 +135,11 @@ class SafetyGate(Module):
             self._drive(0.0, 0.0, "; ".join(self.reasons), cmd.stamp)
             return
         linear, angular, why = self._limit(cmd)
+        contacts = self._contacts
+        if contacts.active and not contacts.allows(linear, angular, self.contact_mounts.value):
+            reasons = "; ".join(contacts.reasons())
+            self._drive(0.0, 0.0, f"{reasons}: only backing away", cmd.stamp)
+            return
         self._drive(linear, angular, why, cmd.stamp)
 
     def _on_scan(self, _scan: LaserScan) -> None:
@@ -195,6 +208,14 @@ class SafetyGate(Module):
 
     def _has_lidar(self) -> bool:
         return DeviceKind.LIDAR in self._fresh.values()
+
+    def _on_contact(self, contact: Contact) -> None:
+        was = self._contacts.active
+        if self._contacts.take(contact):
+            self._held_now("; ".join(self._contacts.reasons()))
+        elif was and not self._contacts.active:
+            self.ctx.log.info("safety_release", contact=contact.sensor, remaining=self.reasons)
+            self._publish_state()
 
     # --- stops ------------------------------------------------------------------------------
 

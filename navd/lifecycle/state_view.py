@@ -2,7 +2,7 @@
 
 ``StateView`` hears the messages that make up what a person or a fleet is told (the pose,
 localization, scan matching, the wheel command, who drives, the safety gate, the goal, the
-mission, the daemon's health, recording, config changes, beacons) and publishes a
+mission, the daemon's health, recording, config changes, beacons, the battery) and publishes a
 ``RobotState`` with the latest of each whenever one changes. The three encoders of that
 state (the TCP status frame, the live view, the VDA 5050 state) read it from there, each in
 its own format, and none assembles it again. The daemon keeps it, as it keeps the config
@@ -18,6 +18,8 @@ from typing import Any
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock
 from navd.lifecycle.messages import (
+    BatteryAlarm,
+    BatteryState,
     BeaconPlaces,
     ConfigApplied,
     ConfigRejected,
@@ -69,6 +71,8 @@ class StateView:
         hear(ConfigApplied, self._config_applied)
         hear(ConfigRejected, self._config_rejected)
         hear(BeaconPlaces, self._beacons)
+        hear(BatteryState, self._battery)
+        hear(BatteryAlarm, self._battery_alarm)
 
     def _change(self, source: Message, part: str, **values: Any) -> None:
         """Take ``values`` for ``part`` (heard in ``source``) and publish the state."""
@@ -130,3 +134,9 @@ class StateView:
 
     def _beacons(self, places: BeaconPlaces) -> None:
         self._change(places, "beacons", beacons=places.places)
+
+    def _battery(self, battery: BatteryState) -> None:
+        self._change(battery, "battery", battery=battery)
+
+    def _battery_alarm(self, alarm: BatteryAlarm) -> None:
+        self._change(alarm, "battery", battery_alarm=alarm.level)

@@ -1,5 +1,10 @@
 """What the planner knows about the world: the SLAM map, scan obstacles and keep-out zones.
 
+Scan obstacles are in two layers alike in all but who clears them: what lidars mark and
+clear, and what the proximity sensors mark (range sensors, depth cameras, bumpers and cliff
+sensors), which lidar rays never clear: a lidar looks through the glass an ultrasonic
+sensor hears, and under the table top a depth camera sees.
+
 The layers live on the map's cell lattice. A snapshot for A* covers the map grown (in whole
 cells) to hold the robot and the goal with ``FRAME_MARGIN_M`` to spare; unmapped cells are
 unknown. For a far goal (``horizon``) there are two snapshots instead: a window of the
@@ -31,6 +36,7 @@ from navd.planning.lattice import (
     snap,
     window_around,
 )
+from navd.planning.live_points import LivePoints
 from navd.planning.zones import ZoneMasks
 
 __all__ = ["FRAME_MARGIN_M", "LayerSettings", "Layers"]
@@ -43,13 +49,6 @@ Zones = tuple[tuple[tuple[float, float], ...], ...]
 FRAME_MARGIN_M = 3.0
 # Cell size [m] before a map arrives.
 DEFAULT_RESOLUTION_M = 0.05
-# [s] another lidar's latest scan joins the live obstacle points while it is this much older
-# than the newest at most (two lidars at 5-10 Hz; a silent one leaves no ghosts behind).
-LIVE_SCAN_S = 0.5
-# [s] another robot of the fleet is kept out of where it will be this far ahead too.
-ROBOT_AHEAD_S = 1.0
-# [m] spacing of the points that outline another robot's disc.
-ROBOT_OUTLINE_M = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,11 +85,8 @@ class Layers:
         self.map: tuple[GridFrame, BoolArray, BoolArray] | None = None
         self._occupancy: npt.NDArray[np.int8] | None = None
         self.obstacles: ObstacleLayer | None = None
-        # Each lidar's latest scan: (stamp [s], hits in the map frame [m], what it covered).
-        self._live: dict[str, tuple[float, FloatArray, FieldOfView]] = {}
-        self.scan_points: FloatArray = np.empty((0, 2))  # the live scans' hits together
-        self.robot_points: FloatArray = np.empty((0, 2))  # the fleet's other robots' outlines
-        self.views: tuple[FieldOfView, ...] = (ALL_AROUND,)  # what the live scans covered
+        self.proximity: ObstacleLayer | None = None  # marks lidar rays never clear
+        self.live = LivePoints()  # every source's latest hits, the fleet's robots
         self._keep_out: tuple[GridFrame, Zones, int, BoolArray] | None = None
         self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
 
@@ -99,8 +95,8 @@ class Layers:
         old, self.settings = self.settings, settings
         if (settings.keep_out_mask, settings.speed_mask) != self.zones.paths:
             self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
-        if self.obstacles is not None:
-            self.obstacles.persistence_s = settings.obstacle_persistence_s
+        for layer in self._memories():
+            layer.persistence_s = settings.obstacle_persistence_s
         threshold_moved = settings.occupied_threshold_pct != old.occupied_threshold_pct
         if threshold_moved and self.map is not None and self._occupancy is not None:
             self._place_map(self.map[0], self._occupancy)
@@ -129,54 +125,52 @@ class Layers:
         stamp: float,
         view: FieldOfView = ALL_AROUND,
         *,
-        lidar: str = "",
+        source: str = "",
+        proximity: bool = False,
     ) -> None:
-        """Take a scan (points in the robot frame) of lidar ``lidar`` seen from ``pose`` at
-        ``stamp``, its rays covering ``view``: its hits join the live obstacle points (with
-        the other lidars' latest, those within ``LIVE_SCAN_S`` of it); its rays mark and
-        clear the obstacle layer."""
+        """Take a scan (points in the robot frame) of ``source`` (a lidar; with
+        ``proximity``, a range sensor or a depth camera) seen from ``pose`` at ``stamp``,
+        its rays covering ``view``: its hits join the live obstacle points (with the other
+        sources' latest, those within ``LIVE_SCAN_S`` of it); its rays mark and clear its
+        obstacle layer."""
         hits = pose.transform(hits_robot_m)
-        live = self._live
-        live[lidar] = (stamp, hits, view)
-        for device in [d for d, (t, _, _) in live.items() if t < stamp - LIVE_SCAN_S]:
-            del live[device]
-        self.views = tuple(v for _, _, v in live.values())
-        self._join()
-        if self.obstacles is not None:
-            self.obstacles.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
+        self.live.add(source, stamp, hits, None if proximity else view)
+        layer = self.proximity if proximity else self.obstacles
+        if layer is not None:
+            layer.add_scan((pose.x, pose.y), hits, pose.transform(misses_robot_m), stamp)
+
+    def mark_spot(self, pose: Pose2, point_robot_m: tuple[float, float], until: float) -> None:
+        """Mark where a bumper or a cliff sensor at ``point_robot_m`` on the robot at
+        ``pose`` felt something, as a proximity obstacle kept until ``until`` [s] (then
+        forgotten after the persistence time, as any mark)."""
+        if self.proximity is not None:
+            spot = pose.transform(np.array([point_robot_m], dtype=np.float64))
+            self.proximity.add_scan((pose.x, pose.y), spot, np.empty((0, 2)), until)
 
     def set_robots(self, robots: tuple[tuple[str, float, float, float, float, float], ...]) -> None:
-        """The fleet's other robots (name, x, y, yaw, forward speed, radius [m, rad, m/s]):
-        each one's disc where it is and where it will be ``ROBOT_AHEAD_S`` on joins the live
-        obstacle points and the snapshots' obstacles, until the next call."""
-        outlines = [np.empty((0, 2))]
-        for _, x, y, yaw, speed, radius in robots:
-            ahead = (
-                x + speed * ROBOT_AHEAD_S * math.cos(yaw),
-                y + speed * ROBOT_AHEAD_S * math.sin(yaw),
-            )
-            for cx, cy in ((x, y), ahead):
-                n = max(math.ceil(2.0 * math.pi * radius / ROBOT_OUTLINE_M), 8)
-                a = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
-                ring = np.column_stack([cx + radius * np.cos(a), cy + radius * np.sin(a)])
-                outlines += [ring, np.array([[cx, cy]])]
-        self.robot_points = np.concatenate(outlines)
-        self._join()
+        """The fleet's other robots (``LivePoints.set_robots``): live points, and obstacles
+        in the snapshots, until the next call."""
+        self.live.set_robots(robots)
 
-    def _join(self) -> None:
-        """The live obstacle points: every lidar's latest hits and the other robots'."""
-        parts = [h for _, h, _ in self._live.values()]
-        if self.robot_points.shape[0]:
-            parts.append(self.robot_points)
-        if not parts:
-            self.scan_points = np.empty((0, 2))
-        else:
-            self.scan_points = parts[0] if len(parts) == 1 else np.concatenate(parts)
+    @property
+    def scan_points(self) -> FloatArray:
+        """[m] the live obstacle points (``LivePoints``)."""
+        return self.live.points
+
+    @property
+    def views(self) -> tuple[FieldOfView, ...]:
+        """What the live lidars' rays covered."""
+        return self.live.views
 
     def forget_around(self, x_m: float, y_m: float, radius_m: float) -> None:
-        """Forget scan obstacles within ``radius_m`` of (x_m, y_m) (stuck recovery)."""
+        """Forget lidar obstacles within ``radius_m`` of (x_m, y_m) (stuck recovery; what a
+        proximity sensor or a bumper felt stays until it expires)."""
         if self.obstacles is not None:
             self.obstacles.clear_disc(x_m, y_m, radius_m)
+
+    def _memories(self) -> list[ObstacleLayer]:
+        """The obstacle layers there are: the lidars', the proximity sensors'."""
+        return [layer for layer in (self.obstacles, self.proximity) if layer is not None]
 
     def snapshot(
         self, now: float, points_m: list[tuple[float, float]]
@@ -248,9 +242,9 @@ class Layers:
             map_frame, occupied, map_unknown = self.map
             obstacles |= pooled(coarse, k, map_frame, occupied)
             unknown &= ~pooled(coarse, k, map_frame, ~map_unknown)
-        layer = self.obstacles
-        if layer is not None and aligned(layer.frame, (fine.origin_x_m, fine.origin_y_m)):
-            obstacles |= pooled(coarse, k, layer.frame, layer.active(now))
+        for layer in self._memories():
+            if aligned(layer.frame, (fine.origin_x_m, fine.origin_y_m)):
+                obstacles |= pooled(coarse, k, layer.frame, layer.active(now))
         obstacles |= self.keep_out(coarse)
         return coarse, obstacles, unknown
 
@@ -268,18 +262,12 @@ class Layers:
                 outer, inner = inside
                 obstacles[outer] = occupied[inner]
                 unknown[outer] = map_unknown[inner]
-        persistence_s = self.settings.obstacle_persistence_s
-        if self.obstacles is None:
-            self.obstacles = ObstacleLayer(frame, persistence_s)
-        try:
-            self.obstacles.reframe(frame)
-        except ValueError:
-            # A map on another lattice: the short-lived marks start afresh.
-            self.obstacles = ObstacleLayer(frame, persistence_s)
-        obstacles |= self.obstacles.active(now)
+        self.obstacles = _following(self.obstacles, frame, self.settings.obstacle_persistence_s)
+        self.proximity = _following(self.proximity, frame, self.settings.obstacle_persistence_s)
+        obstacles |= self.obstacles.active(now) | self.proximity.active(now)
         obstacles |= self.keep_out(frame)
-        if self.robot_points.shape[0]:
-            cells = frame.cells_of(self.robot_points)
+        if self.live.robot_points.shape[0]:
+            cells = frame.cells_of(self.live.robot_points)
             within = (cells[:, 0] >= 0) & (cells[:, 0] < frame.rows)
             within &= (cells[:, 1] >= 0) & (cells[:, 1] < frame.cols)
             obstacles[cells[within, 0], cells[within, 1]] = True
@@ -324,6 +312,12 @@ class Layers:
             if self.has_keep_out():
                 frame = layer.frame
                 parts.append(cells_near(frame, self.keep_out(frame), pose, radius_m))
+        near = self.proximity  # what proximity sensors felt, wherever lidars look
+        if near is not None:
+            window = window_around(near.frame, pose, radius_m)
+            if window is not None:
+                felt = near.last_seen[window] >= now - near.persistence_s
+                parts.append(cells_of(near.frame, felt, window))
         return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
     def _lattice(self) -> tuple[float, tuple[float, float]]:
@@ -353,10 +347,25 @@ class Layers:
                 max(hi_x, m.origin_x_m + m.cols * res),
                 max(hi_y, m.origin_y_m + m.rows * res),
             )
-        layer = self.obstacles
-        if layer is not None and layer.frame.resolution_m == res and aligned(layer.frame, anchor):
-            marks = layer.active_bounds(now)
-            if marks is not None:
-                lo_x, lo_y = min(lo_x, marks[0]), min(lo_y, marks[1])
-                hi_x, hi_y = max(hi_x, marks[2]), max(hi_y, marks[3])
+        for layer in self._memories():
+            if layer.frame.resolution_m == res and aligned(layer.frame, anchor):
+                marks = layer.active_bounds(now)
+                if marks is not None:
+                    lo_x, lo_y = min(lo_x, marks[0]), min(lo_y, marks[1])
+                    hi_x, hi_y = max(hi_x, marks[2]), max(hi_y, marks[3])
         return snap((lo_x, lo_y, hi_x, hi_y), res, anchor)
+
+
+def _following(
+    layer: ObstacleLayer | None, frame: GridFrame, persistence_s: float
+) -> ObstacleLayer:
+    """``layer`` moved onto ``frame``, keeping its marks where they overlap; a new layer
+    when there is none, or the frame is on another lattice (a new map: the short-lived
+    marks start afresh)."""
+    if layer is not None:
+        try:
+            layer.reframe(frame)
+            return layer
+        except ValueError:
+            pass
+    return ObstacleLayer(frame, persistence_s)

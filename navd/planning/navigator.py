@@ -142,12 +142,14 @@ class Navigator:
         stamp: float,
         view: FieldOfView = ALL_AROUND,
         *,
-        lidar: str = "",
+        source: str = "",
+        proximity: bool = False,
     ) -> None:
-        """Take a scan of lidar ``lidar`` (points in the robot frame) seen from ``pose`` at
-        ``stamp``, its rays covering ``view``: its hits are the DWA's live obstacles (with the
-        other lidars' latest); it marks and clears the obstacle layer."""
-        self.map_layers.add_scan(pose, hits_robot_m, misses_robot_m, stamp, view, lidar=lidar)
+        """Take a scan of ``source`` in the robot frame: the DWA's live obstacles, and marks
+        in its obstacle layer (``Layers.add_scan``)."""
+        self.map_layers.add_scan(
+            pose, hits_robot_m, misses_robot_m, stamp, view, source=source, proximity=proximity
+        )
 
     # --- planning --------------------------------------------------------------------------
 

@@ -6,7 +6,10 @@ returns the VelocityCommand and decides whether the route must be planned); when
 step said so, the tick also submits A* to the ``global_plan`` slot, which takes a snapshot of
 the layers and plans on it. Goals and cancels reach the navigator through the
 ``planning_goals`` slot, map updates and scans through ``planning_map`` and
-``planning_scan``. The jobs are ``navigator_jobs``': the navigator is shared by these threads
+``planning_scan`` (range sensors and depth cameras through ``planning_near``, each into the
+proximity layer that lidar rays never clear; a bumper or a cliff sensor that is triggered
+marks its spot there, kept ``CONTACT_MARK_S``). The jobs are ``navigator_jobs``': the
+navigator is shared by these threads
 under one lock, never taken on the event loop while the daemon runs, so no snapshot of a
 large map can stall the loop. New settings reach the navigator under the same lock, in a
 worker. What is said of the goal is ``goal_reports``'.
@@ -30,13 +33,16 @@ silence long enough for the chassis to stop itself), not from the navigator's la
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
-from navd.geometry import Pose2, laser_points
+from navd.geometry import Pose2, ScanPoints, band_points, cone_points, laser_points
 from navd.lifecycle import Module, ModuleContext
 from navd.lifecycle.messages import (
     CancelGoal,
+    Contact,
+    DepthPoints,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -48,6 +54,7 @@ from navd.lifecycle.messages import (
     MapUpdate,
     NearbyRobots,
     PoseEstimate,
+    RangeReading,
     TrackingLost,
     VelocityCommand,
     ViewInterest,
@@ -63,6 +70,7 @@ from navd.planning.warmup import warm_up
 __all__ = ["PlannerNode"]
 
 POSE_TIMEOUT_S = 0.5
+CONTACT_MARK_S = 60.0  # [s] a spot a bumper or a cliff sensor felt is kept this long
 
 
 class PlannerNode(Module):
@@ -106,6 +114,9 @@ class PlannerNode(Module):
         ctx.subscribe(PoseEstimate, self._on_pose)
         ctx.subscribe(MapUpdate, self._on_map)
         ctx.subscribe(LaserScan, self._on_scan)
+        ctx.subscribe(RangeReading, self._on_range)
+        ctx.subscribe(DepthPoints, self._on_depth)
+        ctx.subscribe(Contact, self._on_contact)
         ctx.subscribe(NearbyRobots, self._on_robots)
         ctx.subscribe(DriveCommand, self._on_drive)
         ctx.subscribe(DeviceLost, self._on_chassis)
@@ -290,11 +301,62 @@ class PlannerNode(Module):
             points = laser_points(scan, mount, max_range_m=settings.obstacle_range_m)
             with self.jobs.lock:
                 self.nav.add_scan(
-                    pose, points.hits, points.misses, scan.stamp, points.view, lidar=scan.device_id
+                    pose, points.hits, points.misses, scan.stamp, points.view, source=scan.device_id
                 )
 
         # one slot per lidar: a busy worker must not keep dropping one lidar's marks
         self.ctx.submit(f"planning_scan:{scan.device_id}", job)
+
+    def _on_range(self, reading: RangeReading) -> None:
+        settings = self.settings.value
+        self._near(
+            f"range:{reading.sensor}",
+            reading.stamp,
+            lambda: cone_points(
+                reading.range_m,
+                reading.field_of_view_rad,
+                reading.max_range_m,
+                settings.mounts.body.range_sensor(reading.sensor),
+                settings.obstacle_range_m,
+            ),
+        )
+
+    def _on_depth(self, depth: DepthPoints) -> None:
+        mount = self.settings.value.mounts.body.depth_camera  # (checked when it arrived)
+        self._near(
+            f"depth:{depth.sensor}",
+            depth.stamp,
+            lambda: band_points(depth.points_m, mount(depth.sensor)),
+        )
+
+    def _near(self, source: str, stamp: float, points_of: Callable[[], ScanPoints]) -> None:
+        """A proximity sensor's points, into the live points and the proximity layer."""
+        pose = self._pose
+        if pose is None:
+            return
+
+        def job() -> None:
+            points = points_of()
+            with self.jobs.lock:
+                self.nav.add_scan(
+                    pose, points.hits, points.misses, stamp, points.view, source=source,
+                    proximity=True,
+                )  # fmt: skip
+
+        self.ctx.submit(f"planning_near:{source}", job)
+
+    def _on_contact(self, contact: Contact) -> None:
+        pose = self._pose
+        if not contact.triggered or pose is None:
+            return
+        mount = self.settings.value.mounts.body.contacts.get(contact.sensor)
+        spot = (0.0, 0.0) if mount is None else (mount.x_m, mount.y_m)
+
+        def job() -> None:
+            with self.jobs.lock:
+                self.nav.map_layers.mark_spot(pose, spot, contact.stamp + CONTACT_MARK_S)
+
+        self.ctx.submit(f"planning_contact:{contact.sensor}", job)
 
     # --- control (event loop; the jobs run in workers) ----------------------------------
 

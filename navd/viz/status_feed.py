@@ -1,5 +1,5 @@
 """The robot's state (``RobotState``) as the live view's JSON: ``/status`` (safety, who
-drives, localization, the daemon's health) and ``/goal_status`` (the goal's progress).
+drives, localization, the battery, the daemon's health) and ``/goal_status`` (the goal's progress).
 JSON has no NaN: an unknown number is null."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from navd.lifecycle.messages import GoalStatus, RobotState
 __all__ = ["STATUS_PARTS", "goal_status_message", "status_message"]
 
 # The parts of the robot's state that /status shows: a change of any other is not sent.
-STATUS_PARTS = frozenset({"daemon", "localization", "mode", "safety"})
+STATUS_PARTS = frozenset({"daemon", "localization", "mode", "safety", "battery"})
 
 
 def _finite(value: float) -> float | None:
@@ -20,7 +20,8 @@ def _finite(value: float) -> float | None:
 
 
 def status_message(state: RobotState) -> dict[str, Any]:
-    """/status: what holds the robot, who drives, how well it is localized, the daemon."""
+    """/status: what holds the robot, who drives, how well it is localized, the battery,
+    the daemon."""
     message: dict[str, Any] = {
         "safety": {"stopped": bool(state.held), "reasons": list(state.held)},
     }
@@ -32,6 +33,15 @@ def status_message(state: RobotState) -> dict[str, Any]:
             "state": localization.state,
             "position_std_m": _finite(localization.position_std_m),
             "yaw_std_rad": _finite(localization.yaw_std_rad),
+        }
+    battery = state.battery
+    if battery is not None:
+        message["battery"] = {
+            "voltage_v": round(battery.voltage_v, 3),
+            "current_a": _finite(battery.current_a),
+            "percentage": _finite(battery.percentage),
+            "charging": battery.charging,
+            "alarm": state.battery_alarm,
         }
     daemon = state.daemon
     if daemon is not None:

@@ -28,6 +28,7 @@ from navd.wire.base import (
     PingFrame,
     Role,
 )
+from navd.wire.body_frames import MAX_POINTS, BatteryFrame, ContactFrame, PointsFrame, RangeFrame
 from navd.wire.client import AsyncClient, Client
 from navd.wire.codec import (
     TAGS,
@@ -75,6 +76,7 @@ from navd.wire.mission_frames import (
 from navd.wire.replies import (
     Ack,
     AppliedInfo,
+    BatteryInfo,
     BeaconInfo,
     ClockAck,
     ConfigAppliedFrame,
@@ -111,6 +113,7 @@ from navd.wire.ros_frames import (
     RosScanFrame,
 )
 from navd.wire.sensor_frames import (
+    ALSO_SENT,
     SENSOR_FRAMES,
     BeaconFrame,
     FixFrame,
@@ -122,9 +125,11 @@ from navd.wire.sensor_frames import (
 )
 
 __all__ = [
+    "ALSO_SENT",
     "DEVICE_ID_PATTERN",
     "MAX_COORDINATE_M",
     "MAX_MISSION_STEPS",
+    "MAX_POINTS",
     "MAX_RAYS",
     "MAX_STD_XY_M",
     "MAX_STD_YAW_RAD",
@@ -138,6 +143,8 @@ __all__ = [
     "Ack",
     "AppliedInfo",
     "AsyncClient",
+    "BatteryFrame",
+    "BatteryInfo",
     "BeaconFrame",
     "BeaconInfo",
     "CancelFrame",
@@ -152,6 +159,7 @@ __all__ = [
     "ConfigNews",
     "ConfigRejectedFrame",
     "ConnectionClosedError",
+    "ContactFrame",
     "ControlRequest",
     "DeviceInfo",
     "Diagnostics",
@@ -180,10 +188,12 @@ __all__ = [
     "OdomFrame",
     "PathFrame",
     "PingFrame",
+    "PointsFrame",
     "Pong",
     "PoseFoundFrame",
     "PoseInfo",
     "ProtocolError",
+    "RangeFrame",
     "RecordFrame",
     "RejectedInfo",
     "Reply",

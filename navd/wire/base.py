@@ -25,6 +25,7 @@ __all__ = [
     "MAX_TELEOP_RADPS",
     "MAX_YAW_RAD",
     "PROTOCOL_VERSION",
+    "SENSOR_NAME_PATTERN",
     "Coordinate",
     "Covariance",
     "Covariance6",
@@ -54,7 +55,21 @@ MAX_TELEOP_MPS = 10.0
 MAX_TELEOP_RADPS = 20.0
 Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M)]
 Yaw = Annotated[float, Field(ge=-MAX_YAW_RAD, le=MAX_YAW_RAD)]
-Role = Literal["lidar", "imu", "gps", "compass", "wheel_odometry", "beacon", "control", "clock"]
+Role = Literal[
+    "lidar",
+    "imu",
+    "gps",
+    "compass",
+    "wheel_odometry",
+    "beacon",
+    "range",
+    "contact",
+    "points",
+    "battery",
+    "control",
+    "clock",
+]
+SENSOR_NAME_PATTERN = DEVICE_ID_PATTERN  # a sensor's name within its device, as an id
 
 
 class Frame(BaseModel):

@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict
 __all__ = [
     "Ack",
     "AppliedInfo",
+    "BatteryInfo",
     "BeaconInfo",
     "ClockAck",
     "ConfigAppliedFrame",
@@ -333,6 +334,18 @@ class BeaconInfo(ReplyPart):
     learnt: bool
 
 
+class BatteryInfo(ReplyPart):
+    """The battery as its sensor last said: [V], [A] (negative discharging), charge in
+    [0, 1] (null: not known), whether it charges (null: not known), and its alarm ("ok",
+    "low", "critical": ``battery.low_percent`` and ``battery.critical_percent``)."""
+
+    voltage: float
+    current: float | None
+    percentage: float | None
+    charging: bool | None
+    alarm: Literal["ok", "low", "critical"]
+
+
 class StatusFrame(ReplyPart):
     """The daemon as a subscribed control client sees it."""
 
@@ -347,6 +360,7 @@ class StatusFrame(ReplyPart):
     goal: GoalInfo | None
     mission: MissionInfo | None = None
     beacons: list[BeaconInfo] = []
+    battery: BatteryInfo | None = None
     devices: list[DeviceInfo]
     diagnostics: Diagnostics
 

@@ -13,6 +13,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from navd.wire.base import DEVICE_ID_PATTERN, MAX_RAYS, Covariance, Frame, Stamp, Vec3
+from navd.wire.body_frames import BatteryFrame, ContactFrame, PointsFrame, RangeFrame
 from navd.wire.errors import WireError
 
 __all__ = [
@@ -172,7 +173,18 @@ class OdomFrame(Frame):
     angular_z: float
 
 
-SensorFrame = ScanFrame | ImuFrame | FixFrame | HeadingFrame | OdomFrame | BeaconFrame
+SensorFrame = (
+    ScanFrame
+    | ImuFrame
+    | FixFrame
+    | HeadingFrame
+    | OdomFrame
+    | BeaconFrame
+    | RangeFrame
+    | ContactFrame
+    | PointsFrame
+    | BatteryFrame
+)
 
 # The data frame of each sensor role; ``ALSO_SENT`` the others a role may send (a
 # dual-antenna GNSS receiver is one device: its true heading comes on its gps connection).
@@ -184,4 +196,8 @@ SENSOR_FRAMES: dict[str, type[SensorFrame]] = {
     "compass": HeadingFrame,
     "wheel_odometry": OdomFrame,
     "beacon": BeaconFrame,
+    "range": RangeFrame,
+    "contact": ContactFrame,
+    "points": PointsFrame,
+    "battery": BatteryFrame,
 }

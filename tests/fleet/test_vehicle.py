@@ -493,6 +493,27 @@ def test_the_state_says_where_the_robot_is_and_why_it_is_held() -> None:
         check("connection", reports.connection(reports.header(4, 1.8e9, MAKER, SERIAL), what))
 
 
+def test_the_state_tells_the_batterys_charge_when_a_sensor_says_it() -> None:
+    vehicle, _ = _vehicle()
+    head = reports.header(5, 1.8e9, MAKER, SERIAL)
+    measured = reports.Robot(None, math.inf, (0.0, 0.0), (), False, "office", (0.764, 12.1, True))
+    message = reports.state(head, vehicle, measured)
+    check("state", message)
+    assert message["batteryState"] == {
+        "batteryCharge": 76.4,
+        "batteryVoltage": 12.1,
+        "charging": True,
+    }
+    assert not any(i["infoType"] == "batteryUnknown" for i in message["information"])
+    voltage_only = reports.Robot(
+        None, math.inf, (0.0, 0.0), (), False, "office", (math.nan, 11.8, None)
+    )
+    partial = reports.state(head, vehicle, voltage_only)
+    check("state", partial)
+    assert partial["batteryState"]["batteryVoltage"] == 11.8
+    assert any(i["infoType"] == "batteryUnknown" for i in partial["information"])
+
+
 def test_the_factsheet_says_what_navd_is_and_does() -> None:
     config = NavdConfig()
     settings = FleetSettings.from_config(config)

@@ -6,6 +6,7 @@ import pytest
 from navd.config import NavdConfig
 from navd.lifecycle.bus import Bus
 from navd.lifecycle.messages import (
+    Contact,
     DeviceConnected,
     DeviceKind,
     DeviceLost,
@@ -251,3 +252,77 @@ async def test_a_supervisor_fault_stops_at_once(bus: Bus, gate: SafetyGate) -> N
         bus.publish(velocity(0.3))
     bus.publish(velocity(0.3))
     assert drives[-1].is_stop and "'planner' failed 3 times" in drives[-1].reason
+
+
+def _contact(sensor: str, kind: str, triggered: bool, t: float = 0.0) -> Contact:
+    return Contact(
+        stamp=t, received=t, device_id="mcu", sensor=sensor, kind=kind, triggered=triggered
+    )  # type: ignore[arg-type]
+
+
+@pytest.fixture
+async def mounted_gate(bus: Bus) -> SafetyGate:
+    """A gate on a robot with a front bumper, a front-left cliff sensor (0.2 m ahead, 0.1 m
+    left) and nothing where "loose" would be."""
+    gate = SafetyGate()
+    config = NavdConfig.model_validate(
+        {"mounts": {"contacts": {"front": {"x_m": 0.2}, "cliff_fl": {"x_m": 0.2, "y_m": 0.1}}}}
+    )
+    ctx = ModuleContext(
+        "safety", bus=bus, clock=bus.clock, workers=WorkerPool(bus, 1), config=lambda: config
+    )
+    await gate.on_configure(ctx)
+    return gate
+
+
+async def test_a_bumper_stops_the_robot_at_once_and_lets_it_only_back_away(
+    bus: Bus, mounted_gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+    bus.publish(_contact("front", "bumper", True))
+    assert drives[-1].is_stop and "bumper 'front' pressed" in drives[-1].reason
+    bus.publish(velocity(0.1))  # on into what it hit: no
+    assert drives[-1].is_stop and "only backing away" in drives[-1].reason
+    bus.publish(velocity(-0.1))  # back: yes
+    assert drives[-1].linear_mps == -0.1
+    bus.publish(velocity(0.0, 0.8))  # turning on the spot moves the front point sideways: yes
+    assert drives[-1].angular_radps == 0.8
+    bus.publish(_contact("front", "bumper", False, t=1.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+
+
+async def test_a_cliff_off_the_axis_forbids_the_turn_that_swings_it_out(
+    bus: Bus, mounted_gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_contact("cliff_fl", "cliff", True))
+    assert "cliff 'cliff_fl' sees no floor" in drives[-1].reason
+    # the sensor faces out through (0.2, 0.1): turning left swings it along (-0.1, 0.2),
+    # square to its facing; backing up and right (v<0, w<0) takes it away
+    bus.publish(velocity(-0.1, -0.5))
+    assert drives[-1].linear_mps == -0.1
+    bus.publish(velocity(0.05, 0.0))
+    assert drives[-1].is_stop
+
+
+async def test_a_contact_without_a_mount_holds_every_motion_until_released(
+    bus: Bus, mounted_gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_contact("loose", "bumper", True))
+    bus.publish(velocity(-0.1))
+    assert drives[-1].is_stop
+    bus.publish(_contact("loose", "bumper", False, t=1.0))
+    bus.publish(velocity(-0.1))
+    assert drives[-1].linear_mps == -0.1
+
+
+async def test_a_silent_contact_sensor_holds_the_robot(bus: Bus, gate: SafetyGate) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.CONTACT, "mcu"))
+    bus.publish(_device(DeviceStale, DeviceKind.CONTACT, "mcu", silent_s=0.6))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "contact 'mcu' silent" in drives[-1].reason

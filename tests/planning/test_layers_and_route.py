@@ -66,14 +66,14 @@ def test_two_lidars_scans_are_live_together_and_their_views_join() -> None:
     left = FieldOfView(0.0, 0.1, 0.0, math.pi)  # front-left and rear-left: blind on the right
     layers = Layers(layer_settings(NavdConfig().planning))
     layers.snapshot(0.0, [(0.0, 0.0)])
-    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, front, lidar="a")
-    layers.add_scan(IDENTITY, np.array([[0.0, 1.0]]), np.empty((0, 2)), 0.05, left, lidar="b")
+    layers.add_scan(IDENTITY, np.array([[1.0, 0.0]]), np.empty((0, 2)), 0.0, front, source="a")
+    layers.add_scan(IDENTITY, np.array([[0.0, 1.0]]), np.empty((0, 2)), 0.05, left, source="b")
     np.testing.assert_allclose(layers.scan_points, [[1.0, 0.0], [0.0, 1.0]])
     # a mark on the right that neither lidar looks at now stays; one ahead is theirs to say
     behind_right = np.array([[-0.7, -0.7]])
-    layers.add_scan(IDENTITY, behind_right, np.empty((0, 2)), 0.1, ALL_AROUND, lidar="c")
-    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.8, front, lidar="a")
-    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.85, left, lidar="b")
+    layers.add_scan(IDENTITY, behind_right, np.empty((0, 2)), 0.1, ALL_AROUND, source="c")
+    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.8, front, source="a")
+    layers.add_scan(IDENTITY, np.empty((0, 2)), np.empty((0, 2)), 0.85, left, source="b")
     near = layers.local_points(IDENTITY, 2.0, now=0.9)
     assert np.min(np.hypot(near[:, 0] + 0.7, near[:, 1] + 0.7)) < 0.05
     assert np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) > 0.5
@@ -125,3 +125,37 @@ def test_other_robots_are_obstacles_where_they_are_and_where_they_are_going() ->
     layers.set_robots(())
     _, obstacles, _ = layers.snapshot(1.0, [(0.0, 0.0), (4.0, 0.0)])
     assert not obstacles.any() and layers.scan_points.shape[0] == 0
+
+
+def test_what_a_proximity_sensor_felt_is_never_cleared_by_a_lidar_looking_through_it() -> None:
+    """Glass 1 m ahead: the sonar hears it, the lidar's rays pass through it to a wall 3 m
+    ahead. The glass stays an obstacle in the snapshot and near the robot."""
+    layers = Layers(layer_settings(NavdConfig().planning))
+    layers.snapshot(0.0, [(0.0, 0.0), (4.0, 0.0)])  # the layers take their frame
+    glass = np.array([[1.0, y] for y in np.linspace(-0.1, 0.1, 5)])
+    layers.add_scan(IDENTITY, glass, np.empty((0, 2)), 0.0, source="range:front", proximity=True)
+    wall = np.array([[3.0, y] for y in np.linspace(-0.5, 0.5, 21)])
+    for t in (0.1, 0.2, 0.3):
+        layers.add_scan(IDENTITY, wall, np.empty((0, 2)), t, source="lidar0")
+    frame, obstacles, _ = layers.snapshot(0.3, [(0.0, 0.0), (4.0, 0.0)])
+    r, c = frame.cell_of(1.0, 0.0)
+    assert obstacles[r, c]
+    near = layers.local_points(IDENTITY, 2.0, 0.3)
+    assert np.min(np.hypot(near[:, 0] - 1.0, near[:, 1])) < 0.05
+    # the sonar, clear again, clears its own marks
+    clear = np.array([[3.0, y] for y in np.linspace(-0.3, 0.3, 7)])
+    layers.add_scan(IDENTITY, np.empty((0, 2)), clear, 0.4, source="range:front", proximity=True)
+    frame, obstacles, _ = layers.snapshot(0.4, [(0.0, 0.0), (4.0, 0.0)])
+    r, c = frame.cell_of(1.0, 0.0)
+    assert not obstacles[r, c]
+
+
+def test_a_bumped_spot_is_kept_long_after_scan_obstacles_expire() -> None:
+    settings = layer_settings(NavdConfig().planning)
+    layers = Layers(settings)
+    layers.snapshot(0.0, [(0.0, 0.0), (4.0, 0.0)])
+    layers.mark_spot(Pose2(1.0, 0.0, 0.0), (0.2, 0.0), until=60.0)
+    later = 60.0 + settings.obstacle_persistence_s / 2
+    frame, obstacles, _ = layers.snapshot(later, [(0.0, 0.0), (4.0, 0.0)])
+    r, c = frame.cell_of(1.2, 0.0)
+    assert obstacles[r, c]

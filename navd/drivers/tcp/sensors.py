@@ -13,8 +13,9 @@ import math
 
 from navd.drivers.convert import sensor_message
 from navd.drivers.tcp.session import Server, Session
+from navd.geometry import SensorMounts, UnknownMountError
 from navd.lifecycle.messages import DeviceKind, DeviceResumed
-from navd.wire import PingFrame, Pong, WireError, decode_sensor
+from navd.wire import PingFrame, PointsFrame, Pong, RangeFrame, WireError, decode_sensor
 
 __all__ = ["SensorRole"]
 
@@ -69,6 +70,8 @@ class SensorRole:
                         raise WireError("header.frame_id", refusal)
                 if role == "lidar" and not mounts.lidars:
                     self._one_lidar(device_id, now)
+                elif isinstance(frame, RangeFrame | PointsFrame):
+                    _check_mount(frame, device_id, mounts)
                 message = sensor_message(frame, device_id, stamps.to_daemon(frame.stamp, now), now)
             except Exception as err:
                 self._server.reject(conn, line, err)
@@ -110,3 +113,20 @@ class SensorRole:
                     stamp=now, received=now, device_id=session.device_id, kind=session.kind
                 )
             )
+
+
+def _check_mount(frame: RangeFrame | PointsFrame, device_id: str, mounts: SensorMounts) -> None:
+    """A range sensor's or a depth camera's reading needs its mount: a cone or a cloud
+    that points nowhere cannot be placed.
+
+    Raises:
+        WireError: on ``sensor``, naming the mount to add.
+    """
+    name = frame.sensor or device_id
+    try:
+        if isinstance(frame, RangeFrame):
+            mounts.body.range_sensor(name)
+        else:
+            mounts.body.depth_camera(name)
+    except UnknownMountError as err:
+        raise WireError("sensor", str(err)) from None

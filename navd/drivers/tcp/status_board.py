@@ -11,6 +11,7 @@ from navd.lifecycle import ModuleContext
 from navd.lifecycle.messages import GoalStatus, LocalizationState, RobotState
 from navd.wire import (
     AppliedInfo,
+    BatteryInfo,
     BeaconInfo,
     ConfigNews,
     DeviceInfo,
@@ -78,6 +79,7 @@ class StatusBoard:
                 BeaconInfo(id=p.beacon_id, x=p.x_m, y=p.y_m, std=p.std_m, learnt=p.learnt)
                 for p in state.beacons[:MAX_LISTED_BEACONS]
             ],
+            battery=battery_info(state),
             devices=devices,
             diagnostics=Diagnostics(
                 safety=list(held),
@@ -138,4 +140,19 @@ def _localization_info(state: LocalizationState | None) -> LocalizationInfo | No
         yaw_std_rad=round(state.yaw_std_rad, 4) if finite else None,
         counters=dict(state.counters),
         reason=state.reason,
+    )
+
+
+def battery_info(state: RobotState) -> BatteryInfo | None:
+    """The battery as sent to clients (unknown numbers become null on the wire)."""
+    battery = state.battery
+    if battery is None:
+        return None
+    alarm = state.battery_alarm if state.battery_alarm in ("low", "critical") else "ok"
+    return BatteryInfo(
+        voltage=round(battery.voltage_v, 3),
+        current=None if math.isnan(battery.current_a) else round(battery.current_a, 3),
+        percentage=None if math.isnan(battery.percentage) else round(battery.percentage, 4),
+        charging=battery.charging,
+        alarm=alarm,
     )

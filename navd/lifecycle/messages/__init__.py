@@ -11,6 +11,13 @@ limit, a NaN stamp); wire-level validation lives in ``navd.wire``.
 """
 
 from navd.lifecycle.messages.base import DeviceKind, Message, Vector3, describe
+from navd.lifecycle.messages.body import (
+    BatteryAlarm,
+    BatteryState,
+    Contact,
+    DepthPoints,
+    RangeReading,
+)
 from navd.lifecycle.messages.control import (
     CancelGoal,
     ConfigApplied,
@@ -81,6 +88,8 @@ from navd.lifecycle.messages.state import ConfigHistory, RobotState
 __all__ = [
     "BEACON_STEPS",
     "MISSION_ACTIONS",
+    "BatteryAlarm",
+    "BatteryState",
     "BeaconObservation",
     "BeaconPlace",
     "BeaconPlaces",
@@ -90,8 +99,10 @@ __all__ = [
     "ConfigChange",
     "ConfigHistory",
     "ConfigRejected",
+    "Contact",
     "CostmapUpdate",
     "DaemonStatus",
+    "DepthPoints",
     "DeviceConnected",
     "DeviceKind",
     "DeviceLost",
@@ -126,6 +137,7 @@ __all__ = [
     "PoseEstimate",
     "PoseFound",
     "PoseMeasurement",
+    "RangeReading",
     "RecordRequest",
     "RecordingState",
     "RobotState",

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from navd.lifecycle.messages.base import Message
+from navd.lifecycle.messages.body import BatteryState
 from navd.lifecycle.messages.control import (
     ConfigApplied,
     ConfigRejected,
@@ -40,6 +41,7 @@ PARTS = frozenset(
         "recording",
         "config",
         "beacons",
+        "battery",
     }
 )
 
@@ -73,6 +75,8 @@ class RobotState(Message):
         recording: the MCAP file being written ("" when not recording).
         config: the config's changes since start.
         beacons: every beacon with a known or learnt place.
+        battery: the battery's latest state, None before its sensor spoke.
+        battery_alarm: "ok", "low" or "critical" (``BatteryAlarm``).
     """
 
     changed: frozenset[str]
@@ -88,6 +92,8 @@ class RobotState(Message):
     recording: str = ""
     config: ConfigHistory = ConfigHistory()
     beacons: tuple[BeaconPlace, ...] = ()
+    battery: BatteryState | None = None
+    battery_alarm: str = "ok"
 
     @property
     def manual(self) -> bool:

@@ -1,4 +1,5 @@
-// The status panel: the link, safety, who drives, the goal, localization, and messages.
+// The status panel: the link, safety, who drives, the goal, localization, the battery,
+// and messages.
 import { state } from "./model.js";
 
 function setText(id, text, kind) {
@@ -40,4 +41,15 @@ export function showStatus() {
     setText("localization", `${where.state}, ±${number(where.position_std_m, 2, "m")}`,
       where.state === "ok" ? "ok" : where.state === "lost" ? "bad" : "warn");
   }
+  showBattery(status.battery);
+}
+
+function showBattery(battery) {
+  document.getElementById("battery-box").hidden = !battery;
+  if (!battery) return;
+  const charge = battery.percentage === null ? "" : `${Math.round(battery.percentage * 100)}%, `;
+  const charging = battery.charging ? ", charging" : "";
+  const alarm = battery.alarm === "ok" ? "" : ` (${battery.alarm})`;
+  setText("battery", `${charge}${battery.voltage_v.toFixed(1)} V${charging}${alarm}`,
+    battery.alarm === "critical" ? "bad" : battery.alarm === "low" ? "warn" : "ok");
 }

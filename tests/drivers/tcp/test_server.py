@@ -27,10 +27,12 @@ from navd.lifecycle.messages import (
     InitialPose,
     LaserScan,
     MapUpdate,
+    RangeReading,
 )
 from navd.wire import (
     Ack,
     AsyncClient,
+    BatteryFrame,
     CancelFrame,
     ConfigAppliedFrame,
     ConfigFrame,
@@ -46,6 +48,7 @@ from navd.wire import (
     InitialPoseFrame,
     PingFrame,
     Pong,
+    RangeFrame,
     RequestRefusedError,
     SaveMapFrame,
     ScanFrame,
@@ -104,6 +107,40 @@ async def test_a_dual_antenna_receiver_sends_its_heading_on_its_gps_connection()
         assert heading.device_id == "gnss0" and heading.true_north
         assert heading.bearing_deg == 274.0
         await gps.close()
+
+
+async def test_a_range_reading_without_its_mount_is_refused_naming_the_mount() -> None:
+    async with running_daemon() as (daemon, port):
+        readings = record(daemon, RangeReading)
+        sonar = await connected(port, "range", "mcu0")
+        sonar.send(
+            RangeFrame(stamp=1.0, sensor="front", range=0.5, field_of_view=0.5, max_range=4.0)
+        )
+        refused = await sonar.receive(5.0)
+        assert isinstance(refused, ErrorFrame) and refused.field == "sensor"
+        assert "[mounts.ranges.front]" in refused.reason
+        assert readings == []
+        await sonar.close()
+
+
+async def test_the_battery_shows_in_the_status_with_its_alarm() -> None:
+    async with running_daemon() as (_, port):
+        battery = await connected(port, "battery", "ina219-1")
+        ui = await connected(port, "control", "ui")
+        await ui.request(SubscribeFrame(rate_hz=20))
+        battery.send(BatteryFrame(stamp=1.0, voltage=11.2, current=-2.0, percentage=0.15))
+
+        async def status_battery() -> Any:
+            while True:
+                status = await ui.receive(5.0)
+                battery = getattr(status, "battery", None)
+                if isinstance(status, StatusFrame) and battery and battery.alarm == "low":
+                    return battery
+
+        shown = await asyncio.wait_for(status_battery(), 10.0)
+        assert (shown.voltage, shown.current, shown.percentage) == (11.2, -2.0, 0.15)
+        await battery.close()
+        await ui.close()
 
 
 async def test_hot_plug_is_published_and_the_device_list_follows() -> None:
