@@ -22,8 +22,8 @@ if TYPE_CHECKING:
 
 __all__ = ["add_commands"]
 
-SERIAL_KINDS = ("rplidar", "rplidar-express", "ld06", "ld19", "stl19p", "nmea")
-I2C_KINDS = ("mpu6050", "mpu9250", "bno055", "qmc5883l", "hmc5883l")
+SERIAL_KINDS = ("rplidar", "rplidar-express", "ld06", "ld19", "stl19p", "nmea", "mcu", "tfmini")
+I2C_KINDS = ("mpu6050", "mpu9250", "bno055", "qmc5883l", "hmc5883l", "ina219")
 KIND_NAMES = (*SERIAL_KINDS, *I2C_KINDS, "calibrate-compass")
 DEFAULT_CONFIG = "/etc/navd/navd.toml"
 
@@ -52,6 +52,25 @@ def add_commands(commands: Commands) -> None:
     )
     sensor.add_argument("--address", help="an I2C chip's address, e.g. 0x69 (default: its usual)")
     sensor.add_argument("--rate", type=float, help="[Hz] how often an I2C chip is read")
+    sensor.add_argument(
+        "--shunt-ohms", type=float, default=0.1, help="ina219: [ohm] the shunt resistor (0.1)"
+    )
+    sensor.add_argument(
+        "--cells", type=int, default=3, help="ina219: the battery's cells in series (3)"
+    )
+    sensor.add_argument(
+        "--chemistry",
+        default="li-ion",
+        choices=("li-ion", "lifepo4", "lead-acid"),
+        help="ina219: the battery's chemistry (li-ion)",
+    )
+    sensor.add_argument(
+        "--current-sign",
+        type=int,
+        default=1,
+        choices=(1, -1),
+        help="ina219: -1 when the chip is wired the other way round (current reads backwards)",
+    )
     sensor.add_argument(
         "--chip",
         choices=("qmc5883l", "hmc5883l"),
@@ -162,8 +181,12 @@ def _run_i2c(args: argparse.Namespace, link: Link, address: int | None) -> int:
             return EXIT_USAGE
         if mount is not None:
             calibration = CompassCalibration(mount.hard_iron_ut, mount.soft_iron)
+    if args.shunt_ohms <= 0 or not 1 <= args.cells <= 48:
+        print("navd sensor: --shunt-ohms must be > 0 and --cells 1 to 48", file=sys.stderr)
+        return EXIT_USAGE
+    battery = (args.shunt_ohms, args.cells, args.chemistry, args.current_sign)
     with contextlib.suppress(KeyboardInterrupt):
-        run_i2c_sensor(args.kind, link, I2cOptions(address, args.rate, calibration))
+        run_i2c_sensor(args.kind, link, I2cOptions(address, args.rate, calibration, battery))
     return EXIT_OK
 
 

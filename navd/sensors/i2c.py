@@ -25,6 +25,8 @@ class I2cBus(Protocol):
 
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]: ...
 
+    def write_i2c_block_data(self, i2c_addr: int, register: int, data: list[int]) -> None: ...
+
 
 class Chip(Protocol):
     """A chip driver (see the module docstring).

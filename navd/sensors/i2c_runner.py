@@ -17,8 +17,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from navd.sensors.bno055 import Bno055
+from navd.sensors.connections import role_of
 from navd.sensors.errors import ChipError
 from navd.sensors.i2c import Chip, I2cBus
+from navd.sensors.ina219 import Ina219
 from navd.sensors.link import Link
 from navd.sensors.magnetometer import CompassCalibration, Hmc5883l, Qmc5883l
 from navd.sensors.mpu import Mpu
@@ -29,7 +31,7 @@ from navd.sensors.runner import (
     Trouble,
     drain_replies,
 )
-from navd.wire import Client, ClientError, ImuFrame, Role
+from navd.wire import Client, ClientError, Role
 
 __all__ = ["I2C_KINDS", "I2cOptions", "make_chip", "open_smbus", "run_i2c_sensor"]
 
@@ -40,6 +42,7 @@ I2C_KINDS: dict[str, tuple[Role, ...]] = {
     "bno055": ("imu", "compass"),
     "qmc5883l": ("compass",),
     "hmc5883l": ("compass",),
+    "ina219": ("battery",),
 }
 
 
@@ -51,11 +54,13 @@ class I2cOptions:
         address: its I2C address (None: the chip's usual one).
         rate_hz: [Hz] polls per second (None: the chip's usual rate).
         calibration: a magnetometer's correction.
+        battery: a battery monitor's shunt [Ω], cells, chemistry and current sign.
     """
 
     address: int | None = None
     rate_hz: float | None = None
     calibration: CompassCalibration | None = None
+    battery: tuple[float, int, str, int] = (0.1, 3, "li-ion", 1)
 
 
 def make_chip(kind: str, bus: I2cBus, options: I2cOptions) -> Chip:
@@ -69,6 +74,10 @@ def make_chip(kind: str, bus: I2cBus, options: I2cOptions) -> Chip:
         return Mpu(bus, kind, **extra)  # type: ignore[arg-type]
     if kind == "bno055":
         return Bno055(bus, **extra)  # type: ignore[arg-type]
+    if kind == "ina219":
+        shunt, cells, chemistry, sign = options.battery
+        return Ina219(bus, shunt_ohms=shunt, cells=cells, chemistry=chemistry,
+                      current_sign=sign, **extra)  # type: ignore[arg-type]  # fmt: skip
     magnetometer = Qmc5883l if kind == "qmc5883l" else Hmc5883l
     return magnetometer(bus, options.calibration, **extra)  # type: ignore[arg-type]
 
@@ -113,6 +122,7 @@ class _I2cProgram:
         self.open_bus = open_bus
         self.trouble = Trouble()
         roles = I2C_KINDS[kind]
+        self.main_role = roles[0]
         self.ids = {
             role: link.device_id if i == 0 else f"{link.device_id}-heading"
             for i, role in enumerate(roles)
@@ -215,7 +225,7 @@ class _I2cProgram:
                 return
             try:
                 for frame in frames:
-                    self.clients["imu" if isinstance(frame, ImuFrame) else "compass"].send(frame)
+                    self.clients[role_of(frame, self.main_role)].send(frame)
                 for client in self.clients.values():
                     drain_replies(client, self.trouble)
             except OSError as err:

@@ -14,8 +14,11 @@ import serial
 from navd.logs import get_logger
 from navd.sensors.ld06 import RANGE_MAX_M, PacketReader, ScanAssembler
 from navd.sensors.link import Link
+from navd.sensors.mcu_lines import McuLines
 from navd.sensors.nmea import NmeaReader
 from navd.sensors.rplidar import RplidarDecoder
+from navd.sensors.tfmini import RANGE_MAX_M as RANGE_MAX_TFMINI_M
+from navd.sensors.tfmini import Tfmini
 from navd.wire import Role, SensorFrame
 
 __all__ = ["KINDS", "Decoder", "SensorKind"]
@@ -155,4 +158,8 @@ KINDS: dict[str, SensorKind] = {
     "ld19": SensorKind("lidar", 230400, _Ld06),
     "stl19p": SensorKind("lidar", 230400, _Ld06),
     "nmea": SensorKind("gps", 9600, _Nmea),
+    "mcu": SensorKind("contact", 115200, lambda link: McuLines()),
+    "tfmini": SensorKind(
+        "range", 115200, lambda link: Tfmini(range_max_m=link.range_max_m or RANGE_MAX_TFMINI_M)
+    ),
 }

@@ -27,6 +27,7 @@ import serial
 
 from navd.drivers import open_exclusive
 from navd.logs import get_logger
+from navd.sensors.connections import Connections
 from navd.sensors.kinds import KINDS
 from navd.sensors.link import Link
 from navd.wire import Client, ClientError
@@ -74,7 +75,7 @@ class _Program:
         self.decoder = self.sensor.decoder(link)
         self.trouble = Trouble()
         self.device: serial.Serial | None = None
-        self.client: Client | None = None
+        self.navd_links = Connections(link, self.sensor.role)
         self.backoff = BACKOFF_S
         self.heard_at = self.asked_at = time.monotonic()
         self.summary_at = time.monotonic()
@@ -102,15 +103,8 @@ class _Program:
         return True
 
     def connect(self) -> bool:
-        link = self.link
         try:
-            self.client = Client(
-                link.host,
-                link.navd_port,
-                role=self.sensor.role,
-                device_id=link.device_id,
-                token=link.token,
-            )
+            self.navd_links.open(self.sensor.role)
         except ClientError as err:
             self.trouble.begin("navd_unreachable", navd=self.navd, error=str(err))
             return False
@@ -120,8 +114,8 @@ class _Program:
 
     def step(self) -> None:
         """Wait for the device's bytes, and send navd the frames they make."""
-        device, client = self.device, self.client
-        assert device is not None and client is not None
+        device = self.device
+        assert device is not None and self.navd_links.connected
         try:
             ready = select.select([device.fileno()], [], [], WAIT_S)[0]
             data = device.read(max(device.in_waiting, 1)) if ready else b""
@@ -149,13 +143,12 @@ class _Program:
         self.trouble.end("device_silent", "device_speaks", port=self.link.port)
         try:
             frames = self.decoder.feed(data, now)
-            for frame in frames:
-                client.send(frame)
-            drain_replies(client, self.trouble)
-        except OSError as err:
+            self.navd_links.send(frames)
+            for client in self.navd_links.clients.values():
+                drain_replies(client, self.trouble)
+        except (OSError, ClientError) as err:
             self.trouble.begin("navd_lost", navd=self.navd, error=str(err))
-            client.close()
-            self.client = None
+            self.navd_links.close()
             return
         self._framing(now, len(data), bool(frames))
         self.count(now)
@@ -208,8 +201,7 @@ class _Program:
         if self.device is not None:
             self.decoder.closing(self.device)
             self.device.close()
-        if self.client is not None:
-            self.client.close()
+        self.navd_links.close()
 
 
 def run_sensor(kind: str, link: Link, stop: threading.Event | None = None) -> None:
@@ -222,7 +214,7 @@ def run_sensor(kind: str, link: Link, stop: threading.Event | None = None) -> No
     try:
         while not stop.is_set():
             ready = (program.device is not None or program.open_device()) and (
-                program.client is not None or program.connect()
+                program.navd_links.connected or program.connect()
             )
             if not ready:
                 stop.wait(program.backoff)
@@ -243,4 +235,4 @@ def drain_replies(client: Client, trouble: Trouble) -> None:
             raise ConnectionResetError("navd closed the connection")
         if b'"error"' in data:
             text = data.decode("utf-8", errors="replace").strip().splitlines()[0][:300]
-            trouble.begin("navd_refused_frames", said=text)
+            trouble.begin("navd_refused_frames", error=text)

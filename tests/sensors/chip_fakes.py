@@ -37,9 +37,16 @@ class FakeBus:
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]:
         return list(self._chip(i2c_addr).read(i2c_addr, register, length))
 
+    def write_i2c_block_data(self, i2c_addr: int, register: int, data: list[int]) -> None:
+        self._chip(i2c_addr).write_block(i2c_addr, register, bytes(data))
+
 
 class FakeChip:
     """A chip: registers by address, read and written."""
+
+    def write_block(self, address: int, register: int, data: bytes) -> None:
+        for i, value in enumerate(data):
+            self.write(address, register + i, value)
 
     def addresses(self) -> tuple[int, ...]:
         raise NotImplementedError
@@ -225,3 +232,34 @@ class FakeHmc5883l(FakeChip):
                 return bytes(6)  # idle or single-shot done: no continuous data
             return _be(x) + _be(z) + _be(y)
         return bytes([self.regs.get(register, 0)])
+
+
+@dataclass
+class FakeIna219(FakeChip):
+    """An INA219 at 0x40 between a battery and its load: its 16-bit registers are written
+    and read big-endian, two bytes at once (TI SBOS448)."""
+
+    battery_v: float = 12.0
+    current_a: float = 1.5  # through the shunt from IN+ to IN- (the load drawing)
+    shunt_ohms: float = 0.1
+    config: int = 0x399F
+
+    def addresses(self) -> tuple[int, ...]:
+        return (0x40,)
+
+    def write_block(self, address: int, register: int, data: bytes) -> None:
+        if register == 0x00:
+            value = (data[0] << 8) | data[1]
+            self.config = 0x399F if value & 0x8000 else value  # a reset: the power-on default
+
+    def read(self, address: int, register: int, length: int) -> bytes:
+        shunt_v = self.current_a * self.shunt_ohms
+        if register == 0x00:
+            value = self.config
+        elif register == 0x01:
+            value = round(shunt_v / 10e-6) & 0xFFFF
+        elif register == 0x02:
+            value = round((self.battery_v - shunt_v) / 4e-3) << 3 | 0x02  # CNVR set
+        else:
+            value = 0
+        return struct.pack(">H", value)[:length]
