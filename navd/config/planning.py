@@ -119,6 +119,14 @@ class PlanningConfig(Section):
     obstacle_persistence_s: float = Field(
         2.0, ge=0, le=600, description="[s] a scan obstacle not seen again is forgotten after this"
     )
+    proximity_persistence_s: float = Field(
+        20.0,
+        ge=0,
+        le=600,
+        description="[s] what a range sensor or a depth camera saw is forgotten after this "
+        "unless seen again (they look one way: a table top left behind as the robot turns "
+        "must not be forgotten before the robot is past it)",
+    )
     obstacle_range_m: float = Field(
         12.0,
         gt=0,

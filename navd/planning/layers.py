@@ -62,6 +62,7 @@ class LayerSettings:
         max_cells: [cells] the largest snapshot A* may be given (its memory and time).
         keep_out_mask, speed_mask: the zone masks' YAML files, or None.
         window_m: [m] side of the fine window around the robot for a far goal.
+        proximity_persistence_s: [s] what a proximity sensor saw is forgotten after this.
     """
 
     occupied_threshold_pct: int
@@ -71,6 +72,7 @@ class LayerSettings:
     keep_out_mask: str | None = None
     speed_mask: str | None = None
     window_m: float = 30.0
+    proximity_persistence_s: float = 20.0
 
 
 class Layers:
@@ -95,8 +97,10 @@ class Layers:
         old, self.settings = self.settings, settings
         if (settings.keep_out_mask, settings.speed_mask) != self.zones.paths:
             self.zones = ZoneMasks(settings.keep_out_mask, settings.speed_mask)
-        for layer in self._memories():
-            layer.persistence_s = settings.obstacle_persistence_s
+        if self.obstacles is not None:
+            self.obstacles.persistence_s = settings.obstacle_persistence_s
+        if self.proximity is not None:
+            self.proximity.persistence_s = settings.proximity_persistence_s
         threshold_moved = settings.occupied_threshold_pct != old.occupied_threshold_pct
         if threshold_moved and self.map is not None and self._occupancy is not None:
             self._place_map(self.map[0], self._occupancy)
@@ -263,7 +267,7 @@ class Layers:
                 obstacles[outer] = occupied[inner]
                 unknown[outer] = map_unknown[inner]
         self.obstacles = _following(self.obstacles, frame, self.settings.obstacle_persistence_s)
-        self.proximity = _following(self.proximity, frame, self.settings.obstacle_persistence_s)
+        self.proximity = _following(self.proximity, frame, self.settings.proximity_persistence_s)
         obstacles |= self.obstacles.active(now) | self.proximity.active(now)
         obstacles |= self.keep_out(frame)
         if self.live.robot_points.shape[0]:

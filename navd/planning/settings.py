@@ -116,6 +116,7 @@ def layer_settings(planning: PlanningConfig) -> LayerSettings:
         planning.keep_out_mask,
         planning.speed_mask,
         planning.local_window_m,
+        planning.proximity_persistence_s,
     )
 
 

@@ -1,5 +1,7 @@
 """The simulated robot body: a differential drive that follows wheel commands like a motor
-controller would (acceleration-limited), stopped by walls instead of passing through them."""
+controller would (acceleration-limited), stopped by walls instead of passing through them,
+and at the brink of a drop (a robot whose wheel or caster would have gone over it is
+counted as fallen)."""
 
 from __future__ import annotations
 
@@ -9,13 +11,15 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from navd.config import NavdConfig
+from navd.config import NavdConfig, RobotConfig
 from navd.drivers import WheelCalibration, body_velocity, wheel_speeds
 from navd.geometry import Footprint, wrap_angle
 from navd.sim._sim_kernels import footprint_contact
 from navd.sim.world import World
 
 __all__ = ["Body", "decode_wheels", "encode_wheels"]
+
+CASTER_REACH = 0.5  # a caster stands this share of the way from the centre to the outline
 
 
 def decode_wheels(left: int, right: int, cal: WheelCalibration) -> tuple[float, float]:
@@ -40,6 +44,7 @@ class Body:
         x_m, y_m, yaw_rad: pose in the world.
         linear_mps, angular_radps: actual body velocity.
         collisions: how many steps the body was held back by an obstacle.
+        falls: how many steps the body would have gone over a drop.
         min_clearance_m: smallest clearance of the footprint to the world so far.
     """
 
@@ -49,6 +54,7 @@ class Body:
     linear_mps: float = 0.0
     angular_radps: float = 0.0
     collisions: int = 0
+    falls: int = 0
     min_clearance_m: float = math.inf
 
     def step(
@@ -74,8 +80,12 @@ class Body:
             x = self.x_m + v / w * (math.sin(yaw) - math.sin(self.yaw_rad))
             y = self.y_m - v / w * (math.cos(yaw) - math.cos(self.yaw_rad))
         fp = Footprint.of(robot)
+        if world.drops is not None and _over(world, world.drops, robot, (x, y, yaw)):
+            self.falls += 1
+            self.linear_mps = self.angular_radps = 0.0
+            return
         clearance = footprint_contact(
-            world.grid,
+            world.solid,
             world.origin_x_m,
             world.origin_y_m,
             world.resolution_m,
@@ -100,6 +110,26 @@ class Body:
     def wheels(self, track_width_m: float) -> tuple[float, float]:
         """[m/s] the actual (left, right) wheel speeds."""
         return wheel_speeds(self.linear_mps, self.angular_radps, track_width_m)
+
+
+def _over(
+    world: World, cells: npt.NDArray[np.bool_], robot: RobotConfig, pose: tuple[float, float, float]
+) -> bool:
+    """Whether a point the robot stands on at ``pose`` (x, y, yaw) lies on ``cells``: its
+    centre, its two wheels, and a caster ``CASTER_REACH`` of the way to its front and back
+    (an outline overhanging a step is not a fall; a wheel or caster over it is)."""
+    x, y, yaw = pose
+    half_track, reach = robot.track_width_m / 2.0, CASTER_REACH * Footprint.of(robot).half_length_m
+    local = np.array(
+        [[0.0, 0.0], [0.0, half_track], [0.0, -half_track], [reach, 0.0], [-reach, 0.0]]
+    )
+    c, s = math.cos(yaw), math.sin(yaw)
+    px = x + c * local[:, 0] - s * local[:, 1]
+    py = y + s * local[:, 0] + c * local[:, 1]
+    cols = np.floor((px - world.origin_x_m) / world.resolution_m).astype(np.int64)
+    rows = np.floor((py - world.origin_y_m) / world.resolution_m).astype(np.int64)
+    inside = (rows >= 0) & (rows < cells.shape[0]) & (cols >= 0) & (cols < cells.shape[1])
+    return bool(cells[rows[inside], cols[inside]].any())
 
 
 def command_velocity(left: int, right: int, config: NavdConfig) -> tuple[float, float]:

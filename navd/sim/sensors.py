@@ -20,6 +20,7 @@ from navd.config import NavdConfig
 from navd.estimation import GeoFrame
 from navd.geometry import Pose2, SensorMounts
 from navd.sim._sim_kernels import cast_rays
+from navd.sim.body_sensors import BodySensors
 from navd.sim.physics import SimRobot
 from navd.sim.settings import SimSettings
 from navd.wire import BeaconFrame, FixFrame, HeadingFrame, ImuFrame, Role, ScanFrame, SensorFrame
@@ -151,6 +152,8 @@ class SensorModels:
             sensors.append(SimSensor("compass", compass, s.compass_rate_hz, self.heading))
         if s.beacon_rate_hz > 0 and self.robot.world.beacons:
             sensors.append(SimSensor("beacon", "sim-beacons", s.beacon_rate_hz, self.beacon))
+        body = BodySensors(self.robot, self.config, s, self._rng)
+        sensors += [SimSensor(*source) for source in body.frames()]
         return sensors
 
     def scan(self, now: float, lidar: str = "sim-lidar") -> ScanFrame:

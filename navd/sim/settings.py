@@ -29,6 +29,14 @@ class SimSettings:
             turn (0 Hz, or a world without beacons: none); beacon_mode: what each measures;
             beacon_range_noise_m, beacon_bearing_noise_rad: their 1-sigma noise;
             beacon_max_range_m: farther beacons are not seen.
+        range_rate_hz, range_fov_deg, range_max_m, range_noise_m: each range sensor the
+            config mounts (``mounts.ranges``), an ultrasonic one: it hears the glass too.
+        contact_rate_hz: each bumper and cliff sensor (``mounts.contacts``; a name starting
+            with "cliff" is a cliff sensor) says its state this often.
+        depth_rate_hz, depth_fov_deg, depth_rays: each depth camera (``mounts.depth``): a
+            fan of rays across its horizontal view, at heights through its band.
+        battery_rate_hz, battery_wh, battery_idle_w, battery_drive_w: a battery (0 Hz:
+            none): it drains at idle power, and more in proportion to the speed.
         physics_rate_hz: world steps per second (in lockstep: clock steps per second; sensor
             rates are rounded to whole steps).
         feedback_rate_hz: encoder lines per second (0: none).
@@ -58,6 +66,18 @@ class SimSettings:
     beacon_range_noise_m: float = 0.1
     beacon_bearing_noise_rad: float = 0.03
     beacon_max_range_m: float = 50.0
+    range_rate_hz: float = 10.0
+    range_fov_deg: float = 15.0
+    range_max_m: float = 4.0
+    range_noise_m: float = 0.01
+    contact_rate_hz: float = 50.0
+    depth_rate_hz: float = 5.0
+    depth_fov_deg: float = 70.0
+    depth_rays: int = 48
+    battery_rate_hz: float = 0.0
+    battery_wh: float = 50.0
+    battery_idle_w: float = 5.0
+    battery_drive_w: float = 20.0
     physics_rate_hz: float = 100.0
     feedback_rate_hz: float = 20.0
     seed: int = 0

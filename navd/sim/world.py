@@ -12,12 +12,23 @@ movers = [{radius = 0.25, speed = 0.5, path = [[x, y], [x, y], ...]}]   # back a
 beacons = [{id = "B1", x = 0.0, y = 5.0}]  # points a beacon sensor ranges and bears to
 start = [x, y, yaw]                       # where the robot starts (default 0 0 0)
 goal = [x, y, yaw]                        # the demo's goal (optional)
+glass = [[x0, y0, x1, y1], ...]           # panes: the lidar sees through, a sonar hears
+low_boxes = [[x, y, width, height], ...]  # LOW_HEIGHT_M tall: under the lidar's plane
+tables = [[x, y, width, height], ...]     # a top TABLE_UNDERSIDE_M to TABLE_TOP_M up, on
+                                          # four legs the lidar sees
+drops = [[x, y, width, height], ...]      # where the floor falls away (stairs down)
 ```
+
+Walls, boxes, circles and movers are full height: every sensor sees them. What else a
+sensor perceives: a lidar (at ``LIDAR_HEIGHT_M``) none of the rest; a range sensor the
+glass; a depth camera the low boxes and the table tops (not the glass); a bumper and the
+body all of them but the drops; a cliff sensor only the drops, where the body falls.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import tomllib
 from collections.abc import Sequence
@@ -30,10 +41,22 @@ import numpy.typing as npt
 from navd.geometry import IDENTITY, Pose2
 from navd.sim.errors import WorldError
 
-__all__ = ["Mover", "World", "load_world", "office"]
+__all__ = [
+    "LOW_HEIGHT_M",
+    "TABLE_TOP_M",
+    "TABLE_UNDERSIDE_M",
+    "Mover",
+    "World",
+    "load_world",
+    "office",
+]
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 WALL_THICKNESS_M = 0.05
+LOW_HEIGHT_M = 0.1  # [m] a low box's height
+TABLE_UNDERSIDE_M, TABLE_TOP_M = 0.6, 0.75  # [m] a table top's heights
+TABLE_LEG_RADIUS_M = 0.03
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,7 +89,7 @@ class Mover:
 
 
 @dataclass(frozen=True)
-class World:
+class World:  # (not slotted: ``solid`` is computed once and kept)
     """Static obstacles as a grid, moving discs, and the scenario's start and goal.
 
     Attributes:
@@ -77,6 +100,8 @@ class World:
         start: the robot's start pose.
         goal: the scenario's goal pose, if it has one.
         beacons: (id, x [m], y [m]) of each beacon (no body: only a beacon sensor sees it).
+        glass, low, tables, drops: cells of the shapes the lidar does not see (None: none;
+            see the module docstring).
     """
 
     grid: npt.NDArray[np.bool_]
@@ -88,6 +113,19 @@ class World:
     goal: Pose2 | None = None
     name: str = field(default="world")
     beacons: tuple[tuple[str, float, float], ...] = ()
+    glass: BoolArray | None = None
+    low: BoolArray | None = None
+    tables: BoolArray | None = None
+    drops: BoolArray | None = None
+
+    @functools.cached_property
+    def solid(self) -> BoolArray:
+        """Every cell the body cannot enter: what the lidar sees and what it does not."""
+        solid = self.grid.copy()
+        for hidden in (self.glass, self.low, self.tables):
+            if hidden is not None:
+                solid |= hidden
+        return solid
 
     def discs(self, t_s: float) -> FloatArray:
         """K x 3 (x, y, radius) [m] of the movers at time ``t_s`` [s]."""
@@ -123,7 +161,7 @@ def _pairs(value: object, width: int, key: str) -> list[tuple[float, ...]]:
     return rows
 
 
-def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa: PLR0915
+def from_shapes(spec: dict[str, object], name: str = "world") -> World:
     """A world from a parsed TOML table of shapes (see the module docstring).
 
     Raises:
@@ -131,7 +169,7 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
     """
     known = {
         "resolution_m", "walls", "boxes", "circles", "movers", "start", "goal", "margin_m",
-        "beacons",
+        "beacons", "glass", "low_boxes", "tables", "drops",
     }  # fmt: skip
     unknown = set(spec) - known
     if unknown:
@@ -139,49 +177,30 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
     res = spec.get("resolution_m", 0.02)
     if not isinstance(res, int | float) or not 0.005 <= res <= 0.2:
         raise WorldError(f"resolution_m must be a number in [0.005, 0.2] m, got {res!r}")
-    walls = _pairs(spec.get("walls", []), 4, "walls")
-    boxes = _pairs(spec.get("boxes", []), 4, "boxes")
-    circles = _pairs(spec.get("circles", []), 3, "circles")
-    if not (walls or boxes or circles):
+    shapes: dict[str, list[tuple[float, ...]]] = {"none": []} | {
+        key: _pairs(spec.get(key, []), width, key)
+        for key, width in (
+            ("walls", 4), ("boxes", 4), ("circles", 3), ("glass", 4), ("low_boxes", 4),
+            ("tables", 4), ("drops", 4),
+        )
+    }  # fmt: skip
+    if not (shapes["walls"] or shapes["boxes"] or shapes["circles"]):
         raise WorldError("a world needs at least one of walls, boxes or circles")
-    xs = [v for w in walls for v in (w[0], w[2])] + [b[0] for b in boxes]
-    xs += [b[0] + b[2] for b in boxes] + [c[0] - c[2] for c in circles]
-    xs += [c[0] + c[2] for c in circles]
-    ys = [v for w in walls for v in (w[1], w[3])] + [b[1] for b in boxes]
-    ys += [b[1] + b[3] for b in boxes] + [c[1] - c[2] for c in circles]
-    ys += [c[1] + c[2] for c in circles]
-    margin = 1.0
-    ox, oy = min(xs) - margin, min(ys) - margin
-    cols = math.ceil((max(xs) + margin - ox) / res)
-    rows = math.ceil((max(ys) + margin - oy) / res)
-    grid = np.zeros((rows, cols), dtype=np.bool_)
-    cx = ox + (np.arange(cols) + 0.5) * res
-    cy = oy + (np.arange(rows) + 0.5) * res
-    for x0, y0, x1, y1 in walls:
-        # Cells whose centre is within half the thickness of the segment.
-        lo_c, hi_c = _span(min(x0, x1), max(x0, x1), ox, res, cols)
-        lo_r, hi_r = _span(min(y0, y1), max(y0, y1), oy, res, rows)
-        px, py = np.meshgrid(cx[lo_c:hi_c], cy[lo_r:hi_r])
-        ex, ey = x1 - x0, y1 - y0
-        length2 = max(ex * ex + ey * ey, 1e-12)
-        t = np.clip(((px - x0) * ex + (py - y0) * ey) / length2, 0.0, 1.0)
-        near = np.hypot(px - x0 - t * ex, py - y0 - t * ey) <= WALL_THICKNESS_M / 2
-        grid[lo_r:hi_r, lo_c:hi_c] |= near
-    for x, y, w, h in boxes:
-        if w <= 0 or h <= 0:
-            raise WorldError(f"box at ({x}, {y}) needs a positive width and height")
-        lo_c, hi_c = _span(x, x + w, ox, res, cols)
-        lo_r, hi_r = _span(y, y + h, oy, res, rows)
-        inside_c = (cx[lo_c:hi_c] >= x) & (cx[lo_c:hi_c] <= x + w)
-        inside_r = (cy[lo_r:hi_r] >= y) & (cy[lo_r:hi_r] <= y + h)
-        grid[lo_r:hi_r, lo_c:hi_c] |= inside_r[:, None] & inside_c[None, :]
-    for x, y, radius in circles:
-        if radius <= 0:
-            raise WorldError(f"circle at ({x}, {y}) needs a positive radius")
-        lo_c, hi_c = _span(x - radius, x + radius, ox, res, cols)
-        lo_r, hi_r = _span(y - radius, y + radius, oy, res, rows)
-        dx2 = (cx[None, lo_c:hi_c] - x) ** 2
-        grid[lo_r:hi_r, lo_c:hi_c] |= dx2 + (cy[lo_r:hi_r, None] - y) ** 2 <= radius**2
+    legs = [
+        (x + dx, y + dy, TABLE_LEG_RADIUS_M)
+        for x, y, w, h in shapes["tables"]
+        for dx in (TABLE_LEG_RADIUS_M, w - TABLE_LEG_RADIUS_M)
+        for dy in (TABLE_LEG_RADIUS_M, h - TABLE_LEG_RADIUS_M)
+    ]
+    canvas = _Canvas(float(res), shapes)
+    grid = canvas.draw(shapes["walls"], shapes["boxes"], [*shapes["circles"], *legs])
+
+    def hidden(walls: str, boxes: str) -> BoolArray | None:
+        if not (shapes[walls] or shapes[boxes]):
+            return None
+        return canvas.draw(shapes[walls], shapes[boxes], [])
+
+    ox, oy = canvas.origin
     movers = []
     raw_movers = spec.get("movers", [])
     if not isinstance(raw_movers, list):
@@ -196,7 +215,86 @@ def from_shapes(spec: dict[str, object], name: str = "world") -> World:  # noqa:
     start = _pose(spec.get("start", [0.0, 0.0, 0.0]), "start")
     goal = _pose(spec["goal"], "goal") if "goal" in spec else None
     beacons = _beacons(spec.get("beacons", []))
-    return World(grid, ox, oy, float(res), tuple(movers), start, goal, name, beacons)
+    return World(
+        grid,
+        ox,
+        oy,
+        float(res),
+        tuple(movers),
+        start,
+        goal,
+        name,
+        beacons,
+        glass=hidden("glass", "none"),
+        low=hidden("none", "low_boxes"),
+        tables=hidden("none", "tables"),
+        drops=hidden("none", "drops"),
+    )
+
+
+class _Canvas:
+    """Shapes drawn on grids of one frame, which holds all of ``shapes`` with a margin."""
+
+    def __init__(self, res: float, shapes: dict[str, list[tuple[float, ...]]]) -> None:
+        xs: list[float] = []
+        ys: list[float] = []
+        for key in ("walls", "glass"):
+            xs += [v for w in shapes[key] for v in (w[0], w[2])]
+            ys += [v for w in shapes[key] for v in (w[1], w[3])]
+        for key in ("boxes", "low_boxes", "tables", "drops"):
+            xs += [v for b in shapes[key] for v in (b[0], b[0] + b[2])]
+            ys += [v for b in shapes[key] for v in (b[1], b[1] + b[3])]
+        xs += [v for c in shapes["circles"] for v in (c[0] - c[2], c[0] + c[2])]
+        ys += [v for c in shapes["circles"] for v in (c[1] - c[2], c[1] + c[2])]
+        margin = 1.0
+        self.res = res
+        self.origin = (min(xs) - margin, min(ys) - margin)
+        ox, oy = self.origin
+        self.cols = math.ceil((max(xs) + margin - ox) / res)
+        self.rows = math.ceil((max(ys) + margin - oy) / res)
+        self.cx = ox + (np.arange(self.cols) + 0.5) * res
+        self.cy = oy + (np.arange(self.rows) + 0.5) * res
+
+    def draw(
+        self,
+        walls: list[tuple[float, ...]],
+        boxes: list[tuple[float, ...]],
+        circles: list[tuple[float, ...]],
+    ) -> BoolArray:
+        """A grid of these shapes.
+
+        Raises:
+            WorldError: a box or circle without a size.
+        """
+        res, (ox, oy), cx, cy = self.res, self.origin, self.cx, self.cy
+        rows, cols = self.rows, self.cols
+        grid = np.zeros((rows, cols), dtype=np.bool_)
+        for x0, y0, x1, y1 in walls:
+            # Cells whose centre is within half the thickness of the segment.
+            lo_c, hi_c = _span(min(x0, x1), max(x0, x1), ox, res, cols)
+            lo_r, hi_r = _span(min(y0, y1), max(y0, y1), oy, res, rows)
+            px, py = np.meshgrid(cx[lo_c:hi_c], cy[lo_r:hi_r])
+            ex, ey = x1 - x0, y1 - y0
+            length2 = max(ex * ex + ey * ey, 1e-12)
+            t = np.clip(((px - x0) * ex + (py - y0) * ey) / length2, 0.0, 1.0)
+            near = np.hypot(px - x0 - t * ex, py - y0 - t * ey) <= WALL_THICKNESS_M / 2
+            grid[lo_r:hi_r, lo_c:hi_c] |= near
+        for x, y, w, h in boxes:
+            if w <= 0 or h <= 0:
+                raise WorldError(f"box at ({x}, {y}) needs a positive width and height")
+            lo_c, hi_c = _span(x, x + w, ox, res, cols)
+            lo_r, hi_r = _span(y, y + h, oy, res, rows)
+            inside_c = (cx[lo_c:hi_c] >= x) & (cx[lo_c:hi_c] <= x + w)
+            inside_r = (cy[lo_r:hi_r] >= y) & (cy[lo_r:hi_r] <= y + h)
+            grid[lo_r:hi_r, lo_c:hi_c] |= inside_r[:, None] & inside_c[None, :]
+        for x, y, radius in circles:
+            if radius <= 0:
+                raise WorldError(f"circle at ({x}, {y}) needs a positive radius")
+            lo_c, hi_c = _span(x - radius, x + radius, ox, res, cols)
+            lo_r, hi_r = _span(y - radius, y + radius, oy, res, rows)
+            dx2 = (cx[None, lo_c:hi_c] - x) ** 2
+            grid[lo_r:hi_r, lo_c:hi_c] |= dx2 + (cy[lo_r:hi_r, None] - y) ** 2 <= radius**2
+        return grid
 
 
 def _beacons(value: object) -> tuple[tuple[str, float, float], ...]:
