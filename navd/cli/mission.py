@@ -93,6 +93,8 @@ def load_mission(path: Path, mission_id: str | None = None) -> MissionFrame:
     except (UnicodeDecodeError, tomllib.TOMLDecodeError, json.JSONDecodeError) as err:
         kind = "TOML" if path.suffix == ".toml" else "JSON"
         raise ConfigError([f"not valid {kind}: {err}"], source=source) from err
+    except RecursionError as err:
+        raise ConfigError(["nested too deep to be a mission"], source=source) from err
     if not isinstance(data, dict):
         raise ConfigError(["a mission is a table (an object) with steps"], source=source)
     try:

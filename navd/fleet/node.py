@@ -270,7 +270,7 @@ class FleetNode(Module):
             other = _Other(
                 float(where["x"]), float(where["y"]), float(where["theta"]), speed, time.monotonic()
             )
-        except (ValueError, KeyError, TypeError, AttributeError) as err:
+        except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as err:
             self._malformed += 1
             if self._malformed == 1 or self._malformed % 1000 == 0:  # seen, not flooded
                 self.ctx.log.warning(

@@ -80,7 +80,7 @@ class FleetView:
             return None
         try:
             body = json.loads(payload)
-        except ValueError:
+        except (ValueError, RecursionError):
             return None
         if not isinstance(body, dict):
             return None
@@ -302,7 +302,7 @@ class _GroupRun:
         if topic.endswith("/visualization"):
             try:
                 body = json.loads(payload)
-            except ValueError:
+            except (ValueError, RecursionError):
                 return None
             if isinstance(body, dict):
                 group.on_position(topic.split("/")[3], body, time.monotonic())

@@ -127,6 +127,8 @@ def read_command(topic: str, data: bytes, tokens: tuple[str, ...] | None) -> Con
         message = json.loads(data)
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise CommandRefusedError(f"not JSON: {err}") from err
+    except RecursionError as err:
+        raise CommandRefusedError("not a command: nested too deep") from err
     if not isinstance(message, dict):
         raise CommandRefusedError("a command is a JSON object")
     given = message.pop("token", None)

@@ -202,7 +202,7 @@ def decode(topic: str, data: bytes) -> Message:
         hints = _hints(kind)
         values = {name: _typed(hints[name], value) for name, value in fields.items()}
         return kind(**values)
-    except (ValueError, TypeError, KeyError) as err:
+    except (ValueError, TypeError, KeyError, RecursionError) as err:
         raise RecordCodecError(f"{topic}: not a {kind.__name__}: {err}") from err
 
 

@@ -114,8 +114,8 @@ def _head(path: Path) -> tuple[dict[str, Any] | None, dict[str, Any]]:
             break
         try:
             value = json.loads(data)
-        except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise RecordingError(f"{path}: its {topic} is not JSON: {err}") from err
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as err:
+            raise RecordingError(f"{path}: its {topic} is not JSON: {err!r}") from err
         if not isinstance(value, dict):
             raise RecordingError(f"{path}: its {topic} is not a JSON object")
         if topic == CONFIG_TOPIC:

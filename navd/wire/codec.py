@@ -100,7 +100,7 @@ def _decode_rosbridge(role: str, line: bytes) -> SensorFrame:
     Python's JSON reader is used: rosbridge writes NaN and Infinity as bare words."""
     try:
         envelope = json.loads(line)
-    except ValueError as err:
+    except (ValueError, RecursionError) as err:  # (arrays nested thousands deep)
         raise WireError("", f"not valid JSON: {err}") from err
     if not isinstance(envelope, dict) or envelope.get("op") != "publish":
         raise WireError("op", "a rosbridge line must be a publish operation (op: publish)")

@@ -75,6 +75,7 @@ def test_foxglove_panel_messages_read_as_control_requests() -> None:
         ),
         ("/navd/command", b'{"type": "goal", "x": 1}', "latitude"),
         ("/cmd_vel", b" " * (MAX_COMMAND_BYTES + 1), "more than a command may be"),
+        ("/navd/command", b"[" * 8000 + b"]" * 8000, "nested too deep"),
     ],
 )
 def test_bad_commands_are_refused_naming_what_is_wrong(topic: str, data: bytes, named: str) -> None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -345,3 +346,23 @@ def test_crlf_line_endings_are_accepted() -> None:
         DeviceKind.COMPASS, b'{"type":"heading","bearing_deg":1,"accuracy_deg":1}\r'
     )
     assert frame.bearing_deg == 1.0
+
+
+DEEP = b"[" * 100_000 + b"]" * 100_000
+
+
+@pytest.mark.parametrize(
+    ("decode", "line"),
+    [
+        (
+            lambda line: decode_sensor("imu", line),
+            b'{"type": "imu", "stamp": 1, "x": ' + DEEP + b"}",
+        ),
+        (lambda line: decode_sensor("imu", line), b'{"op": "publish", "msg": ' + DEEP + b"}"),
+        (decode_control, b'{"type": "goal", "x": ' + DEEP + b"}"),
+    ],
+    ids=["sensor", "rosbridge", "control"],
+)
+def test_a_line_nested_thousands_deep_is_refused_as_bad_json(decode: Any, line: bytes) -> None:
+    with pytest.raises(WireError, match="JSON"):
+        decode(line)
