@@ -82,7 +82,10 @@ class SafetyGate(Module):
     second one connecting does not stand in for the first); a GPS, wheel odometry or beacon
     sensor does so
     only while no lidar is there. A device still connected but silent holds the robot until
-    it speaks or leaves.
+    it speaks or leaves. One that never spoke since its hello while another of its kind
+    speaks (a stray program, a second driver started on the wrong port) is mute: it holds
+    nothing, counts for nothing, and is forgotten when it leaves; alone, it holds the robot
+    like any silent one.
     """
 
     def __init__(self, limiters: Sequence[SpeedLimiter] = ()) -> None:
@@ -90,6 +93,7 @@ class SafetyGate(Module):
         self._reasons: dict[str, str] = {}  # SafeStop holds, by key
         self._fresh: dict[str, DeviceKind] = {}  # devices connected and speaking
         self._most: dict[DeviceKind, int] = {}  # the most of each kind that spoke at once
+        self._mute: set[str] = set()  # connected, never spoke, while others of its kind do
         self._device_holds: dict[str, _DeviceHold] = {}  # by device id
         self._contacts = ContactHolds()  # triggered bumpers and cliff sensors
         self._limiters = tuple(limiters)
@@ -172,7 +176,7 @@ class SafetyGate(Module):
     def _on_gone(self, msg: DeviceStale | DeviceLost) -> None:
         self._fresh.pop(msg.device_id, None)
         holds = msg.kind in ESSENTIAL or (msg.kind in WITHOUT_LIDAR and not self._has_lidar())
-        if not holds:
+        if not holds or self._is_mute(msg):
             return
         what = (
             f"silent {msg.silent_s:.2f} s"
@@ -186,10 +190,29 @@ class SafetyGate(Module):
         if fresh:
             self._held_now(why)
 
+    def _is_mute(self, msg: DeviceStale | DeviceLost) -> bool:
+        """Whether ``msg`` is of a device that never spoke while others of its kind speak (it
+        is then mute, or forgotten if it left), taking back its count in ``_most``."""
+        if isinstance(msg, DeviceLost) and msg.device_id in self._mute:
+            self._mute.discard(msg.device_id)
+            return True
+        speaking = sum(1 for k in self._fresh.values() if k is msg.kind)
+        if msg.spoke or speaking == 0:
+            return False
+        if isinstance(msg, DeviceStale):
+            self._mute.add(msg.device_id)
+        self._most[msg.kind] = max(self._most.get(msg.kind, 0) - 1, speaking)
+        self.ctx.log.warning(
+            "device_mute", device_id=msg.device_id, kind=msg.kind.value,
+            note="never spoke since its hello while another of its kind speaks: ignored",
+        )  # fmt: skip
+        return True
+
     def _on_back(self, msg: DeviceResumed | DeviceConnected) -> None:
         kind = msg.kind
         if kind not in ESSENTIAL | WITHOUT_LIDAR:
             return
+        self._mute.discard(msg.device_id)
         self._fresh[msg.device_id] = kind
         speaking = sum(1 for k in self._fresh.values() if k is kind)
         self._most[kind] = max(self._most.get(kind, 0), speaking)

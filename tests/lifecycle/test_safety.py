@@ -125,6 +125,35 @@ async def test_a_lidar_restarted_under_a_new_id_releases_the_old_ones_hold(
     assert gate.reasons == ()
 
 
+async def test_a_lidar_that_never_spoke_beside_a_speaking_one_holds_nothing(
+    bus: Bus, gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar0"))
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "rogue", t=1.0))
+    bus.publish(_device(DeviceStale, DeviceKind.LIDAR, "rogue", t=1.2, silent_s=0.2, spoke=False))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3, "a mute lidar beside a speaking one holds nothing"
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "rogue", t=5.0, reason="closed", spoke=False))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3 and gate.reasons == (), "and is forgotten when it leaves"
+    # the real lidar's own loss still holds, and its restart under a new id releases it
+    bus.publish(_device(DeviceLost, DeviceKind.LIDAR, "lidar0", t=6.0, reason="crashed"))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar1", t=7.0))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+
+
+async def test_a_lidar_that_never_spoke_alone_holds_the_robot(bus: Bus, gate: SafetyGate) -> None:
+    drives = _drives(bus)
+    bus.publish(_device(DeviceConnected, DeviceKind.LIDAR, "lidar0"))
+    bus.publish(_device(DeviceStale, DeviceKind.LIDAR, "lidar0", t=0.2, silent_s=0.2, spoke=False))
+    bus.publish(velocity(0.3))
+    assert drives[-1].is_stop and "lidar 'lidar0' silent" in drives[-1].reason
+
+
 async def test_a_second_lidar_already_there_does_not_release_a_lost_one(
     bus: Bus, gate: SafetyGate
 ) -> None:

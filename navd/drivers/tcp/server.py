@@ -367,6 +367,7 @@ class TcpServer(Module):
                 device_id=session.device_id,
                 kind=session.kind,
                 reason=reason,
+                spoke=bool(session.arrivals),
             )
         )
 

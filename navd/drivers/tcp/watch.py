@@ -144,5 +144,6 @@ class SilenceWatch:
                 device_id=session.device_id,
                 kind=session.kind,
                 silent_s=silent,
+                spoke=bool(session.arrivals),
             )
         )

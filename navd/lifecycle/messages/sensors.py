@@ -224,20 +224,24 @@ class DeviceConnected(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class DeviceLost(Message):
-    """A peripheral disconnected; ``reason`` says why."""
+    """A peripheral disconnected; ``reason`` says why; ``spoke``: it had sent data (False:
+    it left without a word since its hello)."""
 
     device_id: str
     kind: DeviceKind
     reason: str
+    spoke: bool = True
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class DeviceStale(Message):
-    """A connected peripheral sent nothing for ``silent_s`` [s], longer than its timeout."""
+    """A connected peripheral sent nothing for ``silent_s`` [s], longer than its timeout;
+    ``spoke``: it had sent data before (False: none since its hello)."""
 
     device_id: str
     kind: DeviceKind
     silent_s: float
+    spoke: bool = True
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
