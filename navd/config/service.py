@@ -141,6 +141,14 @@ class TcpConfig(Section):
         le=1024,
         description="[clients] most clients connected at once (after their hello)",
     )
+    max_control_clients: int = Field(
+        16,
+        ge=1,
+        le=1024,
+        description="[clients] most control clients connected at once: the rest of "
+        "tcp.max_clients is kept for sensors, so operator tools can never take the slot a "
+        "restarting lidar or IMU needs",
+    )
     max_pending: int = Field(
         16,
         ge=1,
@@ -245,6 +253,15 @@ class TcpConfig(Section):
     battery_timeout_s: float = Field(
         10.0, gt=0, le=3600, description="[s] a battery sensor silent this long is stale"
     )
+
+    @model_validator(mode="after")
+    def _sensor_slots(self) -> TcpConfig:
+        if self.max_control_clients >= self.max_clients:
+            raise ValueError(
+                f"tcp.max_control_clients ({self.max_control_clients}) must be below "
+                f"tcp.max_clients ({self.max_clients}): the difference is kept for sensors"
+            )
+        return self
 
     @model_validator(mode="after")
     def _token_beyond_loopback(self) -> TcpConfig:

@@ -321,6 +321,16 @@ class TcpServer(Module):
         limit = self.settings.value.max_clients
         if holder is None and len(self.sessions) >= limit:
             return "", f"server full: {limit} clients connected (tcp.max_clients)"
+        controls = self.settings.value.max_control_clients
+        if (
+            holder is None
+            and hello.role == "control"
+            and sum(1 for x in self.sessions.values() if x.kind is DeviceKind.CONTROL) >= controls
+        ):
+            return "", (
+                f"control clients full: {controls} connected (tcp.max_control_clients; the "
+                "rest of tcp.max_clients is kept for sensors)"
+            )
         if holder is not None and holder.kind.value != hello.role:
             return "device_id", (
                 f"{hello.device_id!r} is the id of a {holder.kind.value} connected from "

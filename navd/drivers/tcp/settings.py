@@ -55,6 +55,7 @@ class TcpSettings:
         host, port, token: where it listens and the shared secret (they need a restart).
         allow_privileged_changes: control clients may change privileged keys (a restart).
         max_clients: [clients] most clients connected at once (after their hello).
+        max_control_clients: [clients] most of them control clients (the rest: sensors).
         max_pending: [connections] most connections waiting to say hello.
         control_idle_timeout_s: [s] a control client silent and unsubscribed this long is
             disconnected.
@@ -75,6 +76,7 @@ class TcpSettings:
     token: str | None = field(repr=False)
     allow_privileged_changes: bool
     max_clients: int
+    max_control_clients: int
     max_pending: int
     control_idle_timeout_s: float
     sensor_idle_timeout_s: float
@@ -98,6 +100,7 @@ class TcpSettings:
             token=tcp.token,
             allow_privileged_changes=tcp.allow_privileged_changes,
             max_clients=tcp.max_clients,
+            max_control_clients=tcp.max_control_clients,
             max_pending=tcp.max_pending,
             control_idle_timeout_s=tcp.control_idle_timeout_s,
             sensor_idle_timeout_s=tcp.sensor_idle_timeout_s,

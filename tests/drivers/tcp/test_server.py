@@ -293,7 +293,7 @@ async def test_the_client_library_raises_the_refusal_with_its_reason() -> None:
 
 
 async def test_server_full_refuses_with_a_reason() -> None:
-    async with running_daemon(tcp={"max_clients": 2}) as (_, port):
+    async with running_daemon(tcp={"max_clients": 2, "max_control_clients": 1}) as (_, port):
         a = await connected(port, "imu", "a")
         b = await connected(port, "imu", "b")
         c, refusal = await hello(port, "imu", "c")
@@ -303,8 +303,24 @@ async def test_server_full_refuses_with_a_reason() -> None:
             await client.close()
 
 
+async def test_control_clients_cannot_take_the_slots_kept_for_sensors() -> None:
+    async with running_daemon(tcp={"max_clients": 4, "max_control_clients": 2}) as (_, port):
+        uis = [await connected(port, "control", f"ui{i}") for i in range(2)]
+        extra, refusal = await hello(port, "control", "ui2")
+        assert isinstance(refusal, ErrorFrame) and refusal.fatal
+        assert "control clients full: 2" in refusal.reason
+        imu, welcome = await hello(port, "imu", "imu0")  # a restarting IMU still gets in
+        assert isinstance(welcome, Welcome)
+        again, welcome = await hello(port, "control", "ui0")  # a UI reconnecting keeps its id
+        assert isinstance(welcome, Welcome)
+        for client in (*uis, extra, imu, again):
+            await client.close()
+
+
 async def test_connections_that_never_say_hello_never_keep_a_client_out() -> None:
-    async with running_daemon(tcp={"max_clients": 2, "max_pending": 3}) as (daemon, port):
+    async with running_daemon(
+        tcp={"max_clients": 2, "max_control_clients": 1, "max_pending": 3}
+    ) as (daemon, port):
         silent = [await AsyncClient.open("127.0.0.1", port) for _ in range(10)]
         ui, welcome = await hello(port, "control", "ui")
         assert isinstance(welcome, Welcome)  # ten silent connections did not fill the slots
@@ -607,7 +623,7 @@ async def test_a_sensor_sending_anything_but_data_still_goes_stale(filler: bytes
 
 
 async def test_a_sensor_that_sends_nothing_at_all_frees_its_slot() -> None:
-    tcp = {"max_clients": 2, "sensor_idle_timeout_s": 1.0}
+    tcp = {"max_clients": 2, "max_control_clients": 1, "sensor_idle_timeout_s": 1.0}
     async with running_daemon(tcp=tcp) as (daemon, port):
         lost = record(daemon, DeviceLost)
         mute = [await connected(port, "compass", f"mute{i}") for i in range(2)]
