@@ -5,6 +5,7 @@ far edge. SLAM's maps and the planner's zone masks are both read through here.""
 from __future__ import annotations
 
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from navd.geometry.errors import RasterFileError
 
 __all__ = [
     "FREE_THRESH",
+    "MAX_IMAGE_PIXELS",
     "OCCUPIED_THRESH",
     "MapYaml",
     "RasterFileError",
@@ -25,6 +27,10 @@ __all__ = [
 
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
+# [pixels] the largest image read: 8000 x 8000 (400 m square at 5 cm; the largest map of the
+# public benchmark logs, fr-clinic, is 4680 x 8645). Checked from the header before a pixel
+# is decoded: a 439 KB PNG can claim 20000 x 20000 and take gigabytes to decode.
+MAX_IMAGE_PIXELS = 64_000_000
 MODES = ("trinary", "scale", "raw")
 
 
@@ -89,7 +95,8 @@ def read_image(path: Path) -> npt.NDArray[np.uint8]:
     Pillow (colour is turned to grey, as map_server does; an alpha channel is dropped).
 
     Raises:
-        RasterFileError: unreadable, or not an image of these kinds.
+        RasterFileError: unreadable, not an image of these kinds, or larger than
+            ``MAX_IMAGE_PIXELS``.
     """
     try:
         data = path.read_bytes()
@@ -100,6 +107,7 @@ def read_image(path: Path) -> npt.NDArray[np.uint8]:
         if header is None or int(header.group(3)) != 255:
             raise RasterFileError(f"{path}: not a binary 8-bit PGM (P5, maxval 255)")
         cols, rows = int(header.group(1)), int(header.group(2))
+        _within_cap(path, cols, rows)
         body = data[header.end() :]
         if len(body) < rows * cols:
             raise RasterFileError(f"{path}: truncated: {len(body)} of {rows * cols} pixel bytes")
@@ -110,11 +118,27 @@ def read_image(path: Path) -> npt.NDArray[np.uint8]:
         from PIL import Image, UnidentifiedImageError  # noqa: PLC0415 - only PNG masks
 
         try:
-            with Image.open(BytesIO(data)) as image:
+            with warnings.catch_warnings():  # (Pillow's own bomb warning: the cap is ours)
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                image = Image.open(BytesIO(data))  # (reads the header only)
+            with image:
+                _within_cap(path, *image.size)
                 return np.asarray(image.convert("L"), dtype=np.uint8).copy()
+        except Image.DecompressionBombError as err:  # far beyond the cap: said at open
+            raise RasterFileError(
+                f"{path}: more pixels than the {MAX_IMAGE_PIXELS} navd reads ({err})"
+            ) from err
         except (OSError, UnidentifiedImageError) as err:
             raise RasterFileError(f"{path}: a broken PNG: {err}") from err
     raise RasterFileError(f"{path}: not a PGM (P5) or PNG image")
+
+
+def _within_cap(path: Path, cols: int, rows: int) -> None:
+    if cols * rows > MAX_IMAGE_PIXELS:
+        raise RasterFileError(
+            f"{path}: {cols} x {rows} pixels is more than the {MAX_IMAGE_PIXELS} navd reads; "
+            "use a coarser resolution or crop the image"
+        )
 
 
 def occupancy_of(meta: MapYaml, pixels: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:

@@ -7,6 +7,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import struct
+import zlib
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -98,6 +100,32 @@ def test_a_broken_or_missing_mask_refuses_plans_by_name(tmp_path: Path) -> None:
     nav.set_goal(NavGoal("g", 1.0, 0.0))
     with pytest.raises(PlanningError, match=r"nope\.yaml"):
         nav.plan(0.0, Pose2(0.0, 0.0, 0.0))
+
+
+def _png_claiming(path: Path, cols: int, rows: int) -> None:
+    """A few hundred bytes of PNG whose header claims ``cols`` x ``rows`` grey pixels."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", cols, rows, 8, 0, 0, 0, 0)
+    idat = zlib.compress(b"\x00" * 4096)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+    )
+
+
+@pytest.mark.parametrize("side", [13_000, 20_000])
+def test_a_mask_claiming_billions_of_pixels_is_refused_before_it_is_decoded(
+    tmp_path: Path, side: int
+) -> None:
+    _png_claiming(tmp_path / "bomb.png", side, side)
+    (tmp_path / "bomb.yaml").write_text(
+        "image: bomb.png\nresolution: 0.05\norigin: [0, 0, 0]\n", encoding="utf-8"
+    )
+    with pytest.raises(ZoneError, match=f"{side} x {side} pixels|more pixels than"):
+        ZoneMasks(str(tmp_path / "bomb.yaml"), None).check()
 
 
 # Two corridors from x = 0 to x = 9 side by side: the lower one (y -1..0) is the short way
