@@ -22,6 +22,7 @@ from navd.lifecycle.bus import Bus
 from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.config_service import ConfigService
 from navd.lifecycle.daemon_settings import LifecycleSettings, LoggingSettings
+from navd.lifecycle.file_limit import raise_file_limit
 from navd.lifecycle.lag import LoopLagMonitor
 from navd.lifecycle.line_counts import LineCounts
 from navd.lifecycle.messages import (
@@ -181,6 +182,7 @@ class Daemon:
         self._install_signals(loop)
         set_level(self.logging.value.level)  # the level in force is the config's, from here on
         self._started_s = self.clock.now()
+        files_before, files = raise_file_limit()
         probes = [
             loop.create_task(self.lag.run(), name="lag-probe"),
             loop.create_task(self._status_loop(), name="status"),
@@ -190,6 +192,8 @@ class Daemon:
             version=__version__,
             loop_slice_ms=slice_ms if sliced else None,  # None: the kernel's default
             modules=[m.name for m in self.manager.modules],
+            open_files_limit=files,
+            open_files_limit_was=files_before if files_before != files else None,
             config=redacted(self.config),
         )
         try:
