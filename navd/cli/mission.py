@@ -37,6 +37,7 @@ __all__ = ["add_commands", "load_mission", "mission_line"]
 
 ENDED = ("completed", "failed", "canceled")
 MAX_FILE_BYTES = 1 << 20
+KEEP_ALIVE_HZ = 0.1  # [Hz] status frames a following client takes (they keep it connected)
 
 
 def add_commands(commands: Commands) -> None:
@@ -149,6 +150,9 @@ def _run(args: argparse.Namespace) -> int:
             )
             if not args.wait:
                 return EXIT_OK
+            # a subscriber is never idle (tcp.control_idle_timeout_s): a mission may run for
+            # hours with no report between two steps
+            client.request(SubscribeFrame(rate_hz=KEEP_ALIVE_HZ))
             last = _follow(client, ack.mission_id, raw=args.json)
     except (ClientError, ConfigError) as err:
         print(f"navd mission run: {err}", file=sys.stderr)

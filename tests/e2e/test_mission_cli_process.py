@@ -141,3 +141,14 @@ def test_without_a_daemon_each_command_says_so(tmp_path: Path) -> None:
         result = run_navd("mission", *args, "--port", port)
         assert result.returncode == 1, (args, result.stderr)
         assert "navd mission" in result.stderr and port in result.stderr, (args, result.stderr)
+
+
+def test_waiting_on_a_mission_longer_than_the_idle_timeout_sees_it_to_its_end(
+    daemon_on_port: Any, tmp_path: Path
+) -> None:
+    _, port = daemon_on_port("control_idle_timeout_s = 1.0\n")
+    file = tmp_path / "long.toml"
+    file.write_text('[[steps]]\nkind = "wait"\nseconds = 4.0\n')  # four idle timeouts long
+    done = run_navd("mission", "run", str(file), "--wait", "--id", "long", "--port", str(port))
+    assert done.returncode == 0, done.stderr
+    assert "long completed" in done.stdout.splitlines()[-1]
