@@ -23,7 +23,7 @@ import numpy as np
 
 from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION, Broker, connect, timestamp
 from navd.fleetctl.errors import GroupGoalError
-from navd.fleetctl.group import GroupDrive, GroupGoal
+from navd.fleetctl.group import GroupDrive, GroupGoal, GroupMember
 from navd.fleetctl.group_map import GroupMap
 
 __all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action", "one_map"]
@@ -209,6 +209,8 @@ async def drive_group(
             outcome["reached"] = True
         if not outcome["reached"]:
             await run.give_up()  # no robot is left paused, or holding a half-driven order
+        else:
+            await run.let_go()  # a robot the group held at the end is held no more
     outcome.update(
         group=group.group_id,
         robots=[m.serial for m in group.members],
@@ -352,18 +354,27 @@ class _GroupRun:
     async def give_up(self) -> None:
         """Cancel every member's order, and let the ones the group paused go."""
         for member in self.group.members:
-            kinds = ["cancelOrder", *(["stopPause"] if member.paused else [])]
-            for kind in kinds:
-                self._actions += 1
-                message = instant_action(
-                    member.manufacturer,
-                    member.serial,
-                    self._actions,
-                    kind,
-                    f"{self.group.group_id}-{kind}-{self._actions}",
-                )
-                topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
-                await self.client.publish(topic, json.dumps(message), qos=1)
+            await self._instant(member, "cancelOrder")
+        await self.let_go()
+
+    async def let_go(self) -> None:
+        """Send ``stopPause`` to every member the group holds paused (the goal is over)."""
+        for member in self.group.members:
+            if member.paused:
+                await self._instant(member, "stopPause")
+                member.paused = False
+
+    async def _instant(self, member: GroupMember, kind: str) -> None:
+        self._actions += 1
+        message = instant_action(
+            member.manufacturer,
+            member.serial,
+            self._actions,
+            kind,
+            f"{self.group.group_id}-{kind}-{self._actions}",
+        )
+        topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
+        await self.client.publish(topic, json.dumps(message), qos=1)
 
     async def _correct(self) -> None:
         """Send the pauses and resumes the group asked for."""

@@ -39,7 +39,7 @@ from navd.fleetctl.group_goal import GroupGoal
 from navd.fleetctl.group_map import GroupMap
 from navd.fleetctl.group_route import GroupRoute, lay_out
 
-__all__ = ["GroupDrive", "GroupGoal"]
+__all__ = ["GroupDrive", "GroupGoal", "GroupMember"]
 
 FloatArray = npt.NDArray[np.float64]
 # [m] how near a node counts as traversed (the vehicles' own goal tolerance decides, this
@@ -60,7 +60,7 @@ IN_THE_WAY_M = 0.7
 
 
 @dataclass
-class _Member:
+class GroupMember:
     """One robot of the group: its vehicle names, its places, how far it has come."""
 
     manufacturer: str
@@ -133,10 +133,10 @@ class GroupDrive:
             step_m=goal.step_m,
             group_map=group_map,
         )
-        self.members: list[_Member] = []
+        self.members: list[GroupMember] = []
         for i, (maker, serial, x, y) in enumerate(robots):
             way = self.way
-            member = _Member(
+            member = GroupMember(
                 maker, serial, way.places_m[i], way.headings_rad[i], way.stations_m[i], (x, y)
             )
             member.map_id = (map_ids or {}).get(serial, member.map_id)
@@ -157,7 +157,7 @@ class GroupDrive:
 
     # --- orders ---------------------------------------------------------------------------
 
-    def first_orders(self, now_unix_s: float) -> list[tuple[_Member, dict[str, Any]]]:
+    def first_orders(self, now_unix_s: float) -> list[tuple[GroupMember, dict[str, Any]]]:
         """Each robot's first order: where it stands (waiting for the start), its form-up
         place released, the next place as the horizon."""
         wait_s = max(self.start_unix_s - now_unix_s, 0.0)
@@ -180,7 +180,9 @@ class GroupDrive:
             out.append((m, self._order(m, nodes)))
         return out
 
-    def on_state(self, serial: str, state: dict[str, Any]) -> list[tuple[_Member, dict[str, Any]]]:
+    def on_state(
+        self, serial: str, state: dict[str, Any]
+    ) -> list[tuple[GroupMember, dict[str, Any]]]:
         """A robot's state: its progress; when all have reached the released place, the
         next one is released to each (the updates to send)."""
         member = next((m for m in self.members if m.serial == serial), None)
@@ -246,14 +248,15 @@ class GroupDrive:
         shares = [1.0 if m.reached >= k else self._share(m, k, now_s) for m in self.members]
         return shape_error(xy, self.way.target_m(k, float(np.mean(shares))))
 
-    def corrections(self, now_s: float) -> list[tuple[_Member, str]]:
+    def corrections(self, now_s: float) -> list[tuple[GroupMember, str]]:
         """The pauses and resumes (``startPause`` / ``stopPause``) that keep the robots abreast
         within the released step, from their positions carried on to ``now_s``: a robot that
         has come a larger share of its step than the slowest, by AHEAD_M or more of its own
         step, waits (steps differ in length where the shape changes or the route bends). A
         robot in the way of a slower one (within IN_THE_WAY_M of its place: in a column, the
         robot ahead may stand where the next one goes) is never held: holding it would hold
-        the slower one for good (its place taken, it cannot even plan)."""
+        the slower one for good (its place taken, it cannot even plan). A held robot that has
+        reached its place, or has nothing to drive in a newly released step, is let go."""
         k = self.released
         if k < 1 or any(m.position is None for m in self.members):
             return []
@@ -273,28 +276,29 @@ class GroupDrive:
             if not m.paused and mine is not None and ahead > AHEAD_M and not blocking:
                 m.paused = True
                 out.append((m, "startPause"))
-            elif m.paused and (ahead < CAUGHT_UP_M or blocking):
+            elif m.paused and (mine is None or ahead < CAUGHT_UP_M or blocking):
+                # (mine None: at its place, or nothing to drive this step: nothing to hold)
                 m.paused = False
                 out.append((m, "stopPause"))
         return out
 
     @staticmethod
-    def _length(m: _Member, k: int) -> float:
+    def _length(m: GroupMember, k: int) -> float:
         """[m] the length of robot ``m``'s step k (from place k - 1 to place k)."""
         return float(np.hypot(*(m.places[k] - m.places[k - 1])))
 
-    def _in_the_way(self, m: _Member, other: _Member, k: int, now_s: float) -> bool:
+    def _in_the_way(self, m: GroupMember, other: GroupMember, k: int, now_s: float) -> bool:
         """Robot ``m`` stands within IN_THE_WAY_M of ``other``'s place k."""
         return float(np.hypot(*(self._carried(m, now_s) - other.places[k]))) < IN_THE_WAY_M
 
     @staticmethod
-    def _carried(m: _Member, now_s: float) -> FloatArray:
+    def _carried(m: GroupMember, now_s: float) -> FloatArray:
         """[m] where robot ``m`` is at ``now_s``: its last heard position carried on."""
         assert m.position is not None
         t, x, y, yaw, v = m.position
         return np.array([x + v * math.cos(yaw) * (now_s - t), y + v * math.sin(yaw) * (now_s - t)])
 
-    def _progress(self, m: _Member, k: int, now_s: float) -> float:
+    def _progress(self, m: GroupMember, k: int, now_s: float) -> float:
         """[m] how far robot ``m`` has come along its step from place k - 1 to place k."""
         x, y = self._carried(m, now_s)
         a, b = m.places[k - 1], m.places[k]
@@ -305,18 +309,18 @@ class GroupDrive:
         along = ((x - a[0]) * step[0] + (y - a[1]) * step[1]) / length
         return float(np.clip(along, 0.0, length))
 
-    def _share(self, m: _Member, k: int, now_s: float) -> float:
+    def _share(self, m: GroupMember, k: int, now_s: float) -> float:
         """How much (0..1) of step k robot ``m`` has driven."""
         if k < 1:
             return 0.0
         length = self._length(m, k)
         return self._progress(m, k, now_s) / length if length > 1e-9 else 1.0
 
-    def _order_id(self, m: _Member) -> str:
+    def _order_id(self, m: GroupMember) -> str:
         return f"{self.group_id}-{m.serial}"
 
     def _node(
-        self, m: _Member, k: int, *, released: bool, at: tuple[float, float] | None = None
+        self, m: GroupMember, k: int, *, released: bool, at: tuple[float, float] | None = None
     ) -> dict[str, Any]:
         """Node of place ``k`` (-1: where the robot stood), sequence id 2 (k + 1)."""
         x, y = at if at is not None else (float(m.places[k, 0]), float(m.places[k, 1]))
@@ -339,7 +343,7 @@ class GroupDrive:
             "actions": [],
         }
 
-    def _order(self, m: _Member, nodes: list[dict[str, Any]]) -> dict[str, Any]:
+    def _order(self, m: GroupMember, nodes: list[dict[str, Any]]) -> dict[str, Any]:
         self._headers += 1
         edges = [
             {

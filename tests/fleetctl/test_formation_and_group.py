@@ -167,6 +167,28 @@ def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
     assert [(m.serial, a) for m, a in group.corrections(7.0)] == [("r1", "stopPause")]
 
 
+def test_a_held_robot_that_reaches_its_place_is_let_go() -> None:
+    group = _group()
+    group.first_orders(now_unix_s=1000.0)
+    for m in group.members:
+        group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
+    r1, r2, r3 = group.members
+
+    def at(m: Any, along: float, t: float) -> None:
+        a, b = m.places[0], m.places[1]
+        x, y = a + (b - a) * along / float(np.hypot(*(b - a)))
+        group.on_position(m.serial, {"agvPosition": {"x": x, "y": y, "theta": 0.0}}, t)
+
+    at(r1, 1.0, 5.0)
+    at(r2, 0.2, 5.0)
+    at(r3, 0.2, 5.0)
+    assert [(m.serial, a) for m, a in group.corrections(5.0)] == [("r1", "startPause")]
+    # the pause came late: r1 stood at its place when it took effect
+    group.on_state("r1", _state(group, "r1", 1, tuple(r1.places[1])))
+    assert [(m.serial, a) for m, a in group.corrections(6.0)] == [("r1", "stopPause")]
+    assert not r1.paused
+
+
 def test_robots_on_different_maps_or_another_than_asked_are_refused_by_serial() -> None:
     one_map({"r1": "office", "r2": "office"})
     one_map({"r1": "office"}, "office")
