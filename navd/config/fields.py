@@ -11,7 +11,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict
 
 __all__ = [
     "MAP_NAME_PATTERN",
-    "PRIVILEGED",
+    "OPERATOR_KEYS",
     "STANDARD_BAUD_RATES",
     "Point2",
     "Polygon",
@@ -51,55 +51,41 @@ def restart(description: str, *, secret: bool = False) -> dict[str, Any]:
     return {"description": description, "json_schema_extra": {"restart": True, "secret": secret}}
 
 
-# Keys that decide how safely the robot moves, where files go and how the daemon guards
-# itself: a control client may change them only where tcp.allow_privileged_changes says so
-# (the config file, and SIGHUP re-reading it, always may). None: every key of the section.
-PRIVILEGED: dict[str, frozenset[str] | None] = {
-    "safety": None,
-    "chassis": None,
-    "tcp": None,
-    "teleop": None,
-    "lifecycle": None,
-    "lidar": None,
-    "robot": frozenset(
-        {
-            "footprint",
-            "radius_m",
-            "length_m",
-            "width_m",
-            "track_width_m",
-            "max_linear_speed_mps",
-            "max_reverse_speed_mps",
-            "max_angular_speed_radps",
-            "max_linear_accel_mps2",
-            "max_angular_accel_radps2",
-        }
-    ),
-    "slam": frozenset({"map_dir", "map_name"}),
-    "record": frozenset({"dir", "budget_mb", "max_file_mb"}),
+# The keys a control client may change without tcp.allow_privileged_changes: those that
+# change how the robot reports, records and picks its way, never how safely it moves, what it
+# believes about where it is, or who may command it. Every other key is privileged: a key is
+# privileged unless it is shown harmless here (the config file, and SIGHUP re-reading it,
+# always may change any key).
+OPERATOR_KEYS: dict[str, frozenset[str]] = {
+    "robot": frozenset({"name"}),
+    "slam": frozenset({"updating_map", "save_on_shutdown"}),
     "planning": frozenset(
         {
-            "keep_out_zones",
-            "keep_out_mask",
-            "speed_mask",
-            "max_goal_distance_m",
-            "max_plan_cells",
-            # what each control step costs
-            "control_rate_hz",
-            "linear_samples",
-            "angular_samples",
-            "prediction_horizon_s",
-            "sim_step_s",
+            # route and trajectory preferences: the guard and the safety gate bound them all
+            "goal_weight",
+            "path_weight",
+            "heading_weight",
+            "oscillation_weight",
+            "cost_weight",
+            "smooth_path",
+            "goal_xy_tolerance_m",
+            "goal_yaw_tolerance_rad",
+            "replan_period_s",
+            "approach_distance_m",
+            "lookahead_m",
+            "max_path_deviation_m",
         }
     ),
-    "estimation": frozenset({"degraded_position_std_m", "lost_position_std_m"}),
+    "logging": frozenset({"level", "status_log_period_s"}),
+    "viz": frozenset({"map_rate_hz", "scan_rate_hz", "pose_rate_hz", "log_level"}),
+    "record": frozenset({"flush_period_s", "map_period_s"}),
+    "fleet": frozenset({"state_interval_s", "visualization_rate_hz"}),
 }
 
 
 def privileged(section: str, field: str) -> bool:
-    """True if ``section.field`` is a privileged key (see PRIVILEGED)."""
-    keys = PRIVILEGED.get(section, frozenset())
-    return keys is None or field in keys
+    """True if ``section.field`` is a privileged key: any key not in OPERATOR_KEYS."""
+    return field not in OPERATOR_KEYS.get(section, frozenset())
 
 
 def is_loopback(host: str) -> bool:

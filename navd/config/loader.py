@@ -143,8 +143,9 @@ def check_unprivileged(changed: tuple[str, ...], source: str) -> None:
     if blocked:
         raise ConfigError(
             [
-                f"{k}: a privileged key (safety, limits, paths); only the config file may "
-                f"change it unless tcp.allow_privileged_changes = true"
+                f"{k}: a privileged key (it can make the robot less safe or open it to "
+                "others; docs/protocol.md lists the keys anyone may change); only the config "
+                "file may change it unless tcp.allow_privileged_changes = true"
                 for k in blocked
             ],
             source=source,

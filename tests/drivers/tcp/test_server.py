@@ -533,6 +533,13 @@ async def test_privileged_keys_need_the_config_to_grant_them(granted: bool) -> N
             ("robot.max_linear_speed_mps", 1.0),
             ("chassis.invert_left", True),
             ("slam.map_name", "elsewhere"),
+            # keys found changeable by anyone before privileges went by effect
+            ("slam.lost_after_scans", 0),
+            ("viz.untokened_commands", True),
+            ("fleet.on_broker_lost", "continue"),
+            ("planning.obstacle_persistence_s", 0.0),
+            ("planning.inflation_radius_m", 0.0),
+            ("estimation.lidar_gate_chi2", 1000.0),
         ):
             await ui.request(ConfigFrame(request_id=key, changes={key: value}))
             answer = await ui.receive_type(ConfigAppliedFrame | ConfigRejectedFrame)
