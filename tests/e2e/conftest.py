@@ -19,6 +19,10 @@ from navd.config import NavdConfig
 from navd.sim import free_port
 
 REPO = Path(__file__).resolve().parents[2]
+# [s] the most a daemon process may take to start: imports and kernels from the cache take
+# about a second on an idle machine and many on a busy one; waited for as an event
+READY_S = 60.0
+STOP_S = 20.0  # [s] the most a signalled daemon may take to exit (its budget is 10 s)
 
 
 def run_navd(*args: str, timeout_s: float = 30.0) -> subprocess.CompletedProcess[str]:
@@ -135,7 +139,7 @@ def daemon_on_port(spawn_daemon: Any, tmp_path: Path) -> Any:
         view = "" if "[viz]" in extra_toml else "\n[viz]\nport = 0\npage_port = 0\n"
         path.write_text(f"[tcp]\nport = {port}\n{extra_toml}{view}")
         daemon: DaemonProcess = spawn_daemon("run", "--config", str(path))
-        daemon.wait_for("ready", timeout_s=10.0)
+        daemon.wait_for("ready", timeout_s=READY_S)
         return daemon, port
 
     return start

@@ -26,7 +26,7 @@ from navd.wire import (
     SubscribeFrame,
 )
 from tests.conftest import room_scan
-from tests.e2e.conftest import default_config
+from tests.e2e.conftest import READY_S, default_config
 
 # The set-up threads of the default modules: kernels compiled (or loaded) beside the loop.
 SET_UPS = {"collision_guard-warm-up", "estimation-setup", "slam-warm-up", "planner-warm-up"}
@@ -105,7 +105,7 @@ def test_first_messages_of_every_kind_on_a_cold_cache_never_stall_the_loop(
     port = tomllib.loads(config.read_text())["tcp"]["port"]
     cold = {"NUMBA_CACHE_DIR": str(tmp_path / "empty-numba-cache")}
     daemon = spawn_daemon("run", "--config", str(config), env=cold)
-    daemon.wait_for("ready", timeout_s=20.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     # Every kind's first message arrives while the kernels still compile.
     sensors = [Sensor(port, kind, rate, make) for kind, rate, make in SENSORS]
     for sensor in sensors:

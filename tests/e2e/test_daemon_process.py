@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from tests.e2e.conftest import default_config, free_port, run_navd
+from tests.e2e.conftest import READY_S, STOP_S, default_config, free_port, run_navd
 
 pytestmark = pytest.mark.e2e
 
@@ -19,16 +19,12 @@ def test_daemon_gets_ready_idles_and_exits_0_on_signal(
     spawn_daemon: Any, sig: int, tmp_path: Any
 ) -> None:
     daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)))
-    started = time.monotonic()
-    ready = daemon.wait_for("ready", timeout_s=3.0)
+    ready = daemon.wait_for("ready", timeout_s=READY_S)
     assert ready["component"] == "lifecycle" and ready["level"] == "info"
-    assert time.monotonic() - started <= 3.0
     time.sleep(1.0)  # no sensors attached: it keeps running
     assert daemon.proc.poll() is None
     daemon.proc.send_signal(sig)
-    signalled = time.monotonic()
-    assert daemon.proc.wait(timeout=2.0) == 0
-    assert time.monotonic() - signalled <= 2.0
+    assert daemon.proc.wait(timeout=STOP_S) == 0
     zero = daemon.wait_for("zero_velocity", timeout_s=1.0)
     assert zero["reason"] == f"signal {signal.Signals(sig).name}"
     daemon.wait_for("stopped", timeout_s=1.0)
@@ -40,9 +36,9 @@ def test_a_daemon_stopped_while_its_kernels_compile_exits_0_at_once(
     # An empty numba cache: the kernels take seconds to compile, in threads beside the loop.
     cold = {"NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
     daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)), env=cold)
-    daemon.wait_for("ready", timeout_s=3.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     daemon.proc.send_signal(signal.SIGTERM)
-    assert daemon.proc.wait(timeout=2.0) == 0  # not an abort from under the compiler
+    assert daemon.proc.wait(timeout=STOP_S) == 0  # not an abort from under the compiler
     daemon.wait_for("stopped", timeout_s=1.0)
     assert daemon.wait_for("exit_without_waiting", timeout_s=1.0)["threads"]
 
@@ -51,9 +47,9 @@ def test_daemon_logs_the_effective_config_at_start(spawn_daemon: Any, tmp_path: 
     path = tmp_path / "port-only.toml"
     path.write_text(f"[tcp]\nport = {free_port()}\n")  # every other key at its default
     daemon = spawn_daemon("run", "--config", str(path))
-    starting = daemon.wait_for("starting", timeout_s=3.0)
+    starting = daemon.wait_for("starting", timeout_s=READY_S)
     assert starting["config"]["safety"]["reaction_timeout_s"] == 0.5
-    daemon.wait_for("ready", timeout_s=3.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     daemon.proc.send_signal(signal.SIGTERM)
     assert daemon.proc.wait(timeout=2.0) == 0
 
@@ -70,7 +66,7 @@ def test_sighup_reloads_and_rejects_on_the_real_process(spawn_daemon: Any, tmp_p
     path = tmp_path / "navd.toml"
     path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 0.5\n")
     daemon = spawn_daemon("run", "--config", str(path))
-    daemon.wait_for("ready", timeout_s=3.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     assert _config_status(port)["revision"] == 0
     path.write_text(f"[tcp]\nport = {port}\n[safety]\nreaction_timeout_s = 0.3\n")
     daemon.proc.send_signal(signal.SIGHUP)
@@ -107,7 +103,7 @@ def test_real_daemon_speaks_sd_notify(spawn_daemon: Any, tmp_path: Any, monkeypa
     monkeypatch.setenv("WATCHDOG_USEC", "200000")
     try:
         daemon = spawn_daemon("run", "--config", str(default_config(tmp_path)))
-        daemon.wait_for("ready", timeout_s=3.0)
+        daemon.wait_for("ready", timeout_s=READY_S)
         time.sleep(1.0)
         daemon.proc.send_signal(signal.SIGTERM)
         assert daemon.proc.wait(timeout=2.0) == 0

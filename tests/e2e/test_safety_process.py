@@ -19,7 +19,7 @@ from navd.wire import (
     SubscribeFrame,
 )
 from tests.conftest import room_scan
-from tests.e2e.conftest import default_config, run_navd
+from tests.e2e.conftest import READY_S, default_config, run_navd
 
 
 class Lidar(threading.Thread):
@@ -39,7 +39,7 @@ class Lidar(threading.Thread):
 def started(spawn_daemon: Any, tmp_path: Path) -> int:
     config = default_config(tmp_path)
     daemon = spawn_daemon("run", "--config", str(config))
-    daemon.wait_for("ready", timeout_s=20.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     port: int = tomllib.loads(config.read_text())["tcp"]["port"]
     return port
 
@@ -111,9 +111,9 @@ def test_the_token_never_reaches_the_log(spawn_daemon: Any, tmp_path: Path) -> N
     config = default_config(tmp_path)
     config.write_text(config.read_text().replace("\n[tcp]\n", f'\n[tcp]\ntoken = "{secret}"\n'))
     daemon = spawn_daemon("run", "--config", str(config))
-    start = daemon.wait_for("starting", timeout_s=20.0)
+    start = daemon.wait_for("starting", timeout_s=READY_S)
     assert start["config"]["tcp"]["token"] == "<redacted>"
-    daemon.wait_for("ready", timeout_s=20.0)
+    daemon.wait_for("ready", timeout_s=READY_S)
     daemon.stop()
     assert all(secret not in str(line) for line in [*daemon.seen, *daemon.drain()])
 

@@ -38,6 +38,9 @@ from navd.wire import (
 )
 from tests.drivers.conftest import connected, record, running_daemon, until
 
+# slam matching keys are privileged: the client changing them is trusted by the config
+TRUSTED = {"allow_privileged_changes": True}
+
 
 def _frame(pose: Pose2, stamp: float) -> ScanFrame:
     a0, inc, r = cast(pose, beams=360)
@@ -175,7 +178,7 @@ async def test_a_loaded_map_finds_the_robot_with_no_guess_then_near_a_given_pose
 
 
 async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
-    async with running_daemon(slam={"max_range_m": 20.0}) as (daemon, port):
+    async with running_daemon(slam={"max_range_m": 20.0}, tcp=TRUSTED) as (daemon, port):
         (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
         poses = record(daemon, PoseMeasurement)
         lidar = await connected(port, "lidar", "lidar0")
@@ -205,7 +208,7 @@ async def test_scan_odometry_is_rebuilt_when_its_settings_change() -> None:
 async def test_a_settings_change_holds_when_its_worker_starts_before_the_swap() -> None:
     # The job that applies a change may run in a worker before the event loop has swapped
     # the module's settings holder (a real race, seen once in CI): here it runs at once.
-    async with running_daemon() as (daemon, port):
+    async with running_daemon(tcp=TRUSTED) as (daemon, port):
         (node,) = [m for m in daemon.manager.modules if isinstance(m, SlamNode)]
         ran: list[str] = []
 
