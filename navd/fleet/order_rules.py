@@ -7,6 +7,7 @@ the map it is on. Each check returns why not, with the references the error carr
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 from pydantic import ValidationError
@@ -23,6 +24,7 @@ __all__ = [
     "elsewhere",
     "first_problem",
     "init_position_problem",
+    "loose_refs",
     "malformed",
     "unusable",
 ]
@@ -33,6 +35,9 @@ NODE_ACTIONS = ("wait",)
 START_DEVIATION_M = 1.0
 # Why an order is refused, and the references its error carries: (key, value) pairs.
 Problem = tuple[str, list[tuple[str, str]]]
+# A refused message's references: its identity, and its first actions' ids and types.
+REFERRED = ("headerId", "orderId", "orderUpdateId")
+MAX_REFERRED_ACTIONS = 20
 
 
 def malformed(order: Order, manufacturer: str, serial_number: str) -> Problem | None:
@@ -134,6 +139,28 @@ def init_position_problem(action: Action) -> str | None:
         if not isinstance(value, int | float) or not math.isfinite(value):
             return f"parameter {key} must be a number, got {value!r}"
     return None
+
+
+def loose_refs(raw: bytes) -> list[tuple[str, str]]:
+    """What a message that failed its schema can still be referred to by (``errorReferences``:
+    the master must learn which message and action failed): its headerId, orderId and
+    orderUpdateId, and each action's actionId and actionType, where they are there to read;
+    none from what is not JSON."""
+    try:
+        body = json.loads(raw)
+    except (ValueError, RecursionError):
+        return []
+    if not isinstance(body, dict):
+        return []
+    refs = [(key, str(body[key])) for key in REFERRED if isinstance(body.get(key), str | int)]
+    actions = body.get("actions")
+    for action in actions[:MAX_REFERRED_ACTIONS] if isinstance(actions, list) else []:
+        if isinstance(action, dict):
+            refs += [
+                (key, action[key]) for key in ("actionId", "actionType")
+                if isinstance(action.get(key), str)
+            ]  # fmt: skip
+    return refs
 
 
 def first_problem(err: ValidationError) -> str:

@@ -37,6 +37,7 @@ from navd.fleet.order_rules import (
     elsewhere,
     first_problem,
     init_position_problem,
+    loose_refs,
     malformed,
     unusable,
 )
@@ -95,7 +96,7 @@ class Vehicle:
         try:
             order = Order.model_validate_json(raw)
         except ValidationError as err:
-            return self._refuse("validationError", first_problem(err), [])
+            return self._refuse("validationError", first_problem(err), loose_refs(raw))
         problem = malformed(order, self.manufacturer, self.serial_number)
         if problem is not None:
             return self._refuse("validationError", *problem, order)
@@ -121,7 +122,8 @@ class Vehicle:
         try:
             message = InstantActions.model_validate_json(raw)
         except ValidationError as err:
-            self._error("validationError", f"instantActions: {first_problem(err)}", [])
+            why = f"instantActions: {first_problem(err)}"
+            self._error("validationError", why, loose_refs(raw))
             return []
         out: list[Message] = []
         for action in message.actions:

@@ -548,3 +548,21 @@ def test_a_pause_lasts_over_a_new_order_until_stop_pause() -> None:
     assert state_of(vehicle)["paused"] is True
     (goal,) = goals(vehicle.on_instant_actions(instant(action("stopPause", "p2")), 1.0, HERE))
     assert (goal.x_m, goal.y_m) == (2.0, 0.0)
+
+
+def test_an_instant_action_that_fails_its_schema_is_named_in_the_error() -> None:
+    vehicle, _ = _vehicle()
+    broken = {**_head(), "actions": [{"actionType": "startPause", "actionId": "p9"}]}  # no blocking
+    assert vehicle.on_instant_actions(json.dumps(broken).encode(), 1.0, HERE) == []
+    refs = errors_of(vehicle)["validationError"]["errorReferences"]
+    pairs = {(r["referenceKey"], r["referenceValue"]) for r in refs}
+    assert {("actionId", "p9"), ("actionType", "startPause")} <= pairs
+    assert ("headerId", str(broken["headerId"])) in pairs
+
+
+def test_an_order_that_fails_its_schema_is_named_in_the_error() -> None:
+    vehicle, _ = _vehicle()
+    broken = {**order([node("a", 0, 0.0, 0.0)]), "orderId": "o7", "edges": "none"}
+    send(vehicle, broken)
+    refs = errors_of(vehicle)["validationError"]["errorReferences"]
+    assert {"referenceKey": "orderId", "referenceValue": "o7"} in refs
