@@ -82,6 +82,7 @@ class Vehicle:
         self.standing = True  # the robot's speed is below ``reports``' standing thresholds
         self._cancelling: ActionState | None = None  # a cancelOrder waiting for a standstill
         self._cancel_by = math.inf  # [s] when that cancel ends anyway
+        self._cancelled_order = ""  # the order it cancels (its nodes shown until it ends)
         self._goals = 0
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
@@ -175,6 +176,8 @@ class Vehicle:
         cancelling = self._cancelling
         if cancelling is not None and (standing or now >= self._cancel_by):
             cancelling.status, self._cancelling = "FINISHED", None
+            if self.order_id == self._cancelled_order:  # (not a new order taken meanwhile)
+                self.nodes, self.edges = [], []
             self.changed = True
         if now >= self._retry_at:
             self._retry_at = math.inf
@@ -309,7 +312,8 @@ class Vehicle:
     def _busy(self) -> bool:
         """True while the vehicle has nodes to go or actions not ended (§6.6.2, step 3); a
         cancelOrder waiting for the robot to stand is not the order's (§6.6.3.1)."""
-        return bool(self.nodes) or any(
+        cancelled = self._cancelling is not None and self.order_id == self._cancelled_order
+        return (bool(self.nodes) and not cancelled) or any(
             s.status not in ENDED and s is not self._cancelling for s in self.actions.values()
         )
 
@@ -341,10 +345,14 @@ class Vehicle:
             for other in self.actions.values():
                 if other not in (state, self._cancelling) and other.status not in ENDED:
                     other.status, other.result = "FAILED", "cancelled"
-            self.nodes, self.edges, self.actions.queued = [], [], []
+            self.actions.queued = []
             if not self.standing and self._cancelling is None:  # FINISHED once it stands
+                # its nodes and edges stay in the state until then, and go in the same
+                # message as the FINISHED (a master reads empty ones as the order processed)
                 self._cancelling, self._cancel_by = state, now + CANCEL_STOP_S
+                self._cancelled_order = self.order_id
                 return out
+            self.nodes, self.edges = [], []
         elif kind == "startPause":
             self.paused = True
             out = self._cancel_goal(now)

@@ -374,6 +374,19 @@ def test_cancel_runs_until_the_robot_stands_and_fails_what_had_not_ended() -> No
     assert (to_y.x_m, to_y.y_m) == (0.0, 2.0)
 
 
+def test_a_cancelled_orders_nodes_go_with_the_cancels_finished_not_before() -> None:
+    vehicle, _ = _vehicle()
+    send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))
+    vehicle.on_tick(0.5, standing=False)
+    vehicle.on_instant_actions(instant(action("cancelOrder", "c1")), 1.0, HERE)
+    running = state_of(vehicle)
+    assert [n["nodeId"] for n in running["nodeStates"]] == ["b"]  # still RUNNING: still shown
+    vehicle.on_tick(1.5, standing=True)
+    finished = state_of(vehicle)
+    assert finished["nodeStates"] == [] and finished["edgeStates"] == []
+    assert _statuses(vehicle)["c1"] == "FINISHED"
+
+
 def test_a_cancel_ends_in_time_when_the_robot_is_never_seen_standing() -> None:
     vehicle, _ = _vehicle()
     send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))
