@@ -12,7 +12,14 @@ from dataclasses import dataclass
 
 from navd.fleet.vda5050 import Action
 
-__all__ = ["ENDED", "INSTANT_ACTIONS", "MAX_ENDED_ACTIONS", "ActionState", "ActionStates"]
+__all__ = [
+    "ENDED",
+    "INSTANT_ACTIONS",
+    "MAX_ENDED_ACTIONS",
+    "ActionState",
+    "ActionStates",
+    "StandstillWait",
+]
 
 INSTANT_ACTIONS = (
     "cancelOrder",
@@ -125,3 +132,36 @@ class ActionStates:
         for key in ended[: max(len(ended) - MAX_ENDED_ACTIONS, 0)]:
             del self.states[key]
         return state
+
+
+class StandstillWait:
+    """An instant action that is FINISHED once the robot stands (cancelOrder, startPause:
+    RUNNING while it brakes), or ``limit_s`` after it began if its standing is never seen
+    (its pose no longer arriving).
+
+    Attributes:
+        action: the action waiting, or None.
+        order_id: the order in hand when it began.
+    """
+
+    def __init__(self, limit_s: float) -> None:
+        self.limit_s = limit_s
+        self.action: ActionState | None = None
+        self.order_id = ""
+        self._by = float("inf")
+
+    def begin(self, action: ActionState, now: float, order_id: str) -> None:
+        """``action`` waits from ``now`` [s]; RUNNING meanwhile."""
+        action.status = "RUNNING"
+        self.action, self.order_id, self._by = action, order_id, now + self.limit_s
+
+    def due(self, standing: bool, now: float) -> bool:
+        """Whether an action waits and may end now."""
+        return self.action is not None and (standing or now >= self._by)
+
+    def end(self) -> bool:
+        """FINISHED, if one waits; True if one did."""
+        if self.action is None:
+            return False
+        self.action.status, self.action = "FINISHED", None
+        return True

@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from navd.fleet.vda5050 import Action, Edge, Node, Order
 from navd.geometry import Pose2
+from navd.lifecycle.messages import InitialPose
 
 __all__ = [
     "NODE_ACTIONS",
@@ -24,6 +25,7 @@ __all__ = [
     "elsewhere",
     "first_problem",
     "init_position_problem",
+    "initial_pose",
     "loose_refs",
     "malformed",
     "unusable",
@@ -190,3 +192,14 @@ def away_from_start(order: Order, pose: Pose2 | None) -> Problem | None:
             [("nodeId", first.nodeId)],
         )
     return None
+
+
+def initial_pose(action: Action, now: float) -> InitialPose:
+    """The pose an ``initPosition`` action (checked by ``init_position_problem``) sets."""
+    return InitialPose(
+        stamp=now,
+        received=now,
+        x_m=float(action.parameter("x")),
+        y_m=float(action.parameter("y")),
+        yaw_rad=float(action.parameter("theta")),
+    )

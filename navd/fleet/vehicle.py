@@ -3,32 +3,35 @@ its actions, and what its state says about them.
 
 It knows nothing of MQTT or the bus: each input (an order, instant actions, a goal's status,
 the clock) returns the bus messages to publish (goals, cancels, an initial pose) and marks
-the state as changed. The rules are the specification's (2.1, §6.6): an order is a list of
-nodes joined by edges, its released part (the base) is driven, its unreleased part (the
-horizon) waits for an update; an update keeps the order id, raises the update id and starts
-at the base's last node (the decision point), or at the last node traversed once the base
-is done. Each released node is one navd goal at the node's position (its ``theta`` as the
-goal's yaw, the edge's ``maxSpeed`` as its top speed); reaching it traverses the node and
-runs its actions. A malformed order is refused with a "validationError", one navd cannot do
-with an "orderError", a stale or disconnected update with an "orderUpdateError": the order
-in hand goes on, and the error stays in the state until an order is taken.
+the state as changed. The rules are the specification's (2.1, §6.6; docs/fleet.md,
+"Orders"): the released base is driven, one navd goal a node, the horizon waits for an
+update. A malformed order is refused with a "validationError", one navd cannot do with an
+"orderError", a stale update with an "orderUpdateError"; the order in hand goes on.
 
 Actions navd performs: ``wait`` on nodes and edges, and the instant actions
 (``action_states`` says how they start and block). A node's actions start when it is
 traversed; the vehicle leaves it once no SOFT or HARD action is left to run. ``cancelOrder``
-fails every action not yet ended, stops the robot, and stays RUNNING until the robot stands
-(§6.6.3). A pause (``startPause``) lasts over new orders and cancels until ``stopPause``.
-Which orders are taken is ``order_rules``'; the errors are an ``ErrorList``.
+fails every action not yet ended and stops the robot; it and ``startPause`` stay RUNNING
+until the robot stands (§6.6.3), the cancelled order's nodes shown till then (a master reads
+none as the order done). A pause lasts until ``stopPause``. Which orders are taken is
+``order_rules``'; the errors are an ``ErrorList``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
 from pydantic import ValidationError
 
-from navd.fleet.action_states import ENDED, INSTANT_ACTIONS, ActionState, ActionStates
+from navd.fleet.action_states import (
+    ENDED,
+    INSTANT_ACTIONS,
+    ActionState,
+    ActionStates,
+    StandstillWait,
+)
 from navd.fleet.error_list import ErrorList
 from navd.fleet.order_rules import (
     NODE_ACTIONS,
@@ -37,13 +40,14 @@ from navd.fleet.order_rules import (
     elsewhere,
     first_problem,
     init_position_problem,
+    initial_pose,
     loose_refs,
     malformed,
     unusable,
 )
 from navd.fleet.vda5050 import Action, Edge, InstantActions, Node, Order
 from navd.geometry import Pose2
-from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, InitialPose, Message
+from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, Message
 
 __all__ = ["CANCEL_STOP_S", "INSTANT_ACTIONS", "NODE_ACTIONS", "Vehicle"]
 
@@ -80,9 +84,8 @@ class Vehicle:
         self.held = False  # by the vehicle itself (its broker is gone, fleet.on_broker_lost)
         self.goal_id: str | None = None
         self.standing = True  # the robot's speed is below ``reports``' standing thresholds
-        self._cancelling: ActionState | None = None  # a cancelOrder waiting for a standstill
-        self._cancel_by = math.inf  # [s] when that cancel ends anyway
-        self._cancelled_order = ""  # the order it cancels (its nodes shown until it ends)
+        self._cancel = StandstillWait(CANCEL_STOP_S)  # a cancelOrder, its order's nodes shown
+        self._pause = StandstillWait(CANCEL_STOP_S)  # a startPause
         self._goals = 0
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
@@ -173,12 +176,13 @@ class Vehicle:
         self.standing = standing
         self.changed |= self.actions.end_waits(now)
         self._start_queued(now)
-        cancelling = self._cancelling
-        if cancelling is not None and (standing or now >= self._cancel_by):
-            cancelling.status, self._cancelling = "FINISHED", None
-            if self.order_id == self._cancelled_order:  # (not a new order taken meanwhile)
+        if self._cancel.due(standing, now):
+            self._cancel.end()
+            if self.order_id == self._cancel.order_id:  # (not a new order taken meanwhile)
                 self.nodes, self.edges = [], []
             self.changed = True
+        if self._pause.due(standing, now):
+            self.changed |= self._pause.end()
         if now >= self._retry_at:
             self._retry_at = math.inf
             self._clear_errors("navigationError")
@@ -273,9 +277,8 @@ class Vehicle:
 
     def _drive(self, now: float) -> list[Message]:
         """A goal toward the next released node, unless paused, blocked or done."""
-        if self.paused or self.held or self.goal_id is not None or self._blocked():
-            return []
-        if self._cancelling is not None:  # a new order drives once the cancelled one stood
+        cancelling = self._cancel.action is not None  # (a new order drives once it stood)
+        if self.paused or self.held or self.goal_id is not None or self._blocked() or cancelling:
             return []
         if not self.nodes or not self.nodes[0].released or self._retry_at < math.inf:
             return []
@@ -292,17 +295,9 @@ class Vehicle:
         self._goals += 1
         self.goal_id = f"vda:{self.order_id}:{node.sequenceId}:{self._goals}"
         self.changed = True
-        return [
-            Goal(
-                stamp=now,
-                received=now,
-                goal_id=self.goal_id,
-                x_m=position.x,
-                y_m=position.y,
-                yaw_rad=position.theta,
-                max_speed_mps=None if edge is None else edge.maxSpeed,
-            )
-        ]
+        speed = None if edge is None else edge.maxSpeed
+        goal = Goal(stamp=now, received=now, goal_id=self.goal_id, x_m=position.x, y_m=position.y)
+        return [dataclasses.replace(goal, yaw_rad=position.theta, max_speed_mps=speed)]
 
     def _blocked(self) -> bool:
         """True while a SOFT or HARD action runs or waits its turn on the last node (the
@@ -312,9 +307,9 @@ class Vehicle:
     def _busy(self) -> bool:
         """True while the vehicle has nodes to go or actions not ended (§6.6.2, step 3); a
         cancelOrder waiting for the robot to stand is not the order's (§6.6.3.1)."""
-        cancelled = self._cancelling is not None and self.order_id == self._cancelled_order
+        cancelled = self._cancel.action is not None and self.order_id == self._cancel.order_id
         return (bool(self.nodes) and not cancelled) or any(
-            s.status not in ENDED and s is not self._cancelling for s in self.actions.values()
+            s.status not in ENDED and s is not self._cancel.action for s in self.actions.values()
         )
 
     def _cancel_goal(self, now: float) -> list[Message]:
@@ -343,20 +338,21 @@ class Vehicle:
                 return self._fail(state, "noOrderToCancel", why, None)
             out = self._cancel_goal(now)
             for other in self.actions.values():
-                if other not in (state, self._cancelling) and other.status not in ENDED:
+                if other not in (state, self._cancel.action) and other.status not in ENDED:
                     other.status, other.result = "FAILED", "cancelled"
             self.actions.queued = []
-            if not self.standing and self._cancelling is None:  # FINISHED once it stands
-                # its nodes and edges stay in the state until then, and go in the same
-                # message as the FINISHED (a master reads empty ones as the order processed)
-                self._cancelling, self._cancel_by = state, now + CANCEL_STOP_S
-                self._cancelled_order = self.order_id
+            if not self.standing and self._cancel.action is None:  # FINISHED once it stands,
+                self._cancel.begin(state, now, self.order_id)  # its nodes shown till then
                 return out
             self.nodes, self.edges = [], []
         elif kind == "startPause":
             self.paused = True
             out = self._cancel_goal(now)
+            if not self.standing:  # FINISHED once the robot stands (§6.8.2), RUNNING till then
+                self._pause.begin(state, now, self.order_id)
+                return out
         elif kind == "stopPause":
+            self.changed |= self._pause.end()
             self.paused = False
             self._clear_errors("orderInterrupted")
             self._start_queued(now)
@@ -368,15 +364,7 @@ class Vehicle:
             last = action.parameter("lastNodeId")
             if isinstance(last, str):
                 self.last_node_id = last
-            out = [
-                InitialPose(
-                    stamp=now,
-                    received=now,
-                    x_m=float(action.parameter("x")),
-                    y_m=float(action.parameter("y")),
-                    yaw_rad=float(action.parameter("theta")),
-                )
-            ]
+            out = [initial_pose(action, now)]
         elif kind in ("stateRequest", "factsheetRequest"):
             self._requests("state" if kind == "stateRequest" else "factsheet")
         else:

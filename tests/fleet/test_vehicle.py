@@ -387,6 +387,19 @@ def test_a_cancelled_orders_nodes_go_with_the_cancels_finished_not_before() -> N
     assert _statuses(vehicle)["c1"] == "FINISHED"
 
 
+def test_a_pause_is_finished_only_once_the_robot_stands() -> None:
+    vehicle, _ = _vehicle()
+    send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))
+    vehicle.on_tick(0.5, standing=False)  # driving at speed
+    vehicle.on_instant_actions(instant(action("startPause", "p1", "HARD")), 1.0, HERE)
+    assert _statuses(vehicle)["p1"] == "RUNNING"
+    assert state_of(vehicle)["paused"] is True
+    vehicle.on_tick(1.3, standing=False)  # still braking
+    assert _statuses(vehicle)["p1"] == "RUNNING"
+    vehicle.on_tick(1.6, standing=True)
+    assert _statuses(vehicle)["p1"] == "FINISHED"
+
+
 def test_a_cancel_ends_in_time_when_the_robot_is_never_seen_standing() -> None:
     vehicle, _ = _vehicle()
     send(vehicle, order([node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)]))
