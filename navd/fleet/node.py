@@ -71,6 +71,7 @@ class FleetNode(Module):
         self._state_due = True
         self._last_state_s = -math.inf
         self._told_driving = False  # ``driving`` as the last state message said it
+        self._motion = reports.Motion()  # whether the robot drives, with hysteresis
         self._last_view_s = -math.inf
         self.connected = asyncio.Event()
         self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
@@ -140,7 +141,7 @@ class FleetNode(Module):
             return True
         if now - pose.received > POSE_FRESH_S:
             return False  # not known: a cancel then ends by its deadline
-        return not reports.driving(self._robot())
+        return not self._motion.driving
 
     def _robot(self) -> reports.Robot:
         state = self._state
@@ -155,6 +156,7 @@ class FleetNode(Module):
             battery=None
             if state.battery is None
             else (state.battery.percentage, state.battery.voltage_v, state.battery.charging),
+            driving=self._motion.driving,
         )
 
     # --- the broker -----------------------------------------------------------------------
@@ -301,6 +303,9 @@ class FleetNode(Module):
     # --- publishing -----------------------------------------------------------------------
 
     def _tick(self, now: float) -> None:
+        pose = self._state.pose
+        moving = (0.0, 0.0) if pose is None else (pose.linear_mps, pose.angular_radps)
+        self._motion.update(*moving, now)
         self._publish(self.vehicle.on_tick(now, standing=self._standing(now)))
         self._tell_others(now)
         client = self._client
@@ -309,7 +314,7 @@ class FleetNode(Module):
         fleet = self.settings.value.fleet
         wall = time.monotonic()
         robot = self._robot()
-        driving = reports.driving(robot)  # starting and stopping are changes too (§6.10)
+        driving = robot.driving  # starting and stopping are changes too (§6.10)
         due = self._state_due or self.vehicle.changed or driving != self._told_driving
         if (due and wall - self._last_state_s >= MIN_STATE_S) or (
             wall - self._last_state_s >= fleet.state_interval_s

@@ -14,11 +14,16 @@ from navd.fleet.vda5050 import PROTOCOL_VERSION, Node, timestamp
 from navd.fleet.vehicle import Vehicle
 from navd.geometry import Footprint, RobotLimits
 
-__all__ = ["Robot", "connection", "driving", "factsheet", "state", "visualization"]
+__all__ = ["Motion", "Robot", "connection", "factsheet", "state", "visualization"]
 
-# [m/s, rad/s] slower than this the vehicle counts as standing (``driving`` false).
+# [m/s, rad/s] slower than this the vehicle counts as standing (``driving`` false) once it
+# has been for STILL_S [s]; faster than START it drives. Between them nothing changes: a
+# standing robot's velocity estimate wanders up to 0.012 m/s, which must not read as driving.
 STANDING_MPS = 0.01
 STANDING_RADPS = 0.02
+START_MPS = 0.03
+START_RADPS = 0.06
+STILL_S = 0.5
 # [m] position std at which the localization score reaches 0 (1 at 0 m).
 SCORE_ZERO_STD_M = 1.0
 
@@ -36,6 +41,7 @@ class Robot:
         map_id: the map the pose is on.
         battery: [0, 1] charge, [V], charging, or None without a battery sensor (charge
             and charging may be NaN and None when the sensor does not say).
+        driving: it drives (``Motion``).
     """
 
     pose: tuple[float, float, float] | None
@@ -45,6 +51,7 @@ class Robot:
     manual: bool
     map_id: str
     battery: tuple[float, float, bool | None] | None = None
+    driving: bool = False
 
 
 def header(header_id: int, now_unix_s: float, manufacturer: str, serial: str) -> dict[str, Any]:
@@ -75,10 +82,28 @@ def _position(robot: Robot) -> dict[str, Any] | None:
     }
 
 
-def driving(robot: Robot) -> bool:
-    """Whether the robot moves (faster than the standing thresholds, forward or turning)."""
-    v, w = robot.velocity
-    return abs(v) > STANDING_MPS or abs(w) > STANDING_RADPS
+class Motion:
+    """Whether the robot drives, with hysteresis (see START_MPS and STILL_S): it starts
+    driving the moment it is faster than the start thresholds, and stands once it has been
+    slower than the standing ones for STILL_S."""
+
+    def __init__(self) -> None:
+        self.driving = False
+        self._still_since: float | None = None
+
+    def update(self, linear_mps: float, angular_radps: float, now: float) -> bool:
+        """Take the velocity at ``now`` [s]; whether the robot drives."""
+        v, w = abs(linear_mps), abs(angular_radps)
+        if v > START_MPS or w > START_RADPS:
+            self.driving, self._still_since = True, None
+        elif v <= STANDING_MPS and w <= STANDING_RADPS:
+            if self._still_since is None:
+                self._still_since = now
+            if now - self._still_since >= STILL_S:
+                self.driving = False
+        else:
+            self._still_since = None
+        return self.driving
 
 
 def order_fields(vehicle: Vehicle) -> dict[str, Any]:
@@ -153,7 +178,7 @@ def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any
     message: dict[str, Any] = {
         **head,
         **order_fields(vehicle),
-        "driving": driving(robot),
+        "driving": robot.driving,
         "operatingMode": "MANUAL" if robot.manual else "AUTOMATIC",
         "batteryState": _battery_state(robot),
         "information": [

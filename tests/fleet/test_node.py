@@ -76,7 +76,9 @@ async def test_the_state_goes_out_when_the_robot_starts_and_when_it_stops(
     assert len(await tick(1.0, 0.0)) == 1  # nothing changed: nothing sent
     assert [s["driving"] for s in await tick(2.0, 0.3)] == [False, True]  # it started
     assert len(await tick(3.0, 0.3)) == 2
-    assert [s["driving"] for s in await tick(4.0, 0.0)] == [False, True, False]  # it stopped
+    assert len(await tick(4.0, 0.0)) == 2  # slowed to standing: not yet still long enough
+    assert [s["driving"] for s in await tick(4.6, 0.0)] == [False, True, False]  # it stopped
+    assert len(await tick(5.0, 0.012)) == 3  # an estimate wandering while standing: no start
     for state in client.states():
         check("state", state)
         assert state["agvPosition"]["x"] == 1.0 and state["orderId"] == ""

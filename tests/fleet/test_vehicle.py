@@ -114,7 +114,7 @@ def reach(vehicle: Vehicle, goal: Goal, now: float = 1.0) -> list[Message]:
 
 
 def state_of(vehicle: Vehicle) -> dict[str, Any]:
-    robot = reports.Robot((1.0, 2.0, 0.5), 0.05, (0.3, 0.1), (), False, "map")
+    robot = reports.Robot((1.0, 2.0, 0.5), 0.05, (0.3, 0.1), (), False, "map", driving=True)
     message = reports.state(reports.header(7, 1.8e9, MAKER, SERIAL), vehicle, robot)
     check("state", message)
     return message
@@ -145,7 +145,7 @@ def test_an_order_is_driven_node_by_node_and_reported_as_it_goes() -> None:
     assert goals(reach(vehicle, second)) == []
     state = state_of(vehicle)
     assert (state["lastNodeId"], state["nodeStates"], state["edgeStates"]) == ("c", [], [])
-    assert state["errors"] == [] and state["driving"] is True  # the robot's speed says so
+    assert state["errors"] == [] and state["driving"] is True  # as the node has it
 
 
 def test_the_horizon_waits_for_an_update_stitched_at_the_decision_point() -> None:
