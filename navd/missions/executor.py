@@ -128,14 +128,16 @@ class MissionExecutor:
             return self._step_done(now, pose)
         return []
 
-    def command(self, action: str, now: float, pose: Pose2 | None) -> tuple[list[Message], str]:
+    def command(
+        self, action: str, now: float, pose: Pose2 | None, *, by: str = "cancelled by a person"
+    ) -> tuple[list[Message], str]:
         """A person's pause, resume, cancel or continue; the messages, and why it does
-        nothing (empty when it did something)."""
+        nothing (empty when it did something). ``by``: who cancels, as the reason says."""
         if self.ended:
             return [], f"mission {self.request.mission_id} has ended ({self.state})"
         if action == "cancel":
             out = self._cancel_leg(now)
-            self.state, self.reason = "canceled", "cancelled by a person"
+            self.state, self.reason = "canceled", by
             return [*out, self._status(now, "canceled")], ""
         if action == "pause":
             if self.state != "running":
@@ -253,6 +255,7 @@ class MissionExecutor:
     def _step_done(self, now: float, pose: Pose2 | None) -> list[Message]:
         self.done += 1
         self._done_this_round += 1
+        self.reason = ""  # an earlier step's failure is not this one's
         return [self._status(now, "step_done"), *self._next(now, pose)]
 
     def _step_failed(self, now: float, pose: Pose2 | None, reason: str) -> list[Message]:

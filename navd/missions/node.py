@@ -54,7 +54,8 @@ class MissionNode(Module):
     async def on_deactivate(self) -> None:
         mission = self.mission
         if mission is not None and not mission.ended:
-            self._publish(mission.command("cancel", self.ctx.clock.now(), self._pose)[0])
+            now, why = self.ctx.clock.now(), "cancelled: navd is stopping"
+            self._publish(mission.command("cancel", now, self._pose, by=why)[0])
 
     def settings_in_use(self) -> tuple[object, ...]:
         return (self.settings.value,)
@@ -87,7 +88,8 @@ class MissionNode(Module):
         now = self.ctx.clock.now()
         old = self.mission
         if old is not None and not old.ended:
-            self._publish(old.command("cancel", now, self._pose)[0])
+            why = f"replaced by mission {request.mission_id}"
+            self._publish(old.command("cancel", now, self._pose, by=why)[0])
         self._runs += 1
         self.mission = MissionExecutor(request, self._runs)
         self.mission.places = self._places

@@ -306,3 +306,22 @@ def test_a_beacon_without_a_place_fails_the_step_by_its_policy_naming_the_known_
     assert math.dist((goal.x_m, goal.y_m), PLACES["B1"]) == pytest.approx(0.0)
     empty = _mission(MissionStep(kind="visit_beacons"))
     assert "no beacon has a place" in empty.start(0.0, HERE)[-1].info.reason  # type: ignore[attr-defined]
+
+
+def test_a_skipped_steps_failure_is_not_said_of_the_steps_that_succeed_after_it() -> None:
+    mission = _mission(goto(9, 9, on_failure="skip"), goto(1, 0), goto(2, 0))
+    (far,) = _goals(mission.start(0.0, HERE))
+    out = mission.on_goal_status(_end(far, "failed", "no route for 15 s"), 1.0, HERE)
+    assert mission.reason == "no route for 15 s"  # said while it is news
+    (near,) = _goals(out)
+    (last,) = _goals(mission.on_goal_status(_end(near, "reached"), 2.0, HERE))
+    assert mission.reason == ""
+    done = mission.on_goal_status(_end(last, "reached"), 3.0, HERE)
+    assert _events(done)[-1] == "completed" and mission.reason == ""
+
+
+def test_a_cancel_says_who_cancelled() -> None:
+    mission = _mission(goto(1, 0))
+    mission.start(0.0, HERE)
+    mission.command("cancel", 1.0, HERE, by="replaced by mission m2")
+    assert (mission.state, mission.reason) == ("canceled", "replaced by mission m2")
