@@ -34,6 +34,23 @@ LISTEN_S = 1.5
 MEASURE_EVERY_S = 0.1
 # errors that end a group goal: the vehicle cannot do its part
 FATAL_ERRORS = ("validationError", "orderError", "orderUpdateError")
+QOS = 0  # VDA 5050 §6.2: orders and instant actions at QoS 0
+
+
+class HeaderIds:
+    """The headerId of each topic: each (so each vehicle's orders and its instant actions
+    apart) counts its own messages from 1 (VDA 5050 §6.1)."""
+
+    def __init__(self) -> None:
+        self._last: dict[str, int] = {}
+
+    def next(self, topic: str) -> int:
+        """The next headerId on ``topic``."""
+        self._last[topic] = self._last.get(topic, 0) + 1
+        return self._last[topic]
+
+
+HEADERS = HeaderIds()  # this master's, for every vehicle it talks to
 
 
 @dataclass
@@ -142,11 +159,15 @@ def instant_action(
 
 
 async def _state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -> None:
-    message = instant_action(
-        vehicle.manufacturer, vehicle.serial, 0, "stateRequest", f"state-{uuid.uuid4().hex[:8]}"
-    )
     topic = f"{prefix}/{vehicle.manufacturer}/{vehicle.serial}/instantActions"
-    await client.publish(topic, json.dumps(message), qos=1)
+    message = instant_action(
+        vehicle.manufacturer,
+        vehicle.serial,
+        HEADERS.next(topic),
+        "stateRequest",
+        f"state-{uuid.uuid4().hex[:8]}",
+    )
+    await client.publish(topic, json.dumps(message), qos=QOS)
 
 
 async def drive_group(
@@ -366,32 +387,23 @@ class _GroupRun:
 
     async def _instant(self, member: GroupMember, kind: str) -> None:
         self._actions += 1
+        topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
         message = instant_action(
             member.manufacturer,
             member.serial,
-            self._actions,
+            HEADERS.next(topic),
             kind,
             f"{self.group.group_id}-{kind}-{self._actions}",
         )
-        topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
-        await self.client.publish(topic, json.dumps(message), qos=1)
+        await self.client.publish(topic, json.dumps(message), qos=QOS)
 
     async def _correct(self) -> None:
         """Send the pauses and resumes the group asked for."""
         pending, self._pending = self._pending, []
         for member, action in pending:
-            self._actions += 1
-            message = instant_action(
-                member.manufacturer,
-                member.serial,
-                self._actions,
-                action,
-                f"{self.group.group_id}-{action}-{self._actions}",
-            )
-            topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/instantActions"
-            await self.client.publish(topic, json.dumps(message), qos=1)
+            await self._instant(member, action)
 
     async def _send(self, orders: list[tuple[Any, dict[str, Any]]]) -> None:
         for member, order in orders:
             topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/order"
-            await self.client.publish(topic, json.dumps(order), qos=1)
+            await self.client.publish(topic, json.dumps(order), qos=QOS)

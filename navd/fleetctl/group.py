@@ -76,6 +76,7 @@ class GroupMember:
     position: tuple[float, float, float, float, float] | None = None
     errors: list[str] = field(default_factory=list)
     paused: bool = False  # held by the fleet control for the others to catch up
+    orders_sent: int = 0  # the headerId of its last order (each topic counts its own)
 
     def progress_report(self) -> dict[str, Any]:
         """How far it got: the last place reached ("last_place", -1: not even its form-up
@@ -143,7 +144,6 @@ class GroupDrive:
             self.members.append(member)
         self.start_unix_s = now_unix_s + goal.start_delay_s
         self.released = 0  # the last place released to everyone
-        self._headers = 0
 
     @property
     def steps(self) -> int:
@@ -344,7 +344,6 @@ class GroupDrive:
         }
 
     def _order(self, m: GroupMember, nodes: list[dict[str, Any]]) -> dict[str, Any]:
-        self._headers += 1
         edges = [
             {
                 "edgeId": f"{a['nodeId']}>{b['nodeId']}",
@@ -357,8 +356,9 @@ class GroupDrive:
             }
             for a, b in itertools.pairwise(nodes)
         ]
+        m.orders_sent += 1
         return {
-            "headerId": self._headers,
+            "headerId": m.orders_sent,
             "timestamp": timestamp(self.start_unix_s - self.goal.start_delay_s),
             "version": PROTOCOL_VERSION,
             "manufacturer": m.manufacturer,

@@ -90,6 +90,16 @@ def test_the_first_orders_start_together_and_release_only_the_form_up_place() ->
     assert sides == pytest.approx([1.0, 1.0, 1.0])  # the triangle, 1 m sides
 
 
+def test_each_vehicles_orders_count_their_own_header_ids() -> None:
+    group = _group()
+    first = group.first_orders(now_unix_s=1000.0)
+    assert [order["headerId"] for _, order in first] == [1, 1, 1]
+    updates = []
+    for m in group.members:
+        updates += group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
+    assert [order["headerId"] for _, order in updates] == [2, 2, 2]
+
+
 def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
     group = _group()
     group.first_orders(now_unix_s=1000.0)
