@@ -70,9 +70,10 @@ class FleetNode(Module):
         self._client: aiomqtt.Client | None = None
         self._state_due = True
         self._last_state_s = -math.inf
-        self._told_driving = False  # ``driving`` as the last state message said it
+        # (driving, position known, safety holds, manual) as the last state message said them
+        self._told: tuple[object, ...] = ()
         self._motion = reports.Motion()  # whether the robot drives, with hysteresis
-        self._last_view_s = -math.inf
+        self._next_view_s = -math.inf  # [s] when the next visualization is due
         self.connected = asyncio.Event()
         self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
         self._sizes: dict[str, float] = {}  # [m] their radius, from their factsheet
@@ -314,19 +315,24 @@ class FleetNode(Module):
         fleet = self.settings.value.fleet
         wall = time.monotonic()
         robot = self._robot()
-        driving = robot.driving  # starting and stopping are changes too (§6.10)
-        due = self._state_due or self.vehicle.changed or driving != self._told_driving
+        # starting and stopping, the position becoming known, a hold, the mode: changes too
+        told = (robot.driving, robot.pose is not None, robot.held, robot.manual)  # (§6.10)
+        due = self._state_due or self.vehicle.changed or told != self._told
         if (due and wall - self._last_state_s >= MIN_STATE_S) or (
             wall - self._last_state_s >= fleet.state_interval_s
         ):
             self._state_due = self.vehicle.changed = False
-            self._told_driving = driving
+            self._told = told
             self._last_state_s = wall
             payload = self._json("state", reports.state, self.vehicle, robot)
             self.ctx.spawn(self._send(self.topics.state, payload), name="state")
         rate = fleet.visualization_rate_hz
-        if rate > 0 and wall - self._last_view_s >= 1.0 / rate:
-            self._last_view_s = wall
+        if rate > 0 and wall >= self._next_view_s:
+            # due a period after the last was due (not sent): the rate is the factsheet's,
+            # not rounded up to the tick; a late start begins anew
+            period = 1.0 / rate
+            late = wall - self._next_view_s >= period
+            self._next_view_s = wall + period if late else self._next_view_s + period
             payload = self._json("visualization", reports.visualization, self._robot())
             self.ctx.spawn(self._send(self.topics.visualization, payload), name="visualization")
 

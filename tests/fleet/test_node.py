@@ -82,3 +82,48 @@ async def test_the_state_goes_out_when_the_robot_starts_and_when_it_stops(
     for state in client.states():
         check("state", state)
         assert state["agvPosition"]["x"] == 1.0 and state["orderId"] == ""
+
+
+async def test_the_position_goes_out_once_known_and_the_view_keeps_its_rate(
+    bus: Bus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    wall = [1000.0]
+    clock = types.SimpleNamespace(monotonic=lambda: wall[0], time=time.time)
+    monkeypatch.setattr(fleet_node, "time", clock)
+    config = NavdConfig.model_validate(
+        {
+            "fleet": {
+                "enabled": True,
+                "broker_url": "mqtt://127.0.0.1:1",
+                "serial_number": "r1",
+                "visualization_rate_hz": 2.0,
+            }
+        }
+    )
+    ctx = ModuleContext(
+        "fleet", bus=bus, clock=bus.clock, workers=WorkerPool(bus, 1), config=lambda: config
+    )
+    module = FleetNode()
+    await module.on_configure(ctx)
+    client = _Client()
+    module._client = client  # type: ignore[assignment]
+
+    async def tick(t: float) -> None:
+        wall[0] = 1000.0 + t
+        module._tick(t)
+        for _ in range(3):
+            await asyncio.sleep(0)
+
+    await tick(0.0)  # the first state, with no position yet
+    assert "agvPosition" not in client.states()[-1]
+    await tick(0.1)
+    bus.publish(
+        RobotState(stamp=1.1, received=1.1, changed=frozenset({"pose"}), pose=_pose(1.1, 0.0))
+    )
+    await tick(1.1)  # known: said at once, not at the next state_interval_s (30 s)
+    assert client.states()[-1]["agvPosition"]["x"] == 1.0
+    # 2 Hz on a clock that ticks every 0.1 s but a little late each time (0.103 s)
+    for i in range(1, 200):
+        await tick(1.1 + 0.103 * i)
+    views = [body for topic, body in client.sent if topic == "visualization"]
+    assert len(views) == pytest.approx(0.103 * 199 * 2.0, abs=2)  # 2 a second, not 1.7
