@@ -183,9 +183,8 @@ class Vehicle:
             self.changed = True
         if self._pause.due(standing, now):
             self.changed |= self._pause.end()
-        if now >= self._retry_at:
+        if now >= self._retry_at:  # (its navigationError stays until the node is reached)
             self._retry_at = math.inf
-            self._clear_errors("navigationError")
             out += self._drive(now)
         elif self.goal_id is None and not self._blocked():
             out += self._drive(now)
@@ -265,6 +264,7 @@ class Vehicle:
     def _traverse(self, now: float) -> list[Message]:
         """The next node is reached: it is the last node, its edge is left, its actions start."""
         node = self.nodes.pop(0)
+        self._clear_errors("navigationError")
         if self.edges and self.edges[0].endNodeId == node.nodeId:
             left = self.edges.pop(0)
             for action in left.actions:
@@ -337,6 +337,7 @@ class Vehicle:
                 why = "cancelOrder: there is no order running"
                 return self._fail(state, "noOrderToCancel", why, None)
             out = self._cancel_goal(now)
+            self._clear_errors("navigationError")  # no node left to find a way to
             for other in self.actions.values():
                 if other not in (state, self._cancel.action) and other.status not in ENDED:
                     other.status, other.result = "FAILED", "cancelled"
