@@ -1,4 +1,4 @@
-"""``navd goal|cancel|status``: a control client of the running daemon."""
+"""``navd goal|cancel|estop|status``: a control client of the running daemon."""
 
 from __future__ import annotations
 
@@ -23,6 +23,7 @@ from navd.wire import (
     CancelFrame,
     Client,
     ClientError,
+    EmergencyStopFrame,
     GoalFrame,
     GoalStatusFrame,
     RecordFrame,
@@ -41,7 +42,7 @@ RECORD_VERDICT_STATUSES = 10  # status frames ``navd record start`` reads for th
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``goal``, ``cancel``, ``record`` and ``status``."""
+    """Add ``goal``, ``cancel``, ``estop``, ``record`` and ``status``."""
     goal = commands.add_parser(
         "goal",
         help="send a goal in the map frame (exit 1 with the reason if navd refuses it at once)",
@@ -65,6 +66,13 @@ def add_commands(commands: Commands) -> None:
     cancel.add_argument("--json", action="store_true", help="print navd's answer as raw JSON")
     connection_options(cancel)
     cancel.set_defaults(handler=_cancel)
+
+    estop = commands.add_parser(
+        "estop", help="emergency stop: the robot stops at once and stays still until released"
+    )
+    estop.add_argument("--release", action="store_true", help="release the emergency stop")
+    connection_options(estop)
+    estop.set_defaults(handler=_estop)
 
     record = commands.add_parser(
         "record", help="start or stop recording the session (to record.dir, as MCAP files)"
@@ -188,6 +196,17 @@ def _first_status(client: Client, goal_id: str | None) -> GoalStatusFrame | None
                 return status
     except ClientError:
         return None
+
+
+def _estop(args: argparse.Namespace) -> int:
+    try:
+        with connect(args) as client:
+            client.request(EmergencyStopFrame(engaged=not args.release))
+    except (ClientError, ConfigError) as err:
+        print(f"navd estop: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    print("emergency stop released" if args.release else "emergency stop engaged")
+    return EXIT_OK
 
 
 def _cancel(args: argparse.Namespace) -> int:

@@ -3,9 +3,11 @@
 Up and down drive forward and back, left and right turn on the spot; a key's motion lasts
 while the key is held (the terminal repeats it) and ``HOLD_S`` past the last repeat, then
 the program stops sending and the robot stops (the daemon's deadman: no command for
-``safety.reaction_timeout_s``). Space stops at once; ``+`` and ``-`` change the speed; ``q``
-or Ctrl-C quits. Every command passes the daemon's safety gate, so a wall still stops the
-robot. The status line shows who drives and why the robot is held, if it is.
+``safety.reaction_timeout_s``). Space stops at once; ``e`` engages the emergency stop (the
+robot stays still, whoever drives, until ``r`` or another client releases it); ``+`` and
+``-`` change the speed; ``q`` or Ctrl-C quits. Every command passes the daemon's safety
+gate, so a wall still stops the robot. The status line shows who drives and why the robot
+is held, if it is.
 
 Keys also come from a pipe (``printf '\\033[A' | navd teleop``), for scripts and tests.
 """
@@ -26,7 +28,15 @@ from dataclasses import dataclass
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, Commands, connect, connection_options
 from navd.config import ConfigError
-from navd.wire import Client, ClientError, ErrorFrame, StatusFrame, SubscribeFrame, TeleopFrame
+from navd.wire import (
+    Client,
+    ClientError,
+    EmergencyStopFrame,
+    ErrorFrame,
+    StatusFrame,
+    SubscribeFrame,
+    TeleopFrame,
+)
 
 __all__ = ["KeyDriver", "add_commands"]
 
@@ -39,6 +49,7 @@ STATUS_RATE_HZ = 2.0
 
 UP, DOWN, RIGHT, LEFT = b"\x1b[A", b"\x1b[B", b"\x1b[C", b"\x1b[D"
 QUIT = (b"q", b"Q", b"\x03")
+ESTOP, RELEASE = (b"e", b"E"), (b"r", b"R")  # the emergency stop, and its release
 
 
 @dataclass
@@ -55,6 +66,7 @@ class KeyDriver:
     _command: tuple[float, float] = (0.0, 0.0)
     _held_until: float = -1.0
     quit: bool = False
+    stop_request: bool | None = None  # an emergency stop (True) or release (False) to send
 
     def key(self, key: bytes, now: float) -> None:
         """Take one key (an arrow's escape sequence or a character) at ``now`` [s]."""
@@ -74,6 +86,11 @@ class KeyDriver:
             self._scale(SPEED_STEP)
         elif key in (b"-", b"_"):
             self._scale(1.0 / SPEED_STEP)
+        elif key in ESTOP:
+            self.stop_request = True
+            self._command, self._held_until = (0.0, 0.0), now
+        elif key in RELEASE:
+            self.stop_request = False
         elif key in QUIT:
             self.quit = True
 
@@ -177,7 +194,11 @@ def _teleop(args: argparse.Namespace) -> int:
             client.sock.settimeout(None)
             replies = _Replies(client, interactive)
             if interactive:
-                print("arrows drive, space stops, + and - change speed, q quits", flush=True)
+                print(
+                    "arrows drive, space stops, e: emergency stop, r: release it, "
+                    "+ and - change speed, q quits",
+                    flush=True,
+                )
             _drive(client, keys, fd, replies if interactive else None)
     except (ClientError, ConfigError, OSError) as err:
         print(f"\nnavd teleop: {err}", file=sys.stderr)
@@ -205,6 +226,9 @@ def _drive(client: Client, keys: KeyDriver, fd: int, watch: _Replies | None) -> 
                 split, pending = split_keys(pending + data)
                 for key in split:
                     keys.key(key, time.monotonic())
+                if keys.stop_request is not None:  # at once, not at the next period
+                    send(EmergencyStopFrame(engaged=keys.stop_request))
+                    keys.stop_request = None
             now = time.monotonic()
             if now < next_send:
                 continue

@@ -13,6 +13,7 @@ from navd.fleet.action_states import INSTANT_ACTIONS
 from navd.fleet.vda5050 import PROTOCOL_VERSION, Node, timestamp
 from navd.fleet.vehicle import Vehicle
 from navd.geometry import Footprint, RobotLimits
+from navd.lifecycle import ESTOP_REASON
 
 __all__ = ["Motion", "Robot", "connection", "factsheet", "state", "visualization"]
 
@@ -188,7 +189,11 @@ def state(head: dict[str, Any], vehicle: Vehicle, robot: Robot) -> dict[str, Any
                 for why in robot.held
             ),
         ],
-        "safetyState": {"eStop": "NONE", "fieldViolation": bool(robot.held)},
+        "safetyState": {
+            # an operator's emergency stop, from a control client or the page: REMOTE
+            "eStop": "REMOTE" if any(r.startswith(ESTOP_REASON) for r in robot.held) else "NONE",
+            "fieldViolation": bool(robot.held),
+        },
         "velocity": {"vx": v, "vy": 0.0, "omega": w},
     }
     position = _position(robot)

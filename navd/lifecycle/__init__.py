@@ -15,7 +15,7 @@ from navd.lifecycle.lockstep import Lockstep
 from navd.lifecycle.memory_release import release_compiler_code, release_freed_memory
 from navd.lifecycle.module import Module, ModuleContext, ModuleManager, ModuleState
 from navd.lifecycle.requests import control_message
-from navd.lifecycle.safety import SafetyGate
+from navd.lifecycle.safety import ESTOP_REASON, SafetyGate
 from navd.lifecycle.settings import Live, parts_of
 from navd.lifecycle.state_view import StateView
 from navd.lifecycle.stats import percentile
@@ -23,6 +23,7 @@ from navd.lifecycle.supervision import Supervisor
 from navd.lifecycle.workers import WorkerPool
 
 __all__ = [
+    "ESTOP_REASON",
     "BatteryWatch",
     "Bus",
     "Clock",

@@ -10,6 +10,7 @@ import math
 from navd.lifecycle.messages import (
     CancelGoal,
     ConfigChange,
+    EmergencyStop,
     FindPoseRequest,
     GeoGoal,
     Goal,
@@ -27,6 +28,7 @@ from navd.wire import (
     CancelFrame,
     ConfigFrame,
     ControlRequest,
+    EmergencyStopFrame,
     FindPoseFrame,
     GoalFrame,
     InitialPoseFrame,
@@ -92,6 +94,8 @@ def control_message(
         return MissionCommand(stamp=now, received=now, action=frame.action, client_id=client_id)
     if isinstance(frame, CancelFrame):
         return CancelGoal(stamp=now, received=now, goal_id=frame.goal_id)
+    if isinstance(frame, EmergencyStopFrame):
+        return EmergencyStop(stamp=now, received=now, engaged=frame.engaged, source=client_id)
     if isinstance(frame, ConfigFrame):
         return ConfigChange(
             stamp=now,

@@ -3,14 +3,14 @@
 Modules request motion with VelocityCommand; only the gate publishes DriveCommand, the only
 message the chassis obeys. The gate holds the robot still (zero DriveCommand) while any
 reason holds: a sensor the estimate depends on that is stale or disconnected after having
-been seen (see ``SafetyGate``), or a SafeStop (a faulted module, lost localization) not yet
-cleared by its key. It clamps what it passes to the robot's speed limits, then lets its
-limiters (the collision guard) reduce it, again at every scan while the command stands. The
-chassis driver adds the last guard: with no fresh request for ``safety.reaction_timeout_s``
-(a DriveCommand's stamp is its request's) it writes zero itself. A triggered bumper or cliff
-sensor stops the robot at once and then lets through only motion that backs away from it
-(``contact_holds``); a bumper or cliff sensor that falls silent or leaves holds the robot
-like a lidar.
+been seen (see ``SafetyGate``), a SafeStop (a faulted module, lost localization) not yet
+cleared by its key, or an operator's EmergencyStop until one releases it. It clamps what it
+passes to the robot's speed limits, then lets its limiters (the collision guard) reduce it,
+again at every scan while the command stands. The chassis driver adds the last guard: with
+no fresh request for ``safety.reaction_timeout_s`` (a DriveCommand's stamp is its request's)
+it writes zero itself. A triggered bumper or cliff sensor stops the robot at once and then
+lets through only motion that backs away from it (``contact_holds``); a bumper or cliff
+sensor that falls silent or leaves holds the robot like a lidar.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from navd.lifecycle.messages import (
     DeviceResumed,
     DeviceStale,
     DriveCommand,
+    EmergencyStop,
     LaserScan,
     SafeStop,
     SafeStopCleared,
@@ -37,7 +38,7 @@ from navd.lifecycle.messages import (
 )
 from navd.lifecycle.module import Module, ModuleContext
 
-__all__ = ["SafetyGate", "SpeedLimiter"]
+__all__ = ["ESTOP_KEY", "ESTOP_REASON", "SafetyGate", "SpeedLimiter"]
 
 
 class SpeedLimiter(Protocol):
@@ -54,6 +55,8 @@ ESSENTIAL = frozenset({DeviceKind.LIDAR, DeviceKind.IMU, DeviceKind.CONTACT})
 WITHOUT_LIDAR = frozenset({DeviceKind.GPS, DeviceKind.WHEEL_ODOMETRY, DeviceKind.BEACON})
 # Device holds listed one by one in the reasons; more are summed up (a bounded status frame).
 MAX_LISTED_DEVICES = 8
+ESTOP_KEY = "estop"  # the safe stop an operator's emergency stop holds
+ESTOP_REASON = "emergency stop by"  # its reason: then who
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +116,7 @@ class SafetyGate(Module):
         ctx.subscribe(Contact, self._on_contact)
         ctx.subscribe(SafeStop, self._on_safe_stop)
         ctx.subscribe(SafeStopCleared, self._on_cleared)
+        ctx.subscribe(EmergencyStop, self._on_emergency_stop)
 
     def settings_in_use(self) -> tuple[object, ...]:
         return (self.settings.value, self.contact_mounts.value)
@@ -247,6 +251,17 @@ class SafetyGate(Module):
         self._reasons[msg.key] = msg.reason
         if fresh:
             self._held_now(msg.reason)
+
+    def _on_emergency_stop(self, msg: EmergencyStop) -> None:
+        """Held, as any safe stop, under ESTOP_KEY until released; either said once."""
+        t = msg.stamp
+        if msg.engaged:
+            why = f"{ESTOP_REASON} {msg.source}"
+            self._on_safe_stop(
+                SafeStop(stamp=t, received=t, reason=why, source=msg.source, key=ESTOP_KEY)
+            )
+        else:
+            self._on_cleared(SafeStopCleared(stamp=t, received=t, key=ESTOP_KEY, source=msg.source))
 
     def _on_cleared(self, msg: SafeStopCleared) -> None:
         if self._reasons.pop(msg.key, None) is not None:

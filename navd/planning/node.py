@@ -48,6 +48,7 @@ from navd.lifecycle.messages import (
     DeviceLost,
     DriveCommand,
     DriveMode,
+    EmergencyStop,
     Goal,
     LaserScan,
     ManualCommand,
@@ -109,6 +110,7 @@ class PlannerNode(Module):
         )
         ctx.subscribe(Goal, self._on_goal)
         ctx.subscribe(CancelGoal, self._on_cancel)
+        ctx.subscribe(EmergencyStop, self._on_emergency_stop)
         ctx.subscribe(ManualCommand, self._on_manual)
         ctx.subscribe(ViewInterest, self._on_view_interest)
         ctx.subscribe(PoseEstimate, self._on_pose)
@@ -173,6 +175,12 @@ class PlannerNode(Module):
         ):
             self.ctx.publish(self.reports.stop())  # stopping never waits for a worker
         self._post(cancel)
+
+    def _on_emergency_stop(self, stop: EmergencyStop) -> None:
+        """An emergency stop ends the goal: released, the robot does not set off again by
+        itself (a mission waits, paused, for a person to resume it)."""
+        if stop.engaged:
+            self._on_cancel(CancelGoal(stamp=stop.stamp, received=stop.received))
 
     def _on_view_interest(self, interest: ViewInterest) -> None:
         self.jobs.watched = interest

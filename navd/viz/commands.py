@@ -31,6 +31,7 @@ from navd.viz.settings import VizSettings
 from navd.wire import (
     CancelFrame,
     ControlRequest,
+    EmergencyStopFrame,
     GoalFrame,
     InitialPoseFrame,
     TeleopFrame,
@@ -49,7 +50,7 @@ __all__ = [
 MAX_COMMAND_BYTES = 16_384
 NAVD_TOPIC = "/navd/command"
 # What a viewer may ask for on navd's own topic: steering, not configuring.
-VIEWER_REQUESTS = (GoalFrame, InitialPoseFrame, TeleopFrame, CancelFrame)
+VIEWER_REQUESTS = (GoalFrame, InitialPoseFrame, TeleopFrame, CancelFrame, EmergencyStopFrame)
 
 
 def _yaw(orientation: Mapping[str, Any]) -> float:
@@ -156,6 +157,21 @@ def read_command(topic: str, data: bytes, tokens: tuple[str, ...] | None) -> Con
         raise CommandRefusedError(f"not a {topic} message: {type(err).__name__}: {err}") from err
 
 
+def _engages_a_stop(topic: str, data: bytes) -> bool:
+    """Whether a viewer's command engages the emergency stop (its token not looked at)."""
+    if topic != NAVD_TOPIC or len(data) > MAX_COMMAND_BYTES:
+        return False
+    try:
+        message = json.loads(data)
+    except (ValueError, RecursionError):
+        return False
+    return (
+        isinstance(message, dict)
+        and message.get("type") == "estop"
+        and message.get("engaged", True) is True
+    )
+
+
 def viewer_request(
     topic: str, data: bytes, settings: VizSettings, command_token: str
 ) -> ControlRequest:
@@ -166,6 +182,8 @@ def viewer_request(
     Raises:
         CommandRefusedError: naming the rule or the field that refused it.
     """
+    if _engages_a_stop(topic, data):  # stopping is always allowed: no token, any view
+        return EmergencyStopFrame(engaged=True)
     if not settings.commands:
         raise CommandRefusedError("viz.commands is false: this view is read-only")
     tokens = (

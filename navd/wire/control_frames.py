@@ -28,6 +28,7 @@ __all__ = [
     "ConfigFrame",
     "ConfigGetFrame",
     "ControlRequest",
+    "EmergencyStopFrame",
     "FindPoseFrame",
     "GoalFrame",
     "InitialPoseFrame",
@@ -67,6 +68,15 @@ class CancelFrame(Frame):
 
     type: Literal["cancel"] = "cancel"
     goal_id: str | None = None
+
+
+class EmergencyStopFrame(Frame):
+    """Stop the robot at once and keep it still until a control client or viewer releases it
+    (``engaged`` false): every motion is refused meanwhile, by hand too; the goal is
+    cancelled and a mission pauses. Acknowledged; allowed on every control connection."""
+
+    type: Literal["estop"] = "estop"
+    engaged: bool = True
 
 
 class ConfigFrame(Frame):
@@ -177,6 +187,7 @@ class ClockFrame(Frame):
 ControlRequest = (
     GoalFrame
     | CancelFrame
+    | EmergencyStopFrame
     | ConfigFrame
     | ConfigGetFrame
     | InitialPoseFrame

@@ -60,3 +60,13 @@ def test_q_and_ctrl_c_quit() -> None:
         keys = KeyDriver(0.3, 0.8)
         keys.key(key, 0.0)
         assert keys.quit
+
+
+def test_e_engages_the_emergency_stop_and_r_releases_it() -> None:
+    keys = KeyDriver(0.3, 0.8)
+    keys.key(UP, 0.0)
+    keys.key(b"e", 0.05)
+    assert keys.stop_request is True and keys.command(0.06) == (0.0, 0.0)
+    keys.stop_request = None  # sent
+    keys.key(b"r", 1.0)
+    assert keys.stop_request is False

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from navd.sim import Session, from_shapes, session
-from navd.wire import InitialPoseFrame, TeleopFrame
+from navd.wire import EmergencyStopFrame, InitialPoseFrame, TeleopFrame
 
 pytestmark = pytest.mark.e2e
 
@@ -98,3 +98,27 @@ async def test_an_operator_who_goes_quiet_is_stopped_within_the_reaction_timeout
         assert stops[0] - last_sent <= allowed_s
         assert not [t for t, left, right in log if t > stops[0] and (left, right) != (0, 0)]
         assert math.isclose(s.sim.body.linear_mps, 0.0, abs_tol=1e-9)
+
+
+async def test_an_emergency_stop_holds_the_robot_until_it_is_released(tmp_path: Path) -> None:
+    world = from_shapes(ROOM, "room")
+    async with session(world, tmp_path) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        await asyncio.sleep(1.0)
+        body = s.sim.body
+
+        async def drive(seconds: float, linear_mps: float) -> None:
+            for _ in range(round(seconds / 0.1)):
+                s.control.send(TeleopFrame(linear_x=linear_mps, angular_z=0.0))
+                await asyncio.sleep(0.1)
+
+        await drive(1.0, -0.15)  # backing away from the far wall: room to drive
+        assert body.linear_mps < -0.05
+        await s.control.request(EmergencyStopFrame())
+        await drive(1.5, -0.15)  # the operator keeps asking: nothing moves
+        stopped_at = body.x_m
+        await drive(1.0, -0.15)
+        assert (body.linear_mps, body.x_m) == (0.0, stopped_at)
+        await s.control.request(EmergencyStopFrame(engaged=False))
+        await drive(1.0, -0.15)
+        assert body.x_m < stopped_at - 0.03, "released, it drives again"

@@ -595,3 +595,12 @@ def test_an_order_that_fails_its_schema_is_named_in_the_error() -> None:
     send(vehicle, broken)
     refs = errors_of(vehicle)["validationError"]["errorReferences"]
     assert {"referenceKey": "orderId", "referenceValue": "o7"} in refs
+
+
+def test_an_operators_emergency_stop_is_a_remote_e_stop_in_the_state() -> None:
+    vehicle, _ = _vehicle()
+    held = ("emergency stop by ui",)
+    robot = reports.Robot((1.0, 2.0, 0.0), 0.05, (0.0, 0.0), held, False, "map")
+    message = reports.state(reports.header(1, 1.8e9, MAKER, SERIAL), vehicle, robot)
+    check("state", message)
+    assert message["safetyState"] == {"eStop": "REMOTE", "fieldViolation": True}

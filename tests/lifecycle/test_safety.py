@@ -13,6 +13,7 @@ from navd.lifecycle.messages import (
     DeviceResumed,
     DeviceStale,
     DriveCommand,
+    EmergencyStop,
     LaserScan,
     SafeStop,
     SafeStopCleared,
@@ -355,3 +356,20 @@ async def test_a_silent_contact_sensor_holds_the_robot(bus: Bus, gate: SafetyGat
     bus.publish(_device(DeviceStale, DeviceKind.CONTACT, "mcu", silent_s=0.6))
     bus.publish(velocity(0.3))
     assert drives[-1].is_stop and "contact 'mcu' silent" in drives[-1].reason
+
+
+async def test_an_emergency_stop_holds_every_motion_until_released(
+    bus: Bus, gate: SafetyGate
+) -> None:
+    drives = _drives(bus)
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3
+    bus.publish(EmergencyStop(stamp=1.0, received=1.0, engaged=True, source="ui"))
+    assert drives[-1].is_stop and drives[-1].reason == "emergency stop by ui"  # at once
+    bus.publish(velocity(-0.1))  # backing away too: nothing moves
+    assert drives[-1].is_stop
+    bus.publish(EmergencyStop(stamp=2.0, received=2.0, engaged=True, source="viewer-3"))
+    assert len(gate.reasons) == 1  # one hold, whoever pressed again
+    bus.publish(EmergencyStop(stamp=3.0, received=3.0, engaged=False, source="viewer-3"))
+    bus.publish(velocity(0.3))
+    assert drives[-1].linear_mps == 0.3

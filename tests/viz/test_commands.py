@@ -17,7 +17,7 @@ from navd.config import NavdConfig
 from navd.lifecycle.messages import CancelGoal, Goal, InitialPose, ManualCommand
 from navd.viz.commands import MAX_COMMAND_BYTES, CommandRefusedError, read_command, viewer_request
 from navd.viz.settings import VizSettings
-from navd.wire import CancelFrame, GoalFrame, InitialPoseFrame, TeleopFrame
+from navd.wire import CancelFrame, EmergencyStopFrame, GoalFrame, InitialPoseFrame, TeleopFrame
 from tests.drivers.conftest import record, until
 from tests.viz.foxglove_client import FoxgloveClient
 from tests.viz.test_node import viewed_daemon
@@ -251,3 +251,15 @@ def test_the_views_rules_refuse_by_name(
             "run-token",
         )
         assert frame == CancelFrame()
+
+
+@pytest.mark.parametrize("config", [{}, {"viz": {"commands": False}}], ids=["default", "read-only"])
+def test_an_emergency_stop_is_taken_without_a_token_its_release_is_not(
+    config: dict[str, Any],
+) -> None:
+    settings = VizSettings.from_config(NavdConfig.model_validate(config))
+    stop = json.dumps({"type": "estop", "token": "an-old-runs-token"}).encode()
+    assert viewer_request("/navd/command", stop, settings, "run-token") == EmergencyStopFrame()
+    release = json.dumps({"type": "estop", "engaged": False}).encode()
+    with pytest.raises(CommandRefusedError, match=r"read-only|missing or wrong token"):
+        viewer_request("/navd/command", release, settings, "run-token")

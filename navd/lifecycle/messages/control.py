@@ -381,6 +381,20 @@ class SafeStop(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class EmergencyStop(Message):
+    """An operator's emergency stop: ``engaged``, the robot stops at once and stays still
+    (its goal cancelled) until one releases it (``engaged`` false).
+
+    Attributes:
+        engaged: stop (True) or release (False).
+        source: who (a control client's or viewer's id).
+    """
+
+    engaged: bool
+    source: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SafeStopCleared(Message):
     """The hold named ``key`` no longer applies."""
 

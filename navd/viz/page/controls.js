@@ -106,6 +106,16 @@ export function listenToTheJoystick() {
 }
 
 export function listenToTheButtons() {
+  // The emergency stop: navd takes it without a token (stopping is always allowed); the
+  // release needs one, like any command that lets the robot move.
+  document.getElementById("estop").addEventListener("click", () => {
+    command({ type: "estop", engaged: true });
+    say("emergency stop sent", "bad");
+  });
+  document.getElementById("estop-release").addEventListener("click", () => {
+    command({ type: "estop", engaged: false });
+    say("release sent");
+  });
   document.getElementById("cancel").addEventListener("click", () => {
     command({ type: "cancel" });
     say("cancel sent");

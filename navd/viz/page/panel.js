@@ -22,6 +22,9 @@ export function showStatus() {
   if (safety) {
     setText("safety", safety.stopped ? `stopped: ${safety.reasons.join("; ")}` : "free to move",
       safety.stopped ? "bad" : "ok");
+    // the release shows only while an emergency stop holds the robot
+    const stopped = (safety.reasons || []).some((r) => r.startsWith("emergency stop"));
+    document.getElementById("estop-release").hidden = !stopped;
   }
   const drive = status.drive;
   const pose = state.pose;
