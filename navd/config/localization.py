@@ -117,6 +117,16 @@ class SlamConfig(Section):
         **restart("map .yaml to load at start-up and localize on; unset: start a new map"),
     )
     save_on_shutdown: bool = Field(False, description="save the map when the daemon stops")
+    autosave_period_s: float = Field(
+        10.0,
+        ge=0,
+        le=3600,
+        **restart(
+            "[s] while the map grows it is saved this often as map_dir/autosave, so a crash or "
+            "a power cut loses at most this much; the next start goes on from it (and finds "
+            "the robot on it). A clean stop removes it. 0: never"
+        ),
+    )
 
 
 class EstimationConfig(Section):

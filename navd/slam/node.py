@@ -42,6 +42,7 @@ from navd.lifecycle.messages import (
     WheelOdometry,
 )
 from navd.slam.assembler import ScanAssembler
+from navd.slam.autosave import AUTOSAVE_NAME, autosave_path, remove_autosave
 from navd.slam.errors import MapFileError
 from navd.slam.map_io import clean_leftovers, load_map_state, save_map, saved_files
 from navd.slam.mapper import ScanMapper
@@ -87,6 +88,8 @@ class SlamNode(Module):
         self._tracking_published_at = -math.inf
         self._scan_odometry: ScanOdometry | None = None
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
+        self._autosave_due = False  # the map grew: the next save job writes the autosave too
+        self._autosaved = -1  # the map revision the autosave holds
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -100,6 +103,10 @@ class SlamNode(Module):
         lidars = self._in_force.mounts.lidars  # mounts need a restart
         self._assembler = ScanAssembler(lidars) if len(lidars) > 1 else None
         load = self._in_force.load_map  # needs a restart
+        crashed = autosave_path(self._in_force.map_dir)
+        if load is None and self._enabled and crashed.exists():
+            load = str(crashed)  # the last run did not stop cleanly: go on from its map
+            ctx.log.warning("map_recovered", path=load)
         if load is not None:
             try:
                 saved = load_map_state(Path(load))
@@ -128,11 +135,15 @@ class SlamNode(Module):
         if self._enabled:
             self.ctx.warm_up(warm_up, name="warm-up")
         self.ctx.submit("map_save", self._clean_map_dir)  # before any save, in their slot
+        period = self._in_force.autosave_period_s  # (needs a restart)
+        if self._enabled and period > 0.0:
+            self.ctx.every(period, self._autosave_tick, name="map-autosave")
 
     async def on_deactivate(self) -> None:
         settings = self.settings.value  # map_dir, map_name, save_on_shutdown: read at use
         if settings.save_on_shutdown and self._map_drawn:
             self.ctx.publish(self._save(settings.map_name, settings.map_dir))
+        remove_autosave(self._in_force.map_dir)  # a clean stop: nothing to recover
 
     def settings_in_use(self) -> tuple[object, ...]:
         odometry = self._scan_odometry
@@ -298,17 +309,29 @@ class SlamNode(Module):
         loaded = MapLoaded(stamp=now, received=now, name=name, path=str(path))
         return (loaded, update)
 
+    def _autosave_tick(self, _now: float) -> None:
+        """Event loop: the map grew since the autosave was written: a save job writes it."""
+        if self._map_drawn and self.mapper.grid.revision != self._autosaved:
+            self._autosave_due = True
+            self.ctx.submit("map_save", self._save_waiting)
+
     def _save_waiting(self) -> tuple[MapSaved, ...]:
-        """Worker: every save asked for since the last job, each answered."""
+        """Worker: every save asked for since the last job, each answered; the autosave if
+        due (not answered: nobody asked)."""
         answers: list[MapSaved] = []
         while self._saves:
             name, folder = self._saves.popleft()
             answers.append(self._save(name, folder))
+        if self._autosave_due:
+            self._autosave_due = False
+            self._autosaved = self.mapper.grid.revision  # (a later change is saved next time)
+            self._save(AUTOSAVE_NAME, self._in_force.map_dir, quiet=True)
         return tuple(answers)
 
-    def _save(self, name: str, folder: str) -> MapSaved:
+    def _save(self, name: str, folder: str, *, quiet: bool = False) -> MapSaved:
         """Worker (or shutdown): write the map; a disk that refuses is reported, not raised
-        (it is not a fault of the mapper, and must never stop the robot)."""
+        (it is not a fault of the mapper, and must never stop the robot). ``quiet``: the
+        success is logged at debug (the autosave, every few seconds)."""
         with self._lock:
             grid = self.mapper.grid
             if grid.empty:
@@ -322,7 +345,7 @@ class SlamNode(Module):
         except (MapFileError, OSError) as err:
             self.ctx.log.error("map_not_saved", name=name, folder=folder, reason=str(err))
             return self._saved(name, reason=f"cannot write to {folder}: {err}")
-        self.ctx.log.info("map_saved", path=str(path))
+        (self.ctx.log.debug if quiet else self.ctx.log.info)("map_saved", path=str(path))
         return self._saved(name, path=str(path), files=tuple(str(f) for f in saved_files(path)))
 
     def _clean_map_dir(self) -> None:

@@ -91,6 +91,7 @@ class SlamSettings:
         mounts: where each lidar sits.
         map_dir, map_name: where maps are saved, and their default name.
         save_on_shutdown: save the map when the daemon stops.
+        autosave_period_s: [s] how often the growing map is saved for a crash (0: never).
         enabled: whether SLAM runs (needs a restart).
         load_map: the map to start from, or None (needs a restart).
     """
@@ -101,6 +102,7 @@ class SlamSettings:
     map_dir: str
     map_name: str
     save_on_shutdown: bool
+    autosave_period_s: float = 0.0
     enabled: bool = True
     load_map: str | None = None
 
@@ -115,6 +117,7 @@ class SlamSettings:
             map_dir=slam.map_dir,
             map_name=slam.map_name,
             save_on_shutdown=slam.save_on_shutdown,
+            autosave_period_s=slam.autosave_period_s,
             enabled=slam.enabled,
             load_map=slam.load_map,
         )
