@@ -7,7 +7,8 @@ wheels, by scan odometry (ICP onto a local map), inserts it at
 keyframes, and returns a ``PoseMeasurement`` for the estimator and, at most once per
 ``MAP_PERIOD_S`` after the map changed, a ``MapUpdate`` (and once per ``MAP_PERIOD_S`` the
 tracking counts, ``SlamTracking``). Maps are saved on request (a
-control client's save_map) and at shutdown if ``slam.save_on_shutdown``, with the pose graph
+control client's save_map), at shutdown if ``slam.save_on_shutdown``, and for a crash every
+``slam.autosave_period_s`` while the map grows (``autosave``), with the pose graph
 they were built from; ``slam.load_map`` starts from a saved map (mapping goes on with its
 graph), and the first scan then finds the robot anywhere on it (global search); an initial
 pose from a control client makes the next scan search around it (±1 m, ±30°). A robot lost
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections import deque
 from pathlib import Path
 
@@ -54,6 +56,7 @@ from navd.slam.warmup import warm_up
 
 __all__ = ["SlamNode"]
 
+AUTOSAVE_SHARE = 0.05  # the most of the time autosaves may take
 MAX_WAITING_SAVES = 8  # save requests waiting at once; more are answered at once, refused
 
 MAP_PERIOD_S = 1.0
@@ -90,6 +93,7 @@ class SlamNode(Module):
         self._saves: deque[tuple[str, str]] = deque()  # (name, folder) asked for, not yet done
         self._autosave_due = False  # the map grew: the next save job writes the autosave too
         self._autosaved = -1  # the map revision the autosave holds
+        self._autosave_after = -math.inf  # [s, monotonic] not before (a large map's saves)
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -311,7 +315,8 @@ class SlamNode(Module):
 
     def _autosave_tick(self, _now: float) -> None:
         """Event loop: the map grew since the autosave was written: a save job writes it."""
-        if self._map_drawn and self.mapper.grid.revision != self._autosaved:
+        grew = self._map_drawn and self.mapper.grid.revision != self._autosaved
+        if grew and time.monotonic() >= self._autosave_after:
             self._autosave_due = True
             self.ctx.submit("map_save", self._save_waiting)
 
@@ -325,7 +330,11 @@ class SlamNode(Module):
         if self._autosave_due:
             self._autosave_due = False
             self._autosaved = self.mapper.grid.revision  # (a later change is saved next time)
+            began = time.monotonic()
             self._save(AUTOSAVE_NAME, self._in_force.map_dir, quiet=True)
+            # a map so large its save takes long is saved less often: at most AUTOSAVE_SHARE
+            # of the time goes to it (and of an SD card's writes)
+            self._autosave_after = began + (time.monotonic() - began) / AUTOSAVE_SHARE
         return tuple(answers)
 
     def _save(self, name: str, folder: str, *, quiet: bool = False) -> MapSaved:
