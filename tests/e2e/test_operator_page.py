@@ -7,6 +7,8 @@ from __future__ import annotations
 import asyncio
 import math
 import shutil
+import signal
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -139,6 +141,9 @@ async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path
                 ),
                 60.0,
             )
+            # the goal over, its route and marker go from the picture
+            gone = "return navd.state.route === null && navd.state.goal === null"
+            await asyncio.to_thread(_wait, driver, gone, 10.0)
     assert final.state == "reached", final
     _, x, y, _ = s.sim.truth[-1]
     assert math.hypot(x - GOAL[0], y - GOAL[1]) <= 0.3
@@ -148,3 +153,79 @@ async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path
     assert active.goal_id in goal_text and "active" in goal_text
     assert safety_text == "free to move"
     assert shot.stat().st_size > 10_000  # a picture, kept in the test's folder
+
+
+async def test_the_pages_stop_button_holds_the_robot_until_released(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    async with session(world, tmp_path / "run", overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        s.control.send(SubscribeFrame(rate_hz=5))
+        with browser(tmp_path / "profile") as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1'"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            await asyncio.to_thread(driver.find_element("id", "estop").click)
+            held = await _status_until(
+                s,
+                lambda f: (
+                    isinstance(f, StatusFrame)
+                    and any(r.startswith("emergency stop by viewer-") for r in f.diagnostics.safety)
+                ),
+                10.0,
+            )
+            assert held is not None
+            release = "return !document.getElementById('estop-release').hidden"
+            await asyncio.to_thread(_wait, driver, release, 10.0)
+            await asyncio.to_thread(driver.find_element("id", "estop-release").click)
+            await _status_until(
+                s, lambda f: isinstance(f, StatusFrame) and not f.diagnostics.safety, 10.0
+            )
+            hidden = "return document.getElementById('estop-release').hidden"
+            await asyncio.to_thread(_wait, driver, hidden, 10.0)
+
+
+async def test_a_page_left_open_across_a_restart_commands_the_new_daemon(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    work = tmp_path / "run"
+    async with session(world, work, overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        with browser(tmp_path / "profile") as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1'"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            old_token = await asyncio.to_thread(
+                driver.execute_script, "return window.navdConfig.command_token"
+            )
+            s.daemon.send_signal(signal.SIGTERM)
+            await s.daemon.wait()
+            log = tmp_path / "restarted.log"
+            with log.open("wb") as out:
+                again = await asyncio.create_subprocess_exec(
+                    sys.executable, "-m", "navd", "run", "--config", str(work / "navd.toml"),
+                    stdout=out, stderr=out,
+                )  # fmt: skip
+            try:
+                fresh = (
+                    f"return window.navdConfig.command_token !== {old_token!r}"
+                    " && navd.state.connected"
+                )
+                await asyncio.to_thread(_wait, driver, fresh, 60.0)
+                await asyncio.to_thread(_wait, driver, "return navd.state.map !== null", 60.0)
+                await asyncio.to_thread(_click_map, driver, 1.0, 0.0)
+                deadline = time.monotonic() + 30.0
+                said = ""
+                while "viewer-" not in said and time.monotonic() < deadline:
+                    await asyncio.sleep(0.2)
+                    said = "\n".join(
+                        line
+                        for line in log.read_text(errors="replace").splitlines()
+                        if '"goal"' in line or "viewer_command_refused" in line
+                    )
+                assert "viewer_command_refused" not in said and "viewer-" in said, said
+            finally:
+                again.send_signal(signal.SIGTERM)
+                await asyncio.wait_for(again.wait(), 30.0)

@@ -2,6 +2,8 @@
 // the conversion between the map frame [m] and the canvas [px].
 import { pointer, state, view } from "./model.js";
 
+const SCAN_SHOWN_MS = 1000; // a scan is drawn this long after it came, no longer
+
 const canvas = document.getElementById("map");
 const ctx = canvas.getContext("2d");
 const mapImage = document.createElement("canvas");
@@ -110,9 +112,10 @@ function draw() {
     if (state.goal.yaw !== null) arrow(state.goal.x, state.goal.y, state.goal.yaw, 22, "#2fb84f");
   }
   ctx.fillStyle = "#ff3b30";
-  const newest = Math.max(...Object.values(state.scans).map((s) => s.stamp));
+  const now = performance.now();
   for (const scan of Object.values(state.scans)) {
-    if (scan.stamp < newest - 1.0) continue;  // a lidar gone quiet: its points are old
+    // a lidar gone quiet (the only one too): its last points are not what is there now
+    if (now - scan.arrived > SCAN_SHOWN_MS) continue;
     const p = scan.points;
     for (let i = 0; i + 1 < p.length; i += 2) {
       const [px, py] = mapToScreen(p[i], p[i + 1]);

@@ -5,6 +5,7 @@ import { paintMap, requestDraw } from "./picture.js";
 import { say, showStatus } from "./panel.js";
 
 const SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"];
+const ENDED = ["reached", "failed", "canceled"]; // a goal's last states
 const TOPICS = ["/page/info", "/page/map", "/page/pose", "/page/scan", "/page/route",
   "/page/goal", "/status", "/goal_status"];
 const COMMAND_TOPIC = "/navd/command";
@@ -21,6 +22,8 @@ export function connect() {
   subscriptions = new Map();
   socket.onopen = () => {
     state.connected = true;
+    // what the last connection said is the past (a restarted daemon has none of it)
+    Object.assign(state, { route: null, goal: null, goalStatus: null, status: null, scans: {} });
     send({ op: "advertise", channels: [{ id: COMMAND_CHANNEL, topic: COMMAND_TOPIC,
       encoding: "json", schemaName: "navd.Command" }] });
     showStatus();
@@ -28,12 +31,21 @@ export function connect() {
   socket.onclose = () => {
     state.connected = false;
     showStatus();
-    setTimeout(connect, RECONNECT_MS);
+    setTimeout(reconnect, RECONNECT_MS);
   };
   socket.onmessage = (event) => {
     if (typeof event.data === "string") onOp(JSON.parse(event.data));
     else onData(new DataView(event.data));
   };
+}
+
+// A restarted daemon has a new command token and perhaps a new port: ask for them again
+// before connecting (a page kept open across a restart must not send the old token).
+function reconnect() {
+  fetch("config.json", { cache: "no-store" })
+    .then((r) => r.json())
+    .then((config) => { window.navdConfig = config; connect(); })
+    .catch(() => setTimeout(reconnect, RECONNECT_MS));
 }
 
 function send(op) {
@@ -77,7 +89,10 @@ function take(topic, message) {
     case "/page/route": state.route = message; break;
     case "/page/goal": state.goal = message; break;
     case "/status": state.status = message; break;
-    case "/goal_status": state.goalStatus = message; break;
+    case "/goal_status":
+      state.goalStatus = message;
+      if (ENDED.includes(message.state)) { state.route = null; state.goal = null; }  // done
+      break;
   }
   if (topic === "/status" || topic === "/goal_status" || topic === "/page/pose") showStatus();
   document.body.dataset.ready = state.map && state.pose ? "1" : "0";
@@ -92,7 +107,7 @@ function scanPoints(message) {
   const cm = new Int32Array(bytes.buffer);
   const points = new Float64Array(cm.length);
   for (let i = 0; i < cm.length; i++) points[i] = cm[i] / 100;
-  return { stamp: message.stamp, points };
+  return { stamp: message.stamp, arrived: performance.now(), points };
 }
 
 export function command(frame) {
