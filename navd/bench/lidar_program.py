@@ -35,7 +35,7 @@ from typing import Any
 
 from navd.sim import free_port
 from navd.sim.devices import SerialLine
-from navd.wire import Client, TeleopFrame
+from navd.wire import Client, ScanFrame, TeleopFrame, decode_sensor
 
 __all__ = ["run"]
 
@@ -144,14 +144,14 @@ class _Run:
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
         )
-        _wait_for(lambda: len(self.relay.scans) >= 3, 30.0, "no scan reached navd")
+        _wait_for(lambda: len(self.relay.lines) >= 4, 30.0, "no scan reached navd")
         threading.Thread(target=self._teleop, daemon=True).start()
         time.sleep(SETTLE_S)
         log_start = self.log_path.stat().st_size
         begin = time.monotonic()
-        first_scan = len(self.relay.scans)
+        first_line = len(self.relay.lines)
         time.sleep(seconds)
-        scans = self.relay.scans[first_scan:]
+        scans = self.relay.scans(first_line)
         said = self.log_path.read_bytes()[log_start:].decode("utf-8", "replace")
         figures: dict[str, Any] = {
             "scans": len(scans),
@@ -225,7 +225,7 @@ class _Relay:
         self.navd_port = navd_port
         self.listener = socket.create_server(("127.0.0.1", 0))
         self.port = self.listener.getsockname()[1]
-        self.scans: list[tuple[float, float]] = []  # (arrival [s], its stamp [s])
+        self.lines: list[tuple[float, bytes]] = []  # (arrival [s], the line) after the hello
         self._sockets: list[socket.socket] = [self.listener]
         threading.Thread(target=self._accept, daemon=True).start()
 
@@ -251,9 +251,17 @@ class _Relay:
                 now = time.monotonic()
                 pending += data
                 *lines, pending = pending.split(b"\n")
-                for line in lines:
-                    if b'"scan"' in line[:40]:
-                        self.scans.append((now, float(json.loads(line)["stamp"])))
+                self.lines.extend((now, line) for line in lines)
+
+    def scans(self, since: int = 1) -> list[tuple[float, float]]:
+        """(arrival [s], its stamp [s]) of each scan among the lines from ``since`` on,
+        decoded as navd does (the program stamps every scan)."""
+        frames = [(at, decode_sensor("lidar", line)) for at, line in self.lines[max(since, 1) :]]
+        return [
+            (at, frame.stamp)
+            for at, frame in frames
+            if isinstance(frame, ScanFrame) and frame.stamp is not None
+        ]
 
     def close(self) -> None:
         for sock in self._sockets:

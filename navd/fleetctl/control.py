@@ -1,5 +1,4 @@
-"""The fleet control's side of the broker: which vehicles are there, and driving a group
-goal through their orders (``group.GroupDrive``).
+"""Driving a group goal through the vehicles' orders (``group.GroupDrive``).
 
 It listens to every vehicle of the interface (``connection`` and ``state``), asks the ones
 in the group for a fresh state (``stateRequest``), sends each its order, then an update each
@@ -15,159 +14,23 @@ import math
 import time
 import uuid
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import aiomqtt
 import numpy as np
 
-from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION, Broker, connect, timestamp
+from navd.fleet import MAJOR_VERSION
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal, GroupMember
 from navd.fleetctl.group_map import GroupMap
+from navd.fleetctl.view import HEADERS, QOS, FleetView, fleet_view, instant_action, master_client
 
-__all__ = ["FleetView", "Vehicle", "drive_group", "fleet_view", "instant_action", "one_map"]
+__all__ = ["drive_group", "one_map"]
 
-# [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
-LISTEN_S = 1.5
 # [s] the group's shape is measured (and corrected) at most this often, not on every message
 MEASURE_EVERY_S = 0.1
 # errors that end a group goal: the vehicle cannot do its part
 FATAL_ERRORS = ("validationError", "orderError", "orderUpdateError")
-QOS = 0  # VDA 5050 §6.2: orders and instant actions at QoS 0
-
-
-class HeaderIds:
-    """The headerId of each topic: each (so each vehicle's orders and its instant actions
-    apart) counts its own messages from 1 (VDA 5050 §6.1)."""
-
-    def __init__(self) -> None:
-        self._last: dict[str, int] = {}
-
-    def next(self, topic: str) -> int:
-        """The next headerId on ``topic``."""
-        self._last[topic] = self._last.get(topic, 0) + 1
-        return self._last[topic]
-
-
-HEADERS = HeaderIds()  # this master's, for every vehicle it talks to
-
-
-@dataclass
-class Vehicle:
-    """A vehicle as the fleet control last heard it."""
-
-    manufacturer: str
-    serial: str
-    connection: str = "unknown"
-    state: dict[str, Any] | None = None
-
-    @property
-    def name(self) -> str:
-        return f"{self.manufacturer}/{self.serial}"
-
-    @property
-    def map_id(self) -> str | None:
-        """The map its position is on (``agvPosition.mapId``), None if not said."""
-        where = (self.state or {}).get("agvPosition")
-        map_id = where.get("mapId") if isinstance(where, dict) else None
-        return map_id if isinstance(map_id, str) else None
-
-    @property
-    def position(self) -> tuple[float, float] | None:
-        where = (self.state or {}).get("agvPosition")
-        try:
-            return None if not isinstance(where, dict) else (float(where["x"]), float(where["y"]))
-        except (KeyError, TypeError, ValueError):
-            return None  # a malformed position: none known
-
-
-@dataclass
-class FleetView:
-    """Every vehicle heard of, by "manufacturer/serial"."""
-
-    interface: str
-    vehicles: dict[str, Vehicle] = field(default_factory=dict)
-
-    def hear(self, topic: str, payload: bytes) -> tuple[Vehicle, str] | None:
-        """Take a message; the vehicle and the topic's last level, or None if not a
-        vehicle's (or malformed)."""
-        levels = topic.split("/")
-        if len(levels) != 5:
-            return None
-        try:
-            body = json.loads(payload)
-        except (ValueError, RecursionError):
-            return None
-        if not isinstance(body, dict):
-            return None
-        key = f"{levels[2]}/{levels[3]}"
-        vehicle = self.vehicles.setdefault(key, Vehicle(levels[2], levels[3]))
-        if levels[4] == "connection":
-            vehicle.connection = str(body.get("connectionState", "unknown"))
-        elif levels[4] == "state":
-            vehicle.state = body
-        return vehicle, levels[4]
-
-
-def _client(broker_url: str) -> aiomqtt.Client:
-    """A connection for the fleet control, under a name of its own on the broker.
-
-    Raises:
-        BrokerUrlError: the URL is not an MQTT broker's.
-    """
-    return connect(Broker.of_url(broker_url), f"navd-fleet-{uuid.uuid4().hex[:8]}")
-
-
-async def fleet_view(
-    broker_url: str, interface: str = "uagv", listen_s: float = LISTEN_S
-) -> FleetView:
-    """Every vehicle on the broker: their retained connection, and their state within
-    ``listen_s`` (each ONLINE one is asked for it)."""
-    view = FleetView(interface)
-    prefix = f"{interface}/{MAJOR_VERSION}"
-    async with _client(broker_url) as client:
-        await client.subscribe(f"{prefix}/+/+/connection", qos=1)
-        await client.subscribe(f"{prefix}/+/+/state", qos=1)
-        asked: set[str] = set()
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + listen_s
-        while (left := deadline - loop.time()) > 0:
-            try:
-                message = await asyncio.wait_for(anext(client.messages), left)
-            except TimeoutError:
-                break
-            heard = view.hear(str(message.topic), bytes(message.payload))
-            if heard is not None and heard[0].connection == "ONLINE" and heard[0].name not in asked:
-                asked.add(heard[0].name)
-                await _state_request(client, prefix, heard[0])
-    return view
-
-
-def instant_action(
-    manufacturer: str, serial: str, header_id: int, kind: str, action_id: str
-) -> dict[str, Any]:
-    """An instantActions message of one action ``kind`` for a vehicle."""
-    return {
-        "headerId": header_id,
-        "timestamp": timestamp(time.time()),
-        "version": PROTOCOL_VERSION,
-        "manufacturer": manufacturer,
-        "serialNumber": serial,
-        "actions": [{"actionType": kind, "actionId": action_id, "blockingType": "NONE"}],
-    }
-
-
-async def _state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -> None:
-    topic = f"{prefix}/{vehicle.manufacturer}/{vehicle.serial}/instantActions"
-    message = instant_action(
-        vehicle.manufacturer,
-        vehicle.serial,
-        HEADERS.next(topic),
-        "stateRequest",
-        f"state-{uuid.uuid4().hex[:8]}",
-    )
-    await client.publish(topic, json.dumps(message), qos=QOS)
 
 
 async def drive_group(
@@ -208,7 +71,7 @@ async def drive_group(
     )
     began = time.monotonic()
     outcome: dict[str, Any] = {"reached": False}
-    async with _client(broker_url) as client:
+    async with master_client(broker_url) as client:
         run = _GroupRun(client, f"{interface}/{MAJOR_VERSION}", group, view, report)
         await run.start()
         loop = asyncio.get_running_loop()

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from navd.fleetctl import control
-from navd.fleetctl.control import FleetView, Vehicle, instant_action, one_map
+from navd.fleetctl.control import one_map
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.formation import assign, places, shape_error, slots
 from navd.fleetctl.group import GroupDrive, GroupGoal
+from navd.fleetctl.view import FleetView, Vehicle, instant_action
 from tests.fleet.vda5050_schemas import check
 
 

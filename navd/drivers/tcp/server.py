@@ -13,12 +13,12 @@ clients carry on.
 from __future__ import annotations
 
 import asyncio
-import hmac
 import re
 from collections.abc import Callable
 
 from navd import __version__
 from navd.drivers.errors import DriverError
+from navd.drivers.tcp.admission import admission_refusal
 from navd.drivers.tcp.clock import ClockRole
 from navd.drivers.tcp.connection import Connection
 from navd.drivers.tcp.control import ControlRole
@@ -43,7 +43,6 @@ from navd.wire import (
     SENSOR_FRAMES,
     DeviceInfo,
     ErrorFrame,
-    Hello,
     StatusFrame,
     Welcome,
     WireError,
@@ -260,7 +259,7 @@ class TcpServer(Module):
         except WireError as err:
             conn.close("bad hello", ErrorFrame(field=err.field, reason=err.reason, fatal=True))
             return None
-        refusal = self._refusal(hello)
+        refusal = admission_refusal(hello, self.sessions, self.settings.value, self.clock_role)
         if refusal is not None:
             field, reason = refusal
             conn.close(reason, ErrorFrame(field=field, reason=reason, fatal=True))
@@ -309,61 +308,6 @@ class TcpServer(Module):
             DeviceConnected(stamp=now, received=now, device_id=hello.device_id, kind=kind)
         )
         return session
-
-    def _refusal(self, hello: Hello) -> tuple[str, str] | None:
-        """(field, reason) if the hello may not open a session."""
-        token = self.settings.value.token
-        if token is not None and not hmac.compare_digest(
-            (hello.token or "").encode(), token.encode()
-        ):
-            return "token", "missing or wrong token"
-        holder = self.sessions.get(hello.device_id)
-        limit = self.settings.value.max_clients
-        if holder is None and len(self.sessions) >= limit:
-            return "", f"server full: {limit} clients connected (tcp.max_clients)"
-        controls = self.settings.value.max_control_clients
-        if (
-            holder is None
-            and hello.role == "control"
-            and sum(1 for x in self.sessions.values() if x.kind is DeviceKind.CONTROL) >= controls
-        ):
-            return "", (
-                f"control clients full: {controls} connected (tcp.max_control_clients; the "
-                "rest of tcp.max_clients is kept for sensors)"
-            )
-        if holder is not None and holder.kind.value != hello.role:
-            return "device_id", (
-                f"{hello.device_id!r} is the id of a {holder.kind.value} connected from "
-                f"{holder.conn.peer}; a {hello.role} needs an id of its own"
-            )
-        if holder is not None and not holder.stale and holder.kind is not DeviceKind.CONTROL:
-            return "device_id", (
-                f"{hello.device_id!r} is in use by {holder.conn.peer} (a {holder.kind.value}); "
-                "a sensor's id stays with its connection until it leaves or falls silent"
-            )
-        mounts = self.settings.value.mounts
-        unmounted = mounts.refusal(hello.role, hello.device_id)
-        if unmounted is not None:
-            return "device_id", unmounted
-        if hello.role == "lidar" and not mounts.lidars:
-            # One implicit mount (the lidar section) cannot place two lidars.
-            for other in self.sessions.values():
-                if (
-                    other.kind is DeviceKind.LIDAR
-                    and other.device_id != hello.device_id
-                    and other.accepted > 0  # a lidar that is speaking, not just connected
-                    and not other.stale
-                ):
-                    return "device_id", (
-                        f"{hello.device_id!r} would be a second lidar beside "
-                        f"{other.device_id!r}: give each lidar its mount under "
-                        "[mounts.lidars] in the config"
-                    )
-        if hello.role == "clock":
-            refusal = self.clock_role.refusal(hello.device_id, self.sessions.values())
-            if refusal:
-                return "role", refusal
-        return None
 
     def _lost(self, session: Session, reason: str) -> None:
         now = self.ctx.clock.now()

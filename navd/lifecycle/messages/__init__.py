@@ -25,7 +25,6 @@ from navd.lifecycle.messages.control import (
     ConfigRejected,
     DriveCommand,
     DriveMode,
-    EmergencyStop,
     FindPoseRequest,
     GeoGoal,
     Goal,
@@ -38,9 +37,6 @@ from navd.lifecycle.messages.control import (
     PoseFound,
     RecordingState,
     RecordRequest,
-    SafeStop,
-    SafeStopCleared,
-    SafetyState,
     SaveMapRequest,
     VelocityCommand,
     ViewInterest,
@@ -71,6 +67,7 @@ from navd.lifecycle.messages.results import (
     TrackingLost,
     WorkerStats,
 )
+from navd.lifecycle.messages.safety import EmergencyStop, SafeStop, SafeStopCleared, SafetyState
 from navd.lifecycle.messages.sensors import (
     BeaconObservation,
     CompassHeading,

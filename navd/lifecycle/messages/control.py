@@ -1,5 +1,5 @@
 """Requests (goals, cancels, initial poses, map saves, config changes), goal progress, and
-the commands that move the robot or hold it still."""
+the commands that move the robot; the holds that keep it still are in ``safety``."""
 
 from __future__ import annotations
 
@@ -356,47 +356,3 @@ class DriveCommand(Message):
     def is_stop(self) -> bool:
         """True for the zero command."""
         return self.linear_mps == 0.0 and self.angular_radps == 0.0
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class SafetyState(Message):
-    """Why the safety gate holds the robot still; empty ``reasons`` means it may move."""
-
-    reasons: tuple[str, ...]
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class SafeStop(Message):
-    """The robot must stand still until a SafeStopCleared with the same ``key``.
-
-    Attributes:
-        reason: why, for people.
-        source: who decided ("supervisor", "collision_guard"...).
-        key: names this hold ("fault:planner"); a SafeStopCleared with it releases it.
-    """
-
-    reason: str
-    source: str
-    key: str
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class EmergencyStop(Message):
-    """An operator's emergency stop: ``engaged``, the robot stops at once and stays still
-    (its goal cancelled) until one releases it (``engaged`` false).
-
-    Attributes:
-        engaged: stop (True) or release (False).
-        source: who (a control client's or viewer's id).
-    """
-
-    engaged: bool
-    source: str
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class SafeStopCleared(Message):
-    """The hold named ``key`` no longer applies."""
-
-    key: str
-    source: str

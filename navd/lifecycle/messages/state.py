@@ -13,7 +13,6 @@ from navd.lifecycle.messages.control import (
     DriveCommand,
     DriveMode,
     GoalStatus,
-    SafetyState,
 )
 from navd.lifecycle.messages.mission import MissionStatus
 from navd.lifecycle.messages.results import (
@@ -23,6 +22,7 @@ from navd.lifecycle.messages.results import (
     PoseEstimate,
     SlamTracking,
 )
+from navd.lifecycle.messages.safety import SafetyState
 
 __all__ = ["PARTS", "ConfigHistory", "RobotState"]
 
