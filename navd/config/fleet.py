@@ -78,6 +78,15 @@ class FleetConfig(Section):
     keepalive_s: int = Field(
         10, ge=2, le=600, **restart("[s] MQTT keep-alive: a silent vehicle is broken after 1.5x")
     )
+    max_message_bytes: int = Field(
+        1_048_576,
+        ge=65_536,
+        le=67_108_864,
+        description="[bytes] the largest MQTT message read (orders, instant actions, other "
+        "vehicles' positions): a larger one is refused unread, with a validationError on the "
+        "state, because reading it holds the event loop (a 1 MiB order takes ~0.1 s on the "
+        "board); the factsheet gives it to masters as msgLen",
+    )
 
     @field_validator("interface_name", "manufacturer", "serial_number")
     @classmethod

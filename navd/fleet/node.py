@@ -234,6 +234,9 @@ class FleetNode(Module):
         raw = payload if isinstance(payload, bytes) else str(payload).encode()
         now, here = self.ctx.clock.now(), self._here()
         levels = topic.split("/")
+        if len(raw) > (limit := self.settings.value.fleet.max_message_bytes):
+            self._too_large(topic, levels, len(raw), limit)  # parsing it would hold the loop
+            return
         if len(levels) == 5 and levels[-1] in ("visualization", "factsheet"):
             name = f"{levels[2]}/{levels[3]}"
             if name != f"{self.vehicle.manufacturer}/{self.vehicle.serial_number}":
@@ -246,6 +249,12 @@ class FleetNode(Module):
         errors = [e["errorType"] for e in self.vehicle.errors]
         if errors:
             self.ctx.log.info("fleet_errors", topic=topic.rsplit("/", 1)[-1], errors=errors)
+
+    def _too_large(self, topic: str, levels: list[str], size: int, limit: int) -> None:
+        """A message over ``fleet.max_message_bytes``: refused without reading it."""
+        self.ctx.log.warning("fleet_message_too_large", topic=topic, bytes=size, limit=limit)
+        if topic in (self.topics.order, self.topics.instant_actions):
+            self.vehicle.refuse_unread(levels[-1], size, limit)
 
     def _requested(self, what: str) -> None:
         if what == "state":

@@ -243,7 +243,7 @@ def factsheet(
             "length": length,
         },
         "protocolLimits": {
-            "maxStringLens": {"idLen": 256},
+            "maxStringLens": {"msgLen": fleet.max_message_bytes, "idLen": 256},
             "maxArrayLens": {"order.nodes": 1000, "order.edges": 1000},
             "timing": {
                 "minOrderInterval": 0.1,

@@ -13,8 +13,7 @@ Actions navd performs: ``wait`` on nodes and edges, and the instant actions
 traversed; the vehicle leaves it once no SOFT or HARD action is left to run. ``cancelOrder``
 fails every action not yet ended and stops the robot; it and ``startPause`` stay RUNNING
 until the robot stands (§6.6.3), the cancelled order's nodes shown till then (a master reads
-none as the order done). A pause lasts until ``stopPause``. Which orders are taken is
-``order_rules``'; the errors are an ``ErrorList``.
+none as the order done). A pause lasts until ``stopPause``. Rules: ``order_rules``.
 """
 
 from __future__ import annotations
@@ -133,6 +132,11 @@ class Vehicle:
         for action in message.actions:
             out += self._instant(action, now, pose)
         return out
+
+    def refuse_unread(self, what: str, size: int, limit: int) -> None:
+        """A message of ``size`` bytes over ``limit`` was dropped unread: a validationError."""
+        why = f"{what} of {size} bytes not read: over fleet.max_message_bytes ({limit})"
+        self._error("validationError", why, [])
 
     def on_goal_status(self, status: GoalStatus, now: float) -> list[Message]:
         """A goal's end: the vehicle's own goal reaching its node traverses the node."""

@@ -127,3 +127,47 @@ async def test_the_position_goes_out_once_known_and_the_view_keeps_its_rate(
         await tick(1.1 + 0.103 * i)
     views = [body for topic, body in client.sent if topic == "visualization"]
     assert len(views) == pytest.approx(0.103 * 199 * 2.0, abs=2)  # 2 a second, not 1.7
+
+
+async def test_a_message_over_the_size_cap_is_refused_unread(
+    bus: Bus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    wall = [1000.0]
+    clock = types.SimpleNamespace(monotonic=lambda: wall[0], time=time.time)
+    monkeypatch.setattr(fleet_node, "time", clock)
+    fleet = {"enabled": True, "broker_url": "mqtt://127.0.0.1:1", "serial_number": "r1"}
+    config = NavdConfig.model_validate({"fleet": fleet | {"max_message_bytes": 65_536}})
+    ctx = ModuleContext(
+        "fleet", bus=bus, clock=bus.clock, workers=WorkerPool(bus, 1), config=lambda: config
+    )
+    module = FleetNode()
+    await module.on_configure(ctx)
+    client = _Client()
+    module._client = client  # type: ignore[assignment]
+    # not even JSON: had it been read, the error would be about its syntax
+    said = []
+    for topic, raw in (
+        (module.topics.order, b"[" * 70_000),
+        (module.topics.instant_actions, b"{" * 65_537),
+    ):
+        module._heard(topic, raw)
+        wall[0] += 1.0
+        module._tick(wall[0])
+        for _ in range(3):
+            await asyncio.sleep(0)
+        check("state", client.states()[-1])
+        said += [(e["errorType"], e["errorDescription"]) for e in client.states()[-1]["errors"]]
+    assert said == [
+        ("validationError", "order of 70000 bytes not read: over fleet.max_message_bytes (65536)"),
+        (
+            "validationError",
+            "instantActions of 65537 bytes not read: over fleet.max_message_bytes (65536)",
+        ),
+    ]
+    # another vehicle's position, padded past the cap: not taken, however well formed
+    view = {"agvPosition": {"x": 1.0, "y": 2.0, "theta": 0.0, "mapId": "map"}, "pad": "x" * 70_000}
+    module._heard("uagv/v2/navd/r2/visualization", json.dumps(view).encode())
+    assert module._others == {}
+    view["pad"] = ""
+    module._heard("uagv/v2/navd/r2/visualization", json.dumps(view).encode())
+    assert list(module._others) == ["navd/r2"]
