@@ -9,7 +9,8 @@ reopening a lost port; a command received before the loss is never replayed. A l
 (USB unplugged, pty closed) is reported as DeviceLost and reopened with exponential backoff,
 in real time on either clock.
 Lines the STM32 sends back are logged or, if configured, parsed as measured wheel speeds into
-WheelOdometry.
+WheelOdometry. On real time, a ``StallWatch`` process beside the daemon writes "0 0" when the
+daemon's lines stop for the reaction timeout (its loop stalled, or it died).
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ from navd.drivers.kinematics import (
 )
 from navd.drivers.serial_port import open_exclusive
 from navd.drivers.settings import ChassisSettings
-from navd.lifecycle import Module, ModuleContext, ticks
+from navd.drivers.stall_watch import StallWatch
+from navd.lifecycle import Module, ModuleContext, MonotonicClock, ticks
 from navd.lifecycle.messages import (
     DeviceConnected,
     DeviceKind,
@@ -61,6 +63,8 @@ class ChassisDriver(Module):
         self._rx = bytearray()
         self._reading = False
         self.writes_stalled = 0
+        self._watch: StallWatch | None = None
+        self._watch_stops = 0  # the watch's stop lines seen by the loop
 
     async def on_configure(self, ctx: ModuleContext) -> None:
         self.ctx = ctx
@@ -80,9 +84,17 @@ class ChassisDriver(Module):
     def settings_in_use(self) -> tuple[object, ...]:
         return (self.settings.value,)
 
-    def _settings_changed(self, _old: ChassisSettings, new: ChassisSettings) -> None:
+    def _settings_changed(self, old: ChassisSettings, new: ChassisSettings) -> None:
         # The feedback lines are read only when they are used.
         if self._port is not None:
+            watched = (old.reaction_timeout_s, old.period_s, old.line_ending)
+            if self._watch is not None and watched != (
+                new.reaction_timeout_s,
+                new.period_s,
+                new.line_ending,
+            ):
+                self._watch.close()
+                self._watch = self._new_watch(self._port.fileno(), new)
             if new.feedback == "off":
                 self._stop_reading()
             else:
@@ -155,6 +167,8 @@ class ChassisDriver(Module):
         except (serial.SerialException, OSError, ValueError) as err:
             raise SerialPortError(f"cannot open {settings.port}: {err}") from err
         self._port = port
+        if isinstance(self.ctx.clock, MonotonicClock):  # simulated time may stand still
+            self._watch = self._new_watch(port.fileno(), settings)
         self._lost_reason = ""
         self._latest = None  # never replay a command from before the port was (re)opened
         self._written = (0.0, 0.0)
@@ -174,7 +188,26 @@ class ChassisDriver(Module):
         async for _ in ticks(self.ctx.clock, lambda: self.settings.value.period_s):
             if self._lost_reason:
                 raise SerialPortError(self._lost_reason)
+            if self._watch is not None and self._watch.stops != self._watch_stops:
+                self._stalled(self._watch.stops)
             self._write(*self._command_now())
+
+    @staticmethod
+    def _new_watch(port_fd: int, settings: ChassisSettings) -> StallWatch:
+        stop = format_command(0, 0, settings.line_ending)
+        return StallWatch(port_fd, settings.reaction_timeout_s, settings.period_s, stop)
+
+    def _stalled(self, stops: int) -> None:
+        """The watch wrote stop lines: this loop was stalled past the reaction timeout. The
+        wheels were stopped, so what is written next speeds up from zero."""
+        self.ctx.log.warning(
+            "chassis_stall_stopped",
+            stop_lines=stops - self._watch_stops,
+            effect="the event loop wrote no wheel line for safety.reaction_timeout_s; the stall "
+            "watch stopped the wheels",
+        )
+        self._watch_stops = stops
+        self._written = (0.0, 0.0)
 
     def _command_now(self) -> tuple[int, int]:
         cmd = self._latest
@@ -207,6 +240,8 @@ class ChassisDriver(Module):
         line = format_command(left, right, self.settings.value.line_ending)
         try:
             self._port.write(line)
+            if self._watch is not None:
+                self._watch.beat()
             self.ctx.line_counts.add_sent(LINE_COUNT_ID)
         except serial.SerialTimeoutException:
             self.writes_stalled += 1  # nobody reads the UART: drop this line, not the port
@@ -285,6 +320,9 @@ class ChassisDriver(Module):
                 asyncio.get_running_loop().remove_reader(self._port.fileno())
 
     def _close(self) -> None:
+        if self._watch is not None:
+            self._watch.close()  # it holds the port (and its lock) open with it
+            self._watch, self._watch_stops = None, 0
         if self._port is None:
             return
         self._stop_reading()
