@@ -12,24 +12,32 @@ peer is loopback and the page was asked for by a loopback name, so a site whose 
 resolves to 127.0.0.1 does not get it): the page on the robot, or through an SSH tunnel,
 steers without typing a secret, while other web pages, which cannot read another origin's
 answers, cannot. Each connection is served by a thread of its own, at most
-``MAX_CONNECTIONS`` at once, and dropped after ``IDLE_TIMEOUT_S`` of silence.
+``MAX_CONNECTIONS`` at once, and dropped after ``IDLE_TIMEOUT_S`` of silence. A request must
+be whole within ``HEADER_DEADLINE_S`` of connecting, however slowly its bytes trickle in, and
+a new connection finding every slot taken closes the oldest one still sending its request:
+clients that open connections and dribble headers (slowloris) never keep the page from the
+operator.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import json
 import socket
 import threading
+import time
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 
-__all__ = ["IDLE_TIMEOUT_S", "MAX_CONNECTIONS", "PAGE_FILES", "PageServer"]
+__all__ = ["HEADER_DEADLINE_S", "IDLE_TIMEOUT_S", "MAX_CONNECTIONS", "PAGE_FILES", "PageServer"]
 
 MAX_CONNECTIONS = 32
 IDLE_TIMEOUT_S = 10.0  # [s] a connection that sends nothing this long is closed
+HEADER_DEADLINE_S = 5.0  # [s] from connecting to the end of the request's headers
+EVICTED_WAIT_S = 1.0  # [s] the most a new connection waits for an evicted one's slot
 
 _TYPES = {
     ".html": "text/html; charset=utf-8",
@@ -81,6 +89,7 @@ class _Handler(BaseHTTPRequestHandler):
         self._answer(body=False)
 
     def _answer(self, *, body: bool) -> None:
+        self.server.requested(self.request)
         path = self.path.split("?", 1)[0]
         if path == "/config.json":
             config = dict(self.server.config)
@@ -113,16 +122,25 @@ class _Server(ThreadingHTTPServer):
     config: dict[str, object]
     command_token: str
     slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+    # connections still sending their request -> [s, monotonic] when each was accepted
+    waiting: dict[socket.socket, float]
+    lock = threading.Lock()
 
     def process_request(self, request: Any, client_address: Any) -> None:
         """A thread per connection while fewer than MAX_CONNECTIONS are served; beyond,
-        the connection is closed at once."""
-        if not self.slots.acquire(blocking=False):
+        the oldest connection still sending its request is closed for it (or, if every one
+        is being answered, the new one is)."""
+        if not self.slots.acquire(blocking=False) and (
+            not self._evict_oldest() or not self.slots.acquire(timeout=EVICTED_WAIT_S)
+        ):
             self.shutdown_request(request)
             return
+        with self.lock:
+            self.waiting[request] = time.monotonic()
         try:
             super().process_request(request, client_address)
         except BaseException:
+            self.requested(request)
             self.slots.release()
             raise
 
@@ -130,7 +148,35 @@ class _Server(ThreadingHTTPServer):
         try:
             super().process_request_thread(request, client_address)
         finally:
+            self.requested(request)
             self.slots.release()
+
+    def requested(self, request: Any) -> None:
+        """``request``'s connection has sent its request (or is gone)."""
+        with self.lock:
+            self.waiting.pop(request, None)
+
+    def service_actions(self) -> None:
+        """Each poll of the server's thread: close the connections whose request is not
+        whole within HEADER_DEADLINE_S (their threads end on the closed socket)."""
+        late = time.monotonic() - HEADER_DEADLINE_S
+        with self.lock:
+            overdue = [r for r, since in self.waiting.items() if since < late]
+        for request in overdue:
+            self._cut(request)
+
+    def _evict_oldest(self) -> bool:
+        with self.lock:
+            oldest = min(self.waiting, key=self.waiting.__getitem__, default=None)
+        if oldest is None:
+            return False
+        self._cut(oldest)
+        return True
+
+    def _cut(self, request: Any) -> None:
+        self.requested(request)
+        with contextlib.suppress(OSError):  # already closed by its thread
+            request.shutdown(socket.SHUT_RDWR)
 
 
 class _Server6(_Server):
@@ -149,6 +195,8 @@ class PageServer:
         server = _Server6 if ":" in host else _Server
         self._server = server((host, port), _Handler)
         self._server.slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        self._server.waiting = {}
+        self._server.lock = threading.Lock()
         self._server.config = {"ws_port": ws_port, "robot": robot}
         self._server.command_token = command_token
         self._thread = threading.Thread(

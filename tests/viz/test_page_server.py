@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import socket
 import time
 import urllib.error
 import urllib.request
@@ -10,7 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from navd.viz.page_server import MAX_CONNECTIONS, PAGE_FILES, PageServer
+from navd.viz.page_server import HEADER_DEADLINE_S, MAX_CONNECTIONS, PAGE_FILES, PageServer
 
 
 @pytest.fixture
@@ -63,24 +64,32 @@ def test_a_busy_port_is_an_error_naming_the_address() -> None:
         first.stop()
 
 
-def test_idle_connections_beyond_the_cap_are_closed_not_served(page: PageServer) -> None:
-    import socket
-
+def test_connections_holding_every_slot_never_keep_the_page_away(page: PageServer) -> None:
     held = []
     try:
-        for _ in range(MAX_CONNECTIONS):  # connections that never send a request
-            held.append(socket.create_connection(("127.0.0.1", page.port), timeout=5))
-        extra = socket.create_connection(("127.0.0.1", page.port), timeout=5)
-        assert extra.recv(1) == b""  # closed at once: no thread for it
-        extra.close()
+        for _ in range(MAX_CONNECTIONS + 8):  # slowloris: a request begun, never finished
+            conn = socket.create_connection(("127.0.0.1", page.port), timeout=5)
+            conn.sendall(b"GET / HTTP/1.1\r\nHost: robot\r\n")
+            held.append(conn)
+        status, _, content = _get(page, "/")  # the oldest unfinished request made room
+        assert status == 200 and content == PAGE_FILES["/"]
+        assert held[0].recv(1) == b""  # closed for it
     finally:
         for conn in held:
             conn.close()
-    # once they are gone the page is served again
-    for _ in range(50):
-        try:
-            status, _, _ = _get(page, "/")
-            break
-        except OSError:
-            time.sleep(0.05)
-    assert status == 200
+
+
+def test_a_request_dribbled_slower_than_its_deadline_is_cut_off(page: PageServer) -> None:
+    conn = socket.create_connection(("127.0.0.1", page.port), timeout=5)
+    began = time.monotonic()
+    conn.sendall(b"GET / HTTP/1.1\r\n")
+    try:
+        for _ in range(60):  # a header line a second: never idle, never done
+            time.sleep(1.0)
+            conn.sendall(b"X-Slow: 1\r\n")
+        raise AssertionError("a request dribbled for 60 s was still being read")
+    except OSError:
+        pass  # cut off (a send to a closed connection fails)
+    finally:
+        conn.close()
+    assert time.monotonic() - began >= HEADER_DEADLINE_S
