@@ -57,6 +57,20 @@ class VizConfig(Section):
     page_port: int = Field(
         8766, ge=0, le=65535, **restart("HTTP port of the operator page; 0 picks a free one")
     )
+    max_viewers: int = Field(
+        8,
+        ge=1,
+        le=256,
+        description="live-view connections at once (Foxglove viewers and open pages); one more "
+        "is answered 503",
+    )
+    viewer_buffer_bytes: int = Field(
+        8_388_608,
+        ge=1_048_576,
+        le=268_435_456,
+        description="[bytes] the most waiting to be sent to one viewer: one that falls further "
+        "behind is disconnected (it may reconnect), so viewers hold at most max_viewers x this",
+    )
     map_rate_hz: float = Field(
         1.0, gt=0, le=10, description="[Hz] most map frames a second (the map is the largest)"
     )

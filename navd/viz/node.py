@@ -40,11 +40,11 @@ daemon goes on without the view: watching is never a reason not to drive.
 from __future__ import annotations
 
 import asyncio
+import functools
 import math
 import secrets
 import time
 
-import foxglove
 from foxglove import Context, StatusLevel
 from foxglove.websocket import Capability, WebSocketServer
 
@@ -74,6 +74,7 @@ from navd.viz.page_server import PageServer
 from navd.viz.sender import Sender
 from navd.viz.settings import VizSettings
 from navd.viz.status_feed import STATUS_PARTS, goal_status_message, status_message
+from navd.viz.viewer_gate import ViewerGate, serve_viewers
 from navd.viz.zone_feed import ZoneFeed
 
 __all__ = ["VizNode"]
@@ -88,6 +89,7 @@ class VizNode(Module):
     def __init__(self) -> None:
         super().__init__("viz")
         self.server: WebSocketServer | None = None
+        self._gate: ViewerGate  # in front of the server while it runs
         self._listener: ViewerListener | None = None
         # This run's command token: the operator page on this machine gets it (PageServer).
         self.command_token = secrets.token_urlsafe(24)
@@ -99,7 +101,7 @@ class VizNode(Module):
     @property
     def port(self) -> int | None:
         """The bound port (None when the view is not serving)."""
-        return None if self.server is None else self.server.port
+        return None if self.server is None else self._gate.port
 
     # --- lifecycle --------------------------------------------------------------------
 
@@ -154,16 +156,18 @@ class VizNode(Module):
         )
         self._listener = listener
         try:
-            self.server = foxglove.start_server(
+            self.server, self._gate = await serve_viewers(
+                s.host,
+                s.port,
+                lambda: self.settings.value.viewers,
+                self.ctx.log,
                 name=f"navd {__version__} ({s.robot_name})",
-                host=s.host,
-                port=s.port,
                 context=self.channels.context,
                 server_listener=listener,
                 capabilities=[Capability.ClientPublish],
                 supported_encodings=["json"],
             )
-        except Exception as err:  # the SDK reports a busy port or a bad address as RuntimeError
+        except Exception as err:  # a busy port or a bad address (OSError, the SDK: RuntimeError)
             self.ctx.log.error(
                 "viz_unavailable",
                 host=s.host,
@@ -176,9 +180,9 @@ class VizNode(Module):
             return
         add_log_tap(self._log_feed)
         self.ctx.every(lambda: self.settings.value.map_period_s, self._flush_map, name="viz-map")
-        self.ctx.log.info("viz_listening", host=s.host, port=self.server.port)
+        self.ctx.log.info("viz_listening", host=s.host, port=self._gate.port)
         if s.page_enabled:
-            self._serve_page(s, self.server.port)
+            self._serve_page(s, self._gate.port)
 
     def _serve_page(self, s: VizSettings, ws_port: int) -> None:
         """Start the operator page's HTTP server (its own thread); a port that cannot be
@@ -219,6 +223,7 @@ class VizNode(Module):
             page, self.page = self.page, None
             await asyncio.to_thread(page.stop)  # waits up to a poll interval: off the loop
         if self.server is not None:
+            self._gate.close()
             self.server.stop()
             self.server = None
 
@@ -284,12 +289,8 @@ class VizNode(Module):
             return
         self._map_pending = None
         offset_s = self.sender.offset_s
-        self.sender.remember(
-            "/map",
-            lambda: self.sender.send_built(
-                self.channels.map, lambda u: scene.occupancy_grid(u, offset_s=offset_s), update
-            ),
-        )
+        grid = functools.partial(scene.occupancy_grid, offset_s=offset_s)
+        self.sender.remember_built("/map", self.channels.map, grid, update)
         self.sender.remember("/page/map", lambda: self._page.map(update))
 
     def _on_scan(self, scan: LaserScan) -> None:

@@ -1,16 +1,26 @@
 """How the live view sends: only to channels someone watches, stamped on the wall clock as
 the view shows it, and remembering each topic's latest state for a viewer who subscribes
-later (map, route, goal, outline, zones, status)."""
+later (map, route, goal, outline, zones, status).
+
+A subscription sends the topic's latest state to every viewer of it (the server has no
+per-viewer send), so a storm of subscriptions (viewers subscribing and leaving every few
+milliseconds) would rebuild and resend a large map each time: a topic's state is sent again
+at most every ``REPLAY_GAP_S``, later subscribers in that gap served together."""
 
 from __future__ import annotations
 
+import asyncio
+import math
+import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
 from navd.lifecycle import Clock
 from navd.viz import scene
 
-__all__ = ["Sender"]
+__all__ = ["REPLAY_GAP_S", "Sender"]
+
+REPLAY_GAP_S = 0.5  # [s] a topic's latest state goes again to new subscribers at most this often
 
 
 class Sender:
@@ -26,6 +36,8 @@ class Sender:
         self._serving = serving
         self.offset_s = 0.0  # [s] wall clock minus daemon clock, fixed when the view starts
         self._latest: dict[str, Callable[[], None]] = {}  # topic -> send its latest state
+        self._replayed: dict[str, float] = {}  # topic -> [s, monotonic] when last sent again
+        self._replay_due: dict[str, asyncio.TimerHandle] = {}  # topic -> its coming replay
 
     def log_time(self) -> int:
         """[ns] now, on the wall clock as the view shows it."""
@@ -51,8 +63,36 @@ class Sender:
         self._latest[topic] = send
         send()
 
+    def remember_built(
+        self, topic: str, channel: Any, build: Callable[[Any], Any], source: Any
+    ) -> None:
+        """``remember`` for a state that is costly to build (the map): ``build(source)`` runs
+        once, when first watched, and each later send reuses it."""
+        built: list[Any] = []
+
+        def send() -> None:
+            if self.watched(channel):
+                if not built:
+                    built.append(build(source))
+                self.send(channel, built[0])
+
+        self.remember(topic, send)
+
     def replay(self, topic: str) -> None:
-        """Send ``topic``'s latest state again (a viewer just subscribed to it)."""
+        """Send ``topic``'s latest state again (a viewer just subscribed to it): now, or
+        when REPLAY_GAP_S has passed since it was last sent again (event loop only)."""
+        if topic not in self._latest or topic in self._replay_due:
+            return
+        wait_s = self._replayed.get(topic, -math.inf) + REPLAY_GAP_S - time.monotonic()
+        if wait_s <= 0.0:
+            self._replay_now(topic)
+        else:
+            loop = asyncio.get_running_loop()
+            self._replay_due[topic] = loop.call_later(wait_s, self._replay_now, topic)
+
+    def _replay_now(self, topic: str) -> None:
+        self._replay_due.pop(topic, None)
+        self._replayed[topic] = time.monotonic()
         send = self._latest.get(topic)
         if send is not None:
             send()
@@ -60,3 +100,6 @@ class Sender:
     def forget(self) -> None:
         """Hold no state past the view's life."""
         self._latest.clear()
+        for handle in self._replay_due.values():
+            handle.cancel()
+        self._replay_due.clear()

@@ -10,6 +10,7 @@ from typing import Literal
 from navd.config import NavdConfig, is_loopback, redacted
 from navd.geometry import Footprint, SensorMounts
 from navd.viz.recording_writer import WriterSettings
+from navd.viz.viewer_gate import GateLimits
 
 __all__ = ["RecorderSettings", "VizSettings"]
 
@@ -22,6 +23,7 @@ class VizSettings:
 
     Attributes:
         host, port: where the WebSocket server listens (they need a restart).
+        viewers: how many viewers at once, and how far behind each may fall.
         map_period_s, scan_period_s, pose_period_s: [s] least time between two frames of
             the map, the scan, and the pose with the frame tree.
         log_level: lowest level of the log lines streamed.
@@ -42,6 +44,7 @@ class VizSettings:
 
     host: str
     port: int
+    viewers: GateLimits
     map_period_s: float
     scan_period_s: float
     pose_period_s: float
@@ -68,6 +71,7 @@ class VizSettings:
         return cls(
             host=viz.host,
             port=viz.port,
+            viewers=GateLimits(viz.max_viewers, viz.viewer_buffer_bytes),
             map_period_s=1.0 / viz.map_rate_hz,
             scan_period_s=1.0 / viz.scan_rate_hz,
             pose_period_s=1.0 / viz.pose_rate_hz,

@@ -60,10 +60,11 @@ def moving(text: str) -> bool:
 
 @contextlib.contextmanager
 def driven_daemon(
-    spawn_daemon: Any, folder: Path, extra_toml: str = ""
+    spawn_daemon: Any, folder: Path, extra_toml: str = "", slam: str = ""
 ) -> Iterator[tuple[DaemonProcess, int, Wheels]]:
     """The real daemon, its chassis on a pseudo-terminal, driving at 0.2 m/s by hand with a
-    lidar streaming the room; yields it, its TCP port and the wheels once they move."""
+    lidar streaming the room; yields it, its TCP port and the wheels once they move.
+    ``extra_toml``: more sections; ``slam``: more lines of the slam section."""
     line = SerialLine(folder / "chassis-tty")
     wheels = Wheels(line)
     wheels.start()
@@ -71,7 +72,7 @@ def driven_daemon(
     config = folder / "navd.toml"
     config.write_text(
         f'[chassis]\nenabled = true\nport = "{folder / "chassis-tty"}"\n[tcp]\nport = {port}\n'
-        f'[slam]\nmap_dir = "{folder / "maps"}"\n{extra_toml}'
+        f'[slam]\nmap_dir = "{folder / "maps"}"\n{slam}\n{extra_toml}'
     )
     daemon: DaemonProcess = spawn_daemon("run", "--config", str(config))
     halt = threading.Event()

@@ -1,6 +1,7 @@
 """Nothing from outside stalls the loop that drives the wheels: the real daemon, driven by
-hand on a chassis pseudo-terminal, as a VDA 5050 vehicle on a real mosquitto, is sent a 50 MB
-order; the wheel lines keep their rhythm and the memory comes back."""
+hand on a chassis pseudo-terminal, is sent a 50 MB VDA 5050 order on a real mosquitto, or
+watched by 50 viewers that never read, on a 2000² map; the wheel lines keep their rhythm and
+the memory stays bounded."""
 
 from __future__ import annotations
 
@@ -10,8 +11,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pytest
+
+from navd.slam.map_io import save_map
+from navd.slam.occupancy import OccupancyGrid
 from tests.e2e.driving import driven_daemon
 from tests.fleet.broker import Broker
+from tests.viz.foxglove_client import stalled_viewer
 
 MAX_GAP_S = 0.3  # [s] the most between two wheel lines (they come every 50 ms)
 MAX_GROWTH_MB = 100.0
@@ -26,7 +33,7 @@ def _rss_mb(pid: int) -> float:
 
 def _huge_order(serial: str) -> bytes:
     """A well-formed order of ~50 MB: 1000 nodes x 10 actions x 100 parameters."""
-    parameters = [{"key": f"k{k}", "value": "v" * 20} for k in range(100)]
+    parameters = [{"key": f"k{k}", "value": "v" * 21} for k in range(100)]
     nodes = [
         {
             "nodeId": f"n{i}",
@@ -60,8 +67,7 @@ def _huge_order(serial: str) -> bytes:
 def test_a_50_mb_order_neither_stalls_the_wheels_nor_keeps_memory(
     spawn_daemon: Any, tmp_path: Path
 ) -> None:
-    import aiomqtt  # noqa: PLC0415 - only where a broker runs
-
+    aiomqtt = pytest.importorskip("aiomqtt", reason="aiomqtt missing")
     broker = Broker(tmp_path)
     broker.start()
     fleet = f'[fleet]\nenabled = true\nbroker_url = "{broker.url}"\nserial_number = "r1"\n'
@@ -88,3 +94,39 @@ def test_a_50_mb_order_neither_stalls_the_wheels_nor_keeps_memory(
             assert _rss_mb(daemon.proc.pid) - before <= MAX_GROWTH_MB
     finally:
         broker.stop()
+
+
+def _big_map(folder: Path) -> Path:
+    """A 2000 x 2000 map (100 m at 5 cm, 4 MB a frame) with the 8 m room the lidar sees
+    at its middle, unknown around it."""
+    cells = np.zeros((2000, 2000), np.float32)
+    room = slice(1000 - 80, 1000 + 80)
+    cells[room, room] = -2.0  # free
+    for edge in (1000 - 80, 1000 + 79):
+        cells[room, edge] = cells[edge, room] = 3.0  # the walls
+    grid = OccupancyGrid.from_array(cells, -50.0, -50.0, 0.05)
+    return save_map(grid, folder, "hall", image_stem="hall")
+
+
+def test_fifty_viewers_that_never_read_neither_stall_the_wheels_nor_take_memory(
+    spawn_daemon: Any, tmp_path: Path
+) -> None:
+    hall = _big_map(tmp_path / "given")
+    view = "[viz]\nport = 0\npage_enabled = false\n"
+    with driven_daemon(spawn_daemon, tmp_path, view, f'load_map = "{hall}"') as run:
+        daemon, _, wheels = run
+        port = next(x["port"] for x in daemon.seen if x.get("event") == "viz_listening")
+        time.sleep(2.0)
+        before = _rss_mb(daemon.proc.pid)
+        began = time.monotonic()
+        viewers = [stalled_viewer(port, "/map") for _ in range(50)]
+        try:
+            admitted = [v for v in viewers if v is not None]
+            assert len(admitted) == 8  # viz.max_viewers; the rest were answered 503
+            time.sleep(10.0)
+            assert _rss_mb(daemon.proc.pid) - before <= MAX_GROWTH_MB
+            assert wheels.largest_gap_s(began, time.monotonic()) <= MAX_GAP_S
+        finally:
+            for viewer in viewers:
+                if viewer is not None:
+                    viewer.close()

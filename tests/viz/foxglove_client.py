@@ -7,6 +7,9 @@ import asyncio
 import base64
 import functools
 import json
+import os
+import re
+import socket
 import struct
 from dataclasses import dataclass
 from typing import Any
@@ -148,3 +151,34 @@ class FoxgloveClient:
             return channel, log_time, json.loads(payload)
         cls = protobuf_class(channel.schema_name, base64.b64decode(channel.schema))
         return channel, log_time, cls.FromString(payload)
+
+
+def opening_request() -> bytes:
+    """A WebSocket opening request for the Foxglove protocol, as a browser sends it."""
+    key = base64.b64encode(os.urandom(16)).decode()
+    return (
+        "GET / HTTP/1.1\r\nHost: robot\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
+        f"Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n\r\n"
+    ).encode()
+
+
+def stalled_viewer(port: int, topic: str, timeout_s: float = 10.0) -> socket.socket | None:
+    """A viewer that opens, subscribes to ``topic`` and then never reads again (a browser
+    tab frozen in the background); None if the server refused it (an HTTP answer that is
+    not 101)."""
+    sock = socket.create_connection(("127.0.0.1", port), timeout=timeout_s)
+    sock.sendall(opening_request())
+    seen = b""
+    pattern = re.compile(rb'"id":(\d+),"topic":"' + re.escape(topic.encode()) + rb'"')
+    while (found := pattern.search(seen)) is None:
+        data = sock.recv(65536)
+        seen += data
+        if not data or (seen.startswith(b"HTTP/") and not seen.startswith(b"HTTP/1.1 101")):
+            sock.close()
+            return None
+    payload = b'{"op":"subscribe","subscriptions":[{"id":1,"channelId":%d}]}' % int(found.group(1))
+    mask = os.urandom(4)
+    masked = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+    sock.sendall(bytes([0x81, 0x80 | len(payload)]) + mask + masked)  # one masked text frame
+    return sock
