@@ -183,7 +183,7 @@ class SafetyGate(Module):
         if not holds or self._is_mute(msg):
             return
         what = (
-            f"silent {msg.silent_s:.2f} s"
+            f"silent for more than {msg.silent_s:.2f} s"  # true for as long as the hold lasts
             if isinstance(msg, DeviceStale)
             else f"lost: {msg.reason}"
         )

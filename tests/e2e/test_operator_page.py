@@ -229,3 +229,73 @@ async def test_a_page_left_open_across_a_restart_commands_the_new_daemon(tmp_pat
             finally:
                 again.send_signal(signal.SIGTERM)
                 await asyncio.wait_for(again.wait(), 30.0)
+
+
+def _pinch(driver: Any, spread_px: int) -> None:
+    """Two fingers on the map's middle, moved apart by ``spread_px`` each, then lifted."""
+    from selenium.webdriver.common.actions import interaction
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    box = driver.execute_script(
+        "const r = document.getElementById('map').getBoundingClientRect();"
+        "return [Math.round(r.left + r.width / 2), Math.round(r.top + r.height / 2)];"
+    )
+    cx, cy = box
+    actions = ActionBuilder(driver)
+    fingers = [
+        actions.add_pointer_input(interaction.POINTER_TOUCH, name) for name in ("one", "two")
+    ]
+    for finger, side in zip(fingers, (-1, 1), strict=True):
+        finger.create_pointer_move(x=cx + side * 30, y=cy, origin="viewport")
+        finger.create_pointer_down()
+    for step in range(1, 6):
+        for finger, side in zip(fingers, (-1, 1), strict=True):
+            finger.create_pointer_move(
+                duration=50, x=cx + side * (30 + spread_px * step // 5), y=cy, origin="viewport"
+            )
+    for finger in fingers:
+        finger.create_pointer_up(0)
+    actions.perform()
+
+
+async def test_a_pinch_zooms_the_map_and_sends_nothing(tmp_path: Path) -> None:
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    async with session(world, tmp_path / "run", overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        s.control.send(SubscribeFrame(rate_hz=5))
+        with browser(tmp_path / "profile") as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1' && navd.state.map !== null"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            # fitted: what is known of the map fills the canvas, the unknown margin does not
+            filled = await asyncio.to_thread(
+                driver.execute_script,
+                "const m = navd.state.map, [c0, r0, c1, r1] = m.known;"
+                "const [ax, ay] = navd.mapToScreen(m.origin[0] + c0 * m.resolution,"
+                "  m.origin[1] + r0 * m.resolution);"
+                "const [bx, by] = navd.mapToScreen(m.origin[0] + c1 * m.resolution,"
+                "  m.origin[1] + r1 * m.resolution);"
+                "const c = document.getElementById('map');"
+                "return [(bx - ax) / c.clientWidth, (ay - by) / c.clientHeight];",
+            )
+            assert max(filled) >= 0.9 and min(filled) > 0.0 and max(filled) <= 1.0, filled
+            before = await asyncio.to_thread(driver.execute_script, "return navd.view.scale")
+            said = await asyncio.to_thread(
+                driver.execute_script, "return document.getElementById('message').textContent"
+            )
+            await asyncio.to_thread(_pinch, driver, 150)
+            after = await asyncio.to_thread(driver.execute_script, "return navd.view.scale")
+            assert after > 1.5 * before  # the fingers spread: zoomed in
+            # nothing was sent: no goal, no pose, not even when the fingers lift one by one
+            deadline = time.monotonic() + 2.0
+            while time.monotonic() < deadline:
+                s.check()
+                try:
+                    frame = await s.control.receive(0.5)
+                except TimeoutError:
+                    continue
+                assert not isinstance(frame, GoalStatusFrame), frame
+            message = "return document.getElementById('message').textContent"
+            assert await asyncio.to_thread(driver.execute_script, message) == said

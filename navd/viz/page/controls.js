@@ -1,5 +1,5 @@
 // What the operator does: on the map, tap for a goal, drag for the initial pose, the wheel
-// to zoom; the joystick to drive by hand (held, it drives at 10 Hz; let go, one stop and
+// or two fingers (pinch, pan) to zoom and move; the joystick to drive by hand (held, it drives at 10 Hz; let go, one stop and
 // silence: the daemon's deadman); cancel, fit, and the token.
 import { pointer, state, view } from "./model.js";
 import { fit, requestDraw, screenToMap } from "./picture.js";
@@ -16,22 +16,44 @@ function onMap(event) {
   return [event.clientX - r.left, event.clientY - r.top];
 }
 
+// Pointers down on the map now (id -> [x, y] px). Two at once are a pinch or a pan: it moves
+// the view and sends nothing, not even when one finger lifts before the other.
+const touching = new Map();
+
 export function listenToTheMap() {
   canvas.addEventListener("pointerdown", (event) => {
     canvas.setPointerCapture(event.pointerId);
     const [x, y] = onMap(event);
-    pointer.press = { x0: x, y0: y, x, y, dragging: false };
+    touching.set(event.pointerId, [x, y]);
+    if (touching.size === 1 && !pointer.gesture) {
+      pointer.press = { x0: x, y0: y, x, y, dragging: false };
+    } else {
+      pointer.press = null; // a second finger: no goal, no pose from this touch
+      pointer.gesture = true;
+    }
+    requestDraw();
   });
   canvas.addEventListener("pointermove", (event) => {
+    if (!touching.has(event.pointerId)) return;
+    const now = onMap(event);
+    if (pointer.gesture) {
+      pinch(touching.get(event.pointerId), now, event.pointerId);
+      touching.set(event.pointerId, now);
+      return;
+    }
+    touching.set(event.pointerId, now);
     const press = pointer.press;
     if (!press) return;
-    [press.x, press.y] = onMap(event);
+    [press.x, press.y] = now;
     press.dragging = press.dragging || Math.hypot(press.x - press.x0, press.y - press.y0) > DRAG_PX;
     requestDraw();
   });
-  canvas.addEventListener("pointerup", () => {
+  canvas.addEventListener("pointerup", (event) => {
+    touching.delete(event.pointerId);
     const press = pointer.press;
-    if (!press) return;
+    pointer.press = null;
+    if (touching.size === 0) pointer.gesture = false;
+    if (!press) { requestDraw(); return; }
     const [x, y] = screenToMap(press.x0, press.y0);
     if (press.dragging) {
       const yaw = Math.atan2(-(press.y - press.y0), press.x - press.x0);
@@ -41,21 +63,47 @@ export function listenToTheMap() {
       command({ type: "goal", x, y });
       say(`goal (${x.toFixed(2)}, ${y.toFixed(2)}) sent`);
     }
-    pointer.press = null;
     requestDraw();
   });
-  canvas.addEventListener("pointercancel", () => { pointer.press = null; requestDraw(); });
+  canvas.addEventListener("pointercancel", (event) => {
+    touching.delete(event.pointerId);
+    pointer.press = null;
+    if (touching.size === 0) pointer.gesture = false;
+    requestDraw();
+  });
   canvas.addEventListener("wheel", (event) => {
     event.preventDefault();
     const [px, py] = onMap(event);
-    const [x, y] = screenToMap(px, py);
-    view.scale *= Math.exp(-event.deltaY * 0.001);
-    view.zoomed = true;
-    const [x2, y2] = screenToMap(px, py);
-    view.cx += x - x2;
-    view.cy += y - y2;
-    requestDraw();
+    zoomAbout(px, py, Math.exp(-event.deltaY * 0.001));
   }, { passive: false });
+}
+
+// Scale the view by ``factor`` keeping the map point under (px, py) where it is.
+function zoomAbout(px, py, factor) {
+  const [x, y] = screenToMap(px, py);
+  view.scale *= factor;
+  view.zoomed = true;
+  const [x2, y2] = screenToMap(px, py);
+  view.cx += x - x2;
+  view.cy += y - y2;
+  requestDraw();
+}
+
+// One finger of two moved from ``before`` to ``after``: zoom by how the span between the
+// fingers changed, about their midpoint, and pan by how the midpoint moved.
+function pinch(before, after, id) {
+  const other = [...touching].find(([key]) => key !== id);
+  if (!other) return;
+  const [ox, oy] = other[1];
+  const span0 = Math.hypot(before[0] - ox, before[1] - oy);
+  const span1 = Math.hypot(after[0] - ox, after[1] - oy);
+  const mid0 = [(before[0] + ox) / 2, (before[1] + oy) / 2];
+  const mid1 = [(after[0] + ox) / 2, (after[1] + oy) / 2];
+  if (span0 > 1 && span1 > 1) zoomAbout(mid1[0], mid1[1], span1 / span0);
+  view.cx -= (mid1[0] - mid0[0]) / view.scale;
+  view.cy += (mid1[1] - mid0[1]) / view.scale;
+  view.zoomed = true;
+  requestDraw();
 }
 
 export function listenToTheJoystick() {

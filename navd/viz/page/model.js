@@ -11,5 +11,6 @@ export const state = {
 // person zooms
 export const view = { scale: 50, cx: 0, cy: 0, zoomed: false };
 
-// A press on the map in progress (its start and where it is now, in px), or null.
-export const pointer = { press: null };
+// A press on the map in progress (its start and where it is now, in px), or null; and
+// whether a two-finger gesture is under way (nothing is sent until every finger lifts).
+export const pointer = { press: null, gesture: false };

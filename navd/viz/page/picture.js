@@ -14,11 +14,16 @@ export function paintMap(map) {
   mapImage.height = map.height;
   const raw = atob(map.cells);
   const image = new ImageData(map.width, map.height);
+  let c0 = map.width, c1 = -1, r0 = map.height, r1 = -1; // the known cells' bounds
   for (let row = 0; row < map.height; row++) {
     const flipped = (map.height - 1 - row) * map.width; // row 0 is the map's bottom
     for (let col = 0; col < map.width; col++) {
       let v = raw.charCodeAt(row * map.width + col);
       if (v > 127) v -= 256;
+      if (v >= 0) {
+        c0 = Math.min(c0, col); c1 = Math.max(c1, col);
+        r0 = Math.min(r0, row); r1 = Math.max(r1, row);
+      }
       const shade = v < 0 ? 127 : 255 - Math.round(v * 2.55);
       const at = (flipped + col) * 4;
       image.data[at] = image.data[at + 1] = image.data[at + 2] = shade;
@@ -26,16 +31,19 @@ export function paintMap(map) {
     }
   }
   mapImage.getContext("2d").putImageData(image, 0, 0);
+  map.known = c1 < 0 ? null : [c0, r0, c1 + 1, r1 + 1]; // [cells) of what was seen
   if (!view.zoomed) fit();
 }
 
+// Fit what is known of the map (not the unknown margin around it) into the canvas.
 export function fit() {
   const map = state.map;
   if (!map) return;
-  const w = map.width * map.resolution, h = map.height * map.resolution;
+  const [c0, r0, c1, r1] = map.known || [0, 0, map.width, map.height];
+  const w = (c1 - c0) * map.resolution, h = (r1 - r0) * map.resolution;
   view.scale = 0.95 * Math.min(canvas.clientWidth / w, canvas.clientHeight / h);
-  view.cx = map.origin[0] + w / 2;
-  view.cy = map.origin[1] + h / 2;
+  view.cx = map.origin[0] + (c0 * map.resolution) + w / 2;
+  view.cy = map.origin[1] + (r0 * map.resolution) + h / 2;
   requestDraw();
 }
 
