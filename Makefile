@@ -10,6 +10,8 @@ STAMP  := $(VENV)/.installed
 # time, so more workers than cores would measure the machine, not navd.
 JOBS   ?= $(shell $(PYTHON) -c 'import os; n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(); print(min(2, n or 1))')
 
+JS     := tests/js
+
 .PHONY: demo test lint typecheck unit clean
 
 $(STAMP): pyproject.toml
@@ -29,14 +31,22 @@ $(STAMP): pyproject.toml
 		|| echo "note: mosquitto is unavailable; the fleet's broker tests will be skipped"
 	@touch $(STAMP)
 
+# third-party JavaScript peers the tests drive navd with (vda-5050-lib); their tests skip,
+# saying why, where npm or its registry cannot be reached
+$(JS)/node_modules/.installed: $(JS)/package.json $(JS)/package-lock.json
+	@{ command -v npm >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+		&& apt-get update -qq && apt-get install -y -qq nodejs npm >/dev/null; }; } \
+		&& (cd $(JS) && npm ci --silent --no-audit --no-fund) && touch $@ \
+		|| echo "note: npm or its registry is unavailable; the tests against vda-5050-lib will be skipped"
+
 demo: $(STAMP)
 	$(BIN)/navd demo --out demo-output
 
-test: $(STAMP)
+test: $(STAMP) $(JS)/node_modules/.installed
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 	$(BIN)/pytest --numprocesses $(JOBS) --dist loadfile
 
 clean:
-	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache $(JS)/node_modules

@@ -78,6 +78,12 @@ class FleetConfig(Section):
     keepalive_s: int = Field(
         10, ge=2, le=600, **restart("[s] MQTT keep-alive: a silent vehicle is broken after 1.5x")
     )
+    protocol_version: Literal["auto", "2.1.0", "2.0.0"] = Field(
+        "auto",
+        description="the VDA 5050 version of what navd sends: auto answers in the version of "
+        "the master's last order or instant action (2.0 masters such as vda-5050-lib 1.x or "
+        "openTCS's adapter drop 2.1.0 messages), 2.1.0 until one came; or always this one",
+    )
     max_message_bytes: int = Field(
         1_048_576,
         ge=65_536,

@@ -29,7 +29,7 @@ import aiomqtt
 from navd.fleet import reports
 from navd.fleet.mqtt import Broker, connect
 from navd.fleet.settings import FleetSettings
-from navd.fleet.vda5050 import Topics
+from navd.fleet.vda5050 import PROTOCOL_VERSION, Topics
 from navd.fleet.vehicle import Vehicle
 from navd.geometry import Pose2
 from navd.lifecycle import Module, ModuleContext
@@ -87,6 +87,7 @@ class FleetNode(Module):
         fleet = self.settings.value.fleet  # broker and names need a restart
         self.topics = Topics(fleet.interface_name, fleet.manufacturer, fleet.serial_number)
         self.vehicle = Vehicle(fleet.manufacturer, fleet.serial_number, self._requested)
+        self._spoken = self._version()  # the version of what was sent last
         ctx.subscribe(RobotState, self._on_state)
         ctx.subscribe(GoalStatus, self._on_goal_status)
 
@@ -246,9 +247,30 @@ class FleetNode(Module):
             self._publish(self.vehicle.on_order(raw, now, here, self.settings.value.map_id))
         elif topic == self.topics.instant_actions:
             self._publish(self.vehicle.on_instant_actions(raw, now, here))
+        if self._version() != self._spoken:
+            self._speak(self._version())
         errors = [e["errorType"] for e in self.vehicle.errors]
         if errors:
             self.ctx.log.info("fleet_errors", topic=topic.rsplit("/", 1)[-1], errors=errors)
+
+    def _version(self) -> str:
+        """The VDA 5050 version navd speaks: ``fleet.protocol_version``, or with auto the
+        master's (2.0 for a 2.0 master, else 2.1)."""
+        chosen = self.settings.value.fleet.protocol_version
+        if chosen != "auto":
+            return chosen
+        return "2.0.0" if self.vehicle.master_version.startswith("2.0") else PROTOCOL_VERSION
+
+    def _speak(self, version: str) -> None:
+        """The master speaks another version: say again, in it, that the vehicle is online,
+        its factsheet, and its state."""
+        self.ctx.log.info("fleet_protocol_version", version=version, was=self._spoken)
+        self._spoken = version
+        online = self._json("connection", reports.connection, "ONLINE")
+        said = self._send(self.topics.connection, online, retain=True, qos=CONNECTION_QOS)
+        self.ctx.spawn(said, name="online")
+        self.ctx.spawn(self._send(self.topics.factsheet, self._factsheet(), retain=True), name="f")
+        self._state_due = True
 
     def _too_large(self, topic: str, levels: list[str], size: int, limit: int) -> None:
         """A message over ``fleet.max_message_bytes``: refused without reading it."""
@@ -345,12 +367,14 @@ class FleetNode(Module):
             payload = self._json("visualization", reports.visualization, self._robot())
             self.ctx.spawn(self._send(self.topics.visualization, payload), name="visualization")
 
-    async def _send(self, topic: str, payload: bytes, *, retain: bool = False) -> None:
+    async def _send(
+        self, topic: str, payload: bytes, *, retain: bool = False, qos: int = QOS
+    ) -> None:
         client = self._client
         if client is None:
             return
         try:
-            await client.publish(topic, payload, qos=QOS, retain=retain)
+            await client.publish(topic, payload, qos=qos, retain=retain)
         except aiomqtt.MqttError as err:  # the connection task hears of it and reconnects
             self.ctx.log.debug("fleet_send_failed", topic=topic, error=str(err))
 
@@ -359,7 +383,9 @@ class FleetNode(Module):
         fleet = self.settings.value.fleet
         number = self._headers.get(topic, 0)
         self._headers[topic] = number + 1
-        head = reports.header(number, time.time(), fleet.manufacturer, fleet.serial_number)
+        head = reports.header(
+            number, time.time(), fleet.manufacturer, fleet.serial_number, self._version()
+        )
         return json.dumps(build(head, *args), separators=(",", ":")).encode()
 
     def _factsheet(self) -> bytes:

@@ -55,12 +55,19 @@ class Robot:
     driving: bool = False
 
 
-def header(header_id: int, now_unix_s: float, manufacturer: str, serial: str) -> dict[str, Any]:
-    """The protocol header every message starts with."""
+def header(
+    header_id: int,
+    now_unix_s: float,
+    manufacturer: str,
+    serial: str,
+    version: str = PROTOCOL_VERSION,
+) -> dict[str, Any]:
+    """The protocol header every message starts with (``version``: the VDA 5050 version
+    the master is spoken to in)."""
     return {
         "headerId": header_id,
         "timestamp": timestamp(now_unix_s),
-        "version": PROTOCOL_VERSION,
+        "version": version,
         "manufacturer": manufacturer,
         "serialNumber": serial,
     }

@@ -88,6 +88,7 @@ class Vehicle:
         self._goals = 0
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
+        self.master_version = ""  # the VDA 5050 version of the master's last message read
 
     # --- inputs ---------------------------------------------------------------------------
 
@@ -100,6 +101,7 @@ class Vehicle:
             order = Order.model_validate_json(raw)
         except ValidationError as err:
             return self._refuse("validationError", first_problem(err), loose_refs(raw))
+        self.master_version = order.version
         problem = malformed(order, self.manufacturer, self.serial_number)
         if problem is not None:
             return self._refuse("validationError", *problem, order)
@@ -128,6 +130,7 @@ class Vehicle:
             why = f"instantActions: {first_problem(err)}"
             self._error("validationError", why, loose_refs(raw))
             return []
+        self.master_version = message.version
         out: list[Message] = []
         for action in message.actions:
             out += self._instant(action, now, pose)
@@ -250,11 +253,7 @@ class Vehicle:
         self.actions.register(actions_of(nodes, order.edges))
 
     def _refuse(
-        self,
-        kind: str,
-        why: str,
-        refs: list[tuple[str, str]],
-        order: Order | None = None,
+        self, kind: str, why: str, refs: list[tuple[str, str]], order: Order | None = None
     ) -> list[Message]:
         if order is not None:
             refs = [("orderId", order.orderId), ("orderUpdateId", str(order.orderUpdateId))] + [
