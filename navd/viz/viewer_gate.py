@@ -10,6 +10,7 @@ SDK's):
 - at most ``max_viewers`` connections; one more is answered 503, naming the setting;
 - the opening request whole within ``HANDSHAKE_DEADLINE_S`` of connecting, at most
   ``MAX_REQUEST_BYTES``;
+- viewers that ask for the protocol by its earlier name (``foxglove.websocket.v1``) let in;
 - at most ``buffer_bytes`` waiting for one viewer: a viewer that falls that far behind is
   disconnected (its viewer reconnects and starts from the latest state), so memory is
   bounded by max_viewers x buffer_bytes, never by how long a viewer stalls. The gate reads
@@ -42,6 +43,8 @@ HANDSHAKE_DEADLINE_S = 5.0  # [s] from connecting to the end of the opening requ
 MAX_REQUEST_BYTES = 16_384  # the opening request's most (a browser's is under 2 KB)
 UPSTREAM_HIGH_BYTES = 1_048_576  # a viewer's commands waiting for the SDK before it is paused
 SDK_BACKLOG_MESSAGES = 64  # the SDK's own queue per viewer (the gate reads it at once)
+SDK_PROTOCOL = b"foxglove.sdk.v1"
+LEGACY_PROTOCOL = b"foxglove.websocket.v1"  # the same protocol's earlier name
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,6 +141,7 @@ class _Viewer(asyncio.Protocol):
         self._early = bytearray()  # what the viewer sent before the SDK's end was open
         self._head = bytearray()  # the opening request so far
         self._requested = False  # the opening request is whole
+        self.legacy = False  # the viewer asked for foxglove.websocket.v1 (answered as such)
         self._deadline: asyncio.TimerHandle | None = None
         self._closed = False
 
@@ -185,16 +189,19 @@ class _Viewer(asyncio.Protocol):
         self._early.clear()
 
     def data_received(self, data: bytes) -> None:
-        if not self._requested:
+        if not self._requested:  # the opening request goes on whole, its protocol named
             self._head += data
-            if b"\r\n\r\n" in self._head:
-                self._requested = True
-                self._head = bytearray()
-                if self._deadline is not None:
-                    self._deadline.cancel()
-            elif len(self._head) > MAX_REQUEST_BYTES:
-                self.close()
+            end = self._head.find(b"\r\n\r\n")
+            if end < 0:
+                if len(self._head) > MAX_REQUEST_BYTES:
+                    self.close()
                 return
+            self._requested = True
+            if self._deadline is not None:
+                self._deadline.cancel()
+            request, self.legacy = spoken_as_sdk(bytes(self._head[: end + 4]))
+            data = request + bytes(self._head[end + 4 :])
+            self._head = bytearray()
         if self.upstream is not None:
             self.upstream.send(data)
         elif not self._closed:
@@ -243,12 +250,23 @@ class _Upstream(asyncio.Protocol):
     def __init__(self, viewer: _Viewer) -> None:
         self.viewer = viewer
         self.transport: asyncio.Transport | None = None
+        self._answer = bytearray()  # the SDK's answer to a legacy viewer, until whole
+        self._answered = False
 
     def connection_made(self, transport: Any) -> None:
         self.transport = transport
         transport.set_write_buffer_limits(high=UPSTREAM_HIGH_BYTES)
 
     def data_received(self, data: bytes) -> None:
+        if self.viewer.legacy and not self._answered:
+            self._answer += data
+            end = self._answer.find(b"\r\n\r\n")
+            if end < 0:
+                return
+            self._answered = True
+            head = bytes(self._answer[: end + 4]).replace(SDK_PROTOCOL, LEGACY_PROTOCOL)
+            data = head + bytes(self._answer[end + 4 :])
+            self._answer = bytearray()
         self.viewer.send(data)
 
     def send(self, data: bytes) -> None:
@@ -293,6 +311,24 @@ async def serve_viewers(
         sdk.stop()
         raise
     return sdk, gate
+
+
+def spoken_as_sdk(request: bytes) -> tuple[bytes, bool]:
+    """The opening request as the SDK takes it, and whether it was changed: a viewer that
+    asks for ``foxglove.websocket.v1`` only (Lichtblick before December 2025, the
+    ``@foxglove/ws-protocol`` client) is asked for as ``foxglove.sdk.v1``, the same protocol
+    under the SDK's name (Foxglove says so), and answered under the name it asked for."""
+    lines = request.split(b"\r\n")
+    for index, line in enumerate(lines):
+        name, colon, value = line.partition(b":")
+        if not colon or name.strip().lower() != b"sec-websocket-protocol":
+            continue
+        offered = [token.strip() for token in value.split(b",")]
+        if SDK_PROTOCOL in offered or LEGACY_PROTOCOL not in offered:
+            return request, False
+        lines[index] = name + b": " + SDK_PROTOCOL
+        return b"\r\n".join(lines), True
+    return request, False
 
 
 def _quiet(task: asyncio.Task[None]) -> None:

@@ -5,8 +5,11 @@ stops reading let go before it costs more than its budget."""
 from __future__ import annotations
 
 import asyncio
+import json
+import shutil
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -111,3 +114,42 @@ def _grid(i: int) -> Any:
         fields=[field],
         data=cells,
     )
+
+
+JS = Path(__file__).resolve().parents[1] / "js"
+
+
+async def test_a_viewer_asking_for_foxglove_websocket_v1_is_served() -> None:
+    node = shutil.which("node")
+    if node is None or not (JS / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        pytest.skip(
+            "node or @foxglove/ws-protocol is not installed (`make test` runs npm ci in "
+            "tests/js where npm and its registry can be reached)"
+        )
+    async with gate(GateLimits(max_viewers=4, buffer_bytes=8 * MIB)) as (served, channel):
+        viewer = await asyncio.create_subprocess_exec(
+            node, str(JS / "foxglove_viewer.js"), f"ws://127.0.0.1:{served.port}", "/map", "3",
+            cwd=JS, stdout=asyncio.subprocess.PIPE,
+        )  # fmt: skip
+        assert viewer.stdout is not None
+        said: list[dict[str, Any]] = []
+
+        async def hear() -> dict[str, Any]:
+            assert viewer.stdout is not None
+            said.append(json.loads(await asyncio.wait_for(viewer.stdout.readline(), 30.0)))
+            return said[-1]
+
+        try:
+            while (await hear())["event"] != "advertise":
+                pass
+            await asyncio.sleep(0.3)  # its subscription reaches the server
+            for i in range(3):
+                channel.log(_grid(i))
+            while sum(s["event"] == "message" for s in said) < 3:
+                assert (await hear())["event"] == "message", said
+        finally:
+            if viewer.returncode is None:
+                viewer.kill()
+            await viewer.wait()
+    assert said[0] == {"event": "open", "protocol": "foxglove.websocket.v1"}
+    assert all(s["bytes"] > MIB // 2 for s in said if s["event"] == "message")
