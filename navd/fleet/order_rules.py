@@ -22,6 +22,7 @@ __all__ = [
     "Problem",
     "actions_of",
     "away_from_start",
+    "decision_point",
     "elsewhere",
     "first_problem",
     "init_position_problem",
@@ -141,6 +142,13 @@ def init_position_problem(action: Action) -> str | None:
         if not isinstance(value, int | float) or not math.isfinite(value):
             return f"parameter {key} must be a number, got {value!r}"
     return None
+
+
+def decision_point(nodes: list[Node], last: tuple[str, int]) -> tuple[str, int]:
+    """(nodeId, sequenceId) where an update to a running order must start: the last released
+    node still to drive, or ``last``, the node traversed last, when none is left."""
+    base = [n for n in nodes if n.released]
+    return (base[-1].nodeId, base[-1].sequenceId) if base else last
 
 
 def loose_refs(raw: bytes) -> list[tuple[str, str]]:

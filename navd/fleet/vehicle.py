@@ -2,11 +2,10 @@
 its actions, and what its state says about them.
 
 It knows nothing of MQTT or the bus: each input (an order, instant actions, a goal's status,
-the clock) returns the bus messages to publish (goals, cancels, an initial pose) and marks
-the state as changed. The rules are the specification's (2.1, §6.6; docs/fleet.md,
-"Orders"): the released base is driven, one navd goal a node, the horizon waits for an
-update. A malformed order is refused with a "validationError", one navd cannot do with an
-"orderError", a stale update with an "orderUpdateError"; the order in hand goes on.
+the clock) returns the bus messages to publish and marks the state as changed. The rules are
+the specification's (§6.6; docs/fleet.md, "Orders"): the released base is driven, one navd
+goal from stop to stop (``drive_through``), the horizon waits for an update. Refusals: a
+"validationError", an "orderError", an "orderUpdateError"; the order in hand goes on.
 
 Actions navd performs: ``wait`` on nodes and edges, and the instant actions
 (``action_states`` says how they start and block). A node's actions start when it is
@@ -18,7 +17,6 @@ none as the order done). A pause lasts until ``stopPause``. Rules: ``order_rules
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable
 
@@ -31,11 +29,13 @@ from navd.fleet.action_states import (
     ActionStates,
     StandstillWait,
 )
+from navd.fleet.drive_through import chain_goal
 from navd.fleet.error_list import ErrorList
 from navd.fleet.order_rules import (
     NODE_ACTIONS,
     actions_of,
     away_from_start,
+    decision_point,
     elsewhere,
     first_problem,
     init_position_problem,
@@ -46,7 +46,7 @@ from navd.fleet.order_rules import (
 )
 from navd.fleet.vda5050 import Action, Edge, InstantActions, Node, Order
 from navd.geometry import Pose2
-from navd.lifecycle.messages import CancelGoal, Goal, GoalStatus, Message
+from navd.lifecycle.messages import CancelGoal, GoalStatus, Message
 
 __all__ = ["CANCEL_STOP_S", "INSTANT_ACTIONS", "NODE_ACTIONS", "Vehicle"]
 
@@ -89,6 +89,7 @@ class Vehicle:
         self._retry_at = math.inf
         self.changed = True  # the state has news since it was last published
         self.master_version = ""  # the VDA 5050 version of the master's last message read
+        self._via, self._passed = 0, 0  # nodes the goal drives through; of them passed
 
     # --- inputs ---------------------------------------------------------------------------
 
@@ -142,12 +143,18 @@ class Vehicle:
         self._error("validationError", why, [])
 
     def on_goal_status(self, status: GoalStatus, now: float) -> list[Message]:
-        """A goal's end: the vehicle's own goal reaching its node traverses the node."""
-        if status.goal_id != self.goal_id or status.state in ("active", "paused"):
-            return []
+        """The vehicle's own goal: each node it drove through traverses that node, its end
+        at its node traverses the node."""
+        mine = status.goal_id == self.goal_id
+        out: list[Message] = []
+        while mine and self._passed < min(status.via_passed, self._via) and self.nodes:
+            self._passed += 1
+            out += self._traverse(now)  # (no goal yet: one is driving)
+        if not mine or status.state in ("active", "paused"):
+            return out
         self.goal_id = None
         if status.state == "reached" and self.nodes:
-            return self._traverse(now)
+            return out + self._traverse(now)
         if status.state == "canceled":
             if not self.paused:  # someone else's goal took over: hold the order
                 self.paused = True
@@ -219,15 +226,8 @@ class Vehicle:
 
     def _update(self, order: Order, now: float) -> list[Message]:
         first = order.nodes[0]
-        if self._busy():
-            base = [n for n in self.nodes if n.released]
-            point = (
-                (base[-1].nodeId, base[-1].sequenceId)
-                if base
-                else (self.last_node_id, self.last_node_sequence_id)
-            )
-        else:
-            point = (self.last_node_id, self.last_node_sequence_id)
+        last = (self.last_node_id, self.last_node_sequence_id)
+        point = decision_point(self.nodes, last) if self._busy() else last
         if (first.nodeId, first.sequenceId) != point:
             why = (
                 f"update {order.orderUpdateId} starts at node {first.nodeId} (sequence "
@@ -293,14 +293,12 @@ class Vehicle:
             self._start_queued(now)
             if self._blocked():
                 return []
-        position = node.nodePosition
-        assert position is not None  # orders without one are refused (``_unusable``)
         self._goals += 1
         self.goal_id = f"vda:{self.order_id}:{node.sequenceId}:{self._goals}"
         self.changed = True
-        speed = None if edge is None else edge.maxSpeed
-        goal = Goal(stamp=now, received=now, goal_id=self.goal_id, x_m=position.x, y_m=position.y)
-        return [dataclasses.replace(goal, yaw_rad=position.theta, max_speed_mps=speed)]
+        goal, self._via = chain_goal(self.nodes, self.edges, self.goal_id, now)  # through nodes
+        self._passed = 0
+        return [goal]
 
     def _blocked(self) -> bool:
         """True while a SOFT or HARD action runs or waits its turn on the last node (the

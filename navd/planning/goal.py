@@ -23,13 +23,16 @@ class GoalState(StrEnum):
 @dataclass(frozen=True, slots=True)
 class NavGoal:
     """A goal in the map frame: [m, m], and [rad] or None for any heading; a top speed
-    [m/s] of its own, or None for the robot's."""
+    [m/s] of its own, or None for the robot's; points [m] to pass through on the way, each
+    passed within ``pass_within_m`` [m]."""
 
     goal_id: str
     x_m: float
     y_m: float
     yaw_rad: float | None = None
     max_speed_mps: float | None = None
+    via: tuple[tuple[float, float], ...] = ()
+    pass_within_m: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,6 +47,7 @@ class Step:
         reason: why the goal failed, or what the robot is waiting for.
         stuck_detected: the robot was stuck for max_stuck_time (StuckDetected).
         phase: the stuck monitor's phase.
+        via_passed: how many of the goal's via points the robot has passed.
     """
 
     linear_mps: float
@@ -54,3 +58,4 @@ class Step:
     reason: str = ""
     stuck_detected: bool = False
     phase: StuckPhase = StuckPhase.MOVING
+    via_passed: int = 0

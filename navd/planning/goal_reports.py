@@ -48,6 +48,7 @@ class GoalReports:
         self._lock = threading.Lock()
         self.last_state: GoalState | None = None
         self._status_at = -math.inf
+        self._via_passed = 0
 
     def stop(self) -> VelocityCommand:
         """The zero command, from the planner."""
@@ -65,6 +66,8 @@ class GoalReports:
         with self._lock:
             self.last_state = state
             self._status_at = message.stamp
+            if state is GoalState.ACTIVE:  # a new goal: none of its via points passed yet
+                self._via_passed = 0
         return message
 
     def plain(self, goal_id: str, state: str, reason: str = "") -> GoalStatus:
@@ -76,10 +79,12 @@ class GoalReports:
         """The step's status if its state changed or the last is ``STATUS_PERIOD_S`` old."""
         with self._lock:
             changed = step.state is not self.last_state
-            if not changed and stamp - self._status_at < STATUS_PERIOD_S:
+            passed = step.via_passed != self._via_passed  # a node driven through: said at once
+            if not (changed or passed) and stamp - self._status_at < STATUS_PERIOD_S:
                 return None
             self.last_state = step.state
             self._status_at = stamp
+            self._via_passed = step.via_passed
         if changed and step.state is not GoalState.ACTIVE:
             self._log.info("goal_done", goal_id=goal_id, state=str(step.state), reason=step.reason)
         return GoalStatus(
@@ -90,6 +95,7 @@ class GoalReports:
             distance_remaining_m=step.remaining_m,
             eta_s=step.eta_s,
             reason=step.reason,
+            via_passed=step.via_passed,
         )
 
 

@@ -13,6 +13,7 @@ tests drive it from a loop. The pieces:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -24,11 +25,10 @@ from navd.planning.dwa import LocalPlanner, Window
 from navd.planning.errors import GoalRefusedError, PlanningError
 from navd.planning.global_planner import GlobalPlanner, PlannedPath
 from navd.planning.goal import GoalState, NavGoal, Step
-from navd.planning.horizon import COARSE_CELL_M, COARSE_MAX_CELLS, CoarseLayers
 from navd.planning.layers import Layers
-from navd.planning.plan_request import PlanRequest
+from navd.planning.plan_request import PlanRequest, plan_request
 from navd.planning.route import Route
-from navd.planning.settings import NavigatorSettings, goal_too_far
+from navd.planning.settings import NavigatorSettings
 from navd.planning.spot_turns import SpotTurns
 from navd.planning.stuck import StuckMonitor, StuckPhase
 
@@ -106,6 +106,7 @@ class Navigator:
         self._moving_since = None
         self._failing_since = None
         self._stuck_replans = 0
+        self.via_passed = 0  # the goal's via points passed, in order
         self.turns.reset()
         self._plan_reason = "new goal"
         self.stuck.reset()
@@ -192,23 +193,11 @@ class Navigator:
             GoalRefusedError: the goal is too far from the robot, or the area to plan over
                 too large.
         """
-        if self.goal is None:
+        goal = self.goal
+        if goal is None:
             raise PlanningError("no goal to plan for")
-        start = (pose.x, pose.y)
-        goal = (self.goal.x_m, self.goal.y_m)
-        too_far = goal_too_far(self.settings, start, goal)
-        if too_far is not None:
-            raise GoalRefusedError(too_far)
-        s = self.settings
-        layers = self.map_layers
-        if layers.needs_window(now, start, goal):
-            coarse = CoarseLayers(
-                *layers.coarse_snapshot(now, [start, goal], COARSE_MAX_CELLS, COARSE_CELL_M)
-            )
-            frame, obstacles, unknown = layers.window_snapshot(now, start)
-            return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal, coarse)
-        frame, obstacles, unknown = layers.snapshot(now, [start, goal])
-        return PlanRequest(frame, obstacles, unknown, s.costmap, s.search, start, goal)
+        end, ahead = (goal.x_m, goal.y_m), goal.via[self.via_passed :]  # ahead: not passed
+        return plan_request(self.map_layers, self.settings, now, (pose.x, pose.y), end, via=ahead)
 
     def accept_plan(self, now: float, path: PlannedPath) -> None:
         """Follow ``path`` from now on."""
@@ -272,8 +261,20 @@ class Navigator:
 
         ``driven`` [m/s, rad/s] is what the robot was last told to do, if the caller knows
         better than this navigator's own last choice (a safety hold or a chassis outage
-        stopped it meanwhile): the acceleration limits apply from there.
+        stopped it meanwhile): the acceleration limits apply from there. The goal's via
+        points within its pass distance are passed first, in order.
         """
+        goal = self.goal
+        if goal is not None and self.state is GoalState.ACTIVE:
+            via, near = goal.via, goal.pass_within_m
+            while self.via_passed < len(via) and math.dist(via[self.via_passed], pose[:2]) <= near:
+                self.via_passed += 1
+        step = self._step(now, pose, driven)
+        if goal is not None and step.state is GoalState.REACHED:
+            self.via_passed = len(goal.via)  # at the end: every point on the way is behind
+        return dataclasses.replace(step, via_passed=self.via_passed) if goal is not None else step
+
+    def _step(self, now: float, pose: Pose2, driven: tuple[float, float] | None) -> Step:
         if driven is not None:
             self._command = driven
         goal = self.goal

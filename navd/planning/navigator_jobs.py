@@ -129,7 +129,15 @@ class NavigatorJobs:
     def _start(self, goal: Goal) -> list[Message]:
         previous = self.nav.cancel()
         self.nav.set_goal(
-            NavGoal(goal.goal_id, goal.x_m, goal.y_m, goal.yaw_rad, goal.max_speed_mps)
+            NavGoal(
+                goal.goal_id,
+                goal.x_m,
+                goal.y_m,
+                goal.yaw_rad,
+                goal.max_speed_mps,
+                goal.via,
+                goal.pass_within_m,
+            )
         )
         with self._flags:
             self._plan_due = "new goal"

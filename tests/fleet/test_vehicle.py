@@ -5,6 +5,7 @@ and every refusal the specification names; each state it reports validates again
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
@@ -604,3 +605,39 @@ def test_an_operators_emergency_stop_is_a_remote_e_stop_in_the_state() -> None:
     message = reports.state(reports.header(1, 1.8e9, MAKER, SERIAL), vehicle, robot)
     check("state", message)
     assert message["safetyState"] == {"eStop": "REMOTE", "fieldViolation": True}
+
+
+def test_nodes_with_nothing_to_do_are_driven_through_on_the_way_to_the_next_stop() -> None:
+    vehicle, _ = _vehicle()
+    wait = [action("wait", "w1", "HARD", duration=0.0)]
+    nodes = [
+        node("a", 0, 0.2, 0.0),
+        node("b", 2, 2.0, 0.0, position={"allowedDeviationXY": 0.4}),
+        node("c", 4, 2.0, 2.0),
+        node("d", 6, 4.0, 2.0, actions=wait),  # something to do there: a stop
+        node("e", 8, 6.0, 2.0),
+        node("f", 10, 8.0, 2.0, released=False),  # the horizon: e is the last released
+    ]
+    edges = [edge(a, b) for a, b in itertools.pairwise(nodes)]
+    edges[1]["maxSpeed"] = 0.4
+    (first,) = goals(send(vehicle, order(nodes, edges=edges)))
+    assert (first.x_m, first.y_m) == (4.0, 2.0)  # to d, through b and c
+    assert first.via == ((2.0, 0.0), (2.0, 2.0)) and first.pass_within_m == 0.4
+    assert first.max_speed_mps == 0.4  # the slowest edge on the way
+    # b passed while the goal drives on: traversed, said in the state, nothing new to drive
+    passing = GoalStatus(stamp=1.0, received=1.0, goal_id=first.goal_id, state="active")
+    assert vehicle.on_goal_status(dataclasses.replace(passing, via_passed=1), 1.0) == []
+    state = state_of(vehicle)
+    assert state["lastNodeId"] == "b" and [n["nodeId"] for n in state["nodeStates"]] == [
+        "c",
+        "d",
+        "e",
+        "f",
+    ]
+    # at d: c traversed on the way, then d, whose wait holds the vehicle there
+    done = dataclasses.replace(passing, state="reached", via_passed=2)
+    out = vehicle.on_goal_status(done, 2.0)
+    assert state_of(vehicle)["lastNodeId"] == "d"
+    assert goals(out) == []  # the HARD wait runs first
+    (last,) = goals(vehicle.on_tick(2.1))
+    assert (last.x_m, last.y_m, last.via) == (6.0, 2.0, ())  # e: the last released node

@@ -287,3 +287,20 @@ def test_a_settings_change_mid_goal_keeps_the_stuck_watch_going() -> None:
     nav.configure(NavigatorSettings.from_config(retuned))
     assert nav.settings.dwa.weights[0] == 2.0
     assert nav.step(1.2, IDENTITY).phase is StuckPhase.PUSHING  # stuck since 0 s, not 0.75 s
+
+
+def test_a_goal_with_points_to_pass_goes_through_them_without_stopping() -> None:
+    # a dogleg: up to (2, 1.5), then on to (4, 0); each way point counted as it is passed
+    cfg = config()
+    goal = NavGoal("g", 4.0, 0.0, via=((2.0, 1.5),), pass_within_m=0.3)
+    result = drive(cfg, NO_WALLS, IDENTITY, goal, max_time_s=40, known_map=False)
+    assert result.state is GoalState.REACHED
+    near = [math.hypot(x - 2.0, y - 1.5) for x, y, _ in result.poses]
+    closest = int(np.argmin(near))
+    assert near[closest] <= 0.3  # it went there, not straight to the goal
+    passed = [step.via_passed for step in result.steps]
+    assert passed[0] == 0 and passed[-1] == 1 and passed == sorted(passed)
+    # and drove on through it: well above the speed it arrives at a goal with
+    assert result.steps[closest].linear_mps >= 0.25
+    direct = drive(cfg, NO_WALLS, IDENTITY, NavGoal("g", 2.0, 1.5), known_map=False)
+    assert direct.steps[-1].linear_mps == 0.0  # a goal of its own is a stop

@@ -30,6 +30,9 @@ class Goal(Message):
         yaw_rad: [rad] final yaw, or None when any heading will do.
         max_speed_mps: [m/s] top forward speed on the way (a mission's slow approach), or
             None for the robot's own.
+        via: [m] map points to pass on the way, in order (an order's nodes driven through):
+            the route goes through each and the robot does not stop at them.
+        pass_within_m: [m] a via point is passed once the robot is this close to it.
     """
 
     goal_id: str
@@ -37,11 +40,18 @@ class Goal(Message):
     y_m: float
     yaw_rad: float | None = None
     max_speed_mps: float | None = None
+    via: tuple[tuple[float, float], ...] = ()
+    pass_within_m: float = 0.5
 
     def __post_init__(self) -> None:
         Message.__post_init__(self)
         require_finite("x_m", self.x_m)
         require_finite("y_m", self.y_m)
+        for x, y in self.via:
+            require_finite("via", x)
+            require_finite("via", y)
+        if not self.pass_within_m > 0.0:
+            raise MessageError(f"pass_within_m must be > 0, got {self.pass_within_m}")
         if self.yaw_rad is not None:
             require_finite("yaw_rad", self.yaw_rad)
         if self.max_speed_mps is not None and not self.max_speed_mps > 0.0:
@@ -171,6 +181,7 @@ class GoalStatus(Message):
         distance_remaining_m: [m] along the path, NaN when unknown.
         eta_s: [s] estimated time to arrival, NaN when unknown.
         reason: why it failed or was canceled; empty otherwise.
+        via_passed: how many of the goal's via points the robot has passed.
     """
 
     goal_id: str
@@ -178,6 +189,7 @@ class GoalStatus(Message):
     distance_remaining_m: float = math.nan
     eta_s: float = math.nan
     reason: str = ""
+    via_passed: int = 0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
