@@ -12,6 +12,7 @@ One recording is one session: its files are named ``navd-<session>-<n>.mcap``, t
 being the UTC time it began and a random suffix, so several sessions share a folder without
 mixing and a restart within the same second starts a session of its own. Each file starts
 with the config and the session's header (``SESSION_TOPIC``), so it replays on its own.
+Beside navd's messages it holds what a viewer draws (``recording_view``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import secrets
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -31,8 +32,11 @@ import foxglove
 from foxglove import Channel, Context
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions, MCAPWriter
 
+from navd.config import LidarConfig, MountsConfig
+from navd.geometry import SensorMounts
 from navd.lifecycle.messages import Message
 from navd.viz.record_codec import CONFIG_TOPIC, SESSION_TOPIC, encode
+from navd.viz.recording_view import RecordingView
 
 __all__ = [
     "CLOSE_TIMEOUT_S",
@@ -60,12 +64,16 @@ class WriterSettings:
         max_file_bytes: a file this large is closed and the next begun.
         budget_bytes: the folder's recordings are kept under this.
         flush_period_s: [s] data reaches the disk, a whole chunk, this often.
+        mounts: where the lidars sit (the scans a viewer draws, in their frames).
     """
 
     folder: Path
     max_file_bytes: int
     budget_bytes: int
     flush_period_s: float
+    mounts: SensorMounts = field(
+        default_factory=lambda: SensorMounts.of(MountsConfig(), LidarConfig())
+    )
 
 
 def new_session() -> str:
@@ -121,6 +129,7 @@ class RecordingWriter:
         settings.folder.mkdir(parents=True, exist_ok=True)
         self._context = Context()
         self._channels: dict[str, Channel] = {}
+        self._view = RecordingView(self._context, settings.mounts)
         self._sequence = 0
         self._writer: MCAPWriter | None = None
         self._sync_fd: int | None = None
@@ -163,6 +172,7 @@ class RecordingWriter:
             batch, self._queue = self._queue, collections.deque()
         for topic, message, log_time_ns in batch:
             self._channel(topic).log(encode(message), log_time=log_time_ns)
+            self._view.log(message, log_time_ns)  # and as a viewer draws it
         self.written += len(batch)
         assert self._writer is not None
         self._writer.flush()  # a whole chunk in the file: readable after a crash

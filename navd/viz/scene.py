@@ -31,6 +31,7 @@ from foxglove.messages import (
     PackedElementFieldNumericType,
     Point3,
     Pose,
+    PoseInFrame,
     Quaternion,
     SceneEntity,
     SceneUpdate,
@@ -65,6 +66,7 @@ __all__ = [
     "nanoseconds",
     "occupancy_grid",
     "odometry",
+    "pose_in_frame",
     "route_scene",
     "trajectory_scene",
     "zone_grid",
@@ -177,6 +179,16 @@ def frame_tree(pose: PoseEstimate, lidar: Pose2, *, offset_s: float = 0.0) -> Fr
             transform(ODOM, BASE_LINK, pose.x_m, pose.y_m, pose.yaw_rad),
             transform(BASE_LINK, LASER, lidar.x, lidar.y, lidar.yaw),
         ]
+    )
+
+
+def pose_in_frame(pose: PoseEstimate, *, offset_s: float = 0.0) -> PoseInFrame:
+    """The fused pose in ``map``, as every viewer's 3D panel draws it (Lichtblick does not
+    draw Odometry)."""
+    return PoseInFrame(
+        timestamp=as_timestamp(pose.stamp + offset_s),
+        frame_id=MAP,
+        pose=_pose(pose.x_m, pose.y_m, pose.yaw_rad),
     )
 
 

@@ -120,6 +120,7 @@ class RecorderSettings:
                 max_file_bytes=int(record.max_file_mb * MB),
                 budget_bytes=int(record.budget_mb * MB),
                 flush_period_s=record.flush_period_s,
+                mounts=SensorMounts.of(config.mounts, config.lidar),
             ),
             map_period_s=record.map_period_s,
             config_json=json.dumps(redacted(config)).encode(),

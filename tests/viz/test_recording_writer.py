@@ -3,13 +3,15 @@ oldest go past the budget, and a file cut mid-write reads back to its last whole
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from navd.lifecycle.messages import LaserScan
+from navd.lifecycle.messages import Goal, LaserScan, PoseEstimate
+from navd.lifecycle.messages import Path as Route
 from navd.viz import recording_writer
 from navd.viz.record_codec import topic_of
 from navd.viz.recording_reader import RecordingError, read_recording
@@ -140,3 +142,54 @@ def test_sessions_share_a_folder_without_mixing(tmp_path: Path) -> None:
     assert session_of(first.file) == first.session
     with pytest.raises(RecordingError, match="no session 'nope'"):
         read_recording(tmp_path, "nope")
+
+
+def test_a_recording_holds_what_a_viewer_draws_in_foxglove_schemas(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    from tests.viz.foxglove_client import protobuf_class
+    from tests.viz.test_node import map_update
+
+    failures: list[str] = []
+    settings = WriterSettings(tmp_path, 10**9, 10**10, 0.02)
+    writer = RecordingWriter(settings, CONFIG, HEADER, failures.append)
+    wall_ns = 1_800_000_000 * 10**9  # the daemon's clock reads 10 s at this wall time
+    pose = PoseEstimate(
+        stamp=10.0, received=10.0, x_m=1.0, y_m=2.0, yaw_rad=0.5, covariance=np.eye(3) * 0.01
+    )
+    route = Route(
+        stamp=10.0, received=10.0, goal_id="g", points_m=np.array([[1.0, 2.0], [3.0, 2.0]])
+    )
+    goal = Goal(stamp=10.0, received=10.0, goal_id="g", x_m=3.0, y_m=2.0)
+    sent = scan(100)
+    sent = dataclasses.replace(sent, stamp=9.99, received=10.0)
+    for message in (sent, pose, map_update(10.0), route, goal):
+        writer.put(f"/navd/x/{type(message).__name__}", message, wall_ns)
+    writer.close()
+    assert not failures
+    (file,) = sorted(tmp_path.glob("*.mcap"))
+    with file.open("rb") as stream:
+        reader = make_reader(stream)
+        shown = {
+            channel.topic: (schema.name if schema else None, schema, message)
+            for schema, channel, message in reader.iter_messages()
+            if not channel.topic.startswith("/navd/")
+        }
+    assert {topic: name for topic, (name, _, _) in shown.items()} == {
+        "/scan": "foxglove.LaserScan",
+        "/tf": "foxglove.FrameTransforms",
+        "/pose": "foxglove.PoseInFrame",
+        "/map": "foxglove.Grid",
+        "/route": "foxglove.SceneUpdate",
+        "/goal": "foxglove.SceneUpdate",
+    }
+    _, schema, record = shown["/scan"]
+    decoded = protobuf_class(schema.name, schema.data).FromString(record.data)
+    np.testing.assert_allclose(decoded.ranges, sent.ranges, rtol=1e-6)
+    assert decoded.frame_id == "base_link" and record.log_time == wall_ns  # placed at its mount
+    # stamped on the wall clock: the scan 10 ms before its arrival
+    stamp_ns = decoded.timestamp.seconds * 10**9 + decoded.timestamp.nanos
+    assert abs(stamp_ns - (wall_ns - 10_000_000)) < 1_000  # within a float's rounding
+    _, schema, record = shown["/pose"]
+    where = protobuf_class(schema.name, schema.data).FromString(record.data)
+    assert (where.frame_id, where.pose.position.x, where.pose.position.y) == ("map", 1.0, 2.0)
