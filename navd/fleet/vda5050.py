@@ -16,7 +16,7 @@ import datetime as dt
 import math
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field
 
 __all__ = [
     "PROTOCOL_VERSION",
@@ -112,7 +112,11 @@ class Order(Header):
 
 
 class InstantActions(Header):
-    actions: list[Action] = Field(max_length=MAX_ACTIONS)
+    # 2.1's "actions"; 2.0's JSON schema (as 2.0 masters such as vda-5050-lib send it) names
+    # the list "instantActions"
+    actions: list[Action] = Field(
+        max_length=MAX_ACTIONS, validation_alias=AliasChoices("actions", "instantActions")
+    )
 
 
 class Topics:

@@ -641,3 +641,12 @@ def test_nodes_with_nothing_to_do_are_driven_through_on_the_way_to_the_next_stop
     assert goals(out) == []  # the HARD wait runs first
     (last,) = goals(vehicle.on_tick(2.1))
     assert (last.x_m, last.y_m, last.via) == (6.0, 2.0, ())  # e: the last released node
+
+
+def test_instant_actions_as_a_2_0_master_names_them_are_taken() -> None:
+    # VDA 5050 2.0's JSON schema calls the list "instantActions" (2.1: "actions")
+    vehicle, asked = _vehicle()
+    message = {**_head(), "version": "2.0.0", "instantActions": [action("stateRequest", "s1")]}
+    assert vehicle.on_instant_actions(json.dumps(message).encode(), 0.0, HERE) == []
+    assert asked == ["state"] and vehicle.master_version == "2.0.0"
+    assert "validationError" not in errors_of(vehicle)
