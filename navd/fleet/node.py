@@ -29,11 +29,12 @@ import aiomqtt
 from navd.fleet import reports
 from navd.fleet.mqtt import Broker, connect
 from navd.fleet.settings import FleetSettings
+from navd.fleet.standing_room import StandingRoom
 from navd.fleet.vda5050 import PROTOCOL_VERSION, Topics
 from navd.fleet.vehicle import Vehicle
 from navd.geometry import Pose2
 from navd.lifecycle import Module, ModuleContext
-from navd.lifecycle.messages import GoalStatus, Message, NearbyRobots, RobotState
+from navd.lifecycle.messages import GoalStatus, MapUpdate, Message, NearbyRobots, RobotState
 
 __all__ = ["FleetNode"]
 
@@ -88,6 +89,9 @@ class FleetNode(Module):
         self.topics = Topics(fleet.interface_name, fleet.manufacturer, fleet.serial_number)
         self.vehicle = Vehicle(fleet.manufacturer, fleet.serial_number, self._requested)
         self._spoken = self._version()  # the version of what was sent last
+        room = StandingRoom(self.settings.value.footprint.inscribed_m)  # where it fits on the map
+        self.vehicle.blocked = room.blocked
+        ctx.subscribe(MapUpdate, room.take)
         ctx.subscribe(RobotState, self._on_state)
         ctx.subscribe(GoalStatus, self._on_goal_status)
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+from collections.abc import Callable
 
 from pydantic import ValidationError
 
@@ -29,6 +30,7 @@ __all__ = [
     "initial_pose",
     "loose_refs",
     "malformed",
+    "taken",
     "unusable",
 ]
 
@@ -113,6 +115,22 @@ def unusable(order: Order) -> Problem | None:
                 f"got {duration!r}",
                 [("actionId", action.actionId)],
             )
+    return None
+
+
+def taken(order: Order, blocked: Callable[[float, float], bool] | None) -> Problem | None:
+    """The first released node whose place ``blocked`` says the robot cannot stand at (the
+    map shows an obstacle there), or None."""
+    if blocked is None:
+        return None
+    for node in order.nodes:
+        where = node.nodePosition
+        if node.released and where is not None and blocked(where.x, where.y):
+            why = (
+                f"node {node.nodeId} at ({where.x:.2f}, {where.y:.2f}) is on an obstacle of "
+                "the map (a wall?): the robot cannot stand there"
+            )
+            return why, [("nodeId", node.nodeId)]
     return None
 
 

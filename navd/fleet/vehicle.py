@@ -42,6 +42,7 @@ from navd.fleet.order_rules import (
     initial_pose,
     loose_refs,
     malformed,
+    taken,
     unusable,
 )
 from navd.fleet.vda5050 import Action, Edge, InstantActions, Node, Order
@@ -90,6 +91,7 @@ class Vehicle:
         self.changed = True  # the state has news since it was last published
         self.master_version = ""  # the VDA 5050 version of the master's last message read
         self._via, self._passed = 0, 0  # nodes the goal drives through; of them passed
+        self.blocked: Callable[[float, float], bool] | None = None  # where it cannot stand
 
     # --- inputs ---------------------------------------------------------------------------
 
@@ -97,7 +99,8 @@ class Vehicle:
         self, raw: bytes, now: float, pose: Pose2 | None, map_id: str | None = None
     ) -> list[Message]:
         """An order message as it came from the broker; with ``map_id`` (the map the robot
-        is on), an order with a node on another map is refused."""
+        is on), an order with a node on another map, or with one on an obstacle
+        (``blocked``), is refused."""
         try:
             order = Order.model_validate_json(raw)
         except ValidationError as err:
@@ -106,7 +109,7 @@ class Vehicle:
         problem = malformed(order, self.manufacturer, self.serial_number)
         if problem is not None:
             return self._refuse("validationError", *problem, order)
-        problem = unusable(order) or elsewhere(order, map_id)
+        problem = unusable(order) or elsewhere(order, map_id) or taken(order, self.blocked)
         if problem is not None:
             return self._refuse("orderError", *problem, order)
         if order.orderId != self.order_id:
