@@ -25,6 +25,7 @@ import contextlib
 import ipaddress
 import json
 import socket
+import sys
 import threading
 import time
 from http import HTTPStatus
@@ -150,6 +151,13 @@ class _Server(ThreadingHTTPServer):
         finally:
             self.requested(request)
             self.slots.release()
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A browser that went away mid-answer (or a connection cut at its deadline) is not
+        an error; anything else is printed as the standard library does."""
+        if isinstance(sys.exception(), ConnectionError):
+            return
+        super().handle_error(request, client_address)
 
     def requested(self, request: Any) -> None:
         """``request``'s connection has sent its request (or is gone)."""

@@ -41,6 +41,7 @@ __all__ = [
 
 HANDSHAKE_DEADLINE_S = 5.0  # [s] from connecting to the end of the opening request
 MAX_REQUEST_BYTES = 16_384  # the opening request's most (a browser's is under 2 KB)
+REFUSED_LINGER_S = 0.5  # [s] a refused viewer's connection stays to take its request
 UPSTREAM_HIGH_BYTES = 1_048_576  # a viewer's commands waiting for the SDK before it is paused
 SDK_BACKLOG_MESSAGES = 64  # the SDK's own queue per viewer (the gate reads it at once)
 SDK_PROTOCOL = b"foxglove.sdk.v1"
@@ -161,7 +162,11 @@ class _Viewer(asyncio.Protocol):
                 + f"Content-Length: {len(body)}\r\n\r\n".encode()
                 + body
             )
-            transport.close()
+            # its request is read and dropped until the close, so the close is a FIN after
+            # the answer, not a reset that may take the answer with it
+            if transport.can_write_eof():
+                transport.write_eof()
+            asyncio.get_running_loop().call_later(REFUSED_LINGER_S, transport.close)
             self._closed = True
             self.gate.refuse(self)
             return
@@ -189,6 +194,8 @@ class _Viewer(asyncio.Protocol):
         self._early.clear()
 
     def data_received(self, data: bytes) -> None:
+        if self._closed:
+            return  # a refused viewer's request, read to be dropped
         if not self._requested:  # the opening request goes on whole, its protocol named
             self._head += data
             end = self._head.find(b"\r\n\r\n")

@@ -80,7 +80,14 @@ def test_a_signal_ends_a_command_through_its_clean_up_with_one_line(
 ) -> None:
     process = _start(script)
     process.send_signal(sig)
-    out, err = process.communicate(timeout=10)
+    # its standard input stays open until it has ended: closing it too (as communicate
+    # does) could end the read before the signal does on a busy machine
+    process.wait(timeout=10)
+    assert process.stdout is not None and process.stderr is not None
+    out, err = process.stdout.read(), process.stderr.read()
+    for pipe in (process.stdin, process.stdout, process.stderr):
+        if pipe is not None:
+            pipe.close()
     assert process.returncode == code
     assert out.strip() == "cleaned up"
     assert err.strip() == f"navd barn: ended by {said}"

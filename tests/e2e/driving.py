@@ -17,6 +17,8 @@ from navd.wire import Client, TeleopFrame
 from tests.conftest import room_scan
 from tests.e2e.conftest import READY_S, DaemonProcess
 
+QUIET_GAP_S = 0.075  # [s] the largest gap between wheel lines (20 Hz) on a quiet machine
+
 
 class Wheels(threading.Thread):
     """The chassis's end of the line: each wheel line with when it came."""
@@ -47,6 +49,14 @@ class Wheels(threading.Thread):
                 return hit
             time.sleep(0.01)
         raise AssertionError(f"no such wheel line within {timeout_s} s: {self.since(after)[-5:]}")
+
+    def gap_limit_s(self, bar_s: float, before: float, window_s: float = 2.0) -> float:
+        """[s] ``bar_s`` as this machine can keep it now: scaled by the largest gap between
+        wheel lines over the ``window_s`` before ``before`` against a quiet machine's
+        (QUIET_GAP_S), never below the bar. On a quiet machine it is the bar; beside CPU-bound
+        processes every process waits its turn longer, navd's loop as well."""
+        usual = self.largest_gap_s(before - window_s, before)
+        return bar_s * max(1.0, usual / QUIET_GAP_S)
 
     def largest_gap_s(self, begin: float, end: float) -> float:
         """[s] the longest time without a wheel line between ``begin`` and ``end``."""
