@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from tests.e2e.conftest import STOP_S
 from tests.e2e.driving import driven_daemon, moving
 
 REACTION_S = 0.5  # safety.reaction_timeout_s, the default
@@ -41,3 +42,22 @@ def test_a_frozen_or_killed_daemon_has_its_wheels_stopped_by_the_watch(
         assert stopped - killed <= ALLOWANCE_S
         time.sleep(0.3)
         assert [text for _, text in wheels.since(stopped)] == []  # the watch is gone too
+
+
+def test_a_daemon_stopped_after_a_stall_exits_0_without_a_traceback(
+    spawn_daemon: Any, tmp_path: Path
+) -> None:
+    # the earlier probe saw uvloop print "KeyError: 23" at SIGTERM after a stall
+    with driven_daemon(spawn_daemon, tmp_path, "[viz]\nenabled = false\n") as driving:
+        daemon, _, wheels = driving
+        daemon.proc.send_signal(signal.SIGSTOP)
+        time.sleep(1.5)  # stalled, its sensors and driver piling up lines meanwhile
+        daemon.proc.send_signal(signal.SIGCONT)
+        daemon.wait_for("chassis_stall_stopped", timeout_s=10.0)
+        daemon.proc.send_signal(signal.SIGTERM)
+        assert daemon.proc.wait(timeout=STOP_S) == 0
+        daemon.wait_for("stopped", timeout_s=5.0)
+        daemon._reader.join(5.0)  # every line it wrote, to its end
+        said = daemon.seen + daemon.drain()
+        assert not [x for x in said if x.get("event") == "non-json"], said[-5:]
+        assert wheels.wait_for(lambda t: t == "0 0", time.monotonic() - 1.0, 5.0)
