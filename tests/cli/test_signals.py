@@ -52,9 +52,15 @@ sys.exit(main(["barn"]))
 """
 
 
+# Ctrl-C at its default, as a shell starts a command: a test process can hold SIGINT
+# ignored (asyncio leaves it as it found it), an ignored signal is inherited, and Python
+# then installs no Ctrl-C handler at all.
+AS_FROM_A_TERMINAL = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+
 def _start(script: str) -> subprocess.Popen[str]:
     process = subprocess.Popen(
-        [sys.executable, "-c", script],
+        [sys.executable, "-c", AS_FROM_A_TERMINAL + script],
         cwd=REPO,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,

@@ -54,9 +54,11 @@ def test_epochs_come_at_the_rate_over_the_line() -> None:
                     text += os.read(host, 4096)
         finally:
             os.close(host)
+    # the window can end inside a sentence: only the lines it saw end are read
+    whole = text[: text.rfind(b"\n") + 1]
     fixes = [
         pynmea2.parse(s, check=True)
-        for s in text.decode("ascii").splitlines()
+        for s in whole.decode("ascii").splitlines()
         if s.startswith("$GNGGA")
     ]
     assert 5 <= len(fixes) <= 9  # five a second, for a second and a half
