@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import tempfile
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any
@@ -31,21 +32,25 @@ async def running_daemon(
     sections["viz"] = {"port": 0, "page_port": 0, **sections.get("viz", {})}
     # the level the tests' own logging runs at (a daemon applies its level when it starts)
     sections["logging"] = {"level": "warning", **sections.get("logging", {})}
-    config = parse_config(sections)
-    daemon = Daemon(config, build_modules(config), handle_signals=False)
-    if before_start is not None:
-        before_start(daemon)
-    task = asyncio.create_task(daemon.run())
-    try:
-        await asyncio.wait_for(daemon.ready.wait(), READY_TIMEOUT_S)
-        # The kernels compile beside the loop after start-up; with a cold numba cache that
-        # takes a while, and no test here is about it.
-        await asyncio.wait_for(daemon.workers.wait_idle(), WARM_UP_TIMEOUT_S)
-        server = next(m for m in daemon.manager.modules if isinstance(m, TcpServer))
-        yield daemon, server.port
-    finally:
-        daemon.request_shutdown("test over")
-        await asyncio.wait_for(task, 5.0)
+    # maps go to a folder of the test's own unless it names one (the default, "maps", is
+    # relative to where the suite runs: the repository)
+    with tempfile.TemporaryDirectory(prefix="navd-test-maps-") as maps:
+        sections["slam"] = {"map_dir": maps, **sections.get("slam", {})}
+        config = parse_config(sections)
+        daemon = Daemon(config, build_modules(config), handle_signals=False)
+        if before_start is not None:
+            before_start(daemon)
+        task = asyncio.create_task(daemon.run())
+        try:
+            await asyncio.wait_for(daemon.ready.wait(), READY_TIMEOUT_S)
+            # The kernels compile beside the loop after start-up; with a cold numba cache
+            # that takes a while, and no test here is about it.
+            await asyncio.wait_for(daemon.workers.wait_idle(), WARM_UP_TIMEOUT_S)
+            server = next(m for m in daemon.manager.modules if isinstance(m, TcpServer))
+            yield daemon, server.port
+        finally:
+            daemon.request_shutdown("test over")
+            await asyncio.wait_for(task, 5.0)
 
 
 def record(daemon: Daemon, message_type: type[Message]) -> list[Any]:
