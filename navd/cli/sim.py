@@ -33,6 +33,20 @@ def add_commands(commands: Commands) -> None:
         "then waits for goals from the page until Ctrl-C)",
     )
     demo.add_argument(
+        "--port",
+        type=_port,
+        default=0,
+        metavar="P",
+        help="with --view: the live view's WebSocket port, for Foxglove (default: a free one)",
+    )
+    demo.add_argument(
+        "--page-port",
+        type=_port,
+        default=0,
+        metavar="Q",
+        help="with --view: the operator page's port (default: a free one)",
+    )
+    demo.add_argument(
         "--record", type=Path, metavar="DIR", help="record the drive to MCAP files in DIR"
     )
     demo.add_argument(
@@ -66,6 +80,17 @@ def add_commands(commands: Commands) -> None:
     barn.set_defaults(handler=_barn)
 
 
+def _port(text: str) -> int:
+    """A TCP port, 1 to 65535."""
+    try:
+        port = int(text)
+    except ValueError:
+        port = 0
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port (1 to 65535)")
+    return port
+
+
 def _demo(args: argparse.Namespace) -> int:
     from navd.sim import (  # noqa: PLC0415
         SimError,
@@ -74,6 +99,9 @@ def _demo(args: argparse.Namespace) -> int:
         run_demo,
     )
 
+    if (args.port or args.page_port) and not args.view:
+        print("navd demo: --port and --page-port choose the ports of --view", file=sys.stderr)
+        return EXIT_USAGE
     if args.fleet is not None:
         return _fleet_demo(args)
 
@@ -85,6 +113,8 @@ def _demo(args: argparse.Namespace) -> int:
             limit_s=args.limit,
             lockstep=not args.real_time,
             view=args.view,
+            view_port=args.port,
+            page_port=args.page_port,
             record=args.record,
         )
     except SimError as err:

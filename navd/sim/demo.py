@@ -36,7 +36,7 @@ import numpy as np
 
 from navd.sim.errors import SimError
 from navd.sim.picture import demo_picture
-from navd.sim.ports import free_port
+from navd.sim.ports import free_port, port_taken
 from navd.sim.runner import Simulator
 from navd.sim.sim_session import Session, session
 from navd.sim.world import World
@@ -163,31 +163,37 @@ def run_demo(
     progress: bool = True,
     lockstep: bool = True,
     view: bool = False,
+    view_port: int = 0,
+    page_port: int = 0,
     record: Path | None = None,
 ) -> dict[str, Any]:
     """Run the demo in ``world`` and write ``demo.png`` and ``summary.json`` into ``out``.
 
     ``lockstep`` runs on simulated time, deterministic and as fast as the CPU allows;
     False runs in real time (to watch the robot live through a control client). ``view``
-    serves the operator page and runs in real time (see the module docstring). ``record``
-    has the daemon record the drive to MCAP files there (``navd replay`` plays them back).
+    serves the operator page and runs in real time (see the module docstring): the live
+    view's WebSocket on ``view_port`` and the page on ``page_port`` (0: a free one), both on
+    127.0.0.1, so an SSH tunnel can name them. ``record`` has the daemon record the drive to
+    MCAP files there (``navd replay`` plays them back).
 
     Returns:
         The summary.
 
     Raises:
-        SimError: the world has no goal, or navd could not be started or reached.
+        SimError: the world has no goal, a chosen port is taken, or navd could not be
+            started or reached.
     """
     if world.goal is None:
         raise SimError(f"world {world.name!r} has no goal: add goal = [x, y, yaw]")
+    if view:
+        view_port, page_port = _view_ports(view_port, page_port)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="navd-demo-") as tmp:
         work = Path(tmp)
 
-        page_port = free_port()
         overrides: dict[str, Any] = {}
         if view:
-            overrides["viz"] = {"port": free_port(), "page_port": page_port}
+            overrides["viz"] = {"port": view_port, "page_port": page_port}
         if record is not None:
             overrides["record"] = {"enabled": True, "dir": str(record.resolve())}
 
@@ -204,7 +210,7 @@ def run_demo(
                 # canceled, the map saved and the results written, and the daemon stopped.
                 with _ended_by_signals() as ended:
                     if view:
-                        await _open_page(f"http://127.0.0.1:{page_port}/")
+                        await _open_page(page_port, view_port)
                     result = await _drive(s, world, limit_s, progress, ended)
                     if view:
                         await _stay_up(s, ended)
@@ -222,9 +228,34 @@ def run_demo(
     return summary
 
 
-async def _open_page(url: str) -> None:
-    """Say where the page is, open it where a browser can, and give it time to load."""
+def _view_ports(view_port: int, page_port: int) -> tuple[int, int]:
+    """The live view's and the page's ports: the chosen ones, checked free now (a taken one
+    is named before navd starts), else free ones."""
+    if view_port and view_port == page_port:
+        raise SimError(f"--port and --page-port are both {view_port}: give each its own")
+    for port, option in ((view_port, "--port"), (page_port, "--page-port")):
+        if port and (why := port_taken(port)) is not None:
+            raise SimError(
+                f"{option} {port} cannot be used on 127.0.0.1 ({why}): choose another, or "
+                "leave the option out for a free one"
+            )
+    view_port = view_port or free_port()
+    while not page_port or page_port == view_port:
+        page_port = free_port()
+    return view_port, page_port
+
+
+async def _open_page(page_port: int, view_port: int) -> None:
+    """Say where the page and the live view are, open the page where a browser can, and
+    give it time to load."""
+    url = f"http://127.0.0.1:{page_port}/"
     print(f"navd demo: the operator page is at {url}", file=sys.stderr, flush=True)
+    print(
+        f"navd demo: the live view is at ws://127.0.0.1:{view_port} (Foxglove: Open "
+        "connection, Foxglove WebSocket)",
+        file=sys.stderr,
+        flush=True,
+    )
     opened = await asyncio.to_thread(webbrowser.open, url)
     if not opened:
         print("navd demo: no browser here; open the address above in one", file=sys.stderr)

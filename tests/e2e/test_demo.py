@@ -3,20 +3,27 @@ real pseudo-terminal, sensors over real TCP) to a goal, and the results are writ
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
+import urllib.request
 from pathlib import Path
 
 import numpy as np
+import pytest
 import tomli_w
 from PIL import Image
 
-from navd.sim import from_shapes, run_demo
+from navd.cli import main
+from navd.sim import free_port, from_shapes, run_demo
 from tests.e2e.conftest import REPO, run_navd
+from tests.viz.foxglove_client import FoxgloveClient
 
 # A 6 m x 3 m room with a box in the middle of the straight line to the goal.
 ROOM = {
@@ -129,3 +136,67 @@ def test_sigterm_ends_the_demo_with_its_results_and_leaves_nothing_running(
     assert (out / "demo.png").stat().st_size > 0
     assert not _alive(daemon)
     assert not config.parent.exists()
+
+
+def test_a_viewed_demo_serves_the_page_and_the_live_view_on_the_ports_asked_for(
+    tmp_path: Path,
+) -> None:
+    # The documented SSH tunnel names both ports: they used to be free ones picked at each
+    # run, and only the page's was printed.
+    world = tmp_path / "room.toml"
+    world.write_text(tomli_w.dumps(ROOM))
+    out = tmp_path / "out"
+    view_port = free_port()
+    page_port = next(p for p in iter(free_port, None) if p != view_port)
+    command = [sys.executable, "-m", "navd", "demo", "--world", str(world), "--out", str(out)]
+    command += ["--view", "--port", str(view_port), "--page-port", str(page_port)]
+    # BROWSER=true: the page "opens" in a command that does nothing
+    env = dict(os.environ, BROWSER="true")
+    demo = subprocess.Popen(command, cwd=REPO, env=env, stderr=subprocess.PIPE, text=True)
+    said: list[str] = []
+    assert demo.stderr is not None
+    reader = threading.Thread(target=lambda: said.extend(demo.stderr or ()), daemon=True)
+    reader.start()
+    try:
+        deadline = time.monotonic() + 120.0  # a cold kernel cache compiles first
+        while not any("the live view is at" in line for line in said):
+            assert demo.poll() is None and time.monotonic() < deadline, said
+            time.sleep(0.1)
+        assert f"the operator page is at http://127.0.0.1:{page_port}/\n" in "".join(said)
+        assert f"the live view is at ws://127.0.0.1:{view_port} " in "".join(said)
+        with urllib.request.urlopen(f"http://127.0.0.1:{page_port}/", timeout=10) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
+
+        async def watch() -> None:
+            viewer = await FoxgloveClient.open(view_port)
+            try:
+                await viewer.wait_for_topics({"/map", "/scan", "/pose"}, timeout_s=30.0)
+            finally:
+                await viewer.close()
+
+        asyncio.run(watch())
+        demo.send_signal(signal.SIGTERM)
+        demo.wait(timeout=60)
+    finally:
+        if demo.poll() is None:
+            demo.kill()
+            demo.wait()
+    reader.join(5.0)
+    assert (out / "summary.json").exists()
+
+
+def test_demo_ports_are_refused_by_name(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = ["--out", str(tmp_path)]
+    assert main(["demo", "--port", "9000", *out]) == 2
+    assert "--port and --page-port choose the ports of --view" in capsys.readouterr().err
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert main(["demo", "--view", "--page-port", str(port), *out]) == 2
+        assert f"--page-port {port} cannot be used on 127.0.0.1" in capsys.readouterr().err
+    assert main(["demo", "--view", "--port", "9000", "--page-port", "9000", *out]) == 2
+    assert "both 9000: give each its own" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["demo", "--view", "--port", "70000", *out])
+    assert "'70000' is not a port (1 to 65535)" in capsys.readouterr().err
