@@ -2,7 +2,7 @@
 room, like drivers: it listens to the bus and never reaches into the other rooms)."""
 
 from navd.viz.errors import CommandRefusedError, RecordCodecError, RecordingError, VizError
-from navd.viz.layout import live_layout
+from navd.viz.layout import lichtblick_layout, live_layout
 from navd.viz.node import VizNode
 from navd.viz.playback import play
 from navd.viz.recorder import Recorder
@@ -17,6 +17,7 @@ __all__ = [
     "RecordingError",
     "VizError",
     "VizNode",
+    "lichtblick_layout",
     "live_layout",
     "play",
     "read_recording",

@@ -16,6 +16,7 @@ from foxglove.channels import (
     LaserScanChannel,
     LogChannel,
     OdometryChannel,
+    PoseInFrameChannel,
     SceneUpdateChannel,
 )
 
@@ -38,6 +39,8 @@ class LiveChannels:
         self.scan = LaserScanChannel("/scan", context=context)
         self.tf = FrameTransformsChannel("/tf", context=context)
         self.pose = OdometryChannel("/pose", context=context)
+        # the pose again as a type Lichtblick's 3D panel draws (it does not draw Odometry)
+        self.pose_in_frame = PoseInFrameChannel("/pose/in_frame", context=context)
         self.route = SceneUpdateChannel("/route", context=context)
         self.goal = SceneUpdateChannel("/goal", context=context)
         self.footprint = SceneUpdateChannel("/footprint", context=context)

@@ -4,14 +4,26 @@ One 3D panel (the map, scan, route, local trajectory, goal, keep-out zones and t
 outline, seen from above and following the robot; the costmap one click away) beside the
 daemon's status, the goal's progress and the log. The repository keeps the JSON in
 ``config/foxglove/navd-live.json`` (``navd viz layout`` writes it again; a test keeps the two
-equal) for Foxglove's or Lichtblick's "Import layout".
+equal) for Foxglove's "Import layout".
+
+Lichtblick (and Foxglove Studio before the SDK's layouts) imports another format: the panels'
+configs by id and a tree of two-way splits. ``lichtblick_layout`` turns the same layout into
+it, with the robot's pose drawn from ``/pose/in_frame`` (Lichtblick's 3D panel does not draw
+``foxglove.Odometry``); the repository keeps it in ``config/lichtblick/navd-live.json``.
 """
 
 from __future__ import annotations
 
+import json
+from typing import Any
+
 import foxglove.layouts as fl
 
-__all__ = ["live_layout"]
+__all__ = ["lichtblick_layout", "live_layout"]
+
+# The SDK's panel types by the names Lichtblick's panels register (its log panel keeps the
+# legacy name RosOut).
+_LICHTBLICK_PANELS = {"ThreeDee": "3D", "RawMessages": "RawMessages", "Log": "RosOut"}
 
 
 def live_layout() -> fl.Layout:
@@ -86,3 +98,45 @@ def live_layout() -> fl.Layout:
             ],
         )
     )
+
+
+def lichtblick_layout() -> dict[str, Any]:
+    """The live view's layout as Lichtblick's "Import from file" reads it."""
+    configs: dict[str, Any] = {}
+    root = _mosaic(json.loads(live_layout().to_json())["content"], configs)
+    return {
+        "configById": configs,
+        "globalVariables": {},
+        "userNodes": {},
+        "playbackConfig": {"speed": 1.0},
+        "layout": root,
+    }
+
+
+def _mosaic(node: dict[str, Any], configs: dict[str, Any]) -> Any:
+    """A panel's id (its config put in ``configs``), or a two-way split of the items: the
+    first against the rest, by their proportions."""
+    if node["type"] == "panel":
+        kind = _LICHTBLICK_PANELS[node["panelType"]]
+        config = dict(node["config"])
+        if kind == "3D":
+            topics = dict(config["topics"])
+            topics["/pose/in_frame"] = topics.pop("/pose")
+            config["topics"] = topics
+        elif kind == "RosOut":
+            config = {"searchTerms": [], "minLogLevel": 1, **config}
+        panel_id = f"{kind}!navd{len(configs) + 1}"
+        configs[panel_id] = config
+        return panel_id
+    items = node["items"]
+    if len(items) == 1:
+        return _mosaic(items[0]["content"], configs)
+    first = _mosaic(items[0]["content"], configs)
+    rest = _mosaic({"type": "split", "direction": node["direction"], "items": items[1:]}, configs)
+    share = items[0]["proportion"] / sum(item["proportion"] for item in items)
+    return {
+        "first": first,
+        "second": rest,
+        "direction": node["direction"],
+        "splitPercentage": round(100.0 * share, 2),
+    }

@@ -6,7 +6,7 @@ Channels (topics) and what they carry:
 - ``/scan`` (foxglove.LaserScan): the latest scan in ``laser``, at most ``viz.scan_rate_hz``;
 - ``/tf`` (foxglove.FrameTransforms): map -> odom -> base_link -> laser, with the pose;
 - ``/pose`` (foxglove.Odometry): the fused pose with its covariance, at most
-  ``viz.pose_rate_hz``;
+  ``viz.pose_rate_hz``; ``/pose/in_frame`` (foxglove.PoseInFrame) the same for Lichtblick;
 - ``/route``, ``/goal``, ``/footprint``, ``/keep_out`` (foxglove.SceneUpdate): the global
   route, the goal, the robot's outline and the keep-out zones;
 - ``/costmap`` (foxglove.Grid, ROS costmap values) and ``/trajectory`` (foxglove.SceneUpdate):
@@ -309,7 +309,8 @@ class VizNode(Module):
         channels, period_s = self.channels, self.settings.value.pose_period_s
         self._page.pose(pose, period_s)
         tf, odometry = self.sender.watched(channels.tf), self.sender.watched(channels.pose)
-        if not (tf or odometry) or not self._pose_throttle.due(pose.received, period_s):
+        in_frame = self.sender.watched(channels.pose_in_frame)
+        if not (tf or odometry or in_frame) or not self._pose_throttle.due(pose.received, period_s):
             return
         offset_s = self.sender.offset_s
         if tf:
@@ -317,6 +318,8 @@ class VizNode(Module):
             self.sender.send(channels.tf, scene.frame_tree(pose, lidar, offset_s=offset_s))
         if odometry:
             self.sender.send(channels.pose, scene.odometry(pose, offset_s=offset_s))
+        if in_frame:
+            self.sender.send(channels.pose_in_frame, scene.pose_in_frame(pose, offset_s=offset_s))
 
     def _on_path(self, path: Path) -> None:
         offset_s, channel = self.sender.offset_s, self.channels.route

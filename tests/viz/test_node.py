@@ -19,6 +19,7 @@ from navd.lifecycle.messages import (
     LaserScan,
     LocalTrajectory,
     MapUpdate,
+    PoseEstimate,
     SafetyState,
     ViewInterest,
 )
@@ -31,7 +32,7 @@ from tests.planning.test_zones import ORIGIN, SHAPE, write_mask
 from tests.viz.foxglove_client import FoxgloveClient
 
 TOPICS = {"/map", "/scan", "/tf", "/pose", "/route", "/goal", "/footprint", "/keep_out"}
-TOPICS |= {"/goal_status", "/status", "/log", "/costmap", "/trajectory"}
+TOPICS |= {"/goal_status", "/status", "/log", "/costmap", "/trajectory", "/pose/in_frame"}
 
 
 @asynccontextmanager
@@ -279,3 +280,28 @@ async def test_zone_masks_are_shown_as_grids(tmp_path: Path) -> None:
     shown = np.frombuffer(grid.data, dtype=np.int8).reshape(SHAPE)
     assert (shown[10:20, 30:40] == 100).all() and (shown[:10] == 0).all()
     assert (grid.pose.position.x, grid.pose.position.y) == pytest.approx(ORIGIN)
+
+
+async def test_the_pose_is_also_sent_as_a_pose_in_frame_for_lichtblick() -> None:
+    async with viewed_daemon() as (daemon, node):
+        assert node.port is not None
+        client = await FoxgloveClient.open(node.port)
+        try:
+            await client.wait_for_topics({"/pose/in_frame"})
+            assert client.channels["/pose/in_frame"].schema_name == "foxglove.PoseInFrame"
+            await client.subscribe("/pose/in_frame")
+            for i in range(100):  # until the subscription is in: each pose is sent once
+                now = daemon.clock.now()
+                stamps = {"stamp": now, "received": now}
+                cov = np.diag([0.01, 0.01, 0.01])
+                pose = PoseEstimate(**stamps, x_m=1.5, y_m=-0.5, yaw_rad=0.0, covariance=cov)
+                daemon.bus.publish(pose)
+                try:
+                    _, shown = await client.receive("/pose/in_frame", timeout_s=0.2)
+                    break
+                except TimeoutError:
+                    assert i < 99, "no pose on /pose/in_frame"
+            assert shown.frame_id == "map"
+            assert (shown.pose.position.x, shown.pose.position.y) == (1.5, -0.5)
+        finally:
+            await client.close()

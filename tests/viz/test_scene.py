@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import pathlib
 from typing import Any
@@ -12,7 +13,7 @@ import pytest
 from navd.geometry import Footprint, LidarMount, Pose2
 from navd.lifecycle.messages import Goal, LaserScan, MapUpdate, Path, PoseEstimate
 from navd.viz import scene
-from navd.viz.layout import live_layout
+from navd.viz.layout import lichtblick_layout, live_layout
 from tests.viz.foxglove_client import protobuf_class
 
 
@@ -160,3 +161,36 @@ def test_the_layout_in_the_repository_is_the_one_navd_builds() -> None:
         "config/foxglove/navd-live.json is out of date: run "
         "`navd viz layout --out config/foxglove/navd-live.json`"
     )
+
+
+def test_the_lichtblick_layout_in_the_repository_is_the_one_navd_builds() -> None:
+    shipped = pathlib.Path(__file__).parents[2] / "config" / "lichtblick" / "navd-live.json"
+    assert json.loads(shipped.read_text(encoding="utf-8")) == lichtblick_layout(), (
+        "config/lichtblick/navd-live.json is out of date: run "
+        "`navd viz layout --for lichtblick --out config/lichtblick/navd-live.json`"
+    )
+
+
+def _leaves(node: Any) -> list[str]:
+    if isinstance(node, str):
+        return [node]
+    assert set(node) == {"first", "second", "direction", "splitPercentage"}
+    assert node["direction"] in ("row", "column") and 0 < node["splitPercentage"] < 100
+    return _leaves(node["first"]) + _leaves(node["second"])
+
+
+def test_the_lichtblick_layout_has_the_same_panels_in_lichtblicks_own_format() -> None:
+    layout = lichtblick_layout()
+    assert set(layout) == {"configById", "globalVariables", "userNodes", "playbackConfig", "layout"}
+    leaves = _leaves(layout["layout"])
+    assert sorted(leaves) == sorted(layout["configById"])  # every panel placed once
+    # the panel types Lichtblick registers: 3D, RawMessages, RosOut (its log panel)
+    assert [leaf.split("!")[0] for leaf in leaves] == ["3D", "RawMessages", "RawMessages", "RosOut"]
+    configs = [layout["configById"][leaf] for leaf in leaves]
+    view, status, goal, log = configs
+    assert view["followTf"] == "base_link" and view["fixedFrame"] == "map"
+    assert "/pose" not in view["topics"] and view["topics"]["/pose/in_frame"]["visible"]
+    assert (status["topicPath"], goal["topicPath"]) == ("/status", "/goal_status")
+    assert log["topicToRender"] == "/log" and log["minLogLevel"] == 1
+    # the 3D view takes three quarters of the width, as in Foxglove's layout
+    assert (layout["layout"]["direction"], layout["layout"]["splitPercentage"]) == ("row", 75.0)
