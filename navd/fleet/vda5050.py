@@ -69,7 +69,10 @@ class NodePosition(_Wire):
     x: float
     y: float
     theta: float | None = Field(None, ge=-math.pi - 1e-6, le=math.pi + 1e-6)
-    allowedDeviationXY: float | None = Field(None, ge=0)
+    # 2.0's JSON schema (as vda-5050-lib carries it) spells it allowedDeviationXy
+    allowedDeviationXY: float | None = Field(
+        None, ge=0, validation_alias=AliasChoices("allowedDeviationXY", "allowedDeviationXy")
+    )
     allowedDeviationTheta: float | None = Field(None, ge=0, le=math.pi + 1e-6)
     mapId: str = Field(max_length=MAX_ID_LENGTH)
 

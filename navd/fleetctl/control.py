@@ -19,7 +19,7 @@ from typing import Any
 import aiomqtt
 import numpy as np
 
-from navd.fleet import MAJOR_VERSION
+from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal, GroupMember
 from navd.fleetctl.group_map import GroupMap
@@ -81,6 +81,9 @@ async def drive_group(
             if left <= 0:
                 outcome["reason"] = f"not there within {timeout_s:g} s"
                 break
+            await run.start_if_due()
+            if group.released < 0:  # wake at the start time, whatever comes meanwhile
+                left = min(left, max(group.start_unix_s - time.time(), 0.0) + 0.01)
             try:
                 message = await asyncio.wait_for(anext(client.messages), left)
             except TimeoutError:
@@ -171,7 +174,7 @@ class _GroupRun:
         await self.client.subscribe(f"{self.prefix}/+/+/state", qos=1)
         await self.client.subscribe(f"{self.prefix}/+/+/visualization", qos=0)
         group = self.group
-        await self._send(group.first_orders(time.time()))
+        await self._send(group.first_orders())
         self.report(
             {
                 "event": "sent",
@@ -219,6 +222,13 @@ class _GroupRun:
         fatal = sorted({e for m in group.members for e in m.errors if e in FATAL_ERRORS})
         return f"a vehicle refused its order: {', '.join(fatal)}" if fatal else None
 
+    async def start_if_due(self) -> None:
+        """At the start time, release every robot's form-up place (all start together)."""
+        released = self.group.start(time.time())
+        if released:
+            await self._send(released)
+            self.report({"event": "started", "group": self.group.group_id})
+
     def _measure(self, *, now_or_never: bool = False) -> float:
         """The shape error now (and the corrections it calls for), at most every
         MEASURE_EVERY_S unless ``now_or_never``."""
@@ -257,8 +267,14 @@ class _GroupRun:
             HEADERS.next(topic),
             kind,
             f"{self.group.group_id}-{kind}-{self._actions}",
+            version=self._version(member),
         )
         await self.client.publish(topic, json.dumps(message), qos=QOS)
+
+    def _version(self, member: GroupMember) -> str:
+        """The version ``member`` speaks (``Vehicle.version``)."""
+        vehicle = self.view.vehicles.get(f"{member.manufacturer}/{member.serial}")
+        return vehicle.version if vehicle is not None else PROTOCOL_VERSION
 
     async def _correct(self) -> None:
         """Send the pauses and resumes the group asked for."""
@@ -269,4 +285,5 @@ class _GroupRun:
     async def _send(self, orders: list[tuple[Any, dict[str, Any]]]) -> None:
         for member, order in orders:
             topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/order"
-            await self.client.publish(topic, json.dumps(order), qos=QOS)
+            spoken = {**order, "version": self._version(member)}
+            await self.client.publish(topic, json.dumps(spoken), qos=QOS)

@@ -8,10 +8,12 @@ formation is to be reached facing the way on (the last one, the goal's heading),
 turns while it waits for the others, not when the next step starts; a place in a column has
 no heading (the column bends with the route, and a robot goes on as it came).
 Each robot's VDA 5050 order is the list of its places along that way: its first node is
-where it stands, with a HARD ``wait`` until the common start time (the group
-command replicated with a start timestamp, so all start together); then its place at the
-start centre (the group forms up), then at each step. Only the next place is released: once
-every robot has reached its place of step k, each gets an order update releasing step k+1.
+where it stands, the only one released, with its form-up place (at the start centre) as the
+horizon; at the common start time every robot gets an update releasing the form-up place,
+so all start together with nothing but standard order updates (a vehicle of any maker takes
+them; seed 000's start timestamp, carried by the release itself). Then each step: only the
+next place is released: once every robot has reached its place of step k, each gets an
+order update releasing step k+1.
 That is the formation's correction at each step: the group moves at the pace of its slowest
 robot and re-forms at every step. Within a step, from the positions the robots report, one
 that has come ``AHEAD_M`` farther along its step than the slowest is paused (``startPause``)
@@ -143,7 +145,7 @@ class GroupDrive:
             member.map_id = (map_ids or {}).get(serial, member.map_id)
             self.members.append(member)
         self.start_unix_s = now_unix_s + goal.start_delay_s
-        self.released = 0  # the last place released to everyone
+        self.released = -1  # the last place released to everyone (-1: where they stand)
 
     @property
     def steps(self) -> int:
@@ -157,28 +159,22 @@ class GroupDrive:
 
     # --- orders ---------------------------------------------------------------------------
 
-    def first_orders(self, now_unix_s: float) -> list[tuple[GroupMember, dict[str, Any]]]:
-        """Each robot's first order: where it stands (waiting for the start), its form-up
-        place released, the next place as the horizon."""
-        wait_s = max(self.start_unix_s - now_unix_s, 0.0)
+    def first_orders(self) -> list[tuple[GroupMember, dict[str, Any]]]:
+        """Each robot's first order: where it stands, released; its form-up place as the
+        horizon (``start`` releases it)."""
         out = []
         for m in self.members:
             start_node = self._node(m, -1, released=True, at=m.start_xy)
             start_node["nodePosition"]["allowedDeviationXY"] = START_DEVIATION_M
-            start_node["actions"] = [
-                {
-                    "actionType": "wait",
-                    "actionId": f"{self.group_id}-{m.serial}-start",
-                    "blockingType": "HARD",
-                    "actionDescription": "start together",
-                    "actionParameters": [{"key": "duration", "value": round(wait_s, 3)}],
-                }
-            ]
-            nodes = [start_node, self._node(m, 0, released=True)]
-            if self.steps > 1:
-                nodes.append(self._node(m, 1, released=False))
-            out.append((m, self._order(m, nodes)))
+            out.append((m, self._order(m, [start_node, self._node(m, 0, released=False)])))
         return out
+
+    def start(self, now_unix_s: float) -> list[tuple[GroupMember, dict[str, Any]]]:
+        """At the start time (once): the update to each robot releasing its form-up place,
+        the next place as the horizon; before it, or after, nothing."""
+        if self.released >= 0 or now_unix_s < self.start_unix_s:
+            return []
+        return self._release()
 
     def on_state(
         self, serial: str, state: dict[str, Any]
@@ -202,13 +198,23 @@ class GroupDrive:
         if state.get("orderId") != ours:
             return []
         member.reached = max(member.reached, _place_of(int(state.get("lastNodeSequenceId", 0))))
-        if self.released >= self.steps - 1 or any(m.reached < self.released for m in self.members):
+        if not 0 <= self.released < self.steps - 1:  # not started, or all released
             return []
+        if any(m.reached < self.released for m in self.members):
+            return []
+        return self._release()
+
+    def _release(self) -> list[tuple[GroupMember, dict[str, Any]]]:
+        """Release the next place to every robot: the updates."""
         self.released += 1
         out = []
         for m in self.members:
             k = self.released
-            nodes = [self._node(m, k - 1, released=True), self._node(m, k, released=True)]
+            at = m.start_xy if k == 0 else None  # the place before the form-up: where it stood
+            last = self._node(m, k - 1, released=True, at=at)
+            if k == 0:
+                last["nodePosition"]["allowedDeviationXY"] = START_DEVIATION_M
+            nodes = [last, self._node(m, k, released=True)]
             if k + 1 < self.steps:
                 nodes.append(self._node(m, k + 1, released=False))
             m.update += 1
@@ -241,7 +247,7 @@ class GroupDrive:
         puts it at the group's progress through the released step (the mean of the robots'
         shares of it; ``GroupRoute.target_m``), laid over as well as it fits
         (``formation.shape_error``). NaN until every robot has said where it is."""
-        if any(m.position is None for m in self.members):
+        if self.released < 0 or any(m.position is None for m in self.members):
             return math.nan
         xy = np.array([self._carried(m, now_s) for m in self.members])
         k = self.released

@@ -56,10 +56,17 @@ class Vehicle:
     serial: str
     connection: str = "unknown"
     state: dict[str, Any] | None = None
+    said_version: str = ""  # the protocol version of its last message
 
     @property
     def name(self) -> str:
         return f"{self.manufacturer}/{self.serial}"
+
+    @property
+    def version(self) -> str:
+        """The VDA 5050 version to speak to it: 2.0.0 to a vehicle that speaks 2.0 (and drops
+        2.1 messages), else navd's."""
+        return "2.0.0" if self.said_version.startswith("2.0") else PROTOCOL_VERSION
 
     @property
     def map_id(self) -> str | None:
@@ -98,6 +105,8 @@ class FleetView:
             return None
         key = f"{levels[2]}/{levels[3]}"
         vehicle = self.vehicles.setdefault(key, Vehicle(levels[2], levels[3]))
+        if isinstance(said := body.get("version"), str):
+            vehicle.said_version = said
         if levels[4] == "connection":
             vehicle.connection = str(body.get("connectionState", "unknown"))
         elif levels[4] == "state":
@@ -140,16 +149,24 @@ async def fleet_view(
 
 
 def instant_action(
-    manufacturer: str, serial: str, header_id: int, kind: str, action_id: str
+    manufacturer: str,
+    serial: str,
+    header_id: int,
+    kind: str,
+    action_id: str,
+    *,
+    version: str = PROTOCOL_VERSION,
 ) -> dict[str, Any]:
-    """An instantActions message of one action ``kind`` for a vehicle."""
+    """An instantActions message of one action ``kind`` for a vehicle, in ``version`` (2.0
+    names the list ``instantActions``, 2.1 ``actions``)."""
+    key = "instantActions" if version.startswith("2.0") else "actions"
     return {
         "headerId": header_id,
         "timestamp": timestamp(time.time()),
-        "version": PROTOCOL_VERSION,
+        "version": version,
         "manufacturer": manufacturer,
         "serialNumber": serial,
-        "actions": [{"actionType": kind, "actionId": action_id, "blockingType": "NONE"}],
+        key: [{"actionType": kind, "actionId": action_id, "blockingType": "NONE"}],
     }
 
 
@@ -162,5 +179,6 @@ async def state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -
         HEADERS.next(topic),
         "stateRequest",
         f"state-{uuid.uuid4().hex[:8]}",
+        version=vehicle.version,
     )
     await client.publish(topic, json.dumps(message), qos=QOS)

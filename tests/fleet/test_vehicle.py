@@ -650,3 +650,15 @@ def test_instant_actions_as_a_2_0_master_names_them_are_taken() -> None:
     assert vehicle.on_instant_actions(json.dumps(message).encode(), 0.0, HERE) == []
     assert asked == ["state"] and vehicle.master_version == "2.0.0"
     assert "validationError" not in errors_of(vehicle)
+
+
+def test_a_2_0_masters_spelling_of_the_nodes_allowed_deviation_is_taken() -> None:
+    # vda-5050-lib's 2.0 schema names it allowedDeviationXy (2.1: allowedDeviationXY)
+    vehicle, _ = _vehicle()
+    nodes = [
+        node("a", 0, 0.2, 0.0),
+        node("b", 2, 2.0, 0.0, position={"allowedDeviationXy": 0.45}),
+        node("c", 4, 4.0, 0.0),
+    ]
+    (goal,) = goals(send(vehicle, {**order(nodes), "version": "2.0.0"}))
+    assert goal.via == ((2.0, 0.0),) and goal.pass_within_m == 0.45

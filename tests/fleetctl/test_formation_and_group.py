@@ -72,18 +72,32 @@ def _state(group: GroupDrive, serial: str, place: int, xy: tuple[float, float]) 
     }
 
 
-def test_the_first_orders_start_together_and_release_only_the_form_up_place() -> None:
+def _started(group: GroupDrive) -> list[tuple[Any, dict[str, Any]]]:
+    """The first orders sent, then the start time come: the start's updates."""
+    group.first_orders()
+    return group.start(group.start_unix_s)
+
+
+def test_the_first_orders_hold_every_robot_until_the_start_releases_them_together() -> None:
     group = _group()
-    orders = group.first_orders(now_unix_s=1000.5)
+    orders = group.first_orders()
     assert len(orders) == 3 and group.steps == 4  # form up, then 3 steps of 2 m at most
     for member, order in orders:
         check("order", order)
-        start, form_up, horizon = order["nodes"]
+        start, form_up = order["nodes"]
         assert (start["nodePosition"]["x"], start["nodePosition"]["y"]) == member.start_xy
-        (wait,) = start["actions"]
-        assert (wait["actionType"], wait["blockingType"]) == ("wait", "HARD")
-        assert wait["actionParameters"] == [{"key": "duration", "value": 1.5}]  # until t = 1002
+        assert start["actions"] == []  # nothing but standard orders: no "wait" action
+        assert (start["released"], form_up["released"]) == (True, False)
+    assert group.start(now_unix_s=1001.9) == []  # the start time is 1002 (2 s after 1000)
+    started = group.start(now_unix_s=1002.0)
+    assert [m.serial for m, _ in started] == ["r1", "r2", "r3"]
+    for member, order in started:
+        check("order", order)
+        stitch, form_up, horizon = order["nodes"]
+        assert order["orderUpdateId"] == 1 and stitch["sequenceId"] == 0
+        assert (stitch["nodePosition"]["x"], stitch["nodePosition"]["y"]) == member.start_xy
         assert (form_up["released"], horizon["released"]) == (True, False)
+    assert group.start(now_unix_s=1003.0) == []  # once
     # the places: a triangle around the robots' mean, then along the way to the goal
     last = np.array([m.places[-1] for m in group.members])
     assert last.mean(axis=0) == pytest.approx([6.0, 0.5])
@@ -93,18 +107,23 @@ def test_the_first_orders_start_together_and_release_only_the_form_up_place() ->
 
 def test_each_vehicles_orders_count_their_own_header_ids() -> None:
     group = _group()
-    first = group.first_orders(now_unix_s=1000.0)
+    first = group.first_orders()
     assert [order["headerId"] for _, order in first] == [1, 1, 1]
+    started = group.start(group.start_unix_s)
+    assert [order["headerId"] for _, order in started] == [2, 2, 2]
     updates = []
     for m in group.members:
         updates += group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
-    assert [order["headerId"] for _, order in updates] == [2, 2, 2]
+    assert [order["headerId"] for _, order in updates] == [3, 3, 3]
 
 
 def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
     group = _group()
-    group.first_orders(now_unix_s=1000.0)
+    group.first_orders()
     r1, r2, r3 = group.members
+    # before the start, a robot that says it is at its form-up place releases nothing
+    assert group.on_state("r1", _state(group, "r1", 0, tuple(r1.places[0]))) == []
+    group.start(group.start_unix_s)
     assert group.on_state("r1", _state(group, "r1", 0, tuple(r1.places[0]))) == []
     assert group.on_state("r2", _state(group, "r2", 0, tuple(r2.places[0]))) == []
     assert group.on_state("r9", _state(group, "r9", 0, (0.0, 0.0))) == []  # not in the group
@@ -113,7 +132,7 @@ def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
     for _, order in updates:
         check("order", order)
         stitch, released, horizon = order["nodes"]
-        assert order["orderUpdateId"] == 1 and (stitch["sequenceId"], released["sequenceId"]) == (
+        assert order["orderUpdateId"] == 2 and (stitch["sequenceId"], released["sequenceId"]) == (
             2,
             4,
         )
@@ -135,11 +154,15 @@ def test_the_fleet_controls_instant_actions_are_valid_vda5050(kind: str) -> None
     message = instant_action("navd", "r1", 3, kind, f"a-{kind}")
     check("instantActions", message)
     assert message["actions"][0]["actionType"] == kind
+    # to a 2.0 vehicle, in 2.0: the list under 2.0's name (vda-5050-lib's vehicle reads it)
+    spoken = instant_action("navd", "r1", 3, kind, f"a-{kind}", version="2.0.0")
+    assert spoken["version"] == "2.0.0" and "actions" not in spoken
+    assert spoken["instantActions"] == message["actions"]
 
 
 def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
     group = _group()
-    group.first_orders(now_unix_s=1000.0)
+    _started(group)
     for m in group.members:  # all formed up: step 1 released
         group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
     assert group.released == 1
@@ -180,7 +203,7 @@ def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
 
 def test_a_held_robot_that_reaches_its_place_is_let_go() -> None:
     group = _group()
-    group.first_orders(now_unix_s=1000.0)
+    _started(group)
     for m in group.members:
         group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
     r1, r2, r3 = group.members

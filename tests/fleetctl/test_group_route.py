@@ -233,7 +233,9 @@ def test_a_column_place_has_no_heading_to_turn_to_but_a_formation_place_and_the_
     robots = [("navd", f"r{i}", float(x), float(y)) for i, (x, y) in enumerate(ROBOTS)]
     goal = GroupGoal(11.0, 4.0, heading_rad=0.0, spacing_m=1.5, step_m=1.5)
     group = GroupDrive("g", robots, goal, 0.0, group_map=walls)
-    orders = {m.serial: [o] for m, o in group.first_orders(now_unix_s=0.0)}
+    orders = {m.serial: [o] for m, o in group.first_orders()}
+    for member, order in group.start(group.start_unix_s):
+        orders[member.serial].append(order)
     for k in range(group.steps - 1):  # everyone reaches each place in turn
         for m in group.members:
             state = {
