@@ -11,7 +11,11 @@ goal`` as a separate process, as a user would, and prints:
   completed a step to each vehicle receiving the order update that releases the next
   (state to command, through the broker and the fleet control);
 - ``broker_messages_per_s``: every message through the broker while the group drove;
-- ``reached``, ``steps``, ``seconds``.
+- ``reached``, ``steps``, ``seconds``;
+- ``goals``: two goals in a row (there and back), each reached or not with its time, and
+  ``left_paused``: the vehicles that still hold their order paused after it (as the
+  vehicles themselves say: none may be).
+The other figures are the first goal's.
 """
 
 from __future__ import annotations
@@ -176,14 +180,46 @@ async def _bench(vehicles: int, broker: str, port: int) -> dict[str, Any]:
     tasks = [asyncio.create_task(v.run(port, stop)) for v in fleet]
     tasks.append(asyncio.create_task(_count(port, stop, counter)))
     await asyncio.sleep(2.0)  # every vehicle online and with a state
-    goal_x = side / 2.0 + 12.0
+    began = time.monotonic()
+    counted_from = counter[0]
+    # two goals in a row, there and back: the second starts from where the first left them
+    goals = [(side / 2.0 + 12.0, side / 2.0), (side / 2.0, side / 2.0)]
+    runs = []
+    for x, y in goals:
+        stamps.clear()
+        run = await _goal(broker, x, y)
+        run["left_paused"] = sum(v.vehicle.paused for v in fleet)  # as the vehicles say
+        run.update(_latencies(stamps, vehicles))
+        runs.append(run)
+    wall = time.monotonic() - began
+    messages = counter[0] - counted_from
+    stop.set()
+    for task in tasks:
+        task.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+    first = runs[0]
+    return {
+        "vehicles": vehicles,
+        "reached": all(r["reached"] for r in runs),
+        "goals": runs,
+        "left_paused": max(r["left_paused"] for r in runs),
+        "steps": first["steps"],
+        "seconds": first["seconds"],
+        "fleet_cpu_percent": first["fleet_cpu_percent"],
+        "step_latency_ms_p50": first["step_latency_ms_p50"],
+        "step_latency_ms_p99": first["step_latency_ms_p99"],
+        "broker_messages_per_s": round(messages / wall, 1) if wall > 0 else None,
+    }
+
+
+async def _goal(broker: str, x: float, y: float) -> dict[str, Any]:
+    """One ``navd fleet goal`` to (x, y): reached, its wall time and CPU."""
     command = [
-        sys.executable, "-m", "navd", "fleet", "goal", str(goal_x), str(side / 2.0),
+        sys.executable, "-m", "navd", "fleet", "goal", str(x), str(y),
         "--formation", "triangle", "--spacing", "1.2", "--step", "3", "--speed", "1.0",
         "--broker", broker, "--timeout", "300",
     ]  # fmt: skip
     began = time.monotonic()
-    counted_from = counter[0]
     proc = await asyncio.create_subprocess_exec(
         *command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
     )
@@ -197,29 +233,28 @@ async def _bench(vehicles: int, broker: str, port: int) -> dict[str, Any]:
             continue
     wall = time.monotonic() - began
     out = (await proc.stdout.read()).decode() if proc.stdout else ""
-    messages = counter[0] - counted_from
-    stop.set()
-    for task in tasks:
-        task.cancel()
-    await asyncio.gather(*tasks, return_exceptions=True)
     summary = json.loads(out.strip().splitlines()[-1]) if out.strip() else {"reached": False}
+    return {
+        "reached": bool(summary.get("reached")),
+        "seconds": round(wall, 1),
+        "fleet_cpu_percent": round(100.0 * cpu / wall, 1) if wall > 0 else None,
+    }
+
+
+def _latencies(stamps: dict[str, Any], vehicles: int) -> dict[str, Any]:
+    """Steps released, and state-to-update latencies [ms]: update 1 releases the form-up
+    place at the start time; update u >= 2 releases place u - 1 once all have said they
+    reached place u - 2 (node sequence id 2 (u - 1))."""
     latencies = []
     for key, arrivals in stamps.items():
-        if not key.startswith("got:"):
-            continue
-        update = int(key.split(":")[1])
-        done = stamps.get(f"done:{2 * update}", [])  # the place this update followed
+        update = int(key.split(":")[1]) if key.startswith("got:") else 0
+        done = stamps.get(f"done:{2 * (update - 1)}", []) if update >= 2 else []
         if len(done) == vehicles:
             latencies += [1e3 * (t - max(done)) for t in arrivals]
     return {
-        "vehicles": vehicles,
-        "reached": bool(summary.get("reached")),
-        "steps": len([k for k in stamps if k.startswith("got:")]),
-        "seconds": round(wall, 1),
-        "fleet_cpu_percent": round(100.0 * cpu / wall, 1) if wall > 0 else None,
+        "steps": len([k for k in stamps if k.startswith("got:")]) - 1,
         "step_latency_ms_p50": round(percentile(latencies, 50), 1) if latencies else None,
         "step_latency_ms_p99": round(percentile(latencies, 99), 1) if latencies else None,
-        "broker_messages_per_s": round(messages / wall, 1) if wall > 0 else None,
     }
 
 
