@@ -61,6 +61,8 @@ async def test_a_daemon_killed_while_mapping_goes_on_from_its_autosave(tmp_path:
         try:
             names = lambda: {e.get("event") for e in _events(log)}  # noqa: E731
             await _until(lambda: "map_recovered" in names(), 60.0, "the map recovered")
+            # said once the file is read, a moment after (longer on a busy machine)
+            await _until(lambda: "map_loaded" in names(), 60.0, "the map loaded")
             loaded = next(e for e in _events(log) if e.get("event") == "map_loaded")
             assert loaded["path"] == str(autosave) and loaded["keyframes"] >= 1
             await _until(lambda: "relocalized" in names(), 60.0, "the robot found on it")

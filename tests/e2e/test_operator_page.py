@@ -1,6 +1,9 @@
 """The operator page in a real browser (headless Chromium driven by selenium) against the
 real daemon driving the simulated robot: the page shows the map and the robot, a click on
-the map sends a goal, and the robot reaches it; a screenshot mid-drive is kept."""
+the map sends a goal, and the robot reaches it; a screenshot mid-drive is kept. On a phone's
+390 x 844 touch screen: the stop button, tapped, holds the robot until released; a page left
+open across a restart takes a tapped goal to the new daemon; a pinch zooms and sends
+nothing."""
 
 from __future__ import annotations
 
@@ -31,9 +34,15 @@ CHROMEDRIVER = shutil.which("chromedriver")
 GOAL = (5.5, 0.0)
 
 
+# A phone's screen in CSS pixels (an iPhone 12 to 14's), with touch: the page as an operator
+# in the field holds it
+PHONE = {"width": 390, "height": 844, "pixelRatio": 3.0, "touch": True}
+
+
 @contextmanager
-def browser(profile: Path) -> Iterator[Any]:
-    """Headless Chromium with a fresh profile, kept off the network it cannot reach."""
+def browser(profile: Path, *, phone: bool = False) -> Iterator[Any]:
+    """Headless Chromium with a fresh profile, kept off the network it cannot reach; with
+    ``phone``, a 390 x 844 touch screen."""
     if CHROMIUM is None or CHROMEDRIVER is None:
         pytest.skip(
             "Debian's chromium and chromium-driver are not installed (the set-up installs them "
@@ -54,6 +63,8 @@ def browser(profile: Path) -> Iterator[Any]:
         f"--user-data-dir={profile}",
     ):
         options.add_argument(flag)
+    if phone:
+        options.add_experimental_option("mobileEmulation", {"deviceMetrics": PHONE})
     driver = webdriver.Chrome(options=options, service=Service(executable_path=CHROMEDRIVER))
     try:
         yield driver
@@ -84,6 +95,44 @@ def _click_map(driver: Any, x_m: float, y_m: float) -> None:
     actions = ActionChains(driver)
     actions.w3c_actions.pointer_action.move_to_location(px, py).click()
     actions.perform()
+
+
+def _tap(driver: Any, x_px: int, y_px: int) -> None:
+    """One finger down and up at (x_px, y_px) of the viewport: a tap."""
+    from selenium.webdriver.common.actions import interaction
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    actions = ActionBuilder(driver)
+    finger = actions.add_pointer_input(interaction.POINTER_TOUCH, "finger")
+    finger.create_pointer_move(x=x_px, y=y_px, origin="viewport")
+    finger.create_pointer_down()
+    finger.create_pause(0.08)
+    finger.create_pointer_up(0)
+    actions.perform()
+
+
+def _tap_map(driver: Any, x_m: float, y_m: float) -> None:
+    """Tap the map where the page draws (x_m, y_m)."""
+    px, py = driver.execute_script(
+        "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
+        "const r = document.getElementById('map').getBoundingClientRect();"
+        "return [Math.round(r.left + x), Math.round(r.top + y)];",
+        x_m,
+        y_m,
+    )
+    _tap(driver, px, py)
+
+
+def _tap_element(driver: Any, element_id: str) -> None:
+    """Tap the middle of the element ``element_id``, which must be on the screen."""
+    px, py, seen = driver.execute_script(
+        "const r = document.getElementById(arguments[0]).getBoundingClientRect();"
+        "return [Math.round(r.left + r.width / 2), Math.round(r.top + r.height / 2),"
+        "  r.width > 0 && r.bottom <= window.innerHeight && r.right <= window.innerWidth];",
+        element_id,
+    )
+    assert seen, f"#{element_id} is not on the phone's screen"
+    _tap(driver, px, py)
 
 
 async def _status_until(s: Session, wanted: Any, limit_s: float) -> Any:
@@ -162,11 +211,11 @@ async def test_the_pages_stop_button_holds_the_robot_until_released(tmp_path: Pa
     async with session(world, tmp_path / "run", overrides=overrides) as s:
         s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
         s.control.send(SubscribeFrame(rate_hz=5))
-        with browser(tmp_path / "profile") as driver:
+        with browser(tmp_path / "profile", phone=True) as driver:
             await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
             ready = "return document.body.dataset.ready === '1'"
             await asyncio.to_thread(_wait, driver, ready, 30.0)
-            await asyncio.to_thread(driver.find_element("id", "estop").click)
+            await asyncio.to_thread(_tap_element, driver, "estop")
             held = await _status_until(
                 s,
                 lambda f: (
@@ -178,7 +227,7 @@ async def test_the_pages_stop_button_holds_the_robot_until_released(tmp_path: Pa
             assert held is not None
             release = "return !document.getElementById('estop-release').hidden"
             await asyncio.to_thread(_wait, driver, release, 10.0)
-            await asyncio.to_thread(driver.find_element("id", "estop-release").click)
+            await asyncio.to_thread(_tap_element, driver, "estop-release")
             await _status_until(
                 s, lambda f: isinstance(f, StatusFrame) and not f.diagnostics.safety, 10.0
             )
@@ -193,7 +242,7 @@ async def test_a_page_left_open_across_a_restart_commands_the_new_daemon(tmp_pat
     work = tmp_path / "run"
     async with session(world, work, overrides=overrides) as s:
         s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
-        with browser(tmp_path / "profile") as driver:
+        with browser(tmp_path / "profile", phone=True) as driver:
             await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
             ready = "return document.body.dataset.ready === '1'"
             await asyncio.to_thread(_wait, driver, ready, 30.0)
@@ -215,7 +264,7 @@ async def test_a_page_left_open_across_a_restart_commands_the_new_daemon(tmp_pat
                 )
                 await asyncio.to_thread(_wait, driver, fresh, 60.0)
                 await asyncio.to_thread(_wait, driver, "return navd.state.map !== null", 60.0)
-                await asyncio.to_thread(_click_map, driver, 1.0, 0.0)
+                await asyncio.to_thread(_tap_map, driver, 1.0, 0.0)
                 deadline = time.monotonic() + 30.0
                 said = ""
                 while "viewer-" not in said and time.monotonic() < deadline:
@@ -265,7 +314,7 @@ async def test_a_pinch_zooms_the_map_and_sends_nothing(tmp_path: Path) -> None:
     async with session(world, tmp_path / "run", overrides=overrides) as s:
         s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
         s.control.send(SubscribeFrame(rate_hz=5))
-        with browser(tmp_path / "profile") as driver:
+        with browser(tmp_path / "profile", phone=True) as driver:
             await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
             ready = "return document.body.dataset.ready === '1' && navd.state.map !== null"
             await asyncio.to_thread(_wait, driver, ready, 30.0)
