@@ -8,6 +8,7 @@ nothing."""
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import shutil
 import signal
@@ -22,6 +23,8 @@ import pytest
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.support import expected_conditions as ec
+from selenium.webdriver.support.wait import WebDriverWait
 
 from navd.sim import Session, free_port, from_shapes, session
 from navd.wire import GoalStatusFrame, InitialPoseFrame, StatusFrame, SubscribeFrame
@@ -348,3 +351,70 @@ async def test_a_pinch_zooms_the_map_and_sends_nothing(tmp_path: Path) -> None:
                 assert not isinstance(frame, GoalStatusFrame), frame
             message = "return document.getElementById('message').textContent"
             assert await asyncio.to_thread(driver.execute_script, message) == said
+
+
+def _drag_map(driver: Any, start_m: tuple[float, float], end_m: tuple[float, float]) -> None:
+    """One finger pressed on the map at ``start_m``, moved to ``end_m`` and lifted."""
+    from selenium.webdriver.common.actions import interaction
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    to_screen = (
+        "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
+        "const r = document.getElementById('map').getBoundingClientRect();"
+        "return [Math.round(r.left + x), Math.round(r.top + y)];"
+    )
+    (x0, y0), (x1, y1) = (driver.execute_script(to_screen, *p) for p in (start_m, end_m))
+    actions = ActionBuilder(driver)
+    finger = actions.add_pointer_input(interaction.POINTER_TOUCH, "finger")
+    finger.create_pointer_move(x=x0, y=y0, origin="viewport")
+    finger.create_pointer_down()
+    for step in range(1, 6):
+        x, y = x0 + (x1 - x0) * step // 5, y0 + (y1 - y0) * step // 5
+        finger.create_pointer_move(duration=40, x=x, y=y, origin="viewport")
+    finger.create_pointer_up(0)
+    actions.perform()
+
+
+def _poses_set(log: Path) -> list[tuple[float, float]]:
+    """Where the daemon was told the robot is, in its log so far."""
+    poses = []
+    for line in log.read_text(errors="replace").splitlines():
+        if '"initial_pose"' in line:
+            event = json.loads(line)
+            poses.append((float(event["x"]), float(event["y"])))
+    return poses
+
+
+async def test_a_drag_on_a_phone_sets_the_pose_only_once_confirmed(tmp_path: Path) -> None:
+    # a slipping finger used to set the robot's pose at once; on a touch screen it now asks
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    work = tmp_path / "run"
+    async with session(world, work, overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        log = work / "navd.log"
+        with browser(tmp_path / "profile", phone=True) as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1' && navd.state.map !== null"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            before = _poses_set(log)
+            for answer in ("dismiss", "accept"):
+                await asyncio.to_thread(_drag_map, driver, (2.0, 0.0), (2.0, 1.0))
+                alert = await asyncio.to_thread(
+                    lambda: WebDriverWait(driver, 5.0).until(ec.alert_is_present())
+                )
+                assert alert.text.startswith("Set the robot's pose to (")  # where it goes
+                await asyncio.to_thread(getattr(alert, answer))
+                if answer == "dismiss":
+                    message = "return document.getElementById('message').textContent"
+                    said = await asyncio.to_thread(_wait, driver, message, 5.0)
+                    assert said == "pose not sent"
+                    await asyncio.sleep(1.0)  # time for a pose to have arrived, had it gone
+                    assert _poses_set(log) == before
+            deadline = time.monotonic() + 15.0
+            while len(_poses_set(log)) == len(before) and time.monotonic() < deadline:
+                s.check()
+                await asyncio.sleep(0.2)
+            x, y = _poses_set(log)[-1]
+            assert math.hypot(x - 2.0, y - 0.0) < 0.15  # where the finger went down

@@ -1,4 +1,5 @@
-// What the operator does: on the map, tap for a goal, drag for the initial pose, the wheel
+// What the operator does: on the map, tap for a goal, drag for the initial pose (confirmed
+// on a touch screen), the wheel
 // or two fingers (pinch, pan) to zoom and move; the joystick to drive by hand (held, it drives at 10 Hz; let go, one stop and
 // silence: the daemon's deadman); cancel, fit, and the token.
 import { pointer, state, view } from "./model.js";
@@ -57,8 +58,15 @@ export function listenToTheMap() {
     const [x, y] = screenToMap(press.x0, press.y0);
     if (press.dragging) {
       const yaw = Math.atan2(-(press.y - press.y0), press.x - press.x0);
-      command({ type: "initial_pose", x, y, yaw });
-      say(`initial pose (${x.toFixed(2)}, ${y.toFixed(2)}) sent`);
+      // a finger slips more easily than a mouse: on a touch screen the pose is confirmed
+      const where = `(${x.toFixed(2)}, ${y.toFixed(2)})`;
+      if (event.pointerType === "touch" &&
+          !window.confirm(`Set the robot's pose to ${where}, facing the way you dragged?`)) {
+        say("pose not sent");
+      } else {
+        command({ type: "initial_pose", x, y, yaw });
+        say(`initial pose ${where} sent`);
+      }
     } else {
       command({ type: "goal", x, y });
       say(`goal (${x.toFixed(2)}, ${y.toFixed(2)}) sent`);
