@@ -27,13 +27,12 @@ from navd.config.mounts import (
 )
 from navd.config.planning import PlanningConfig
 from navd.config.record import RecordConfig
-from navd.config.redaction import REDACTED, redacted, redacted_changes
+from navd.config.redaction import redacted, redacted_changes
 from navd.config.service import LifecycleConfig, LoggingConfig, TcpConfig
 from navd.config.teleop import TeleopConfig
 from navd.config.viz import VizConfig
 
 __all__ = [
-    "REDACTED",
     "BatteryConfig",
     "BeaconPlaceConfig",
     "BeaconsConfig",

@@ -67,7 +67,6 @@ __all__ = [
     "RecordCodecError",
     "decode",
     "encode",
-    "kind_of",
     "topic_of",
 ]
 
@@ -115,11 +114,6 @@ _BY_TOPIC: dict[str, type[Message]] = {
 }
 _TOPIC_OF = {kind: topic for topic, kind in _BY_TOPIC.items()}
 _NOT_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
-
-
-def kind_of(topic: str) -> type[Message] | None:
-    """The message type recorded on ``topic``, or None when it holds none."""
-    return _BY_TOPIC.get(topic)
 
 
 def topic_of(kind: type[Message]) -> str | None:
