@@ -188,7 +188,7 @@ async def _bench(vehicles: int, broker: str, port: int) -> dict[str, Any]:
     for x, y in goals:
         stamps.clear()
         run = await _goal(broker, x, y)
-        run["left_paused"] = sum(v.vehicle.paused for v in fleet)  # as the vehicles say
+        run["left_paused"] = await _left_paused(fleet)
         run.update(_latencies(stamps, vehicles))
         runs.append(run)
     wall = time.monotonic() - began
@@ -210,6 +210,16 @@ async def _bench(vehicles: int, broker: str, port: int) -> dict[str, Any]:
         "step_latency_ms_p99": first["step_latency_ms_p99"],
         "broker_messages_per_s": round(messages / wall, 1) if wall > 0 else None,
     }
+
+
+async def _left_paused(fleet: list[_PointVehicle], settle_s: float = 3.0) -> int:
+    """How many vehicles still hold their order paused, as they say themselves, once the
+    fleet control's last messages (sent before it exited) have had ``settle_s`` [s] to
+    arrive."""
+    deadline = time.monotonic() + settle_s
+    while (paused := sum(v.vehicle.paused for v in fleet)) and time.monotonic() < deadline:
+        await asyncio.sleep(0.1)
+    return paused
 
 
 async def _goal(broker: str, x: float, y: float) -> dict[str, Any]:

@@ -100,7 +100,7 @@ def _demo(args: argparse.Namespace) -> int:
     )
 
     if (args.port or args.page_port) and not args.view:
-        print("navd demo: --port and --page-port choose the ports of --view", file=sys.stderr)
+        print("navd demo: --port and --page-port need --view (they are its ports)", file=sys.stderr)
         return EXIT_USAGE
     if args.fleet is not None:
         return _fleet_demo(args)

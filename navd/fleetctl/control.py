@@ -23,7 +23,15 @@ from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal, GroupMember
 from navd.fleetctl.group_map import GroupMap
-from navd.fleetctl.view import HEADERS, QOS, FleetView, fleet_view, instant_action, master_client
+from navd.fleetctl.view import (
+    HEADERS,
+    QOS,
+    FleetView,
+    fleet_view,
+    instant_action,
+    master_client,
+    spoken,
+)
 
 __all__ = ["drive_group", "one_map"]
 
@@ -285,5 +293,5 @@ class _GroupRun:
     async def _send(self, orders: list[tuple[Any, dict[str, Any]]]) -> None:
         for member, order in orders:
             topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/order"
-            spoken = {**order, "version": self._version(member)}
-            await self.client.publish(topic, json.dumps(spoken), qos=QOS)
+            said = spoken(order, self._version(member))
+            await self.client.publish(topic, json.dumps(said), qos=QOS)

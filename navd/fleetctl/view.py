@@ -24,6 +24,7 @@ __all__ = [
     "fleet_view",
     "instant_action",
     "master_client",
+    "spoken",
     "state_request",
 ]
 
@@ -146,6 +147,24 @@ async def fleet_view(
                 asked.add(heard[0].name)
                 await state_request(client, prefix, heard[0])
     return view
+
+
+def spoken(order: dict[str, Any], version: str) -> dict[str, Any]:
+    """``order`` as a vehicle of ``version`` reads it: its version said, and for 2.0 each
+    node's deviation under 2.0's schema spelling (``allowedDeviationXy``; 2.1:
+    ``allowedDeviationXY``)."""
+    out = {**order, "version": version}
+    if version.startswith("2.0"):
+        out["nodes"] = [_node_in_2_0(node) for node in order.get("nodes", [])]
+    return out
+
+
+def _node_in_2_0(node: dict[str, Any]) -> dict[str, Any]:
+    position = node.get("nodePosition")
+    if not isinstance(position, dict) or "allowedDeviationXY" not in position:
+        return node
+    moved = {k: v for k, v in position.items() if k != "allowedDeviationXY"}
+    return {**node, "nodePosition": {**moved, "allowedDeviationXy": position["allowedDeviationXY"]}}
 
 
 def instant_action(

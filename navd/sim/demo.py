@@ -239,7 +239,8 @@ def _view_ports(view_port: int, page_port: int) -> tuple[int, int]:
                 f"{option} {port} cannot be used on 127.0.0.1 ({why}): choose another, or "
                 "leave the option out for a free one"
             )
-    view_port = view_port or free_port()
+    while not view_port or view_port == page_port:  # a free one, never the page's chosen one
+        view_port = free_port()
     while not page_port or page_port == view_port:
         page_port = free_port()
     return view_port, page_port

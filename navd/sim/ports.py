@@ -16,8 +16,11 @@ def free_port() -> int:
 
 
 def port_taken(port: int) -> str | None:
-    """Why ``port`` cannot be listened on at 127.0.0.1 (the system's words), or None."""
+    """Why ``port`` cannot be listened on at 127.0.0.1 (the system's words), or None. As
+    navd's servers bind (address reuse on), a port a closed connection still holds in
+    TIME_WAIT is free; one something listens on is not."""
     with socket.socket() as sock:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             sock.bind(("127.0.0.1", port))
         except OSError as err:

@@ -188,7 +188,7 @@ def test_a_viewed_demo_serves_the_page_and_the_live_view_on_the_ports_asked_for(
 def test_demo_ports_are_refused_by_name(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = ["--out", str(tmp_path)]
     assert main(["demo", "--port", "9000", *out]) == 2
-    assert "--port and --page-port choose the ports of --view" in capsys.readouterr().err
+    assert "--port and --page-port need --view" in capsys.readouterr().err
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
