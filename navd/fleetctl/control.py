@@ -19,7 +19,7 @@ from typing import Any
 import aiomqtt
 import numpy as np
 
-from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION
+from navd.fleet import MAJOR_VERSION, PROTOCOL_VERSION, timestamp
 from navd.fleetctl.errors import GroupGoalError
 from navd.fleetctl.group import GroupDrive, GroupGoal, GroupMember
 from navd.fleetctl.group_map import GroupMap
@@ -293,5 +293,5 @@ class _GroupRun:
     async def _send(self, orders: list[tuple[Any, dict[str, Any]]]) -> None:
         for member, order in orders:
             topic = f"{self.prefix}/{member.manufacturer}/{member.serial}/order"
-            said = spoken(order, self._version(member))
+            said = spoken(order, self._version(member)) | {"timestamp": timestamp(time.time())}
             await self.client.publish(topic, json.dumps(said), qos=QOS)

@@ -86,8 +86,8 @@ def _wait(driver: Any, script: str, timeout_s: float) -> Any:
     raise AssertionError(f"the page never answered {script!r} within {timeout_s} s")
 
 
-def _click_map(driver: Any, x_m: float, y_m: float) -> None:
-    """Click the map where the page draws (x_m, y_m)."""
+def _on_screen(driver: Any, x_m: float, y_m: float) -> tuple[int, int]:
+    """[px] where the page draws the map point (x_m, y_m), in the viewport."""
     px, py = driver.execute_script(
         "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
         "const r = document.getElementById('map').getBoundingClientRect();"
@@ -95,6 +95,12 @@ def _click_map(driver: Any, x_m: float, y_m: float) -> None:
         x_m,
         y_m,
     )
+    return int(px), int(py)
+
+
+def _click_map(driver: Any, x_m: float, y_m: float) -> None:
+    """Click the map where the page draws (x_m, y_m)."""
+    px, py = _on_screen(driver, x_m, y_m)
     actions = ActionChains(driver)
     actions.w3c_actions.pointer_action.move_to_location(px, py).click()
     actions.perform()
@@ -116,13 +122,7 @@ def _tap(driver: Any, x_px: int, y_px: int) -> None:
 
 def _tap_map(driver: Any, x_m: float, y_m: float) -> None:
     """Tap the map where the page draws (x_m, y_m)."""
-    px, py = driver.execute_script(
-        "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
-        "const r = document.getElementById('map').getBoundingClientRect();"
-        "return [Math.round(r.left + x), Math.round(r.top + y)];",
-        x_m,
-        y_m,
-    )
+    px, py = _on_screen(driver, x_m, y_m)
     _tap(driver, px, py)
 
 
@@ -358,12 +358,7 @@ def _drag_map(driver: Any, start_m: tuple[float, float], end_m: tuple[float, flo
     from selenium.webdriver.common.actions import interaction
     from selenium.webdriver.common.actions.action_builder import ActionBuilder
 
-    to_screen = (
-        "const [x, y] = navd.mapToScreen(arguments[0], arguments[1]);"
-        "const r = document.getElementById('map').getBoundingClientRect();"
-        "return [Math.round(r.left + x), Math.round(r.top + y)];"
-    )
-    (x0, y0), (x1, y1) = (driver.execute_script(to_screen, *p) for p in (start_m, end_m))
+    (x0, y0), (x1, y1) = _on_screen(driver, *start_m), _on_screen(driver, *end_m)
     actions = ActionBuilder(driver)
     finger = actions.add_pointer_input(interaction.POINTER_TOUCH, "finger")
     finger.create_pointer_move(x=x0, y=y0, origin="viewport")
