@@ -1,7 +1,8 @@
 """The operator page in a real browser (headless Chromium driven by selenium) against the
 real daemon driving the simulated robot: the page shows the map and the robot, a click on
 the map sends a goal, and the robot reaches it; a screenshot mid-drive is kept. On a phone's
-390 x 844 touch screen: the stop button, tapped, holds the robot until released; a page left
+390 x 844 touch screen: the stop button, tapped while driving, has the chassis read "0 0" within
+100 ms of the stop reaching the daemon and holds the robot until released; a page left
 open across a restart takes a tapped goal to the new daemon; a pinch zooms and sends
 nothing."""
 
@@ -16,6 +17,7 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +29,13 @@ from selenium.webdriver.support import expected_conditions as ec
 from selenium.webdriver.support.wait import WebDriverWait
 
 from navd.sim import Session, free_port, from_shapes, session
-from navd.wire import GoalStatusFrame, InitialPoseFrame, StatusFrame, SubscribeFrame
+from navd.wire import (
+    GoalFrame,
+    GoalStatusFrame,
+    InitialPoseFrame,
+    StatusFrame,
+    SubscribeFrame,
+)
 from tests.e2e.test_scenarios import HALL
 
 pytestmark = pytest.mark.e2e
@@ -207,17 +215,53 @@ async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path
     assert shot.stat().st_size > 10_000  # a picture, kept in the test's folder
 
 
-async def test_the_pages_stop_button_holds_the_robot_until_released(tmp_path: Path) -> None:
+def _record_wheel_lines(s: Session) -> list[tuple[float, bytes]]:
+    """[(wall clock s, line)] each wheel line the simulated chassis reads from now on."""
+    seen: list[tuple[float, bytes]] = []
+    take = s.sim.robot.take_wheel_bytes
+    pending = bytearray()
+
+    def recording(data: bytes, now: float) -> None:
+        at = time.time()
+        pending.extend(data)
+        while b"\n" in pending:
+            line, _, rest = bytes(pending).partition(b"\n")
+            seen.append((at, line))
+            pending[:] = rest
+        take(data, now)
+
+    s.sim.robot.take_wheel_bytes = recording  # type: ignore[method-assign]
+    return seen
+
+
+def _logged_at(log: Path, event: str, needle: str) -> float:
+    """[s, wall clock] when the daemon's JSON log first said ``event`` with ``needle`` in it."""
+    for line in log.read_text(errors="replace").splitlines():
+        if f'"event": "{event}"' in line and needle in line:
+            stamp = json.loads(line)["timestamp"].replace("Z", "+00:00")
+            return datetime.fromisoformat(stamp).timestamp()
+    raise AssertionError(f"the daemon never logged {event} with {needle!r}")
+
+
+async def test_the_pages_stop_button_stops_a_driving_robot_and_holds_it(tmp_path: Path) -> None:
     world = from_shapes(HALL, "hall")
     page_port = free_port()
     overrides = {"viz": {"port": free_port(), "page_port": page_port}}
     async with session(world, tmp_path / "run", overrides=overrides) as s:
         s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
         s.control.send(SubscribeFrame(rate_hz=5))
+        lines = _record_wheel_lines(s)
         with browser(tmp_path / "profile", phone=True) as driver:
             await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
             ready = "return document.body.dataset.ready === '1'"
             await asyncio.to_thread(_wait, driver, ready, 30.0)
+            s.control.send(GoalFrame(x=GOAL[0], y=GOAL[1]))
+            await _status_until(
+                s,
+                lambda f: isinstance(f, StatusFrame) and f.pose is not None and f.pose.x > 1.0,
+                60.0,
+            )
+            assert s.sim.body.linear_mps > 0.1, "driving when the stop is tapped"
             await asyncio.to_thread(_tap_element, driver, "estop")
             held = await _status_until(
                 s,
@@ -228,14 +272,27 @@ async def test_the_pages_stop_button_holds_the_robot_until_released(tmp_path: Pa
                 10.0,
             )
             assert held is not None
+            deadline = time.monotonic() + 5.0
+            while s.sim.body.linear_mps != 0.0 and time.monotonic() < deadline:
+                await asyncio.sleep(0.05)  # braking within the body's limits
+            stood_at = s.sim.body.x_m
             release = "return !document.getElementById('estop-release').hidden"
             await asyncio.to_thread(_wait, driver, release, 10.0)
+            await asyncio.sleep(2.0)  # the goal is still on: held, the robot does not take it up
+            assert s.sim.body.x_m == pytest.approx(stood_at, abs=0.01)
+            assert s.sim.body.linear_mps == 0.0
             await asyncio.to_thread(_tap_element, driver, "estop-release")
             await _status_until(
                 s, lambda f: isinstance(f, StatusFrame) and not f.diagnostics.safety, 10.0
             )
             hidden = "return document.getElementById('estop-release').hidden"
             await asyncio.to_thread(_wait, driver, hidden, 10.0)
+    # The stop reached the daemon when its safety gate said so; the chassis read "0 0" after.
+    heard = _logged_at(tmp_path / "run" / "navd.log", "safety_hold", "emergency stop by viewer-")
+    first_zero = next(at for at, line in lines if at >= heard and line == b"0 0")
+    moving_before = [line for at, line in lines if at < heard][-3:]
+    assert all(line != b"0 0" for line in moving_before), moving_before
+    assert first_zero - heard <= 0.100, f"first 0 0 {1000 * (first_zero - heard):.1f} ms after"
 
 
 async def test_a_page_left_open_across_a_restart_commands_the_new_daemon(tmp_path: Path) -> None:
