@@ -20,7 +20,14 @@ from foxglove.channels import (
     SceneUpdateChannel,
 )
 
+from navd.viz.view_schemas import view_schema
+
 __all__ = ["LiveChannels"]
+
+
+def _json(topic: str, context: Context) -> Channel:
+    """A JSON channel with its schema (``view_schemas``)."""
+    return Channel(topic, schema=view_schema(topic), message_encoding="json", context=context)
 
 
 class LiveChannels:
@@ -41,19 +48,19 @@ class LiveChannels:
         # the zone masks (docs/planning.md) as grids: keep-out 100, speed 1..100 % of top speed
         self.keep_out_mask = GridChannel("/zones/keep_out", context=context)
         self.speed_mask = GridChannel("/zones/speed", context=context)
-        self.goal_status = Channel("/goal_status", context=context)
-        self.status = Channel("/status", context=context)
+        self.goal_status = _json("/goal_status", context)
+        self.status = _json("/status", context)
         self.log = LogChannel("/log", context=context)
         # Made by the planner only while someone watches (see ViewInterest).
         self.costmap = GridChannel("/costmap", context=context)
         self.trajectory = SceneUpdateChannel("/trajectory", context=context)
         # The operator page's own channels (JSON: a phone decodes it natively).
-        self.page_info = Channel("/page/info", context=context)
-        self.page_map = Channel("/page/map", context=context)
-        self.page_pose = Channel("/page/pose", context=context)
-        self.page_scan = Channel("/page/scan", context=context)
-        self.page_route = Channel("/page/route", context=context)
-        self.page_goal = Channel("/page/goal", context=context)
+        self.page_info = _json("/page/info", context)
+        self.page_map = _json("/page/map", context)
+        self.page_pose = _json("/page/pose", context)
+        self.page_scan = _json("/page/scan", context)
+        self.page_route = _json("/page/route", context)
+        self.page_goal = _json("/page/goal", context)
 
     def all(self) -> tuple[Any, ...]:
         """Every channel."""

@@ -11,6 +11,9 @@ All positions are in the map frame [m]; angles [rad]. Topics:
 - ``/page/scan``: the latest scan's hits in the map frame: ``points_cm``, base64 of
   little-endian int32 [x0, y0, x1, y1...] in cm (JSON numbers cost the loop ten times more);
 - ``/page/route``: the global route; ``/page/goal``: the goal.
+
+Each message keeps to what viewers read of a JSON schema (``view_schemas``): a point is
+``{x, y}``, an unknown value is left out.
 """
 
 from __future__ import annotations
@@ -62,6 +65,11 @@ def coarsened(occupancy: npt.NDArray[np.int8], factor: int) -> npt.NDArray[np.in
     return reduced
 
 
+def _xy(point: Any) -> dict[str, float]:
+    """A point [m] as the page's JSON has it."""
+    return {"x": float(point[0]), "y": float(point[1])}
+
+
 def map_message(update: MapUpdate) -> dict[str, Any]:
     """The map as the page draws it (row 0 at the origin's y, as ROS stores it)."""
     occupancy = np.asarray(update.occupancy)
@@ -72,7 +80,7 @@ def map_message(update: MapUpdate) -> dict[str, Any]:
         "width": int(cells.shape[1]),
         "height": int(cells.shape[0]),
         "resolution": update.resolution_m * factor,
-        "origin": [update.origin_x_m, update.origin_y_m],
+        "origin": {"x": update.origin_x_m, "y": update.origin_y_m},
         "cells": base64.b64encode(cells.tobytes()).decode("ascii"),
     }
 
@@ -110,13 +118,14 @@ def scan_message(scan: LaserScan, pose: PoseEstimate, mount: LidarMount) -> dict
 
 def route_message(path: Path) -> dict[str, Any]:
     """The route's points."""
-    points = np.round(np.asarray(path.points_m, dtype=np.float64), 3)
-    return {"stamp": path.stamp, "goal_id": path.goal_id, "points": points.tolist()}
+    points = np.round(np.asarray(path.points_m, dtype=np.float64), 3).tolist()
+    return {"stamp": path.stamp, "goal_id": path.goal_id, "points": [_xy(p) for p in points]}
 
 
 def goal_message(goal: Goal) -> dict[str, Any]:
-    """Where the goal is (yaw null: any heading)."""
-    return {"goal_id": goal.goal_id, "x": goal.x_m, "y": goal.y_m, "yaw": goal.yaw_rad}
+    """Where the goal is (no yaw: any heading)."""
+    heading = {} if goal.yaw_rad is None else {"yaw": goal.yaw_rad}
+    return {"goal_id": goal.goal_id, "x": goal.x_m, "y": goal.y_m, **heading}
 
 
 def info_message(settings: VizSettings) -> dict[str, Any]:
@@ -134,7 +143,7 @@ def info_message(settings: VizSettings) -> dict[str, Any]:
     return {
         "robot": settings.robot_name,
         "footprint": outline,
-        "keep_out": [[list(p) for p in zone] for zone in settings.keep_out_zones],
+        "keep_out": [{"points": [_xy(p) for p in zone]} for zone in settings.keep_out_zones],
         "teleop": {
             "max_linear": settings.teleop_linear_mps,
             "max_angular": settings.teleop_angular_radps,

@@ -1,6 +1,7 @@
 """The robot's state (``RobotState``) as the live view's JSON: ``/status`` (safety, who
 drives, localization, the battery, the daemon's health) and ``/goal_status`` (the goal's progress).
-JSON has no NaN: an unknown number is null."""
+A number not known (NaN) is left out, as the channels' schemas say (``view_schemas``: a
+viewer reads no null)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,13 @@ __all__ = ["STATUS_PARTS", "goal_status_message", "status_message"]
 STATUS_PARTS = frozenset({"daemon", "localization", "mode", "safety", "battery"})
 
 
-def _finite(value: float) -> float | None:
-    return value if math.isfinite(value) else None
+def _known(**values: float | bool | None) -> dict[str, float | bool]:
+    """The values that are known: not None, not NaN or infinite."""
+    return {
+        name: value
+        for name, value in values.items()
+        if value is not None and (isinstance(value, bool) or math.isfinite(value))
+    }
 
 
 def status_message(state: RobotState) -> dict[str, Any]:
@@ -31,17 +37,20 @@ def status_message(state: RobotState) -> dict[str, Any]:
     if localization is not None:
         message["localization"] = {
             "state": localization.state,
-            "position_std_m": _finite(localization.position_std_m),
-            "yaw_std_rad": _finite(localization.yaw_std_rad),
+            **_known(
+                position_std_m=localization.position_std_m, yaw_std_rad=localization.yaw_std_rad
+            ),
         }
     battery = state.battery
     if battery is not None:
         message["battery"] = {
             "voltage_v": round(battery.voltage_v, 3),
-            "current_a": _finite(battery.current_a),
-            "percentage": _finite(battery.percentage),
-            "charging": battery.charging,
             "alarm": state.battery_alarm,
+            **_known(
+                current_a=battery.current_a,
+                percentage=battery.percentage,
+                charging=battery.charging,
+            ),
         }
     daemon = state.daemon
     if daemon is not None:
@@ -50,10 +59,15 @@ def status_message(state: RobotState) -> dict[str, Any]:
             uptime_s=round(daemon.uptime_s, 3),
             loop_lag_max_ms=round(daemon.loop_lag_max_ms, 3),
             safe_stop_reasons=list(daemon.safe_stop_reasons),
-            modules={
-                m.name: {"state": m.state, "faulted": m.faulted, "failures": m.handler_failures}
+            modules=[
+                {
+                    "name": m.name,
+                    "state": m.state,
+                    "faulted": m.faulted,
+                    "failures": m.handler_failures,
+                }
                 for m in daemon.modules
-            },
+            ],
         )
     return message
 
@@ -64,7 +78,6 @@ def goal_status_message(status: GoalStatus) -> dict[str, Any]:
         "stamp": status.stamp,
         "goal_id": status.goal_id,
         "state": status.state,
-        "distance_remaining_m": _finite(status.distance_remaining_m),
-        "eta_s": _finite(status.eta_s),
         "reason": status.reason,
+        **_known(distance_remaining_m=status.distance_remaining_m, eta_s=status.eta_s),
     }

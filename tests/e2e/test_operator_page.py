@@ -382,10 +382,10 @@ async def test_a_pinch_zooms_the_map_and_sends_nothing(tmp_path: Path) -> None:
             filled = await asyncio.to_thread(
                 driver.execute_script,
                 "const m = navd.state.map, [c0, r0, c1, r1] = m.known;"
-                "const [ax, ay] = navd.mapToScreen(m.origin[0] + c0 * m.resolution,"
-                "  m.origin[1] + r0 * m.resolution);"
-                "const [bx, by] = navd.mapToScreen(m.origin[0] + c1 * m.resolution,"
-                "  m.origin[1] + r1 * m.resolution);"
+                "const [ax, ay] = navd.mapToScreen(m.origin.x + c0 * m.resolution,"
+                "  m.origin.y + r0 * m.resolution);"
+                "const [bx, by] = navd.mapToScreen(m.origin.x + c1 * m.resolution,"
+                "  m.origin.y + r1 * m.resolution);"
                 "const c = document.getElementById('map');"
                 "return [(bx - ax) / c.clientWidth, (ay - by) / c.clientHeight];",
             )

@@ -39,7 +39,7 @@ def test_a_large_map_is_sent_coarsened_with_its_resolution_scaled() -> None:
     )
     message = page_data.map_message(update)
     assert (message["height"], message["width"]) == (750, 500)
-    assert message["resolution"] == 0.1 and message["origin"] == [-3.0, 2.0]
+    assert message["resolution"] == 0.1 and message["origin"] == {"x": -3.0, "y": 2.0}
     cells = np.frombuffer(base64.b64decode(message["cells"]), dtype=np.int8).reshape(750, 500)
     assert (cells[350, :] == 100).all() and (cells[:349] == 0).all()
 

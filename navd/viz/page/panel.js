@@ -50,7 +50,7 @@ export function showStatus() {
 function showBattery(battery) {
   document.getElementById("battery-box").hidden = !battery;
   if (!battery) return;
-  const charge = battery.percentage === null ? "" : `${Math.round(battery.percentage * 100)}%, `;
+  const charge = battery.percentage === undefined ? "" : `${Math.round(battery.percentage * 100)}%, `;
   const charging = battery.charging ? ", charging" : "";
   const alarm = battery.alarm === "ok" ? "" : ` (${battery.alarm})`;
   setText("battery", `${charge}${battery.voltage_v.toFixed(1)} V${charging}${alarm}`,

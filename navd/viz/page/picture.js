@@ -42,8 +42,8 @@ export function fit() {
   const [c0, r0, c1, r1] = map.known || [0, 0, map.width, map.height];
   const w = (c1 - c0) * map.resolution, h = (r1 - r0) * map.resolution;
   view.scale = 0.95 * Math.min(canvas.clientWidth / w, canvas.clientHeight / h);
-  view.cx = map.origin[0] + (c0 * map.resolution) + w / 2;
-  view.cy = map.origin[1] + (r0 * map.resolution) + h / 2;
+  view.cx = map.origin.x + (c0 * map.resolution) + w / 2;
+  view.cy = map.origin.y + (r0 * map.resolution) + h / 2;
   requestDraw();
 }
 
@@ -63,9 +63,10 @@ export function requestDraw() {
   requestAnimationFrame(draw);
 }
 
+// points: [{x, y}] in the map frame [m], as the page's JSON has them
 function polyline(points, close) {
   ctx.beginPath();
-  points.forEach(([x, y], i) => {
+  points.forEach(({ x, y }, i) => {
     const [px, py] = mapToScreen(x, y);
     if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
   });
@@ -94,7 +95,7 @@ function draw() {
   ctx.clearRect(0, 0, width, height);
   const map = state.map;
   if (map) {
-    const [left, top] = mapToScreen(map.origin[0], map.origin[1] + map.height * map.resolution);
+    const [left, top] = mapToScreen(map.origin.x, map.origin.y + map.height * map.resolution);
     const size = map.resolution * view.scale;
     ctx.imageSmoothingEnabled = false;
     ctx.drawImage(mapImage, left, top, map.width * size, map.height * size);
@@ -103,7 +104,7 @@ function draw() {
     ctx.fillStyle = "rgba(220, 40, 40, 0.3)";
     ctx.strokeStyle = "rgba(220, 40, 40, 0.9)";
     ctx.lineWidth = 2;
-    for (const zone of state.info.keep_out) { polyline(zone, true); ctx.fill(); ctx.stroke(); }
+    for (const zone of state.info.keep_out) { polyline(zone.points, true); ctx.fill(); ctx.stroke(); }
   }
   if (state.route && state.route.points.length) {
     ctx.strokeStyle = "#2f7de1";
@@ -117,7 +118,7 @@ function draw() {
     ctx.beginPath();
     ctx.arc(gx, gy, 7, 0, 2 * Math.PI);
     ctx.fill();
-    if (state.goal.yaw !== null) arrow(state.goal.x, state.goal.y, state.goal.yaw, 22, "#2fb84f");
+    if (state.goal.yaw !== undefined) arrow(state.goal.x, state.goal.y, state.goal.yaw, 22, "#2fb84f");
   }
   ctx.fillStyle = "#ff3b30";
   const now = performance.now();
