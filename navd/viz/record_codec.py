@@ -2,8 +2,11 @@
 
 Each recorded message is one JSON object of its fields: numbers, strings, lists; arrays as
 ``{"dtype", "shape", "base64"}`` (exact, and compact for scans and maps); a wire model
-(a mission's progress) as its JSON object; a number JSON
-cannot hold (NaN, infinity) as the string ``"NaN"``, ``"Infinity"`` or ``"-Infinity"``.
+(a mission's progress) as its JSON object. A number JSON cannot hold (NaN, infinity) is
+spelled ``"NaN"``, ``"Infinity"`` or ``"-Infinity"``: a field that is such a number is left
+out and listed in ``not_finite`` (``[{"field", "value"}]``), so each number field holds only
+numbers, as its JSON schema says (``record_schema``); inside a list it stands in place
+(and recordings made before December 2026 have it in place everywhere).
 A message reads back equal to the one written (arrays equal, element by element).
 
 Topics: ``/navd/in/<Type>`` for what the daemon received (replayed), ``/navd/out/<Type>``
@@ -61,12 +64,15 @@ from navd.viz.errors import RecordCodecError
 
 __all__ = [
     "CONFIG_TOPIC",
+    "INFO",
     "INPUTS",
+    "NOT_FINITE",
     "OUTPUTS",
     "SESSION_TOPIC",
     "RecordCodecError",
     "decode",
     "encode",
+    "kind_of",
     "topic_of",
 ]
 
@@ -114,6 +120,12 @@ _BY_TOPIC: dict[str, type[Message]] = {
 }
 _TOPIC_OF = {kind: topic for topic, kind in _BY_TOPIC.items()}
 _NOT_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
+NOT_FINITE = "not_finite"  # the fields left out for a value JSON cannot hold, and the value
+
+
+def kind_of(topic: str) -> type[Message] | None:
+    """The message type recorded on ``topic``, or None when it holds none."""
+    return _BY_TOPIC.get(topic)
 
 
 def topic_of(kind: type[Message]) -> str | None:
@@ -147,7 +159,16 @@ def _plain(value: Any) -> Any:
 
 def encode(message: Message) -> bytes:
     """The message's fields as one JSON object (UTF-8)."""
-    fields = {f.name: _plain(getattr(message, f.name)) for f in dataclasses.fields(message)}
+    fields: dict[str, Any] = {}
+    not_finite: list[dict[str, str]] = []
+    for field in dataclasses.fields(message):
+        value = getattr(message, field.name)
+        if isinstance(value, float) and not math.isfinite(value):
+            not_finite.append({"field": field.name, "value": _plain(value)})
+        else:
+            fields[field.name] = _plain(value)
+    if not_finite:
+        fields[NOT_FINITE] = not_finite
     return json.dumps(fields, separators=(",", ":")).encode()
 
 
@@ -197,6 +218,8 @@ def decode(topic: str, data: bytes) -> Message:
         raise RecordCodecError(f"{topic!r} is not a topic navd records")
     try:
         fields = json.loads(data)
+        for entry in fields.pop(NOT_FINITE, ()):
+            fields[entry["field"]] = _NOT_FINITE[entry["value"]]
         if kind is MissionStatus and "info" not in fields:
             fields = _flat_mission_status(fields)  # recorded before December 2026
         hints = _hints(kind)

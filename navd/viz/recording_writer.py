@@ -29,13 +29,14 @@ from pathlib import Path
 from typing import Any
 
 import foxglove
-from foxglove import Channel, Context
+from foxglove import Channel, Context, Schema
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions, MCAPWriter
 
 from navd.config import LidarConfig, MountsConfig
 from navd.geometry import SensorMounts
 from navd.lifecycle.messages import Message
 from navd.viz.record_codec import CONFIG_TOPIC, SESSION_TOPIC, encode
+from navd.viz.record_schema import schema_bytes, topic_schema
 from navd.viz.recording_view import RecordingView
 
 __all__ = [
@@ -196,7 +197,12 @@ class RecordingWriter:
     def _channel(self, topic: str) -> Channel:
         channel = self._channels.get(topic)
         if channel is None:
-            channel = Channel(topic, message_encoding="json", context=self._context)
+            named = topic_schema(topic)
+            schema = None
+            if named is not None:  # what the JSON holds, for a viewer and for any reader
+                name, body = named
+                schema = Schema(name=name, encoding="jsonschema", data=schema_bytes(body))
+            channel = Channel(topic, schema=schema, message_encoding="json", context=self._context)
             self._channels[topic] = channel
         return channel
 
