@@ -215,6 +215,55 @@ async def test_a_click_on_the_page_sends_a_goal_the_robot_reaches(tmp_path: Path
     assert shot.stat().st_size > 10_000  # a picture, kept in the test's folder
 
 
+async def test_a_replaced_goal_leaves_the_new_goal_drawn_and_a_reload_draws_no_ended_goal(
+    tmp_path: Path,
+) -> None:
+    world = from_shapes(HALL, "hall")
+    page_port = free_port()
+    overrides = {"viz": {"port": free_port(), "page_port": page_port}}
+    async with session(world, tmp_path / "run", overrides=overrides) as s:
+        s.control.send(InitialPoseFrame(x=0.0, y=0.0, yaw=0.0, std_xy=0.02))
+        s.control.send(SubscribeFrame(rate_hz=5))
+        with browser(tmp_path / "profile") as driver:
+            await asyncio.to_thread(driver.get, f"http://127.0.0.1:{page_port}/")
+            ready = "return document.body.dataset.ready === '1'"
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            s.control.send(GoalFrame(goal_id="first", x=GOAL[0], y=GOAL[1]))
+            await _status_until(
+                s, lambda f: isinstance(f, GoalStatusFrame) and f.goal_id == "first"
+                and f.state == "active", 30.0,
+            )  # fmt: skip
+            s.control.send(GoalFrame(goal_id="second", x=GOAL[0] - 1.0, y=GOAL[1]))
+            await _status_until(
+                s, lambda f: isinstance(f, GoalStatusFrame) and f.goal_id == "first"
+                and f.state == "canceled", 30.0,
+            )  # fmt: skip
+            # the first goal's end has long reached the page once the robot has driven on
+            x0 = s.sim.body.x_m
+            await _status_until(
+                s, lambda f: isinstance(f, StatusFrame) and s.sim.body.x_m > x0 + 1.0, 60.0
+            )
+            drawn = await asyncio.to_thread(
+                driver.execute_script,
+                "return [navd.state.goal && navd.state.goal.goal_id,"
+                " navd.state.goalStatus.goal_id]",
+            )
+            assert drawn == ["second", "second"]
+            await _status_until(
+                s, lambda f: isinstance(f, GoalStatusFrame) and f.goal_id == "second"
+                and f.state == "reached", 60.0,
+            )  # fmt: skip
+            await asyncio.to_thread(driver.refresh)
+            await asyncio.to_thread(_wait, driver, ready, 30.0)
+            seen = "return navd.state.goalStatus && navd.state.goalStatus.state === 'reached'"
+            await asyncio.to_thread(_wait, driver, seen, 30.0)
+            await asyncio.to_thread(_wait, driver, "return navd.state.info !== null", 30.0)
+            after_reload = await asyncio.to_thread(
+                driver.execute_script, "return [navd.state.goal, navd.state.route]"
+            )
+            assert after_reload == [None, None]  # the ended goal's marker and route not drawn
+
+
 def _record_wheel_lines(s: Session) -> list[tuple[float, bytes]]:
     """[(wall clock s, line)] each wheel line the simulated chassis reads from now on."""
     seen: list[tuple[float, bytes]] = []

@@ -86,17 +86,30 @@ function take(topic, message) {
     case "/page/map": state.map = message; paintMap(message); break;
     case "/page/pose": state.pose = message; break;
     case "/page/scan": state.scans[message.lidar || ""] = scanPoints(message); break;
-    case "/page/route": state.route = message; break;
-    case "/page/goal": state.goal = message; break;
+    case "/page/route": if (!ended(message.goal_id)) state.route = message; break;
+    case "/page/goal": if (!ended(message.goal_id)) state.goal = message; break;
     case "/status": state.status = message; break;
     case "/goal_status":
-      state.goalStatus = message;
-      if (ENDED.includes(message.state)) { state.route = null; state.goal = null; }  // done
+      if (ENDED.includes(message.state)) {
+        // the goal over, its marker and route go; not another's (a goal replaced by a new
+        // one ends after the new one is drawn)
+        if (state.goal && state.goal.goal_id === message.goal_id) state.goal = null;
+        if (state.route && state.route.goal_id === message.goal_id) state.route = null;
+      }
+      if (!state.goalStatus || message.goal_id === state.goalStatus.goal_id
+          || !ENDED.includes(message.state)) state.goalStatus = message;
       break;
   }
   if (topic === "/status" || topic === "/goal_status" || topic === "/page/pose") showStatus();
   document.body.dataset.ready = state.map && state.pose ? "1" : "0";
   requestDraw();
+}
+
+// A goal known to have ended: its marker or route, sent again to a page that just loaded,
+// is not drawn.
+function ended(goalId) {
+  const known = state.goalStatus;
+  return Boolean(known && known.goal_id === goalId && ENDED.includes(known.state));
 }
 
 function scanPoints(message) {
