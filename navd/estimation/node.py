@@ -68,6 +68,7 @@ class EstimationNode(Module):
         self._pending_pose: InitialPose | None = None
         self._pending_geo_goal: GeoGoal | None = None
         self._build_error: Exception | None = None
+        self._built: StateEstimator | None = None  # by the set-up's thread, to install
         ctx.subscribe(Imu, self._on_imu)
         ctx.subscribe(PoseMeasurement, self._on_pose)
         ctx.subscribe(GpsFix, self._on_gps)
@@ -83,7 +84,7 @@ class EstimationNode(Module):
         # happens beside start-up, in a daemon thread that never holds up an exit;
         # measurements that come before are counted and dropped (the robot has just
         # started: localization is uninitialized anyway).
-        self.ctx.warm_up(self._build, name="setup")
+        self.ctx.warm_up(self._build, name="setup", then=self._install)
         # GPS fixes are projected here, on the event loop; pyproj opens its database once per
         # thread, so that is done now (about 2 ms, before the daemon is ready), not on the
         # first fix.
@@ -98,14 +99,19 @@ class EstimationNode(Module):
         return (self.settings.value, *parts)
 
     def _build(self) -> None:
+        """Worker thread: the estimator, installed by ``_install`` on the event loop."""
         try:
             # the kernels first: samples are dropped until the estimator exists, never
             # compiled for on the event loop
             warm_up(self.settings.value.estimation)
-            self.estimator = StateEstimator(self.settings.value)
+            self._built = StateEstimator(self.settings.value)
         except Exception as err:
             self._build_error = err
+
+    def _install(self) -> None:
+        if self._built is None:
             return
+        self.estimator, self._built = self._built, None
         self.ctx.log.info("estimator_ready", dropped_before=self.before_ready)
 
     def _settings_changed(self, _old: EstimatorSettings, new: EstimatorSettings) -> None:

@@ -20,6 +20,7 @@ from navd.lifecycle.settings import Live, parts_of
 from navd.lifecycle.state_view import StateView
 from navd.lifecycle.stats import percentile
 from navd.lifecycle.supervision import Supervisor
+from navd.lifecycle.work_script import WorkScript
 from navd.lifecycle.workers import WorkerPool
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "SimClock",
     "StateView",
     "Supervisor",
+    "WorkScript",
     "WorkerPool",
     "control_message",
     "parts_of",

@@ -25,6 +25,7 @@ from navd.lifecycle.daemon_settings import LifecycleSettings, LoggingSettings
 from navd.lifecycle.file_limit import raise_file_limit
 from navd.lifecycle.lag import LoopLagMonitor
 from navd.lifecycle.line_counts import LineCounts
+from navd.lifecycle.loop_times import LoopTimes
 from navd.lifecycle.messages import (
     ConfigApplied,
     DaemonStatus,
@@ -93,6 +94,9 @@ class Daemon:
         # the robot as the outside is told it, heard before any module's handlers
         self.state_view = StateView(self.bus, self.clock)
         self.workers = WorkerPool(self.bus, lc.worker_threads, inline=lc.clock == "simulated")
+        # the periodic loops' ticks: told on real time (a recording keeps them), followed in a
+        # replay (``navd.viz.playback``)
+        self.loop_times = LoopTimes(self.bus, record=lc.clock != "simulated")
         self.lag = LoopLagMonitor(lc.lag_sample_period_s, lc.lag_window)
         self.manager = ModuleManager(modules, self._context, lc.transition_timeout_s)
         self.config_path = config_path
@@ -232,6 +236,7 @@ class Daemon:
             config=lambda: self.config_service.current,
             line_counts=self.line_counts,
             prepare_kernels=self._prepare_kernels,
+            loop_times=self.loop_times,
         )
 
     def _stop_robot(self, reason: str) -> None:

@@ -23,6 +23,7 @@ from navd.lifecycle.bus import Bus, Handler
 from navd.lifecycle.clock import Clock, ticks
 from navd.lifecycle.errors import ModuleStateError, ModuleTimeoutError
 from navd.lifecycle.line_counts import LineCounts
+from navd.lifecycle.loop_times import LoopTimes
 from navd.lifecycle.messages import ConfigApplied, Message
 from navd.lifecycle.settings import Derive, Live
 from navd.lifecycle.workers import Job, WorkerPool
@@ -63,8 +64,10 @@ class ModuleContext:
         config: Callable[[], NavdConfig],
         line_counts: LineCounts | None = None,
         prepare_kernels: Callable[[], None] | None = None,
+        loop_times: LoopTimes | None = None,
     ) -> None:
         self.name = name
+        self._loop_times = loop_times
         self._prepare_kernels = prepare_kernels
         self.bus = bus
         self.clock = clock
@@ -130,8 +133,13 @@ class ModuleContext:
         """Run a heavy job in a worker thread; latest wins within ``slot``."""
         self.workers.submit(slot, job, module=self.name)
 
-    def warm_up(self, job: Callable[[], None], *, name: str) -> None:
-        """Compile (or load from the cache) this module's kernels in a thread of their own.
+    def warm_up(
+        self, job: Callable[[], None], *, name: str, then: Callable[[], None] | None = None
+    ) -> None:
+        """Compile (or load from the cache) this module's kernels in a thread of their own,
+        then call ``then()`` on the event loop: what the set-up changes in the module (a
+        filter built) takes effect there, at a moment a recording keeps and a replay
+        follows (``WorkerPool.run_detached``).
 
         A real thread on either clock: compiling has no effect on what the kernels compute,
         so it cannot change a simulated run, and it never holds up the event loop (on
@@ -147,7 +155,7 @@ class ModuleContext:
                 prepare()
                 job()
 
-        self.workers.run_detached(run, name=f"{self.name}-{name}", module=self.name)
+        self.workers.run_detached(run, name=f"{self.name}-{name}", module=self.name, then=then)
 
     def spawn(self, coro: Coroutine[Any, Any, None], *, name: str) -> asyncio.Task[None]:
         """Run a background task until the module is deactivated.
@@ -175,8 +183,12 @@ class ModuleContext:
         """
 
         async def run() -> None:
-            async for _ in ticks(self.clock, period_s):
-                callback(self.clock.now())
+            if self._loop_times is None:
+                async for _ in ticks(self.clock, period_s):
+                    callback(self.clock.now())
+            else:  # told on a real run, as recorded in a replay
+                async for now in self._loop_times.ticks(f"{self.name}.{name}", period_s):
+                    callback(now)
 
         self.spawn(run(), name=name)
 

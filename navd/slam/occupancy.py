@@ -71,6 +71,19 @@ class OccupancyGrid:
         return cls._of(TiledArray.from_dense(logodds), origin_x, origin_y, resolution)
 
     @classmethod
+    def from_percent(
+        cls, occupancy: npt.ArrayLike, origin_x: float, origin_y: float, resolution: float
+    ) -> OccupancyGrid:
+        """The grid whose ``occupancy_percent`` is ``occupancy`` (-1 unknown, 0..100), as far
+        as whole percents allow: a published map (a recording's) to go on from."""
+        percent = np.asarray(occupancy, dtype=np.float64)
+        p = np.clip(percent / 100.0, 0.005, 0.995)
+        logodds = np.log(p / (1.0 - p)).astype(np.float32)
+        logodds[(logodds == 0.0) & (percent >= 0)] = 1e-3  # seen, even or odds: not unknown
+        logodds[percent < 0] = 0.0
+        return cls.from_array(logodds, origin_x, origin_y, resolution)
+
+    @classmethod
     def _of(
         cls, store: TiledArray, origin_x: float, origin_y: float, resolution: float
     ) -> OccupancyGrid:

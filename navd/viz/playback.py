@@ -5,9 +5,14 @@ config gives it except its edges (the TCP server, the chassis, the live view, th
 the recorded inputs take their place. Each input is put on the bus at its recorded arrival
 time (shifted so the replay starts at ``START_S``), after the clock has moved there one
 timer at a time and the work due has finished (the lockstep of ``navd.lifecycle.lockstep``),
-so estimation, SLAM and planning run as an infinitely fast computer would. The outputs are
-kept and compared with the recorded ones: poses at the recorded instants, the map (IoU of
-occupied cells), the last route of each goal, the goals' final states, the wheel commands.
+so estimation, SLAM and planning run with no time of their own, except that each worker job
+(a scan match, a plan) runs as the recorded one did: dropped if it was, else begun and
+published after the recorded delays (``WorkScript``), and each module's periodic loop ticks
+when it did (``LoopTimes``), so a real-time run's lags are played again. The outputs are
+kept and compared with the recorded ones (``replay_report``): poses
+at the recorded instants, the maps (IoU of occupied cells), the last route of each goal, the
+goals' final states, the wheel commands; and when and where the replay first left the
+recording.
 
 Maps go to a folder of the replay's own, never the robot's.
 """
@@ -16,52 +21,49 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
 from pydantic import ValidationError
 
 from navd import __version__
 from navd.config import NavdConfig
-from navd.lifecycle import Daemon, Lockstep, Module, SimClock
-from navd.lifecycle.messages import (
-    DriveCommand,
-    GoalStatus,
-    MapUpdate,
-    Message,
-    PoseEstimate,
-)
-from navd.lifecycle.messages import (
-    Path as Route,
-)
+from navd.lifecycle import Daemon, Lockstep, Module, SimClock, WorkScript
+from navd.lifecycle.messages import LoopTicks, MapUpdate, Message, SetUpDone, WorkerJob
 from navd.viz.errors import RecordingError
-from navd.viz.record_codec import OUTPUTS
+from navd.viz.record_codec import OUTPUTS, topic_of
 from navd.viz.recording_reader import Recording
+from navd.viz.replay_report import Outputs, PlaybackReport, compare, map_iou
 
-__all__ = ["EDGE_MODULES", "PlaybackReport", "map_iou", "play", "replay_config"]
+__all__ = ["EDGE_MODULES", "PlaybackReport", "map_iou", "play", "replay_config"]  # the report's
+# names too (``replay_report``), where callers find them
 
 START_S = 1.0  # [s] simulated time of the first input
 AFTER_S = 2.0  # [s] the replay runs on this long past the last input
 EDGE_MODULES = frozenset({"tcp", "chassis", "viz", "recorder"})  # their inputs are recorded
+WORK_TOPIC = str(topic_of(WorkerJob))  # the worker jobs' timing, which the replay follows
+TICKS_TOPIC = str(topic_of(LoopTicks))  # and the periodic loops' ticks
+SET_UP_TOPIC = str(topic_of(SetUpDone))  # and when the modules' set-ups took effect
+MAP_TOPIC = str(topic_of(MapUpdate))
 STEP_TIMEOUT_S = 600.0  # [s] real time a step may wait for start-up work (kernels compiling)
-OCCUPIED = 50  # a cell above this [% occupied] is an obstacle when maps are compared
 
 
-def replay_config(recorded: dict[str, Any], maps: Path) -> NavdConfig:
+def replay_config(
+    recorded: dict[str, Any], maps: Path, start_map: Path | None = None
+) -> NavdConfig:
     """The recorded config, run on simulated time without its edges, saving maps to
-    ``maps``.
+    ``maps``; starting from ``start_map`` (a map's YAML) when given.
 
     Raises:
         RecordingError: the recorded config does not suit this navd (a key it does not know,
             from another version), naming the keys.
     """
     try:
-        return NavdConfig.model_validate(_replayable(recorded, maps))
+        plain = _replayable(recorded, maps)
+        if start_map is not None:
+            plain["slam"]["load_map"] = str(start_map)
+        return NavdConfig.model_validate(plain)
     except (ValidationError, TypeError, AttributeError) as err:
         raise RecordingError(
             f"the recorded config does not suit this navd {__version__} (was it recorded by "
@@ -82,99 +84,6 @@ def _replayable(recorded: dict[str, Any], maps: Path) -> dict[str, Any]:
     return plain
 
 
-def map_iou(a: MapUpdate, b: MapUpdate) -> float:
-    """Intersection over union of the occupied cells of two maps, placed by their origins
-    (same resolution; 1.0 when neither has any)."""
-    if not math.isclose(a.resolution_m, b.resolution_m):
-        return 0.0
-    res = a.resolution_m
-
-    def cells(update: MapUpdate) -> set[tuple[int, int]]:
-        rows, cols = np.nonzero(np.asarray(update.occupancy) > OCCUPIED)
-        dx = round(update.origin_x_m / res)
-        dy = round(update.origin_y_m / res)
-        return set(zip((rows + dy).tolist(), (cols + dx).tolist(), strict=True))
-
-    first, second = cells(a), cells(b)
-    union = first | second
-    return 1.0 if not union else len(first & second) / len(union)
-
-
-@dataclass
-class PlaybackReport:
-    """What the replay gave against what was recorded (times in the replay's clock [s]).
-
-    Attributes:
-        inputs: input messages replayed.
-        duration_s: [s] of recorded time replayed.
-        outputs: per output type, (recorded, replayed) counts.
-        pose_error_m: median and max distance between the replayed pose and the recorded
-            one at each recorded pose's time (None without poses).
-        map_iou: occupied-cell IoU of the last recorded map and the replayed map of that
-            time (None without a map).
-        routes: per goal, the recorded and replayed last routes' lengths [m] and the largest
-            distance from a point of either to the other [m].
-        goals: per goal, the recorded and replayed final states.
-        wheel_difference_mps: median and max |difference| of the linear wheel command at
-            the recorded commands' times.
-        cut_short: files that ended mid-way.
-        differences: what differs, in words (empty when nothing notable).
-    """
-
-    inputs: int = 0
-    duration_s: float = 0.0
-    outputs: dict[str, tuple[int, int]] = field(default_factory=dict)
-    pose_error_m: tuple[float, float] | None = None
-    map_iou: float | None = None
-    routes: dict[str, dict[str, float]] = field(default_factory=dict)
-    goals: dict[str, tuple[str, str]] = field(default_factory=dict)
-    wheel_difference_mps: tuple[float, float] | None = None
-    cut_short: list[str] = field(default_factory=list)
-    differences: list[str] = field(default_factory=list)
-
-    def as_dict(self) -> dict[str, Any]:
-        """The report as JSON can hold it."""
-        return dataclasses.asdict(self)
-
-
-class _Outputs:
-    """What a run decided, kept compactly as it streams past (a long recording is never
-    held whole): pose and wheel-command tracks, the last route of each goal, each goal's
-    last state, and the last map."""
-
-    def __init__(self) -> None:
-        self.counts: dict[str, int] = {kind.__name__: 0 for kind in OUTPUTS}
-        self._poses: list[tuple[float, float, float]] = []  # [s, m, m]
-        self._wheels: list[tuple[float, float]] = []  # [s, m/s]
-        self.routes: dict[str, npt.NDArray[np.float64]] = {}
-        self.goals: dict[str, str] = {}
-        self.map: MapUpdate | None = None
-
-    def add(self, message: Message, shift_s: float = 0.0) -> None:
-        self.counts[type(message).__name__] += 1
-        t = message.received + shift_s
-        if isinstance(message, PoseEstimate):
-            self._poses.append((t, message.x_m, message.y_m))
-        elif isinstance(message, DriveCommand):
-            self._wheels.append((message.stamp + shift_s, message.linear_mps))
-        elif isinstance(message, Route):
-            self.routes[message.goal_id] = np.asarray(message.points_m, dtype=np.float64)
-        elif isinstance(message, GoalStatus):
-            self.goals[message.goal_id] = message.state
-        elif isinstance(message, MapUpdate):
-            self.map = message
-
-    @property
-    def poses(self) -> npt.NDArray[np.float64]:
-        """N x 3: time [s], x [m], y [m]."""
-        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
-
-    @property
-    def wheels(self) -> npt.NDArray[np.float64]:
-        """N x 2: time [s], linear command [m/s]."""
-        return np.array(self._wheels, dtype=np.float64).reshape(-1, 2)
-
-
 def _shifted(message: Message, shift_s: float) -> Message:
     return dataclasses.replace(
         message, stamp=message.stamp + shift_s, received=message.received + shift_s
@@ -185,11 +94,14 @@ class _Feed:
     """Puts a recording's inputs on a daemon's bus at their instants, and keeps the
     recorded outputs beside the replayed ones."""
 
-    def __init__(self, daemon: Daemon, lockstep: Lockstep, replayed: _Outputs) -> None:
+    def __init__(
+        self, daemon: Daemon, lockstep: Lockstep, replayed: Outputs, script: WorkScript
+    ) -> None:
         self.daemon = daemon
+        self.script = script
         self.lockstep = lockstep
         self.replayed = replayed
-        self.recorded = _Outputs()
+        self.recorded = Outputs()
         self.early: list[Message] = []  # outputs before the first input: shifted once known
         self.shift: float | None = None  # [s] replay time minus recorded time
         self.first = self.last = 0.0  # [s] recorded times of the first and last inputs
@@ -197,11 +109,15 @@ class _Feed:
         # The last recorded map, and the replay's map when the recording reached it (the
         # replay keeps pace with the recording's inputs).
         self.maps: tuple[MapUpdate, MapUpdate | None] | None = None
+        self.map_ious: list[tuple[float, float]] = []  # (replay time [s], IoU) of each map
+        self._maps_due: list[tuple[float, MapUpdate]] = []  # recorded maps still to compare
 
     async def take(self, topic: str, message: Message) -> None:
         if topic.startswith("/navd/out/"):
             if isinstance(message, MapUpdate):
                 self.maps = (message, self.replayed.map)
+                if self.shift is not None:  # compared when the replay has reached its time
+                    self._maps_due.append((message.received + self.shift, message))
             if self.shift is None:
                 self.early.append(message)
             else:
@@ -211,6 +127,7 @@ class _Feed:
             return
         if self.shift is None:
             self.shift = START_S - message.received
+            self.script.shift_s = self.daemon.loop_times.shift_s = self.shift
             self.first = message.received
             for early in self.early:
                 self.recorded.add(early, self.shift)
@@ -218,6 +135,7 @@ class _Feed:
         moved = _shifted(message, self.shift)
         if moved.received > self.daemon.clock.now():
             await self.lockstep.step_to(moved.received, {}, STEP_TIMEOUT_S)
+        self._compare_maps(self.daemon.clock.now())
         self.daemon.bus.publish(moved)
         self.inputs += 1
         self.last = message.received
@@ -227,6 +145,17 @@ class _Feed:
         if self.shift is None:
             raise RecordingError("the recording holds no inputs to replay")
         await self.lockstep.step_to(self.last + self.shift + AFTER_S, {}, STEP_TIMEOUT_S)
+        self._compare_maps(float("inf"))
+
+    def _compare_maps(self, now: float) -> None:
+        """Each recorded map of ``now`` or before against the replay's map now (the replay's
+        clock has reached it; the last recorded map is compared so as well)."""
+        while self._maps_due and self._maps_due[0][0] <= now:
+            at, recorded = self._maps_due.pop(0)
+            mine = self.replayed.map
+            self.map_ious.append((at, 0.0 if mine is None else map_iou(recorded, mine)))
+            if self.maps is not None and self.maps[0] is recorded:
+                self.maps = (recorded, mine)
 
 
 async def play(
@@ -241,10 +170,17 @@ async def play(
         RecordingError: the recorded config does not suit this navd, or the recording holds
             no inputs.
     """
-    config = replay_config(recording.config, work_dir / "maps")
+    config = replay_config(recording.config, work_dir / "maps", _start_map(recording, work_dir))
     modules = [m for m in build(config) if m.name not in EDGE_MODULES]
     daemon = Daemon(config, modules, handle_signals=False)
-    replayed = _Outputs()
+    # read first: a job's or a tick's record comes after it
+    timed = [m for _, m in recording.messages(topics={WORK_TOPIC, TICKS_TOPIC, SET_UP_TOPIC})]
+    jobs = [m for m in timed if isinstance(m, WorkerJob)]
+    script = WorkScript(jobs, (m for m in timed if isinstance(m, SetUpDone)))
+    if jobs:
+        daemon.workers.follow(script)
+    daemon.loop_times.follow(m for m in timed if isinstance(m, LoopTicks))
+    replayed = Outputs()
     replaying = True  # what the daemon says once it is told to stop is not the replay's
 
     def keep(message: Message) -> None:
@@ -257,7 +193,8 @@ async def play(
     try:
         await asyncio.wait_for(daemon.ready.wait(), STEP_TIMEOUT_S)
         assert isinstance(daemon.clock, SimClock)  # replay_config asks for simulated time
-        feed = _Feed(daemon, Lockstep(daemon.clock, daemon.workers, daemon.line_counts), replayed)
+        lockstep = Lockstep(daemon.clock, daemon.workers, daemon.line_counts)
+        feed = _Feed(daemon, lockstep, replayed, script)
         for topic, message in recording.messages():
             await feed.take(topic, message)
         await feed.finish()
@@ -265,7 +202,13 @@ async def play(
         replaying = False
         daemon.request_shutdown("replay over")
         await asyncio.wait_for(task, 60.0)
-    report = _compare(feed.recorded, replayed, feed.maps)
+    report = compare(feed.recorded, replayed, feed.maps, feed.map_ious, START_S)
+    report.worker_jobs = {
+        "recorded": len(script),
+        "followed": script.followed,
+        "unmatched": script.unmatched,
+        "missed": script.missed,
+    }
     report.inputs = feed.inputs
     report.duration_s = round(feed.last - feed.first, 3)
     report.cut_short = [str(p) for p in recording.cut_short]
@@ -275,104 +218,22 @@ async def play(
             0,
             f"the recording began {header.get('into_run_s', '?')} s into the daemon's run: "
             "the replay starts from the pose the robot had then"
-            + (", without the map the daemon had built" if header.get("had_map") else ""),
+            + (" and the map the daemon had built" if header.get("had_map") else ""),
         )
     return report
 
 
-def _at(times: npt.NDArray[np.float64], t: npt.NDArray[np.float64]) -> npt.NDArray[np.intp]:
-    """For each of ``t``, the index of the last of ``times`` at or before it (0 when none)."""
-    found: npt.NDArray[np.intp] = np.searchsorted(times, t, side="right") - 1
-    return np.maximum(found, 0)
+def _start_map(recording: Recording, work_dir: Path) -> Path | None:
+    """A recording begun mid-run holds the map the daemon had then (first): saved where the
+    replay starts from it; None for a recording that began without one."""
+    if not recording.header.get("had_map"):
+        return None
+    first = next((m for _, m in recording.messages(topics={MAP_TOPIC})), None)
+    if not isinstance(first, MapUpdate):
+        return None
+    from navd.slam import OccupancyGrid, save_map  # noqa: PLC0415 (numba: only when needed)
 
-
-def _compare(
-    recorded: _Outputs,
-    replayed: _Outputs,
-    maps: tuple[MapUpdate, MapUpdate | None] | None,
-) -> PlaybackReport:
-    report = PlaybackReport(
-        outputs={k: (recorded.counts[k], replayed.counts[k]) for k in recorded.counts}
+    grid = OccupancyGrid.from_percent(
+        first.occupancy, first.origin_x_m, first.origin_y_m, first.resolution_m
     )
-    _compare_poses(recorded.poses, replayed.poses, report)
-    if maps is not None:
-        _compare_maps(*maps, report)
-    _compare_routes(recorded.routes, replayed.routes, report)
-    _compare_goals(recorded.goals, replayed.goals, report)
-    _compare_wheels(recorded.wheels, replayed.wheels, report)
-    return report
-
-
-def _compare_poses(
-    mine: npt.NDArray[np.float64], theirs: npt.NDArray[np.float64], report: PlaybackReport
-) -> None:
-    if not len(mine) or not len(theirs):
-        if len(mine) or len(theirs):
-            report.differences.append(f"poses: {len(mine)} recorded, {len(theirs)} replayed")
-        return
-    other = theirs[_at(theirs[:, 0], mine[:, 0])]
-    errors = np.hypot(mine[:, 1] - other[:, 1], mine[:, 2] - other[:, 2])
-    report.pose_error_m = (round(float(np.median(errors)), 4), round(float(errors.max()), 4))
-    if report.pose_error_m[1] > 0.1:
-        report.differences.append(
-            f"poses: up to {report.pose_error_m[1]:.3f} m apart "
-            f"(median {report.pose_error_m[0]:.3f} m)"
-        )
-
-
-def _compare_maps(mine: MapUpdate, other: MapUpdate | None, report: PlaybackReport) -> None:
-    if other is None:
-        report.differences.append("map: the replay built none by the last recorded map's time")
-        report.map_iou = 0.0
-        return
-    report.map_iou = round(map_iou(mine, other), 4)
-    if report.map_iou < 0.95:
-        report.differences.append(f"map: occupied cells agree at IoU {report.map_iou:.3f}")
-
-
-def _length(points: npt.NDArray[np.float64]) -> float:
-    return float(np.hypot(*np.diff(points, axis=0).T).sum()) if len(points) > 1 else 0.0
-
-
-def _apart(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> float:
-    """[m] the largest distance from a point of either route to the nearest of the other."""
-    d = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
-    return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
-
-
-def _compare_routes(
-    mine: dict[str, npt.NDArray[np.float64]],
-    theirs: dict[str, npt.NDArray[np.float64]],
-    report: PlaybackReport,
-) -> None:
-    for goal_id, points in mine.items():
-        other = theirs.get(goal_id)
-        if other is None or not len(other) or not len(points):
-            report.differences.append(f"route of {goal_id!r}: not planned in the replay")
-            continue
-        apart = _apart(points, other)
-        report.routes[goal_id] = {
-            "recorded_length_m": round(_length(points), 3),
-            "replayed_length_m": round(_length(other), 3),
-            "apart_m": round(apart, 3),
-        }
-        if apart > 0.25:
-            report.differences.append(f"route of {goal_id!r}: up to {apart:.2f} m apart")
-
-
-def _compare_goals(mine: dict[str, str], theirs: dict[str, str], report: PlaybackReport) -> None:
-    for goal_id, state in mine.items():
-        other = theirs.get(goal_id, "never heard of")
-        report.goals[goal_id] = (state, other)
-        if other != state:
-            report.differences.append(f"goal {goal_id!r}: {state} when recorded, {other} replayed")
-
-
-def _compare_wheels(
-    mine: npt.NDArray[np.float64], theirs: npt.NDArray[np.float64], report: PlaybackReport
-) -> None:
-    if not len(mine) or not len(theirs):
-        return
-    other = theirs[_at(theirs[:, 0], mine[:, 0])]
-    gaps = np.abs(mine[:, 1] - other[:, 1])
-    report.wheel_difference_mps = (round(float(np.median(gaps)), 4), round(float(gaps.max()), 4))
+    return save_map(grid, work_dir / "start", "recorded-start", image_stem="recorded-start")

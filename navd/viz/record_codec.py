@@ -49,6 +49,7 @@ from navd.lifecycle.messages import (
     InitialPose,
     LaserScan,
     LocalizationState,
+    LoopTicks,
     ManualCommand,
     MapUpdate,
     Message,
@@ -57,8 +58,10 @@ from navd.lifecycle.messages import (
     PoseEstimate,
     SafetyState,
     SaveMapRequest,
+    SetUpDone,
     Vector3,
     WheelOdometry,
+    WorkerJob,
 )
 from navd.viz.errors import RecordCodecError
 
@@ -106,8 +109,10 @@ OUTPUTS: tuple[type[Message], ...] = (
     DriveMode,
     MapUpdate,
 )
-# Kept for people, not replayed (the goals they become are inputs).
-INFO: tuple[type[Message], ...] = (GeoGoal, MissionStatus)
+# Kept for people, not replayed (the goals they become are inputs); the worker jobs', the
+# periodic loops' and the set-ups' timing, which a replay follows (``WorkerPool.follow``,
+# ``LoopTimes.follow``).
+INFO: tuple[type[Message], ...] = (GeoGoal, MissionStatus, WorkerJob, LoopTicks, SetUpDone)
 CONFIG_TOPIC = "/navd/config"
 # The session's header (JSON): its name, the file's index, when it began in the daemon's run
 # and what the daemon knew then.

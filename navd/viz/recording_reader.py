@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import struct
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,11 +48,14 @@ class Recording:
     cut_short: list[Path] = field(default_factory=list)
     unreadable: list[str] = field(default_factory=list)
 
-    def messages(self) -> Iterator[tuple[str, Message]]:
-        """(topic, message) in the order they were recorded, file after file."""
+    def messages(self, topics: Collection[str] | None = None) -> Iterator[tuple[str, Message]]:
+        """(topic, message) in the order they were recorded, file after file; only those on
+        ``topics`` when given (the others are not decoded)."""
         for file in self.files:
             for topic, data in _records(file, self.cut_short):
                 if topic in (CONFIG_TOPIC, SESSION_TOPIC):
+                    continue
+                if topics is not None and topic not in topics:
                     continue
                 try:
                     yield topic, decode(topic, data)

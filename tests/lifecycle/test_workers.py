@@ -1,14 +1,20 @@
 from __future__ import annotations
 
 import asyncio
+import math
 import threading
 
 import pytest
 
 from navd.lifecycle import workers
 from navd.lifecycle.bus import Bus
+from navd.lifecycle.clock import Clock, MonotonicClock, SimClock
 from navd.lifecycle.errors import LifecycleError
-from navd.lifecycle.messages import Message, VelocityCommand
+from navd.lifecycle.line_counts import LineCounts
+from navd.lifecycle.lockstep import Lockstep
+from navd.lifecycle.messages import Message, VelocityCommand, WorkerJob
+from navd.lifecycle.supervision import Supervisor
+from navd.lifecycle.work_script import WorkScript
 from navd.lifecycle.workers import WorkerPool
 from tests.conftest import velocity
 
@@ -177,3 +183,77 @@ async def test_inline_jobs_run_on_the_loop_in_start_order(bus: Bus) -> None:
     assert results == [1.0, 2.0, 3.0]
     assert set(threads) == {threading.current_thread().name}
     pool.close()
+
+
+def _bus(clock: Clock) -> Bus:
+    supervisor = Supervisor(max_failures=3, window_s=10.0)
+    return Bus(clock, supervisor, handler_budget_s=10.0, max_cascade=100)
+
+
+async def test_each_job_says_when_it_was_submitted_begun_and_published_or_dropped() -> None:
+    bus = _bus(MonotonicClock())  # real time: the threads take some
+    timings: list[WorkerJob] = []
+    bus.subscribe(WorkerJob, timings.append, module="rec")
+    pool = WorkerPool(bus, threads=1)
+    gate = threading.Event()
+    pool.submit("match", lambda: (gate.wait(5.0), None)[1], module="slam")
+    pool.submit("match", lambda: None, module="slam")  # waits, then is replaced
+    pool.submit("match", lambda: velocity(4.0), module="slam")
+    gate.set()
+    await _until(lambda: len(timings) == 3 and not pool.busy())
+    pool.close()
+    dropped = [t for t in timings if t.outcome == "dropped"]
+    done = [t for t in timings if t.outcome == "done"]
+    assert len(dropped) == 1 and math.isnan(dropped[0].finished_s) and len(done) == 2
+    first, last = sorted(done, key=lambda t: t.submitted_s)
+    assert first.submitted_s <= first.started_s <= first.finished_s
+    # the last one waited for the first to finish before it began
+    assert last.submitted_s < first.finished_s <= last.started_s <= last.finished_s
+
+
+async def test_following_a_recorded_run_a_job_is_dropped_or_published_after_its_delays() -> None:
+    clock = SimClock(100.0)
+    bus = _bus(clock)
+    published: list[tuple[float, float]] = []
+    bus.subscribe(
+        VelocityCommand, lambda m: published.append((clock.now(), m.linear_mps)), module="rec"
+    )
+    pool = WorkerPool(bus, threads=1, inline=True)
+
+    def timing(submitted: float, started: float, finished: float, outcome: str) -> WorkerJob:
+        return WorkerJob(
+            stamp=submitted, received=submitted, slot="match", submitted_s=submitted,
+            started_s=started, finished_s=finished, outcome=outcome,
+        )  # fmt: skip
+
+    recorded = [  # a real run's: submitted at 10.0, 10.1 and 10.15 (its clock)
+        timing(10.0, 10.02, 10.3, "done"),
+        timing(10.1, math.nan, math.nan, "dropped"),
+        timing(10.15, 10.3, 10.5, "done"),
+    ]
+    script = WorkScript(recorded)
+    script.shift_s = 90.0  # the replay's clock is 90 s ahead of the recorded one
+    pool.follow(script)
+    ran: list[float] = []
+
+    def job(value: float) -> VelocityCommand:
+        ran.append(clock.now())
+        return velocity(value)
+
+    lockstep = Lockstep(clock, pool, LineCounts())
+    pool.submit("match", lambda: job(1.0), module="slam")
+    await lockstep.step_to(100.1, {}, 5.0)
+    pool.submit("match", lambda: job(2.0), module="slam")  # dropped, as recorded
+    await lockstep.step_to(100.15, {}, 5.0)
+    pool.submit("match", lambda: job(3.0), module="slam")
+    await lockstep.step_to(100.2, {}, 5.0)
+    pool.submit("other", lambda: job(9.0), module="slam")  # never recorded: at once
+    await lockstep.step_to(101.0, {}, 5.0)
+    pool.close()
+    assert published == [
+        (100.2, 9.0),
+        (pytest.approx(100.3), 1.0),
+        (pytest.approx(100.5), 3.0),
+    ]
+    assert ran == [pytest.approx(100.02), pytest.approx(100.2), pytest.approx(100.3)]
+    assert (script.followed, script.unmatched, script.missed) == (3, 1, 0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -310,6 +311,53 @@ class WorkerStats(NamedTuple):
     completed: int
     dropped: int
     failed: int
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class WorkerJob(Message):
+    """One worker job's timing on the daemon's clock, published as it ends (recorded, so a
+    replay runs each job when the real run did, not at once: docs/liveview.md).
+
+    Attributes:
+        slot: the job's latest-wins slot ("scan_match", "local_plan"...).
+        submitted_s: [s] when it was handed to the pool.
+        started_s, finished_s: [s] when it began to run, and when its result was published
+            (NaN for a job dropped before it ran).
+        outcome: "done", "failed", or "dropped" (a newer job of its slot replaced it).
+    """
+
+    slot: str
+    submitted_s: float
+    started_s: float = math.nan
+    finished_s: float = math.nan
+    outcome: str = "done"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SetUpDone(Message):
+    """A module's set-up (kernels loading, a filter being built beside the loop) took
+    effect, at ``stamp`` on the daemon's clock (recorded: a replay has it take effect then).
+
+    Attributes:
+        name: "<module>-<set-up>" ("estimation-setup").
+    """
+
+    name: str
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class LoopTicks(Message):
+    """When a module's periodic loop ticked, on the daemon's clock, over about a second
+    (recorded, so a replay ticks when the real run did: a loop held up by a busy machine is
+    held up again).
+
+    Attributes:
+        loop: "<module>.<loop>" ("planner.control").
+        times_s: [s] each tick's time, in order.
+    """
+
+    loop: str
+    times_s: tuple[float, ...]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
