@@ -9,14 +9,16 @@ fields whose JSON has one such type: numbers (a value JSON cannot hold is left o
 listed in ``not_finite``), integers, strings, booleans, enums, arrays (``{"dtype", "shape",
 "base64"}``) and lists of strings or integers. It leaves the others unnamed and allowed as
 they are (optional values, which may be null; lists of numbers, which may hold "NaN"; fixed
-tuples; nested models). ``/navd/config`` carries no schema: the config model's has unions
-and nulls throughout.
+tuples; nested models). ``/navd/config``'s is the config model's own, cut to that part the
+same way: each section with its keys of one plain type (a key that may be unset, or of a
+union of types, is left unnamed and allowed).
 """
 
 from __future__ import annotations
 
 import collections.abc
 import dataclasses
+import functools
 import json
 import typing
 from enum import Enum
@@ -24,10 +26,11 @@ from typing import Any
 
 import numpy as np
 
+from navd.config import NavdConfig
 from navd.lifecycle.messages import Message
-from navd.viz.record_codec import NOT_FINITE, SESSION_TOPIC, kind_of
+from navd.viz.record_codec import CONFIG_TOPIC, NOT_FINITE, SESSION_TOPIC, kind_of
 
-__all__ = ["SESSION_SCHEMA", "message_schema", "schema_bytes", "topic_schema"]
+__all__ = ["SESSION_SCHEMA", "config_schema", "message_schema", "schema_bytes", "topic_schema"]
 
 _DIALECT = "https://json-schema.org/draft/2020-12/schema"
 _SIMPLE: dict[Any, dict[str, Any]] = {
@@ -78,14 +81,60 @@ SESSION_SCHEMA: dict[str, Any] = {
 
 
 def topic_schema(topic: str) -> tuple[str, dict[str, Any]] | None:
-    """The schema's name and the schema of what ``topic`` carries; None for a topic without
-    one (``/navd/config``, or one that is not navd's JSON)."""
+    """The schema's name and the schema of what ``topic`` carries; None for a topic that is
+    not navd's JSON."""
     if topic == SESSION_TOPIC:
         return "navd.Session", SESSION_SCHEMA
+    if topic == CONFIG_TOPIC:
+        return "navd.Config", config_schema()
     kind = kind_of(topic)
     if kind is None:
         return None
     return f"navd.{kind.__name__}", message_schema(kind)
+
+
+@functools.cache
+def config_schema() -> dict[str, Any]:
+    """The config as recorded (its sections' keys; a secret redacted is still a string), in
+    the part viewers read."""
+    model = NavdConfig.model_json_schema(mode="serialization")
+    definitions = model.get("$defs", {})
+    shown = _plain_part(model, definitions)
+    assert shown is not None  # the config is an object of sections
+    return {"$schema": _DIALECT, "title": "navd.Config", **shown}
+
+
+def _plain_part(schema: dict[str, Any], definitions: dict[str, Any]) -> dict[str, Any] | None:
+    """``schema`` ($refs resolved) cut to what has one plain type: an object keeps the
+    properties that do (the others are left unnamed, so still allowed), an array of them is
+    kept; None when nothing is left of it."""
+    ref = schema.get("$ref")
+    if isinstance(ref, str):
+        schema = {
+            **definitions[ref.rsplit("/", 1)[-1]],
+            **{k: v for k, v in schema.items() if k != "$ref"},
+        }
+    kind = schema.get("type")
+    notes = {k: schema[k] for k in ("description", "title") if k in schema}
+    if kind == "object":
+        properties = {}
+        for name, field in (schema.get("properties") or {}).items():
+            kept = _plain_part(field, definitions)
+            if kept is not None:
+                properties[name] = kept
+        if not properties:
+            return None
+        required = [name for name in schema.get("required", []) if name in properties]
+        return {"type": "object", **notes, "properties": properties, "required": required}
+    if kind == "array":
+        items = _plain_part(schema.get("items") or {}, definitions)
+        if items is None or items.get("type") == "array":
+            return None
+        return {"type": "array", **notes, "items": items}
+    if kind in ("boolean", "string", "number", "integer"):
+        keep = ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum")
+        return {"type": kind, **notes, **{k: schema[k] for k in keep if k in schema}}
+    return None
 
 
 def message_schema(kind: type[Message]) -> dict[str, Any]:

@@ -84,6 +84,20 @@ def test_a_number_json_cannot_hold_is_listed_apart_and_read_back() -> None:
     assert isinstance(again, GoalStatus) and math.isnan(again.eta_s)
 
 
+def test_the_config_as_recorded_follows_its_schema_which_the_viewers_read() -> None:
+    config = parse_config({"tcp": {"token": "s3cret-token-of-sixteen"}, "robot": {"name": "r2"}})
+    recorded = json.loads(RecorderSettings.from_config(config).config_json)
+    assert recorded["tcp"]["token"] != "s3cret-token-of-sixteen"  # a marker, still a string
+    named = topic_schema("/navd/config")
+    assert named is not None
+    name, schema = named
+    assert name == "navd.Config" and unreadable(schema) == []
+    validator = _validator(schema)
+    validator.validate(recorded)
+    assert "robot" in schema["properties"] and "name" in schema["properties"]["robot"]["properties"]
+    assert not validator.is_valid({**recorded, "robot": {**recorded["robot"], "name": 7}})
+
+
 def test_a_recording_read_by_the_reference_reader_has_a_schema_for_every_json_channel(
     tmp_path: Path,
 ) -> None:
@@ -100,12 +114,10 @@ def test_a_recording_read_by_the_reference_reader_has_a_schema_for_every_json_ch
         for schema, channel, record in make_reader(stream).iter_messages():
             if channel.message_encoding != "json":
                 continue
-            if channel.topic == "/navd/config":
-                continue  # no schema: the config model's has unions and nulls throughout
             assert schema is not None and schema.encoding == "jsonschema" and schema.data
             body = json.loads(schema.data)
             assert unreadable(body) == [], channel.topic
             _validator(body).validate(json.loads(record.data))
             checked.add(schema.name)
-    expected = {f"navd.{type(m).__name__}" for m in SAMPLES} | {"navd.Session"}
+    expected = {f"navd.{type(m).__name__}" for m in SAMPLES} | {"navd.Config", "navd.Session"}
     assert checked == expected
