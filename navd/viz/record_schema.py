@@ -115,7 +115,7 @@ def _plain_part(schema: dict[str, Any], definitions: dict[str, Any]) -> dict[str
             **{k: v for k, v in schema.items() if k != "$ref"},
         }
     kind = schema.get("type")
-    notes = {k: schema[k] for k in ("description", "title") if k in schema}
+    notes: dict[str, Any] = {k: schema[k] for k in ("description", "title") if k in schema}
     if kind == "object":
         properties = {}
         for name, field in (schema.get("properties") or {}).items():
