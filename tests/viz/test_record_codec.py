@@ -20,6 +20,7 @@ from navd.lifecycle.messages import (
     Imu,
     LaserScan,
     LocalizationState,
+    LoopTicks,
     ManualCommand,
     MapUpdate,
     Message,
@@ -27,7 +28,9 @@ from navd.lifecycle.messages import (
     Path,
     PoseEstimate,
     SaveMapRequest,
+    SetUpDone,
     Vector3,
+    WorkerJob,
 )
 from navd.viz.record_codec import INFO, INPUTS, OUTPUTS, RecordCodecError, decode, encode, topic_of
 
@@ -86,6 +89,10 @@ SAMPLES: list[Message] = [
         origin_y_m=-2.0,
         occupancy=np.array([[-1, 0], [100, 55]], dtype=np.int8),
     ),
+    WorkerJob(**T, slot="scan_match", submitted_s=12.3, started_s=12.31, finished_s=12.5),
+    WorkerJob(**T, slot="local_plan", submitted_s=12.4, outcome="dropped"),  # NaN times
+    LoopTicks(**T, loop="planner.control", times_s=(11.5, 11.55, 11.61)),
+    SetUpDone(**T, name="estimation-setup"),
 ]
 
 
