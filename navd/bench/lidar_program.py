@@ -5,11 +5,7 @@ The real daemon (``navd run``, its chassis on a pseudo-terminal) is driven by ha
 (teleop, ten commands a second) while ``navd sensor KIND`` reads the emulated device (an
 LD06, or an RPLIDAR of a given model) on a pseudo-terminal of its own and streams to the
 daemon through a relay that times each scan as it reaches navd. Optionally ``busy``
-CPU-bound processes run beside it all, at the default priority, while navd and its sensor
-program run at the priority their systemd units give them (``UNIT_NICE``), as on a robot;
-the device's emulator and the relay, which stand for hardware and a wire, run there too.
-Lowering the niceness needs root (or CAP_SYS_NICE): without it everything runs at the
-default and ``nice`` in the figures says so. Figures over ``seconds``:
+CPU-bound processes run beside it all. Figures over ``seconds``:
 
 - ``stale_events`` and ``safety_holds``: the daemon's own ``device_stale`` and
   ``safety_hold`` log lines (a healthy lidar should cause none);
@@ -48,7 +44,6 @@ TELEOP_MPS = 0.2
 PROMISE_MS = 300.0
 SETTLE_S = 3.0  # [s] after the program connects, before measuring (its clock offset)
 FREEZE_GAP_S = 3.0  # [s] between two freezes, after the lidar is back
-UNIT_NICE = -10  # the Nice= of deploy/navd.service and deploy/navd-sensor@.service
 
 
 def run(
@@ -61,32 +56,18 @@ def run(
 ) -> dict[str, Any]:
     """Run the benchmark; its figures (see the module docstring)."""
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
-    was = os.getpriority(os.PRIO_PROCESS, 0)
     try:
-        nice = _units_priority()  # what is started from here on inherits it; the hogs do not
         with tempfile.TemporaryDirectory(prefix="navd-bench-lidar-") as folder:
             return _Run(Path(folder), kind, model).measure(seconds, freezes) | {
                 "lidar": kind if kind == "ld06" else f"rplidar {model}",
                 "seconds": seconds,
                 "busy_processes": busy,
-                "nice": nice,
                 "promise_ms": PROMISE_MS,
             }
     finally:
-        os.setpriority(os.PRIO_PROCESS, 0, was)  # raising it back needs no privilege
         for hog in hogs:
             hog.kill()
             hog.wait()
-
-
-def _units_priority() -> str:
-    """Run this thread (and so what it starts) at the units' niceness, if allowed; what
-    was done, for the figures."""
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, UNIT_NICE)
-    except PermissionError:
-        return "0: lowering it to the units' needs root or CAP_SYS_NICE"
-    return f"{UNIT_NICE}, as the systemd units; busy processes at 0"
 
 
 class _Run:

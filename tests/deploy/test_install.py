@@ -184,13 +184,3 @@ def test_installed_units_pass_systemd_analyze_verify(
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "" and result.stderr.strip() == ""  # no warnings either
-
-
-@pytest.mark.parametrize("unit", ["navd.service", "navd-sensor@.service"])
-def test_the_units_run_navd_at_the_priority_its_busy_benchmark_measures(unit: str) -> None:
-    # navd bench safety --busy gives navd and its programs this niceness: the figures in
-    # docs/sensors.md hold for a robot only if the units give the same
-    from navd.bench.lidar_program import UNIT_NICE
-
-    lines = (REPO / "deploy" / unit).read_text().splitlines()
-    assert [line for line in lines if line.startswith("Nice=")] == [f"Nice={UNIT_NICE}"]
