@@ -197,13 +197,11 @@ class TcpConfig(Section):
         8, ge=1, le=1024, description="[messages] status messages buffered per slow subscriber"
     )
     lidar_timeout_s: float = Field(
-        0.25,
+        0.2,
         gt=0,
         le=60,
-        description="[s] a lidar silent this long is stale and holds the robot (2.5 turns of a "
-        "10 Hz lidar: one scan late on a busy machine is not a stop, a frozen lidar still "
-        "stops the wheels within 300 ms); a sensor slower than its timeout is given its own "
-        "period x 1.25 + 50 ms instead",
+        description="[s] a lidar silent this long is stale and holds the robot; a sensor "
+        "slower than its timeout is given its own period x 1.25 + 50 ms instead",
     )
     imu_timeout_s: float = Field(
         0.2, gt=0, le=60, description="[s] an IMU silent this long is stale and holds the robot"
