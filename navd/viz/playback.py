@@ -116,7 +116,9 @@ class _Feed:
         if topic.startswith("/navd/out/"):
             if isinstance(message, MapUpdate):
                 self.maps = (message, self.replayed.map)
-                if self.shift is not None:  # compared when the replay has reached its time
+                # compared when the replay has reached its time; one from before the first
+                # input is where a mid-run recording starts, not something the replay made
+                if self.shift is not None and message.received >= self.first:
                     self._maps_due.append((message.received + self.shift, message))
             if self.shift is None:
                 self.early.append(message)
