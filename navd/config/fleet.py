@@ -88,10 +88,11 @@ class FleetConfig(Section):
         1_048_576,
         ge=65_536,
         le=67_108_864,
-        description="[bytes] the largest MQTT message read (orders, instant actions, other "
-        "vehicles' positions): a larger one is refused unread, with a validationError on the "
-        "state, because reading it holds the event loop (a 1 MiB order takes ~0.1 s on the "
-        "board); the factsheet gives it to masters as msgLen",
+        description="[bytes] the largest MQTT message taken (orders, instant actions, other "
+        "vehicles' positions): a larger one is refused, with a validationError on the state, "
+        "because parsing it holds the event loop (a 1 MiB order takes ~0.1 s on the board); "
+        "an MQTT 5 broker is asked not to send one over 4x this at all (3.1.1 brokers send "
+        "it, and it is read before it is refused); the factsheet gives it to masters as msgLen",
     )
 
     @field_validator("interface_name", "manufacturer", "serial_number")

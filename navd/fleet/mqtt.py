@@ -4,6 +4,12 @@ given apart, and client certificates for TLS), as an aiomqtt client.
 
 The vehicle (``node.FleetNode``), the fleet control (``navd fleet``) and the fleet benchmark
 connect through ``connect``; what they say on the connection is theirs.
+
+The vehicle connects with MQTT 5 and names the largest packet it takes (MQTT 5.0
+§3.1.2.11.4): the broker then drops a larger message instead of sending it, so a 50 MB order
+is never read (reading it held the loop that drives the wheels for half a second). A broker
+that speaks only 3.1.1 refuses that (``refused_mqtt5``), and the vehicle connects again with
+3.1.1.
 """
 
 from __future__ import annotations
@@ -12,14 +18,18 @@ import ssl
 from dataclasses import dataclass
 
 import aiomqtt
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
 
 from navd.config import split_broker_url
 from navd.fleet.errors import BrokerUrlError
 
-__all__ = ["MQTTS_PORT", "MQTT_PORT", "Broker", "connect"]
+__all__ = ["MQTTS_PORT", "MQTT_PORT", "Broker", "connect", "refused_mqtt5"]
 
 MQTT_PORT = 1883  # the broker's port when the URL names none (plain, and TLS)
 MQTTS_PORT = 8883
+MAX_PACKET_BYTES = 268_435_455  # the largest packet MQTT can frame (its length's 4 bytes)
+UNSUPPORTED_PROTOCOL_VERSION = 132  # MQTT 5's CONNACK reason code (a 3.1.1 broker's "1")
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,9 +93,13 @@ def connect(
     *,
     will: aiomqtt.Will | None = None,
     keepalive_s: int = 60,
+    max_packet_bytes: int | None = None,
 ) -> aiomqtt.Client:
     """A client for ``broker`` (not yet connected: ``async with`` it), known to the broker
-    as ``identifier``, with its last ``will`` and a keep-alive of ``keepalive_s`` [s]."""
+    as ``identifier``, with its last ``will`` and a keep-alive of ``keepalive_s`` [s].
+
+    With ``max_packet_bytes`` it speaks MQTT 5 and asks the broker to send no packet larger
+    than that [bytes] (at most ``MAX_PACKET_BYTES``); without, MQTT 3.1.1."""
     tls = (
         aiomqtt.TLSParameters(
             ca_certs=broker.ca_file,
@@ -96,6 +110,7 @@ def connect(
         if broker.tls
         else None
     )
+    properties = _largest_packet(max_packet_bytes)
     return aiomqtt.Client(
         broker.host,
         broker.port,
@@ -105,4 +120,21 @@ def connect(
         tls_params=tls,
         will=will,
         keepalive=keepalive_s,
+        protocol=None if properties is None else aiomqtt.ProtocolVersion.V5,
+        properties=properties,
     )
+
+
+def _largest_packet(max_packet_bytes: int | None) -> Properties | None:
+    """MQTT 5's connect properties asking for packets of at most ``max_packet_bytes``."""
+    if max_packet_bytes is None:
+        return None
+    properties = Properties(PacketTypes.CONNECT)  # type: ignore[no-untyped-call]
+    properties.MaximumPacketSize = min(max_packet_bytes, MAX_PACKET_BYTES)
+    return properties
+
+
+def refused_mqtt5(err: aiomqtt.MqttError) -> bool:
+    """Whether ``err`` is a broker's refusal of MQTT 5 (it speaks 3.1.1 or older)."""
+    code = getattr(err, "rc", None)
+    return code is not None and int(getattr(code, "value", code)) == UNSUPPORTED_PROTOCOL_VERSION

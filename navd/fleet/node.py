@@ -12,7 +12,7 @@ While the broker is gone the order goes on or the robot holds (``fleet.on_broker
 
 It also hears the other vehicles of its interface (their visualization, and their factsheet
 for their size) and tells the planner where those on its map are (``NearbyRobots``), so two
-robots in one corridor give way to each other; one silent for ``STALE_S`` is forgotten.
+robots in one corridor give way to each other; one silent for ``others.STALE_S`` is forgotten.
 """
 
 from __future__ import annotations
@@ -21,13 +21,13 @@ import asyncio
 import json
 import math
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import aiomqtt
 
 from navd.fleet import reports
-from navd.fleet.mqtt import Broker, connect
+from navd.fleet.mqtt import Broker, connect, refused_mqtt5
+from navd.fleet.others import OtherVehicles
 from navd.fleet.settings import FleetSettings
 from navd.fleet.standing_room import StandingRoom
 from navd.fleet.vda5050 import PROTOCOL_VERSION, Topics
@@ -43,22 +43,12 @@ TICK_S = 0.1  # [s] the vehicle's clock (waits) and the publishing checks
 POSE_FRESH_S = 1.0  # [s] an older pose says nothing of whether the robot stands
 FIRST_RETRY_S = 0.5  # [s] the first pause before reconnecting; it doubles up to MAX_RETRY_S
 MAX_RETRY_S = 10.0
+# a message up to this many times fleet.max_message_bytes is sent by an MQTT 5 broker, and
+# refused with a validationError the master sees; a larger one the broker drops unsent
+SENT_UP_TO = 4
 # §6.2: QoS 0 for every topic but ``connection`` (QoS 1, retained, and the last will)
 QOS = 0
 CONNECTION_QOS = 1
-MAX_RADIUS_M = 10.0  # [m] another vehicle's size is believed up to this
-STALE_S = 2.0  # [s] another vehicle not heard of for this long is forgotten
-
-
-@dataclass
-class _Other:
-    """Another vehicle as last heard: [m, m, rad, m/s] and when (monotonic [s])."""
-
-    x_m: float
-    y_m: float
-    yaw_rad: float
-    speed_mps: float
-    heard_s: float
 
 
 class FleetNode(Module):
@@ -76,9 +66,7 @@ class FleetNode(Module):
         self._motion = reports.Motion()  # whether the robot drives, with hysteresis
         self._next_view_s = -math.inf  # [s] when the next visualization is due
         self.connected = asyncio.Event()
-        self._others: dict[str, _Other] = {}  # by "manufacturer/serial"
-        self._sizes: dict[str, float] = {}  # [m] their radius, from their factsheet
-        self._others_told = False  # the planner knows the others as they are now
+        self._others = OtherVehicles()
         self._failure = ""  # why the broker was last out of reach (logged once per reason)
         self._malformed = 0  # other vehicles' messages that could not be read
 
@@ -185,22 +173,37 @@ class FleetNode(Module):
             retain=True,
         )
         pause = FIRST_RETRY_S
+        largest: int | None = SENT_UP_TO * fleet.max_message_bytes  # None: MQTT 3.1.1
         while True:
             try:
                 identifier = f"{fleet.manufacturer}-{fleet.serial_number}"
                 async with connect(
-                    broker, identifier, will=will, keepalive_s=fleet.keepalive_s
+                    broker,
+                    identifier,
+                    will=will,
+                    keepalive_s=fleet.keepalive_s,
+                    max_packet_bytes=largest,
                 ) as client:
-                    await self._online(client)
+                    await self._online(client, mqtt5=largest is not None)
                     pause = FIRST_RETRY_S
                     async for message in client.messages:
                         self._heard(str(message.topic), message.payload)
             except aiomqtt.MqttError as err:
+                if largest is not None and refused_mqtt5(err):
+                    largest = None  # a 3.1.1 broker: again at once, in its version
+                    self.ctx.log.warning(
+                        "fleet_broker_mqtt311",
+                        broker=fleet.broker_url,
+                        effect="a message over fleet.max_message_bytes is read before it "
+                        "is refused (MQTT 5 brokers drop one over "
+                        f"{SENT_UP_TO}x that unsent)",
+                    )
+                    continue
                 self._offline(str(err))
             await asyncio.sleep(pause)
             pause = min(2.0 * pause, MAX_RETRY_S)
 
-    async def _online(self, client: aiomqtt.Client) -> None:
+    async def _online(self, client: aiomqtt.Client, *, mqtt5: bool) -> None:
         await client.subscribe(self.topics.order, qos=QOS)
         await client.subscribe(self.topics.instant_actions, qos=QOS)
         await client.subscribe(self.topics.everyone("visualization"), qos=0)
@@ -216,7 +219,8 @@ class FleetNode(Module):
         self.connected.set()
         self._failure = ""
         self._state_due = True
-        self.ctx.log.info("fleet_connected", broker=self.settings.value.fleet.broker_url)
+        broker = self.settings.value.fleet.broker_url
+        self.ctx.log.info("fleet_connected", broker=broker, mqtt="5" if mqtt5 else "3.1.1")
         if self.vehicle.held:
             self._publish(self.vehicle.release(self.ctx.clock.now()))
 
@@ -292,22 +296,8 @@ class FleetNode(Module):
     def _other(self, name: str, topic: str, raw: bytes) -> None:
         """Another vehicle's position (on our map) or size; anything malformed is ignored."""
         try:
-            body = json.loads(raw)
-            if topic == "factsheet":
-                size = body["physicalParameters"]
-                radius = 0.5 * math.hypot(float(size["length"]), float(size["width"]))
-                if not 0.0 < radius <= MAX_RADIUS_M:  # also NaN and infinity
-                    raise ValueError(f"a size of {radius} m")
-                self._sizes[name] = radius
-                return
-            where = body["agvPosition"]
-            if where.get("mapId") != self.settings.value.map_id:
-                self._others.pop(name, None)
-                return
-            speed = float(body.get("velocity", {}).get("vx", 0.0))
-            other = _Other(
-                float(where["x"]), float(where["y"]), float(where["theta"]), speed, time.monotonic()
-            )
+            map_id = self.settings.value.map_id
+            self._others.hear(name, topic, raw, map_id, time.monotonic())
         except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as err:
             self._malformed += 1
             if self._malformed == 1 or self._malformed % 1000 == 0:  # seen, not flooded
@@ -315,26 +305,12 @@ class FleetNode(Module):
                     "fleet_other_ignored", vehicle=name, topic=topic, error=str(err),
                     count=self._malformed,
                 )  # fmt: skip
-            return
-        if all(math.isfinite(v) for v in (other.x_m, other.y_m, other.yaw_rad, other.speed_mps)):
-            self._others[name] = other
-            self._others_told = False
 
     def _tell_others(self, now: float) -> None:
         """The planner hears where the other vehicles are (the stale ones dropped)."""
-        wall = time.monotonic()
-        stale = [n for n, o in self._others.items() if wall - o.heard_s > STALE_S]
-        for name in stale:
-            del self._others[name]
-        if self._others_told and not stale:
-            return
-        self._others_told = True
-        own = self.settings.value.radius_m
-        robots = tuple(
-            (name, o.x_m, o.y_m, o.yaw_rad, o.speed_mps, self._sizes.get(name, own))
-            for name, o in self._others.items()
-        )
-        self.ctx.publish(NearbyRobots(stamp=now, received=now, robots=robots))
+        robots = self._others.nearby(time.monotonic(), self.settings.value.radius_m)
+        if robots is not None:
+            self.ctx.publish(NearbyRobots(stamp=now, received=now, robots=robots))
 
     # --- publishing -----------------------------------------------------------------------
 

@@ -24,6 +24,7 @@ import pytest
 from navd.sim import Session, from_shapes, office, session
 from navd.wire import GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.fleet.broker import Broker
+from tests.fleet.mqtt311_gate import Mqtt311Gate
 from tests.fleet.vda5050_schemas import check
 
 aiomqtt = pytest.importorskip("aiomqtt", reason="aiomqtt missing")
@@ -276,6 +277,31 @@ async def test_a_vehicle_that_dies_leaves_connectionbroken_and_one_that_stops_of
                 assert states[-1] == said, states
                 daemon.proc.wait(10)
     finally:
+        broker.stop()
+
+
+async def test_a_broker_of_mqtt_3_1_1_only_is_joined_in_3_1_1_and_said_so(
+    tmp_path: Path, daemon_on_port: Any
+) -> None:
+    broker = Broker(tmp_path)
+    broker.start()
+    gate = Mqtt311Gate(broker.port)
+    gate.start()
+    try:
+        fleet_toml = (
+            f'[fleet]\nenabled = true\nbroker_url = "{gate.url}"\nserial_number = "{SERIAL}"\n'
+        )
+        async with aiomqtt.Client("127.0.0.1", broker.port, identifier="watcher") as client:
+            await client.subscribe(f"{PREFIX}/connection", qos=1)
+            daemon, _ = daemon_on_port(fleet_toml)
+            said = daemon.wait_for("fleet_broker_mqtt311", timeout_s=20.0)
+            assert "read before it is refused" in said["effect"]
+            assert daemon.wait_for("fleet_connected", timeout_s=20.0)["mqtt"] == "3.1.1"
+            assert (await _connection_states(client, until="ONLINE"))[-1] == "ONLINE"
+            assert not [line for line in daemon.seen if line["event"] == "fleet_connect_failed"]
+        assert (gate.refused, gate.passed) == (1, 1)
+    finally:
+        gate.stop()
         broker.stop()
 
 

@@ -167,7 +167,7 @@ async def test_a_message_over_the_size_cap_is_refused_unread(
     # another vehicle's position, padded past the cap: not taken, however well formed
     view = {"agvPosition": {"x": 1.0, "y": 2.0, "theta": 0.0, "mapId": "map"}, "pad": "x" * 70_000}
     module._heard("uagv/v2/navd/r2/visualization", json.dumps(view).encode())
-    assert module._others == {}
+    assert module._others.positions == {}
     view["pad"] = ""
     module._heard("uagv/v2/navd/r2/visualization", json.dumps(view).encode())
-    assert list(module._others) == ["navd/r2"]
+    assert list(module._others.positions) == ["navd/r2"]
