@@ -51,6 +51,11 @@ class Mqtt311Gate:
         self._ready.set()
         self._loop.run_forever()
         server.close()
+        passing = asyncio.all_tasks(self._loop)  # connections still open: ended here
+        for task in passing:
+            task.cancel()
+        self._loop.run_until_complete(asyncio.gather(*passing, return_exceptions=True))
+        self._loop.close()
 
     async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         try:
