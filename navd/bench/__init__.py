@@ -12,6 +12,7 @@ __all__ = [
     "fleet",
     "ingest",
     "lidar_program",
+    "order_reading",
     "planning",
     "safety",
     "scan",

@@ -12,7 +12,7 @@ __all__ = ["add_commands"]
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``bench ingest|estimation|scan|planning|safety|compare|fleet``."""
+    """Add ``bench ingest|estimation|scan|planning|safety|order|compare|fleet``."""
     bench = commands.add_parser("bench", help="run a benchmark and print its figures")
     names = bench.add_subparsers(dest="bench_command", metavar="NAME", required=True)
     ingest = names.add_parser(
@@ -81,6 +81,12 @@ def add_commands(commands: Commands) -> None:
     )
     safety.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     safety.set_defaults(handler=_safety)
+    order = names.add_parser(
+        "order", help="ms the largest VDA 5050 order holds the loop, read whole and in slices"
+    )
+    order.add_argument("--repeats", type=int, default=9, help="reads each way")
+    order.add_argument("--json", action="store_true", help="print JSON (default: readable)")
+    order.set_defaults(handler=_order)
     compare = names.add_parser(
         "compare", help="navd beside pyastar2d, imufusion, filterpy and kiss-icp: time ratios"
     )
@@ -118,6 +124,13 @@ def _scan(args: argparse.Namespace) -> int:
     from navd.bench import scan  # noqa: PLC0415
 
     print_figures(scan.run(scans=args.scans, beams=args.beams), args.json)
+    return EXIT_OK
+
+
+def _order(args: argparse.Namespace) -> int:
+    from navd.bench import order_reading  # noqa: PLC0415
+
+    print_figures(order_reading.run(repeats=max(1, args.repeats)), args.json)
     return EXIT_OK
 
 

@@ -24,13 +24,15 @@ import time
 from typing import Any
 
 import aiomqtt
+from pydantic import ValidationError
 
 from navd.fleet import reports
 from navd.fleet.mqtt import Broker, connect, refused_mqtt5
+from navd.fleet.order_reading import read_order
 from navd.fleet.others import OtherVehicles
 from navd.fleet.settings import FleetSettings
 from navd.fleet.standing_room import StandingRoom
-from navd.fleet.vda5050 import PROTOCOL_VERSION, Topics
+from navd.fleet.vda5050 import PROTOCOL_VERSION, Order, Topics
 from navd.fleet.vehicle import Vehicle
 from navd.geometry import Pose2
 from navd.lifecycle import Module, ModuleContext
@@ -187,7 +189,7 @@ class FleetNode(Module):
                     await self._online(client, mqtt5=largest is not None)
                     pause = FIRST_RETRY_S
                     async for message in client.messages:
-                        self._heard(str(message.topic), message.payload)
+                        await self._hear(str(message.topic), message.payload)
             except aiomqtt.MqttError as err:
                 if largest is not None and refused_mqtt5(err):
                     largest = None  # a 3.1.1 broker: again at once, in its version
@@ -239,7 +241,16 @@ class FleetNode(Module):
             broker = self.settings.value.fleet.broker_url
             self.ctx.log.warning("fleet_connect_failed", broker=broker, error=why)
 
-    def _heard(self, topic: str, payload: Any) -> None:
+    async def _hear(self, topic: str, payload: Any) -> None:
+        """A message from the broker; an order is read in slices between which the loop
+        runs (``order_reading``), the next message waiting its turn."""
+        raw = payload if isinstance(payload, bytes) else str(payload).encode()
+        taken = len(raw) <= self.settings.value.fleet.max_message_bytes
+        self._heard(
+            topic, raw, await read_order(raw) if taken and topic == self.topics.order else None
+        )
+
+    def _heard(self, topic: str, payload: Any, read: Order | ValidationError | None = None) -> None:
         raw = payload if isinstance(payload, bytes) else str(payload).encode()
         now, here = self.ctx.clock.now(), self._here()
         levels = topic.split("/")
@@ -252,7 +263,8 @@ class FleetNode(Module):
                 self._other(name, levels[-1], raw)
             return
         if topic == self.topics.order:
-            self._publish(self.vehicle.on_order(raw, now, here, self.settings.value.map_id))
+            map_id = self.settings.value.map_id
+            self._publish(self.vehicle.on_order(raw, now, here, map_id, read))
         elif topic == self.topics.instant_actions:
             self._publish(self.vehicle.on_instant_actions(raw, now, here))
         if self._version() != self._spoken:

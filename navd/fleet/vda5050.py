@@ -26,6 +26,7 @@ __all__ = [
     "Node",
     "NodePosition",
     "Order",
+    "OrderHead",
     "Topics",
     "timestamp",
 ]
@@ -106,10 +107,15 @@ class Header(_Wire):
     serialNumber: str
 
 
-class Order(Header):
+class OrderHead(Header):
+    """An order's fields but its nodes and edges (``order_reading`` checks those apart)."""
+
     orderId: str = Field(min_length=1, max_length=MAX_ID_LENGTH)
     orderUpdateId: int = Field(ge=0)
     zoneSetId: str | None = None
+
+
+class Order(OrderHead):
     nodes: list[Node] = Field(min_length=1, max_length=MAX_NODES)
     edges: list[Edge] = Field(max_length=MAX_NODES)
 

@@ -7,12 +7,11 @@ the specification's (§6.6; docs/fleet.md, "Orders"): the released base is drive
 goal from stop to stop (``drive_through``), the horizon waits for an update. Refusals: a
 "validationError", an "orderError", an "orderUpdateError"; the order in hand goes on.
 
-Actions navd performs: ``wait`` on nodes and edges, and the instant actions
-(``action_states`` says how they start and block). A node's actions start when it is
-traversed; the vehicle leaves it once no SOFT or HARD action is left to run. ``cancelOrder``
-fails every action not yet ended and stops the robot; it and ``startPause`` stay RUNNING
-until the robot stands (§6.6.3), the cancelled order's nodes shown till then (a master reads
-none as the order done). A pause lasts until ``stopPause``. Rules: ``order_rules``.
+Actions: ``wait`` on nodes and edges, and the instant actions (``action_states``: how they
+start and block). A node's actions start when it is traversed; the vehicle leaves it once no
+SOFT or HARD action is left to run. ``cancelOrder`` fails every action not yet ended and
+stops the robot; it and ``startPause`` stay RUNNING until the robot stands (§6.6.3), the
+cancelled order's nodes shown till then (a master reads none as the order done).
 """
 
 from __future__ import annotations
@@ -31,6 +30,7 @@ from navd.fleet.action_states import (
 )
 from navd.fleet.drive_through import chain_goal
 from navd.fleet.error_list import ErrorList
+from navd.fleet.order_reading import read_now
 from navd.fleet.order_rules import (
     NODE_ACTIONS,
     actions_of,
@@ -96,15 +96,18 @@ class Vehicle:
     # --- inputs ---------------------------------------------------------------------------
 
     def on_order(
-        self, raw: bytes, now: float, pose: Pose2 | None, map_id: str | None = None
+        self,
+        raw: bytes,
+        now: float,
+        pose: Pose2 | None,
+        map_id: str | None = None,
+        read: Order | ValidationError | None = None,
     ) -> list[Message]:
-        """An order message as it came from the broker; with ``map_id`` (the map the robot
-        is on), an order with a node on another map, or with one on an obstacle
-        (``blocked``), is refused."""
-        try:
-            order = Order.model_validate_json(raw)
-        except ValidationError as err:
-            return self._refuse("validationError", first_problem(err), loose_refs(raw))
+        """An order as it came (``read``: as ``order_reading`` read it; None: read now); with
+        ``map_id``, a node on another map or on an obstacle (``blocked``) refuses it."""
+        order = read if read is not None else read_now(raw)
+        if isinstance(order, ValidationError):
+            return self._refuse("validationError", first_problem(order), loose_refs(raw))
         self.master_version = order.version
         problem = malformed(order, self.manufacturer, self.serial_number)
         if problem is not None:
@@ -158,21 +161,19 @@ class Vehicle:
         self.goal_id = None
         if status.state == "reached" and self.nodes:
             return out + self._traverse(now)
+        node = self.nodes[0].nodeId if self.nodes else "?"
+        refs = [("nodeId", node)] if self.nodes else []
         if status.state == "canceled":
             if not self.paused:  # someone else's goal took over: hold the order
                 self.paused = True
                 self._error(
                     "orderInterrupted",
-                    f"navd's goal toward node {self.nodes[0].nodeId if self.nodes else '?'} was "
-                    "replaced (an operator's goal or manual driving); stopPause goes on",
-                    self._node_refs(),
+                    f"navd's goal toward node {node} was replaced (an operator's goal or "
+                    "manual driving); stopPause goes on",
+                    refs,
                 )
             return []
-        self._error(
-            "navigationError",
-            f"no way to node {self.nodes[0].nodeId if self.nodes else '?'}: {status.reason}",
-            self._node_refs(),
-        )
+        self._error("navigationError", f"no way to node {node}: {status.reason}", refs)
         self._retry_at = now + RETRY_S
         return []
 
@@ -395,6 +396,3 @@ class Vehicle:
 
     def _clear_errors(self, kind: str | None = None) -> None:
         self.changed |= self.errors.clear(kind)
-
-    def _node_refs(self) -> list[tuple[str, str]]:
-        return [("nodeId", self.nodes[0].nodeId)] if self.nodes else []
