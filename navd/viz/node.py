@@ -288,9 +288,9 @@ class VizNode(Module):
         if update is None or not self._map_throttle.due(now, self.settings.value.map_period_s):
             return
         self._map_pending = None
-        offset_s = self.sender.offset_s
-        grid = functools.partial(scene.occupancy_grid, offset_s=offset_s)
-        self.sender.remember_built("/map", self.channels.map, grid, update)
+        grid = functools.partial(scene.occupancy_grid, offset_s=self.sender.offset_s)
+        submit = functools.partial(self.ctx.submit, "viz_map")
+        self.sender.remember_built("/map", self.channels.map, grid, update, submit)
         self.sender.remember("/page/map", lambda: self._page.map(update))
 
     def _on_scan(self, scan: LaserScan) -> None:
