@@ -69,13 +69,10 @@ class Vehicle:
     def __init__(
         self, manufacturer: str, serial_number: str, requests: Callable[[str], None]
     ) -> None:
-        self.manufacturer = manufacturer
-        self.serial_number = serial_number
+        self.manufacturer, self.serial_number = manufacturer, serial_number
         self._requests = requests
-        self.order_id = ""
-        self.order_update_id = 0
-        self.last_node_id = ""
-        self.last_node_sequence_id = 0
+        self.order_id, self.order_update_id = "", 0
+        self.last_node_id, self.last_node_sequence_id = "", 0
         self.nodes: list[Node] = []  # still to traverse, base then horizon
         self.edges: list[Edge] = []
         self.actions = ActionStates()
@@ -223,7 +220,7 @@ class Vehicle:
         self.order_id, self.order_update_id = order.orderId, order.orderUpdateId
         self.actions.forget_ended()
         self.nodes, self.edges = list(order.nodes), list(order.edges)
-        self._register(order)
+        self.actions.register(actions_of(order.nodes, order.edges))
         self._clear_errors()
         self.changed = True
         return [*out, *self._traverse(now)]  # the first node: where the vehicle stands
@@ -247,14 +244,14 @@ class Vehicle:
         self.nodes = base_nodes + list(order.nodes[1:]) if base_nodes else list(order.nodes[1:])
         self.edges = base_edges + list(order.edges)
         self.order_update_id = order.orderUpdateId
-        self._register(order, skip_first_node=True)
+        self.actions.register(actions_of(order.nodes[1:], order.edges))  # (the stitch's kept)
         self._clear_errors()
         self.changed = True
-        return [] if self.goal_id is not None else self._drive(now)
-
-    def _register(self, order: Order, *, skip_first_node: bool = False) -> None:
-        nodes = order.nodes[1:] if skip_first_node else order.nodes
-        self.actions.register(actions_of(nodes, order.edges))
+        if self.goal_id is None:
+            return self._drive(now)
+        # the goal in hand carried on past its stop if this made that a node to drive through
+        further = chain_goal(self.nodes, self.edges, "", now)[1] > self._via - self._passed
+        return self._goal(now) if further else []
 
     def _refuse(
         self, kind: str, why: str, refs: list[tuple[str, str]], order: Order | None = None
@@ -297,8 +294,12 @@ class Vehicle:
             self._start_queued(now)
             if self._blocked():
                 return []
+        return self._goal(now)
+
+    def _goal(self, now: float) -> list[Message]:
+        """The goal from the next node to the first stop, passing the nodes before it."""
         self._goals += 1
-        self.goal_id = f"vda:{self.order_id}:{node.sequenceId}:{self._goals}"
+        self.goal_id = f"vda:{self.order_id}:{self.nodes[0].sequenceId}:{self._goals}"
         self.changed = True
         goal, self._via = chain_goal(self.nodes, self.edges, self.goal_id, now)  # through nodes
         self._passed = 0

@@ -186,6 +186,39 @@ def test_the_horizon_waits_for_an_update_stitched_at_the_decision_point() -> Non
     assert vehicle.goal_id == to_c.goal_id
 
 
+def test_an_update_while_driving_carries_the_goal_on_through_its_stop() -> None:
+    vehicle, _ = _vehicle()
+    a, b, c = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0), node("c", 4, 4.0, 0.0, released=False)
+    (to_b,) = goals(send(vehicle, order([a, b, c])))
+    assert (to_b.x_m, to_b.via) == (2.0, ())  # b is the last released node: a stop
+    # while the robot drives to b, an update releases c (and d as the horizon): b is now
+    # driven through, the goal goes on to c over it, under a new id
+    b2, c2, d2 = (
+        node("b", 2, 2.0, 0.0),
+        node("c", 4, 4.0, 0.0),
+        node("d", 6, 6.0, 0.0, released=False),
+    )
+    (on,) = goals(send(vehicle, order([b2, c2, d2], update=1)))
+    assert (on.x_m, on.y_m, on.via) == (4.0, 0.0, ((2.0, 0.0),))
+    assert on.goal_id != to_b.goal_id and vehicle.goal_id == on.goal_id
+    # the replaced goal's end is not the vehicle's: b is traversed as the new goal passes it
+    canceled = GoalStatus(stamp=1.0, received=1.0, goal_id=to_b.goal_id, state="canceled")
+    assert vehicle.on_goal_status(canceled, 1.0) == [] and not vehicle.paused
+    passing = GoalStatus(stamp=1.5, received=1.5, goal_id=on.goal_id, state="active", via_passed=1)
+    vehicle.on_goal_status(passing, 1.5)
+    assert state_of(vehicle)["lastNodeId"] == "b"
+    # an update whose next stop is already the goal's changes nothing: no new goal
+    c3, d3, e3 = (
+        node("c", 4, 4.0, 0.0),
+        node("d", 6, 6.0, 0.0, position={"theta": 0.0}),
+        node("e", 8, 8.0, 0.0, released=False),
+    )
+    (to_d,) = goals(send(vehicle, order([c3, d3, e3], update=2)))
+    assert (to_d.x_m, to_d.via) == (6.0, ((4.0, 0.0),))  # d faces a heading: a stop
+    d4, e4 = node("d", 6, 6.0, 0.0, position={"theta": 0.0}), node("e", 8, 8.0, 0.0)
+    assert goals(send(vehicle, order([d4, e4], update=3))) == []
+
+
 def test_an_update_after_the_base_is_done_continues_from_the_last_node() -> None:
     vehicle, _ = _vehicle()
     a, b = node("a", 0, 0.0, 0.0), node("b", 2, 2.0, 0.0)
