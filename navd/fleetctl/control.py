@@ -202,7 +202,7 @@ class _GroupRun:
             except (ValueError, RecursionError):
                 return None
             if isinstance(body, dict):
-                group.on_position(topic.split("/")[3], body, time.monotonic(), time.time())
+                group.on_position(topic.split("/")[3], body, time.monotonic())
                 self._measure()
                 await self._correct()
             return None
@@ -210,7 +210,7 @@ class _GroupRun:
         if heard is None or heard[1] != "state" or heard[0].state is None:
             return None
         vehicle, state = heard[0], heard[0].state
-        group.on_position(vehicle.serial, state, time.monotonic(), time.time())
+        group.on_position(vehicle.serial, state, time.monotonic())
         before = group.released
         await self._send(group.on_state(vehicle.serial, state))
         error = self._measure(now_or_never=group.released != before)

@@ -40,7 +40,6 @@ from navd.fleetctl.formation import shape_error
 from navd.fleetctl.group_goal import GroupGoal
 from navd.fleetctl.group_map import GroupMap
 from navd.fleetctl.group_route import GroupRoute, lay_out
-from navd.fleetctl.view import message_age_s
 
 __all__ = ["GroupDrive", "GroupGoal", "GroupMember"]
 
@@ -222,23 +221,12 @@ class GroupDrive:
             out.append((m, self._order(m, nodes)))
         return out
 
-    def on_position(
-        self,
-        serial: str,
-        message: dict[str, Any],
-        heard_s: float,
-        wall_s: float | None = None,
-    ) -> None:
-        """A robot's visualization (or state) heard at ``heard_s`` [s]: where it is. With
-        the wall clock ``wall_s`` [s, Unix] of that moment, the position is taken as of the
-        message's own timestamp when that is plausible (``view.message_age_s``: a loaded
-        broker or vehicle delivers late)."""
+    def on_position(self, serial: str, message: dict[str, Any], heard_s: float) -> None:
+        """A robot's visualization (or state) heard at ``heard_s`` [s]: where it is."""
         member = next((m for m in self.members if m.serial == serial), None)
         where = message.get("agvPosition")
         if member is None or not isinstance(where, dict):
             return
-        if wall_s is not None:
-            heard_s -= message_age_s(message.get("timestamp"), wall_s)
         velocity = message.get("velocity")
         speed = velocity.get("vx", 0.0) if isinstance(velocity, dict) else 0.0
         try:

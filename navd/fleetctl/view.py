@@ -9,7 +9,6 @@ import json
 import time
 import uuid
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Any
 
 import aiomqtt
@@ -25,7 +24,6 @@ __all__ = [
     "fleet_view",
     "instant_action",
     "master_client",
-    "message_age_s",
     "spoken",
     "state_request",
 ]
@@ -33,9 +31,6 @@ __all__ = [
 # [s] how long ``fleet_view`` listens for the vehicles' retained and fresh messages
 LISTEN_S = 1.5
 QOS = 0  # VDA 5050 §6.2: orders and instant actions at QoS 0
-# [s] a vehicle's message is believed to be as old as its timestamp says up to this; older,
-# its clock is off (its message is taken as new)
-MAX_AGE_S = 0.5
 
 
 class HeaderIds:
@@ -206,16 +201,3 @@ async def state_request(client: aiomqtt.Client, prefix: str, vehicle: Vehicle) -
         version=vehicle.version,
     )
     await client.publish(topic, json.dumps(message), qos=QOS)
-
-
-def message_age_s(stamp: object, wall_s: float) -> float:
-    """[s] how long before ``wall_s`` [s, Unix] a VDA 5050 ``timestamp`` was, or 0 when it
-    is not one, is later, or is more than MAX_AGE_S before (a clock that is off, not a late
-    message)."""
-    if not isinstance(stamp, str):
-        return 0.0
-    try:
-        age = wall_s - datetime.fromisoformat(stamp).timestamp()
-    except ValueError:
-        return 0.0
-    return age if 0.0 <= age <= MAX_AGE_S else 0.0

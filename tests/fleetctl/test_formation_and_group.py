@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from navd.fleet import timestamp
 from navd.fleetctl import control
 from navd.fleetctl.control import one_map
 from navd.fleetctl.errors import GroupGoalError
@@ -148,29 +147,6 @@ def test_a_step_is_released_only_when_every_robot_is_at_its_place() -> None:
         for m in group.members:
             group.on_state(m.serial, _state(group, m.serial, place, tuple(m.places[place])))
     assert group.done and group.released == group.steps - 1
-
-
-def test_a_position_is_taken_as_of_its_messages_timestamp_when_that_is_plausible() -> None:
-    group = _group()
-    _started(group)
-    r1 = group.members[0]
-    wall = 1_800_000_000.0  # [s] the wall clock when each is heard, at heard_s = 10
-
-    def carried_x(stamp: object) -> float:
-        view: dict[str, Any] = {
-            "agvPosition": {"x": 0.0, "y": 0.0, "theta": 0.0},
-            "velocity": {"vx": 0.5},
-        }
-        if stamp is not None:
-            view["timestamp"] = stamp
-        group.on_position(r1.serial, view, heard_s=10.0, wall_s=wall)
-        return float(group._carried(r1, 10.0)[0])
-
-    # sent 0.3 s before it was heard (a loaded broker): it has driven on 0.15 m since
-    assert carried_x(timestamp(wall - 0.3)) == pytest.approx(0.15, abs=1e-3)
-    # no timestamp, one from the future, one seconds old (a clock that is off), or not one
-    for stamp in (None, timestamp(wall + 0.2), timestamp(wall - 5.0), "yesterday", 7):
-        assert carried_x(stamp) == pytest.approx(0.0, abs=1e-9), stamp
 
 
 @pytest.mark.parametrize("kind", ["stateRequest", "startPause", "stopPause"])
