@@ -73,7 +73,13 @@ class FleetConfig(Section):
         description="[s] the state is published on every change and at least this often",
     )
     visualization_rate_hz: float = Field(
-        2.0, ge=0, le=50, description="[Hz] how often the position is published (0: never)"
+        5.0,
+        ge=0,
+        le=50,
+        description="[Hz] how often the position is published (0: never); a fleet control "
+        "pacing a group carries each position on until the next, so a fresher one keeps the "
+        "group's shape better (office triangle: largest shape error 0.19 m at 5 Hz, 0.23-0.26 "
+        "m at 2 Hz)",
     )
     keepalive_s: int = Field(
         10, ge=2, le=600, **restart("[s] MQTT keep-alive: a silent vehicle is broken after 1.5x")
