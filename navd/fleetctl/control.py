@@ -262,7 +262,7 @@ class _GroupRun:
     async def let_go(self) -> None:
         """Send ``stopPause`` to every member the group holds paused (the goal is over)."""
         for member in self.group.members:
-            if member.paused:
+            if member.paused or (member.said_paused and member.paused_sent_s > -math.inf):
                 await self._instant(member, "stopPause")
                 member.paused = False
 

@@ -53,6 +53,8 @@ START_DEVIATION_M = 1.0
 # slowest is within CAUGHT_UP_M
 AHEAD_M = 0.1
 CAUGHT_UP_M = 0.05
+# [s] a vehicle whose state still disagrees this long after a pause or resume is sent it again
+RESEND_S = 2.0
 # [m] a robot this near another's place is in its way: the other cannot plan to it (a place
 # needs a robot's radius and margin, 0.3 m, clear of the robot there, 0.28 m across its
 # corners at navd's defaults, with room for the positions' noise). Farther than a triangle's
@@ -78,6 +80,8 @@ class GroupMember:
     position: tuple[float, float, float, float, float] | None = None
     errors: list[str] = field(default_factory=list)
     paused: bool = False  # held by the fleet control for the others to catch up
+    said_paused: bool = False  # paused, as its last state said
+    paused_sent_s: float = -math.inf  # [s] when the last startPause or stopPause went to it
     orders_sent: int = 0  # the headerId of its last order (each topic counts its own)
 
     def progress_report(self) -> dict[str, Any]:
@@ -195,6 +199,7 @@ class GroupDrive:
                 or any(r.get("referenceValue") == ours for r in e.get("errorReferences", []))
             )
         ]
+        member.said_paused = state.get("paused") is True
         if state.get("orderId") != ours:
             return []
         member.reached = max(member.reached, _place_of(int(state.get("lastNodeSequenceId", 0))))
@@ -263,14 +268,14 @@ class GroupDrive:
         robot ahead may stand where the next one goes) is never held: holding it would hold
         the slower one for good (its place taken, it cannot even plan). A held robot that has
         reached its place, or has nothing to drive in a newly released step, is let go."""
+        out = self._resent(now_s)
         k = self.released
         if k < 1 or any(m.position is None for m in self.members):
-            return []
+            return out
         # a robot whose place does not move this step has nothing to drive: it is no one's pace
         going = [m for m in self.members if m.reached < k and self._length(m, k) > 1e-9]
         share = {m.serial: self._share(m, k, now_s) for m in going}
         slowest = min(share.values(), default=math.inf)
-        out = []
         for m in self.members:
             mine = share.get(m.serial)
             ahead = math.inf if mine is None else (mine - slowest) * self._length(m, k)
@@ -280,12 +285,25 @@ class GroupDrive:
                 if o is not m
             )
             if not m.paused and mine is not None and ahead > AHEAD_M and not blocking:
-                m.paused = True
+                m.paused, m.paused_sent_s = True, now_s
                 out.append((m, "startPause"))
             elif m.paused and (mine is None or ahead < CAUGHT_UP_M or blocking):
                 # (mine None: at its place, or nothing to drive this step: nothing to hold)
-                m.paused = False
+                m.paused, m.paused_sent_s = False, now_s
                 out.append((m, "stopPause"))
+        return out
+
+    def _resent(self, now_s: float) -> list[tuple[GroupMember, str]]:
+        """The pause or resume sent again to a vehicle whose state still says otherwise
+        RESEND_S after it went: a vehicle may refuse one (vda-5050-lib's refuses a stopPause
+        while it is "not yet paused", a startPause while "already paused"), and one left
+        paused would hold the group for good."""
+        out = []
+        for m in self.members:
+            paced = m.paused_sent_s > -math.inf  # (a robot paused by someone else is theirs)
+            if paced and m.said_paused != m.paused and now_s - m.paused_sent_s > RESEND_S:
+                m.paused_sent_s = now_s
+                out.append((m, "startPause" if m.paused else "stopPause"))
         return out
 
     @staticmethod

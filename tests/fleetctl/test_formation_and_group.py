@@ -201,6 +201,40 @@ def test_a_robot_ahead_of_the_slowest_waits_until_it_catches_up() -> None:
     assert [(m.serial, a) for m, a in group.corrections(7.0)] == [("r1", "stopPause")]
 
 
+def test_a_pause_or_resume_a_vehicle_refused_is_sent_again_until_its_state_agrees() -> None:
+    group = _group()
+    _started(group)
+    for m in group.members:  # all formed up: step 1 released
+        group.on_state(m.serial, _state(group, m.serial, 0, tuple(m.places[0])))
+    r1, r2, r3 = group.members
+
+    def at(m: Any, along: float, t: float, paused: bool) -> None:
+        a, b = m.places[0], m.places[1]
+        x, y = a + (b - a) * along / float(np.hypot(*(b - a)))
+        group.on_position(m.serial, {"agvPosition": {"x": x, "y": y, "theta": 0.0}}, t)
+        group.on_state(m.serial, _state(group, m.serial, 0, (x, y)) | {"paused": paused})
+
+    at(r1, 0.5, 5.0, False)
+    at(r2, 0.1, 5.0, False)
+    at(r3, 0.1, 5.0, False)
+    assert [(m.serial, a) for m, a in group.corrections(5.0)] == [("r1", "startPause")]
+    at(r1, 0.5, 5.5, True)  # it paused
+    at(r2, 0.45, 6.0, False)
+    at(r3, 0.45, 6.0, False)
+    assert [(m.serial, a) for m, a in group.corrections(6.0)] == [("r1", "stopPause")]
+    # its state still says paused (it refused the stopPause, say): again after RESEND_S,
+    # not before, and not once it says it drives
+    at(r1, 0.5, 7.0, True)
+    assert group.corrections(7.0) == []
+    assert [(m.serial, a) for m, a in group.corrections(8.1)] == [("r1", "stopPause")]
+    assert group.corrections(9.0) == []
+    at(r1, 0.5, 10.5, False)
+    assert group.corrections(10.5) == []
+    # a robot paused by someone else (never by the group) is left to them
+    at(r2, 0.45, 11.0, True)
+    assert group.corrections(14.0) == []
+
+
 def test_a_held_robot_that_reaches_its_place_is_let_go() -> None:
     group = _group()
     _started(group)
