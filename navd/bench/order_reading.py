@@ -15,48 +15,54 @@ import gc
 import json
 import statistics
 import time
+from typing import Any
 
 from navd.fleet.order_reading import read_now, read_order
 from navd.fleet.vda5050 import MAX_NODES
 
-__all__ = ["largest_order", "run"]
+__all__ = ["largest_order", "run", "straight_order"]
 
 
 def largest_order() -> bytes:
     """The order read (see the module docstring)."""
     parameters = [{"key": f"k{k}", "value": "v" * 8} for k in range(10)]
-    nodes = [
-        {
-            "nodeId": f"n{i}",
-            "sequenceId": 2 * i,
-            "released": True,
-            "nodePosition": {"x": 0.5 * i, "y": 0.0, "mapId": "map"},
-            "actions": [
-                {
-                    "actionType": "wait",
-                    "actionId": f"a{i}-{j}",
-                    "blockingType": "HARD",
-                    "actionParameters": parameters,
-                }
-                for j in range(2)
-            ],
-        }
-        for i in range(MAX_NODES)
-    ]
-    edges = [
-        {
-            "edgeId": f"e{i}",
-            "sequenceId": 2 * i + 1,
-            "released": True,
-            "startNodeId": f"n{i}",
-            "endNodeId": f"n{i + 1}",
-            "actions": [],
-        }
-        for i in range(MAX_NODES - 1)
-    ]
-    head = {"headerId": 1, "timestamp": "2026-12-07T12:00:00.000Z", "version": "2.1.0"}
-    body = head | {"manufacturer": "navd", "serialNumber": "r1", "orderId": "o"}
-    return json.dumps(body | {"orderUpdateId": 0, "nodes": nodes, "edges": edges}).encode()
+    return json.dumps(straight_order(MAX_NODES, actions=2, parameters=parameters)).encode()
+
+
+def straight_order(nodes: int, *, actions: int, parameters: list[dict[str, Any]]) -> dict[str, Any]:
+    """A new order for vehicle navd/r1: ``nodes`` released nodes 0.5 m apart along x, each
+    with ``actions`` HARD ``wait`` actions of ``parameters``, and the edges between them."""
+    action = {"actionType": "wait", "blockingType": "HARD", "actionParameters": parameters}
+    return {
+        "headerId": 1,
+        "timestamp": "2026-12-07T12:00:00.000Z",
+        "version": "2.1.0",
+        "manufacturer": "navd",
+        "serialNumber": "r1",
+        "orderId": "o",
+        "orderUpdateId": 0,
+        "nodes": [
+            {
+                "nodeId": f"n{i}",
+                "sequenceId": 2 * i,
+                "released": True,
+                "nodePosition": {"x": 0.5 * i, "y": 0.0, "mapId": "map"},
+                "actions": [action | {"actionId": f"a{i}-{j}"} for j in range(actions)],
+            }
+            for i in range(nodes)
+        ],
+        "edges": [
+            {
+                "edgeId": f"e{i}",
+                "sequenceId": 2 * i + 1,
+                "released": True,
+                "startNodeId": f"n{i}",
+                "endNodeId": f"n{i + 1}",
+                "actions": [],
+            }
+            for i in range(nodes - 1)
+        ],
+    }
 
 
 async def _largest_gap_ms(raw: bytes, sliced: bool) -> float:

@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from navd.bench.order_reading import largest_order
+from navd.bench.order_reading import largest_order, straight_order
 from navd.config import NavdConfig
 from navd.fleet.order_reading import SLICE, read_now, read_order
 from navd.fleet.order_rules import first_problem
@@ -20,44 +20,7 @@ from navd.fleet.vda5050 import MAX_NODES
 
 def _order(nodes: int, *, actions: int = 0) -> dict[str, Any]:
     parameters = [{"key": f"k{k}", "value": k} for k in range(3)]
-    return {
-        "headerId": 1,
-        "timestamp": "2026-12-07T12:00:00.00Z",
-        "version": "2.1.0",
-        "manufacturer": "navd",
-        "serialNumber": "r1",
-        "orderId": "o",
-        "orderUpdateId": 0,
-        "nodes": [
-            {
-                "nodeId": f"n{i}",
-                "sequenceId": 2 * i,
-                "released": True,
-                "nodePosition": {"x": 0.5 * i, "y": 0.0, "mapId": "map"},
-                "actions": [
-                    {
-                        "actionType": "wait",
-                        "actionId": f"a{i}-{j}",
-                        "blockingType": "HARD",
-                        "actionParameters": parameters,
-                    }
-                    for j in range(actions)
-                ],
-            }
-            for i in range(nodes)
-        ],
-        "edges": [
-            {
-                "edgeId": f"e{i}",
-                "sequenceId": 2 * i + 1,
-                "released": True,
-                "startNodeId": f"n{i}",
-                "endNodeId": f"n{i + 1}",
-                "actions": [],
-            }
-            for i in range(nodes - 1)
-        ],
-    }
+    return straight_order(nodes, actions=actions, parameters=parameters)
 
 
 def _alike(raw: bytes) -> None:
