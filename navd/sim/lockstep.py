@@ -31,6 +31,7 @@ __all__ = ["Lockstep"]
 ACK_TIMEOUT_S = 60.0  # [s] real time a lockstep step may take the daemon
 STEP_TOLERANCE_S = 1e-9  # [s] a step time k * dt that rounds past ``until_s`` still counts
 FIRST_ACK_TIMEOUT_S = 600.0  # [s] the same for the first step: it waits for kernels to compile
+CLOCK_LINK_TIMEOUT_S = 180.0  # [s] for the daemon to take the clock (the session waits 120 s)
 CHASSIS_READ_TIMEOUT_S = 5.0  # [s] real time for wheel lines the daemon says it wrote
 
 
@@ -74,7 +75,9 @@ class Lockstep:
         dt = 1.0 / s.physics_rate_hz
         sensors = self.models.sensors()
         feedback_every = _steps_per_sample(s.physics_rate_hz, self.feedback_rate_hz)
-        clock = await self._clock_link()
+        clock = await self._clock_link(stop)
+        if clock is None:
+            return  # stopped before the daemon answered: whoever stopped us says why
         await self.released.wait()
         try:
             while not stop.is_set():
@@ -107,9 +110,11 @@ class Lockstep:
             for client in self._writers.values():
                 client.writer.close()
 
-    async def _clock_link(self) -> AsyncClient:
-        deadline = time.monotonic() + ACK_TIMEOUT_S
-        while True:
+    async def _clock_link(self, stop: asyncio.Event) -> AsyncClient | None:
+        """The clock connection, tried again while the daemon starts (None if ``stop`` is
+        set first: the session gave up on the daemon and says why)."""
+        deadline = time.monotonic() + CLOCK_LINK_TIMEOUT_S
+        while not stop.is_set():
             try:
                 return await self.links.open("clock", "sim-clock")
             except RequestRefusedError as err:
@@ -117,9 +122,11 @@ class Lockstep:
             except (ClientError, OSError) as err:
                 if time.monotonic() > deadline:
                     raise SimError(
-                        f"navd did not answer on port {self.settings.port} within {ACK_TIMEOUT_S} s"
+                        f"navd did not answer on port {self.settings.port} within "
+                        f"{CLOCK_LINK_TIMEOUT_S} s (last: {err})"
                     ) from err
                 await asyncio.sleep(RECONNECT_S)
+        return None
 
     async def _step_sensor(self, sensor: SimSensor) -> None:
         plugged = sensor.is_plugged()

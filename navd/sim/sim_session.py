@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import signal
 import sys
+import time
 from collections.abc import AsyncIterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,10 @@ from navd.wire import AsyncClient, ClientError
 
 __all__ = ["Session", "free_port", "session"]
 
-READY_TIMEOUT_S = 30.0
+READY_TIMEOUT_S = 120.0  # [s] a daemon starting on a busy machine (imports, its first kernels)
+HELLO_TIMEOUT_S = 10.0  # [s] for the answer to one hello while the daemon starts
+RETRY_S = 0.2  # [s] between attempts
+LOG_TAIL_BYTES = 2000  # what of the daemon's log an error quotes
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
@@ -140,12 +144,7 @@ async def session(
         )
         control: AsyncClient | None = None
         try:
-            try:
-                control = await AsyncClient.connect(
-                    "127.0.0.1", port, device_id="sim-control", ready_timeout_s=READY_TIMEOUT_S
-                )
-            except ClientError as err:
-                raise SimError(f"{err} (see the daemon's log)") from err
+            control = await _welcomed_control(port, daemon, Path(log.name))
             if not hold_clock:
                 sim.release_clock()
             yield Session(sim, control, port, daemon, config, maps, sim_task)
@@ -166,3 +165,43 @@ async def session(
             stop.set()
             with contextlib.suppress(asyncio.CancelledError):
                 await sim_task
+
+
+async def _welcomed_control(
+    port: int, daemon: asyncio.subprocess.Process, log_path: Path
+) -> AsyncClient:
+    """A control client the daemon welcomed: tried again (a daemon still starting may not
+    listen yet, or be too busy to answer a hello in time) until READY_TIMEOUT_S, and given up
+    at once if the daemon exits.
+
+    Raises:
+        SimError: the daemon exited, or did not welcome the client in time; with the end of
+            its log.
+    """
+    deadline = time.monotonic() + READY_TIMEOUT_S
+    while True:
+        if daemon.returncode is not None:
+            raise SimError(
+                f"navd exited with code {daemon.returncode} before it welcomed a client; "
+                f"its log ends: {_tail(log_path)}"
+            )
+        try:
+            return await AsyncClient.connect(
+                "127.0.0.1", port, device_id="sim-control", timeout_s=HELLO_TIMEOUT_S
+            )
+        except (ClientError, OSError) as err:
+            if time.monotonic() > deadline:
+                raise SimError(
+                    f"navd did not welcome a control client on port {port} within "
+                    f"{READY_TIMEOUT_S} s (last: {err}); its log ends: {_tail(log_path)}"
+                ) from err
+        await asyncio.sleep(RETRY_S)
+
+
+def _tail(log_path: Path) -> str:
+    """The last LOG_TAIL_BYTES of the daemon's log, or why there is none."""
+    try:
+        data = log_path.read_bytes()
+    except OSError as err:
+        return f"(unreadable: {err})"
+    return data[-LOG_TAIL_BYTES:].decode("utf-8", "replace") or "(empty)"

@@ -115,6 +115,20 @@ class FoxgloveClient:
 
         return await asyncio.wait_for(read(), timeout_s)
 
+    async def receive_each(self, *topics: str, timeout_s: float = 10.0) -> dict[str, Any]:
+        """The first message on each of ``topics``, in whatever order they come (the map is
+        built in a worker, so it may come after states sent later): topic -> decoded."""
+
+        async def read() -> dict[str, Any]:
+            first: dict[str, Any] = {}
+            while len(first) < len(topics):
+                got = await self._read_one()
+                if got is not None and got[0].topic in topics:
+                    first.setdefault(got[0].topic, got[2])
+            return first
+
+        return await asyncio.wait_for(read(), timeout_s)
+
     async def receive_any(self, timeout_s: float = 10.0) -> tuple[str, int, Any]:
         """The next message on any subscribed topic: (topic, log time [ns], decoded)."""
 

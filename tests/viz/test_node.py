@@ -106,18 +106,16 @@ async def test_a_viewer_gets_the_state_at_once_and_then_what_changes() -> None:
             await client.wait_for_topics(TOPICS)
             await client.subscribe("/map", "/scan", "/footprint", "/keep_out", "/status")
             # What changes rarely arrives on subscribing, not at the next change.
-            _, grid = await client.receive("/map")
-            cells = np.frombuffer(grid.data, dtype=np.int8).reshape(20, 30)
+            first = await client.receive_each("/map", "/footprint", "/keep_out", "/status")
+            cells = np.frombuffer(first["/map"].data, dtype=np.int8).reshape(20, 30)
             np.testing.assert_array_equal(cells, map_update(now).occupancy)
-            _, outline = await client.receive("/footprint")
-            assert outline.entities[0].frame_id == "base_link"
-            _, zones = await client.receive("/keep_out")
-            assert [(p.x, p.y) for p in zones.entities[0].lines[0].points] == [
+            assert first["/footprint"].entities[0].frame_id == "base_link"
+            assert [(p.x, p.y) for p in first["/keep_out"].entities[0].lines[0].points] == [
                 (1.0, 1.0),
                 (2.0, 1.0),
                 (2.0, 2.0),
             ]
-            _, status = await client.receive("/status")
+            status = first["/status"]
             assert status["safety"] == {"stopped": True, "reasons": ["lidar stale"]}
             # Then each scan as it comes.
             sent = scan(daemon.clock.now())
