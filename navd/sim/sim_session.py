@@ -4,8 +4,10 @@
 simulator's pseudo-terminal with encoder feedback, the TCP server on a free port, maps in
 ``work_dir/maps``, plus any overrides), starts the simulator, then ``python -m navd run``
 (its log in ``work_dir/navd.log`` unless another path is given), and connects a control
-client. On exit the daemon gets SIGTERM (SIGKILL after 15 s) and the simulator stops. The demo
-and the end-to-end scenarios are built on it.
+client: tried again while the daemon starts, given up with the end of its log if the daemon
+exits, and started again on another port if another program took the free one first. On exit
+the daemon gets SIGTERM (SIGKILL after 15 s) and the simulator stops. The demo and the
+end-to-end scenarios are built on it.
 """
 
 from __future__ import annotations
@@ -37,6 +39,12 @@ READY_TIMEOUT_S = 120.0  # [s] a daemon starting on a busy machine (imports, its
 HELLO_TIMEOUT_S = 10.0  # [s] for the answer to one hello while the daemon starts
 RETRY_S = 0.2  # [s] between attempts
 LOG_TAIL_BYTES = 2000  # what of the daemon's log an error quotes
+PORT_ATTEMPTS = 3  # free ports tried: another program may take one before the daemon does
+PORT_TAKEN = "address already in use"  # what the daemon's log says then
+
+
+class PortTakenError(SimError):
+    """The daemon could not listen: the free port was taken before it bound it."""
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
@@ -101,16 +109,91 @@ async def session(
         start: where the robot starts (default: the world's start).
     """
     work_dir.mkdir(parents=True, exist_ok=True)
+    for attempt in range(1, PORT_ATTEMPTS + 1):
+        launch = await _launch(
+            world, work_dir, overrides, sim_settings, log_path or work_dir / "navd.log",
+            lockstep=lockstep, start=start,
+        )  # fmt: skip
+        try:
+            control = await _welcomed_control(launch.port, launch.daemon, launch.log_path)
+        except PortTakenError:
+            await launch.close()
+            if attempt < PORT_ATTEMPTS:
+                continue  # another program took the free port first: take another
+            raise
+        except BaseException:
+            await launch.close()
+            raise
+        break
+    try:
+        if not hold_clock:
+            launch.sim.release_clock()
+        yield Session(
+            launch.sim,
+            control,
+            launch.port,
+            launch.daemon,
+            launch.config,
+            work_dir / "maps",
+            launch.sim_task,
+        )
+    finally:
+        await control.close()
+        await launch.close()
+
+
+@dataclass
+class _Launch:
+    """A simulator and a daemon started together, on one port."""
+
+    sim: Simulator
+    sim_task: asyncio.Task[None]
+    stop: asyncio.Event
+    daemon: asyncio.subprocess.Process
+    port: int
+    config: NavdConfig
+    log_path: Path
+    lockstep: bool
+
+    async def close(self) -> None:
+        """Stop both: in lockstep time stops first, so the daemon stops at a known instant;
+        the daemon gets SIGTERM, and SIGKILL after 15 s."""
+        if self.lockstep:
+            self.stop.set()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self.sim_task
+        if self.daemon.returncode is None:
+            self.daemon.send_signal(signal.SIGTERM)
+            try:
+                await asyncio.wait_for(self.daemon.wait(), 15.0)
+            except TimeoutError:
+                self.daemon.kill()
+                await self.daemon.wait()
+        self.stop.set()
+        with contextlib.suppress(asyncio.CancelledError):
+            await self.sim_task
+
+
+async def _launch(
+    world: World,
+    work_dir: Path,
+    overrides: Mapping[str, Any] | None,
+    sim_settings: Mapping[str, Any] | None,
+    log_path: Path,
+    *,
+    lockstep: bool,
+    start: Pose2 | None,
+) -> _Launch:
+    """Write the daemon's config on a free port, start the simulator, then the daemon."""
     port = free_port()
     tty = work_dir / "chassis-tty"
-    maps = work_dir / "maps"
     raw = _merge(
         {
             "chassis": {"enabled": True, "port": str(tty), "feedback": "encoders"},
             "tcp": {"port": port},
             # free ports for each simulated robot's live view and operator page
             "viz": {"port": 0, "page_port": 0},
-            "slam": {"map_dir": str(maps)},
+            "slam": {"map_dir": str(work_dir / "maps")},
             "lifecycle": {"event_loop": "asyncio"},
             "logging": {"format": "json"},
         },
@@ -131,40 +214,12 @@ async def session(
     stop = asyncio.Event()
     sim_task = asyncio.create_task(sim.run(stop))
     await asyncio.sleep(0.2)  # the pseudo-terminal link exists before the daemon opens it
-    with (log_path or work_dir / "navd.log").open("wb") as log:
+    with log_path.open("wb") as log:
         daemon = await asyncio.create_subprocess_exec(
-            sys.executable,
-            "-m",
-            "navd",
-            "run",
-            "--config",
-            str(config_path),
-            stdout=log,
-            stderr=log,
-        )
-        control: AsyncClient | None = None
-        try:
-            control = await _welcomed_control(port, daemon, Path(log.name))
-            if not hold_clock:
-                sim.release_clock()
-            yield Session(sim, control, port, daemon, config, maps, sim_task)
-        finally:
-            if control is not None:
-                await control.close()
-            if lockstep:  # time stops first, so the daemon stops at a known instant
-                stop.set()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await sim_task
-            if daemon.returncode is None:
-                daemon.send_signal(signal.SIGTERM)
-                try:
-                    await asyncio.wait_for(daemon.wait(), 15.0)
-                except TimeoutError:
-                    daemon.kill()
-                    await daemon.wait()
-            stop.set()
-            with contextlib.suppress(asyncio.CancelledError):
-                await sim_task
+            sys.executable, "-m", "navd", "run", "--config", str(config_path),
+            stdout=log, stderr=log,
+        )  # fmt: skip
+    return _Launch(sim, sim_task, stop, daemon, port, config, log_path, lockstep)
 
 
 async def _welcomed_control(
@@ -181,9 +236,11 @@ async def _welcomed_control(
     deadline = time.monotonic() + READY_TIMEOUT_S
     while True:
         if daemon.returncode is not None:
-            raise SimError(
+            tail = _tail(log_path)
+            error = PortTakenError if PORT_TAKEN in tail else SimError
+            raise error(
                 f"navd exited with code {daemon.returncode} before it welcomed a client; "
-                f"its log ends: {_tail(log_path)}"
+                f"its log ends: {tail}"
             )
         try:
             return await AsyncClient.connect(

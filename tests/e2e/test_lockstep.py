@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ from typing import Any, BinaryIO
 import pytest
 import tomli_w
 
-from navd.sim import from_shapes, session
+from navd.sim import from_shapes, session, sim_session
 from navd.wire import AsyncClient, GoalFrame, GoalStatusFrame, InitialPoseFrame
 from tests.e2e.conftest import REPO, free_port
 
@@ -166,3 +167,24 @@ def test_navd_sim_on_simulated_time_stops_on_the_step_at_its_limit(tmp_path: Pat
     assert summary["clock"] == "lockstep"
     assert summary["sim_time_s"] == 3.0
     assert summary["chassis_lines"] > 0  # navd drove the wheels (with zeros: no goal)
+
+
+async def test_a_session_whose_free_port_is_taken_first_starts_on_another(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Another program may take the free port before the daemon binds it (many sockets come
+    and go in a suite): the daemon says so and exits, and the session starts again on
+    another port instead of failing."""
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen()
+    ports = iter([taken.getsockname()[1]])
+    monkeypatch.setattr(sim_session, "free_port", lambda: next(ports, None) or free_port())
+    try:
+        async with session(from_shapes(HALL, "hall"), tmp_path, lockstep=True) as s:
+            assert s.port != taken.getsockname()[1]
+            while s.sim.now() < 1.0:  # time runs: the simulator found this daemon too
+                s.check()
+                await asyncio.sleep(0.05)
+    finally:
+        taken.close()
