@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from navd.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Commands, load, print_figures
+from navd.cli.perturb_suite import add_suite_command
 from navd.config import ConfigError
 
 if TYPE_CHECKING:
@@ -22,7 +23,7 @@ __all__ = ["add_commands"]
 
 
 def add_commands(commands: Commands) -> None:
-    """Add ``replay`` and ``eval relations``."""
+    """Add ``replay``, ``eval relations`` and ``eval perturb``."""
     replay = commands.add_parser(
         "replay",
         help="play a navd recording through the whole pipeline, or run SLAM over a laser log",
@@ -62,8 +63,9 @@ def add_commands(commands: Commands) -> None:
     replay.add_argument(
         "--perturb",
         metavar="KIND",
-        help="replay a seeded, worse version of the log: drop, odometry, noise, half_beams or "
-        "range8 (robustness checks, docs/slam.md)",
+        help="replay a seeded, worse version of the log: drop, every2, every3, odometry, "
+        "odometry_spikes, noise, half_beams, fov120, range8 or spurious, or several joined by "
+        "'+' (robustness checks, docs/slam.md)",
     )
     replay.add_argument("--seed", type=int, default=0, help="seed of --perturb (default 0)")
     replay.add_argument(
@@ -103,6 +105,7 @@ def add_commands(commands: Commands) -> None:
     relations.add_argument("relations", type=Path, help=".relations file (t1 t2 x y z r p y)")
     relations.add_argument("--json", action="store_true", help="print JSON (default: readable)")
     relations.set_defaults(handler=_relations)
+    add_suite_command(metrics)
 
 
 def _is_navd_recording(path: Path) -> bool:

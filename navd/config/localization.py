@@ -44,6 +44,21 @@ class SlamConfig(Section):
         description="[ratio] scans whose points on mapped ground match worse than this keep the "
         "odometry pose, unmapped (on mostly new ground they are mapped from it)",
     )
+    plausible_speed_mps: float = Field(
+        2.5,
+        gt=0,
+        le=50,
+        description="[m/s] the fastest the robot really moves between two scans (any robot a "
+        "log is replayed for, too): a faster odometry step is a spike, not followed, and a match "
+        "that implies one is refused (steps are taken as at least 0.2 s: stamps come in bursts)",
+    )
+    plausible_turn_radps: float = Field(
+        3.0,
+        gt=0,
+        le=100,
+        description="[rad/s] the fastest the robot really turns between two scans: as "
+        "plausible_speed_mps, for turning",
+    )
     lost_after_scans: int = Field(
         10,
         ge=0,

@@ -39,6 +39,7 @@ from navd.slam import (
     ScanMapper,
     ScanOdometry,
     ScanOdometrySettings,
+    jumps,
     relocalize,
     save_map,
     voxel_downsample,
@@ -48,6 +49,7 @@ __all__ = ["ReplayInput", "ReplayResult", "open_recording", "replay", "replay_mo
 
 Progress = Callable[[int, float], None]
 FloatArray = npt.NDArray[np.float64]
+JUMPS_LISTED = 10  # implausible steps the summary lists (all are counted)
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,6 +241,7 @@ def replay(
         encoding="ascii",
     )
     ms = sorted(1e3 * s for s in per_scan) or [math.nan]
+    beyond = jumps(stamps, poses, settings.motion_limits)
     summary: dict[str, object] = {
         "scans": len(stamps),
         "data_seconds": round(stamps[-1] - stamps[0], 3) if stamps else 0.0,
@@ -248,6 +251,9 @@ def replay(
         **mapper.tracking_counts(),
         **loaded.figures(mapper),
         "map_cells": list(mapper.grid.shape),
+        # steps of the trajectory no robot makes (slam.plausible_*): the first ones listed
+        "implausible_steps": len(beyond),
+        "implausible_steps_first": [j.as_dict() for j in beyond[:JUMPS_LISTED]],
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="ascii")
     return ReplayResult(stamps, poses, summary)

@@ -6,11 +6,12 @@ No asyncio here: plain computation that ``node.SlamNode`` runs in worker threads
 
 from navd.slam.errors import MapFileError, SlamError
 from navd.slam.global_search import relocalize
-from navd.slam.keyframe import Keyframe
+from navd.slam.keyframe import EDGE_WEIGHTS, Keyframe
 from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.map_io import SavedMap, load_map, load_map_state, save_map
-from navd.slam.mapper import EDGE_WEIGHTS, ScanMapper
+from navd.slam.mapper import ScanMapper
 from navd.slam.matcher import CorrelativeMatcher
+from navd.slam.motion_check import Jump, MotionLimits, jumps
 from navd.slam.node import SlamNode
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.odometry import ScanOdometry, ScanOdometrySettings
@@ -23,10 +24,12 @@ __all__ = [
     "EDGE_WEIGHTS",
     "CorrelativeMatcher",
     "Edge",
+    "Jump",
     "Keyframe",
     "LikelihoodField",
     "MapFileError",
     "MapperSettings",
+    "MotionLimits",
     "OccupancyGrid",
     "SavedMap",
     "ScanMapper",
@@ -34,6 +37,7 @@ __all__ = [
     "ScanOdometrySettings",
     "SlamError",
     "SlamNode",
+    "jumps",
     "load_map",
     "load_map_state",
     "optimize",

@@ -17,13 +17,15 @@ import numpy as np
 import numpy.typing as npt
 
 from navd.geometry import Pose2, ScanPoints
+from navd.slam.anchored_trajectory import AnchoredTrajectory
 from navd.slam.graph_file import MapGraph
 from navd.slam.heading_trust import HeadingTrust
-from navd.slam.keyframe import Keyframe
+from navd.slam.keyframe import EDGE_WEIGHTS, Keyframe, edge_to_new
 from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.loop_closure import LoopCloser
 from navd.slam.match_repair import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, MatchRepair
-from navd.slam.matcher import CorrelativeMatcher
+from navd.slam.matcher import CorrelativeMatcher, Match
+from navd.slam.motion_check import MotionCheck
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
 from navd.slam.reported_pose import PoseRefiner
@@ -36,17 +38,14 @@ __all__ = ["ScanMapper", "ScanResult"]
 
 FloatArray = npt.NDArray[np.float64]
 
-
-# Relative-pose uncertainty assumed for graph edges (tracking and loop closures alike).
-EDGE_WEIGHTS = (1 / 0.05, 1 / 0.05, 1 / 0.0175)
-# ... and for the edge from the nearest old keyframe to the first new one after a load or a
-# pose set from outside (a global search's pose: a cell or two, a degree or two).
-FOUND_WEIGHTS = (1 / 0.1, 1 / 0.1, 1 / 0.035)
 # A scan with at least this share of its points (and MIN_KNOWN_POINTS) on mapped ground that
 # does not fit there counts toward being lost (``lost_after_scans``): a robot carried off sees
 # its walls where the map has open floor, or none at all.
 LOST_KNOWN_FRACTION = 0.25
 ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
+# A scan whose odometry step is implausible follows it only if it fits this much better there
+# than at the last step taken again (a match's score is in [0, 1]).
+SPIKE_MARGIN = 0.05
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
 
@@ -79,33 +78,29 @@ class ScanMapper:
         s = self.settings
         self.grid = OccupancyGrid(s.resolution_m)
         self.matcher = _tracking_matcher(s)
-        # The reported pose of the last scan in the frame of the tracked one (the fine map's
-        # refinement; identity without one).
-        self._refinement = Pose2(0.0, 0.0, 0.0)
+        self._refinement = Pose2(0.0, 0.0, 0.0)  # last reported pose in the tracked one's frame
         self.pose: Pose2 | None = None
         self.keyframes: list[Keyframe] = []
         self.edges: list[Edge] = []
-        # Every scan's pose relative to the newest keyframe at the time, so the whole
-        # trajectory follows the keyframes when the pose graph moves them.
-        self._anchors: list[tuple[int, Pose2]] = []
+        self._trajectory = AnchoredTrajectory()  # kept only with keep_trajectory
+        self.motion = MotionCheck(s.motion_limits)
         self.loops = LoopCloser(s)
         self.counts = TrackingCounts()
         self.heading_trust = HeadingTrust()
         self._last_odom: Pose2 | None = None
         self._weak_run = 0  # scans in a row that did not match the map
-        # scans in a row on mapped ground that did not fit it, or fitted doubtfully
-        self._misfit_run = 0
+        self._misfit_run = 0  # scans in a row on mapped ground not fitting it, or doubtfully
         self.last_good: Pose2 | None = None  # the last pose a scan fitted the map at
         self.repair = MatchRepair(s, self.counts)
         self._base: OccupancyGrid | None = None  # a loaded map, under the keyframes
-        # The next keyframe starts a new chain (after a load or a pose set from outside).
-        self._new_session = False
+        self._new_session = False  # the next keyframe starts a new chain (a load, a set pose)
         self.tracking = TrackingField()  # what scans are matched on, around the robot
 
     def configure(self, settings: MapperSettings) -> None:
         """Take new settings (the search window, thresholds, updating_map) at once."""
         self.settings = settings
         self.matcher = _tracking_matcher(settings)
+        self.motion.limits = settings.motion_limits
         if self.fine is not None:
             self.fine.configure(settings)
         self.loops.configure(settings)
@@ -116,11 +111,9 @@ class ScanMapper:
 
     def load(self, grid: OccupancyGrid, graph: MapGraph | None = None) -> None:
         """Start from a saved map. With the pose graph it was built from, mapping goes on
-        where it stopped: the keyframes and edges are this run's first, loops close onto
-        them, and a rebuild draws them over the map they were drawn over. Without one (or
-        with one whose keyframes kept no scans: saved with loop closure off, nothing to
-        redraw or close loops onto) the map stays under everything mapped from here on, and
-        a rebuild draws the new keyframes over it."""
+        where it stopped (its keyframes and edges are this run's first). Without one, or with
+        one whose keyframes kept no scans (loop closure was off), the map stays under all
+        mapped from here on, and a rebuild draws the new keyframes over it."""
         self.grid = grid
         if graph is None or any(f.scan is None and f.mapped for f in graph.keyframes):
             self._base = grid.copy()
@@ -128,7 +121,8 @@ class ScanMapper:
         else:
             self._base = graph.base
             self.keyframes, self.edges = list(graph.keyframes), list(graph.edges)
-        self._anchors = []
+        self._trajectory.clear()
+        self.motion.forget()
         self._new_session = True
         self.loops.held = []  # (their keyframe indices were of the keyframes replaced)
         self.tracking.forget()
@@ -136,8 +130,7 @@ class ScanMapper:
             self.fine.clear()
 
     def graph(self) -> MapGraph:
-        """What the map was built from, for a save (a snapshot: the keyframes are frozen,
-        the lists copied)."""
+        """What the map was built from, for a save (a snapshot: frozen keyframes, copied lists)."""
         return MapGraph(tuple(self.keyframes), tuple(self.edges), self._base)
 
     def predict(self, odom: Pose2 | None) -> Pose2:
@@ -149,19 +142,13 @@ class ScanMapper:
         return self.pose.compose(self._last_odom.between(odom))
 
     def trajectory(self) -> list[Pose2]:
-        """Every scan's pose so far, as corrected by the latest pose-graph solution.
-
-        Empty unless the settings say ``keep_trajectory``.
-        """
-        out = []
-        for index, relative in self._anchors:
-            out.append(self.keyframes[index].pose.compose(relative) if index >= 0 else relative)
-        return out
+        """Every scan's pose so far, as the latest pose graph places it (empty unless the
+        settings say ``keep_trajectory``)."""
+        return self._trajectory.poses(self.keyframes)
 
     def finish(self) -> None:
-        """After the last scan: let go of what only matching new scans uses (the tracking
-        field and the fine map), so that writing the map out has that memory. Adding a scan
-        afterwards matches it without the fine refinement."""
+        """After the last scan: let go of the tracking field and the fine map, for writing
+        the map out (a scan added afterwards is matched without the fine refinement)."""
         self.tracking.forget()
         self.fine = None
 
@@ -169,16 +156,11 @@ class ScanMapper:
         """How tracking went so far: the replay summary's and the daemon status's counts."""
         return self.counts.as_dict(self.loops.counts, self.matcher.prior_weight_per_rad2)
 
-    def _anchor(self, pose: Pose2) -> None:
-        index = len(self.keyframes) - 1
-        if index < 0:
-            self._anchors.append((-1, pose))
-        else:
-            self._anchors.append((index, self.keyframes[index].pose.between(pose)))
-
     def forget_odometry(self) -> None:
-        """The next scan's prediction is the set pose, not the pose moved by odometry."""
+        """The next scan's prediction is the set pose, not the pose moved by odometry (nor
+        judged against the pose before it)."""
         self._last_odom = None
+        self.motion.forget()
 
     def set_pose(self, pose: Pose2) -> None:
         """Put the robot at ``pose`` (an initial pose from a person, or a global search);
@@ -188,6 +170,7 @@ class ScanMapper:
         self._weak_run = 0
         self._misfit_run = 0
         self._new_session = True
+        self.motion.forget()
 
     @property
     def lost(self) -> bool:
@@ -198,7 +181,7 @@ class ScanMapper:
         n = self.settings.lost_after_scans
         return n > 0 and self._misfit_run >= n
 
-    def _misfit(self) -> None:
+    def _misfit(self) -> None:  # a scan on mapped ground that does not fit it
         self._misfit_run += 1
         if self._misfit_run == self.settings.lost_after_scans:
             self.counts.lost += 1
@@ -207,17 +190,43 @@ class ScanMapper:
         """Locate one scan (robot frame) and add it to the map if it makes a keyframe."""
         self._refinement = Pose2(0.0, 0.0, 0.0)
         result = self._add(stamp, scan, odom)
+        tracked = result.pose if self.pose is None else self.pose
+        self.motion.record(stamp, tracked)
         if self.settings.keep_trajectory:
-            tracked = result.pose if self.pose is None else self.pose
-            self._anchor(tracked.compose(self._refinement))
+            self._trajectory.add(self.keyframes, tracked.compose(self._refinement))
         return result
+
+    def _prior(self, stamp: float, odom: Pose2 | None) -> tuple[Pose2, bool, Pose2 | None]:
+        """The predicted pose, whether odometry moved it, and the odometry's own prediction
+        when that is a step no robot makes (a spike, or a log whose stamps lie): the last
+        step taken again is predicted then, and the scan decides between the two."""
+        prior = self.predict(odom)
+        odometry_step = odom is not None and self._last_odom is not None and self.pose is not None
+        self._last_odom = odom
+        coasted = self.motion.coasted()
+        if odometry_step and coasted is not None and not self.motion.plausible(stamp, prior):
+            return coasted, False, prior
+        return prior, odometry_step, None
+
+    def _match(
+        self, points: FloatArray, prior: Pose2, odometry: Pose2 | None
+    ) -> tuple[Match, Pose2]:
+        """(match, its prior): the scan matched around ``prior``; with the ``odometry``'s own
+        implausible prediction, around that too, taken only if the scan fits clearly better
+        there (down a corridor a spike fits as well as the truth)."""
+        match = self.matcher.match(self._field_around(prior), points, prior)
+        if odometry is None:
+            return match, prior
+        other = self.matcher.match(self._field_around(odometry), points, odometry)
+        if other.score > match.score + SPIKE_MARGIN:
+            return other, odometry  # the odometry was right (a log's stamps may lie)
+        self.counts.odometry_spikes += 1
+        return match, prior
 
     def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
         s = self.settings
         self.counts.scans += 1
-        prior = self.predict(odom)
-        odometry_step = odom is not None and self._last_odom is not None and self.pose is not None
-        self._last_odom = odom
+        prior, odometry_step, spiked = self._prior(stamp, odom)
         if s.prior_weight_per_rad2 is None:
             self.matcher.prior_weight_per_rad2 = self.heading_trust.weight_per_rad2()
         if self.grid.empty:
@@ -225,13 +234,13 @@ class ScanMapper:
             cov = np.diag([s.resolution_m**2, s.resolution_m**2, 1e-4])
             if scan.hits.size == 0 and scan.misses.size == 0:
                 # A blind sweep (a lidar spinning up sends zeros) starts no map: as the first
-                # keyframe it would leave even the robot's cell unknown, and no scan after it
-                # could ever be mapped. The first that sees anything starts the map.
+                # keyframe it would leave even the robot's cell unknown, and nothing after it
+                # could be mapped.
                 return ScanResult(prior, cov, 0.0, False, False)
             keyframe = self._insert(stamp, prior, scan)
             return ScanResult(prior, cov, 0.0, False, keyframe)
         points = voxel_downsample(scan.hits, s.voxel_size_m)
-        match = self.matcher.match(self._field_around(prior), points, prior)
+        match, prior = self._match(points, prior, spiked)
         # Judge the match on the part of the scan the map can explain: a robot driving into a
         # new corridor sees mostly never-mapped space, where every pose scores zero.
         known = self.grid.known_fraction(match.pose, points)
@@ -250,20 +259,21 @@ class ScanMapper:
                 weak_run=self._weak_run,
             )
             fit = match.score / known
-        if known_points < MIN_KNOWN_POINTS or fit < s.min_score:
+        implausible = self.motion.jumped(stamp, prior, match.pose)  # then the prior stands
+        self.counts.implausible += implausible
+        if implausible or known_points < MIN_KNOWN_POINTS or fit < s.min_score:
             self.pose = prior
             cov = np.diag([s.search_xy_m**2, s.search_xy_m**2, s.search_yaw_rad**2])
             if (
-                known_points < MIN_KNOWN_POINTS
+                not implausible
+                and known_points < MIN_KNOWN_POINTS
                 and points.shape[0] >= MIN_KNOWN_POINTS
                 and self.grid.known_fraction(prior, ROBOT_CELL) == 1.0
             ):
                 # New ground with too little map to match against, seen from ground the map
-                # knows: map it from the motion prior, or the map never grows there and the
-                # robot stays lost. Where enough of the scan lies on mapped ground to judge
-                # and that part does not fit, the scan is doubtful, never mapped (a wrong
-                # heading, old ground come back to far off); and a prior off the mapped
-                # ground is more likely wrong than new: such scans are dropped too.
+                # knows: map it from the motion prior, or the map never grows there. A scan
+                # whose part on mapped ground does not fit is doubtful, never mapped; and a
+                # prior off the mapped ground is more likely wrong than new: dropped too.
                 self.counts.exploring += 1
                 return ScanResult(prior, cov, match.score, False, self._insert(stamp, prior, scan))
             self.counts.weak_matches += 1
@@ -309,7 +319,7 @@ class ScanMapper:
         if mapped:
             self.grid.insert(pose, scan)
         if self.keyframes:
-            self.edges.append(self._edge_to(pose))
+            self.edges.append(edge_to_new(self.keyframes, pose, found=self._new_session))
         self._new_session = False
         self.keyframes.append(Keyframe(stamp, pose, scan if s.loop_closure else None, mapped))
         if self.fine is not None and self._base is None:  # (not used over a base map)
@@ -320,17 +330,6 @@ class ScanMapper:
         if s.loop_closure and (lost or k % s.loop_check_every == 0):
             self._close_loop(k)
         return mapped
-
-    def _edge_to(self, pose: Pose2) -> Edge:
-        """The edge that ties a new keyframe at ``pose`` into the graph: from the last
-        keyframe (the tracked step), or, first after a load or a pose set from outside, from
-        the nearest keyframe, as a found pose (looser, robust, like a loop)."""
-        new = len(self.keyframes)
-        if not self._new_session:
-            return Edge(new - 1, new, self.keyframes[-1].pose.between(pose), EDGE_WEIGHTS)
-        where = np.array([(f.pose.x, f.pose.y) for f in self.keyframes])
-        near = int(np.argmin(np.hypot(where[:, 0] - pose.x, where[:, 1] - pose.y)))
-        return Edge(near, new, self.keyframes[near].pose.between(pose), FOUND_WEIGHTS, True)
 
     def _close_loop(self, k: int) -> None:
         """Tie keyframe ``k`` to the old passes it revisits; re-solve if it is off them."""
@@ -359,6 +358,7 @@ class ScanMapper:
         if self.pose is not None:
             # The robot moves with the newest keyframe.
             self.pose = self.keyframes[-1].pose.compose(last_old.between(self.pose))
+            self.motion.moved_to(self.pose)
 
     def rebuild_map(self) -> None:
         """Draw the map again from the keyframes' scans at their poses (as the pose graph
@@ -378,8 +378,8 @@ class ScanMapper:
             self.fine.clear()
 
     def _reported(self, matched: Pose2, refined: Pose2) -> Pose2:
-        """The pose to report for a scan matched at ``matched`` and refined to ``refined``:
-        moved with the robot if a loop closure re-solved the graph meanwhile."""
+        """The pose to report for a scan matched at ``matched`` and refined to ``refined``
+        (moved with the robot if a loop closure re-solved the graph meanwhile)."""
         self._refinement = matched.between(refined)
         if self.pose is matched or self.pose is None:
             return refined

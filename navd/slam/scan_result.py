@@ -50,6 +50,8 @@ class TrackingCounts:
     repair_ambiguous: int = 0
     doubtful: int = 0
     lost: int = 0
+    odometry_spikes: int = 0  # odometry steps no robot makes, not followed
+    implausible: int = 0  # matches that implied such a step, refused
 
     def as_dict(self, loops: LoopCounts, heading_weight_per_rad2: float) -> dict[str, int | float]:
         """The counts with loop closure's (``loops``) and the heading prior's weight in use:
@@ -64,6 +66,8 @@ class TrackingCounts:
             "repaired": c.repaired,
             "repair_ambiguous": c.repair_ambiguous,
             "lost": c.lost,
+            "odometry_spikes": c.odometry_spikes,
+            "implausible_matches": c.implausible,
             "keyframes": c.keyframes,
             "loop_checks": loops.checks,
             "loops_found": loops.found,

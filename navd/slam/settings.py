@@ -10,6 +10,7 @@ from typing import Any
 
 from navd.config import LidarConfig, NavdConfig, SlamConfig
 from navd.geometry import SensorMounts
+from navd.slam.motion_check import MotionLimits
 from navd.slam.odometry import ScanOdometrySettings
 
 __all__ = ["MapperSettings", "SlamSettings", "scan_odometry_settings"]
@@ -38,6 +39,7 @@ class MapperSettings:
     prior_weight_per_m2: float
     prior_axis_weight_per_m2: float
     prior_weight_per_rad2: float | None  # None: learned (navd.slam.heading_trust)
+    motion_limits: MotionLimits  # what steps between scans are plausible
     loop_search_yaw_rad: float = 0.5
     loop_min_gap: int = 40
     loop_check_every: int = 3
@@ -68,6 +70,7 @@ class MapperSettings:
             prior_weight_per_m2=slam.prior_weight_per_m2,
             prior_axis_weight_per_m2=slam.prior_axis_weight_per_m2,
             prior_weight_per_rad2=slam.prior_weight_per_rad2,
+            motion_limits=MotionLimits(slam.plausible_speed_mps, slam.plausible_turn_radps),
         )
 
     @classmethod
