@@ -82,8 +82,7 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
         left = np.abs(angles - math.pi / 2) < math.radians(5)
         assert np.nanmax(np.abs(ranges[right] - 1.0)) < 0.005
         assert np.nanmax(np.abs(ranges[left] - 3.0)) < 0.005
-        assert device.requests[:3] == [0x25, 0x52, 0x50]  # stop, health, info
-        assert 0x82 in device.requests and device.deaf_requests == []  # its typical mode
+        _check_conversation(device.requests, device.deaf_requests)
         # The lidar stops mid-scan (its firmware hung): the program asks it again.
         device.frozen.set()
         asked = len(device.requests)
@@ -111,3 +110,15 @@ async def test_an_rplidar_streams_turns_to_navd_and_outlives_a_hang_and_its_port
     assert "device_silent" in said
     assert "device_lost" in said or "device_unavailable" in said
     assert said.count("device_unavailable") <= 1
+
+
+def _check_conversation(requests: list[int], deaf: list[int]) -> None:
+    """STOP, GET_HEALTH, GET_INFO, then the A1's typical mode. On a busy machine the
+    emulator may read a STOP and the GET_HEALTH sent 2 ms after it in one go, take it as
+    within Slamtec's 1 ms, and not hear it; the program then asks again. (The 1 ms itself is
+    checked on a virtual clock: tests/sensors/test_rplidar.py.)"""
+    first_info = requests.index(0x50)
+    assert requests[0] == 0x25
+    assert requests[first_info - 2 : first_info + 1] == [0x25, 0x52, 0x50]
+    assert all(r in requests for r in deaf)  # each asked again
+    assert 0x82 in requests
