@@ -23,8 +23,15 @@ from navd.slam.heading_trust import HeadingTrust
 from navd.slam.keyframe import EDGE_WEIGHTS, Keyframe, edge_to_new
 from navd.slam.likelihood_field import LikelihoodField
 from navd.slam.loop_closure import LoopCloser
-from navd.slam.match_repair import LOST_RUN, MIN_KNOWN_POINTS, REPAIR_KNOWN_FRACTION, MatchRepair
-from navd.slam.matcher import CorrelativeMatcher, Match
+from navd.slam.match_repair import (
+    LOST_KNOWN_FRACTION,
+    LOST_RUN,
+    MIN_KNOWN_POINTS,
+    REPAIR_KNOWN_FRACTION,
+    ROBOT_CELL,
+    MatchRepair,
+)
+from navd.slam.matcher import CorrelativeMatcher
 from navd.slam.motion_check import MotionCheck
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
@@ -32,20 +39,13 @@ from navd.slam.reported_pose import PoseRefiner
 from navd.slam.scan_result import ScanResult, TrackingCounts
 from navd.slam.settings import MapperSettings
 from navd.slam.tracking_field import TrackingField
+from navd.slam.two_priors import match_either
 from navd.slam.voxel import voxel_downsample
 
 __all__ = ["ScanMapper", "ScanResult"]
 
 FloatArray = npt.NDArray[np.float64]
 
-# A scan with at least this share of its points (and MIN_KNOWN_POINTS) on mapped ground that
-# does not fit there counts toward being lost (``lost_after_scans``): a robot carried off sees
-# its walls where the map has open floor, or none at all.
-LOST_KNOWN_FRACTION = 0.25
-ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
-# A scan whose odometry step is implausible follows it only if it fits this much better there
-# than at the last step taken again (a match's score is in [0, 1]).
-SPIKE_MARGIN = 0.05
 # A loop closure that disagrees with the map by less than this does not re-solve the graph.
 LOOP_SETTLED_M, LOOP_SETTLED_RAD = 0.05, 0.01
 
@@ -197,36 +197,23 @@ class ScanMapper:
         return result
 
     def _prior(self, stamp: float, odom: Pose2 | None) -> tuple[Pose2, bool, Pose2 | None]:
-        """The predicted pose, whether odometry moved it, and the odometry's own prediction
-        when that is a step no robot makes (a spike, or a log whose stamps lie): the last
-        step taken again is predicted then, and the scan decides between the two."""
+        """The predicted pose, whether it is the odometry's, and the other one to try where
+        the scan does not fit there: the last step taken again (coasted) beside the
+        odometry's, the coasted first when the odometry's step is one no robot makes."""
         prior = self.predict(odom)
         odometry_step = odom is not None and self._last_odom is not None and self.pose is not None
         self._last_odom = odom
         coasted = self.motion.coasted()
-        if odometry_step and coasted is not None and not self.motion.plausible(stamp, prior):
+        if not odometry_step or coasted is None:
+            return prior, odometry_step, None
+        if not self.motion.plausible(stamp, prior):
             return coasted, False, prior
-        return prior, odometry_step, None
-
-    def _match(
-        self, points: FloatArray, prior: Pose2, odometry: Pose2 | None
-    ) -> tuple[Match, Pose2]:
-        """(match, its prior): the scan matched around ``prior``; with the ``odometry``'s own
-        implausible prediction, around that too, taken only if the scan fits clearly better
-        there (down a corridor a spike fits as well as the truth)."""
-        match = self.matcher.match(self._field_around(prior), points, prior)
-        if odometry is None:
-            return match, prior
-        other = self.matcher.match(self._field_around(odometry), points, odometry)
-        if other.score > match.score + SPIKE_MARGIN:
-            return other, odometry  # the odometry was right (a log's stamps may lie)
-        self.counts.odometry_spikes += 1
-        return match, prior
+        return prior, True, coasted
 
     def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
         s = self.settings
         self.counts.scans += 1
-        prior, odometry_step, spiked = self._prior(stamp, odom)
+        prior, odometry_step, other = self._prior(stamp, odom)
         if s.prior_weight_per_rad2 is None:
             self.matcher.prior_weight_per_rad2 = self.heading_trust.weight_per_rad2()
         if self.grid.empty:
@@ -240,7 +227,11 @@ class ScanMapper:
             keyframe = self._insert(stamp, prior, scan)
             return ScanResult(prior, cov, 0.0, False, keyframe)
         points = voxel_downsample(scan.hits, s.voxel_size_m)
-        match, prior = self._match(points, prior, spiked)
+        match, prior, odometry_step, spike = match_either(
+            self.matcher, self._field_around, self.grid, points,
+            min_score=s.min_score, prior=prior, other=other, by_odometry=odometry_step,
+        )  # fmt: skip
+        self.counts.odometry_spikes += spike
         # Judge the match on the part of the scan the map can explain: a robot driving into a
         # new corridor sees mostly never-mapped space, where every pose scores zero.
         known = self.grid.known_fraction(match.pose, points)

@@ -26,12 +26,24 @@ from navd.slam.matcher import CorrelativeMatcher, Match, rival_ratio
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.settings import MapperSettings
 
-__all__ = ["LOST_RUN", "MIN_KNOWN_POINTS", "REPAIR_KNOWN_FRACTION", "MatchRepair"]
+__all__ = [
+    "LOST_KNOWN_FRACTION",
+    "LOST_RUN",
+    "MIN_KNOWN_POINTS",
+    "REPAIR_KNOWN_FRACTION",
+    "ROBOT_CELL",
+    "MatchRepair",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
 # A match is judged on the scan points that land on mapped cells: at least this many of them.
 MIN_KNOWN_POINTS = 10
+# A scan with at least this share of its points (and MIN_KNOWN_POINTS) on mapped ground that
+# does not fit there counts toward being lost (``lost_after_scans``): a robot carried off sees
+# its walls where the map has open floor, or none at all.
+LOST_KNOWN_FRACTION = 0.25
+ROBOT_CELL = np.zeros((1, 2))  # the robot's own position, in its frame
 # After this many scans in a row that did not match, the next that does not is searched for
 # again (and every keyframe searches for a loop): a robot back on old ground after drifting.
 LOST_RUN = 3
