@@ -31,7 +31,7 @@ from navd.slam.match_repair import (
     ROBOT_CELL,
     MatchRepair,
 )
-from navd.slam.matcher import CorrelativeMatcher
+from navd.slam.matcher import CorrelativeMatcher, Match
 from navd.slam.motion_check import MotionCheck
 from navd.slam.occupancy import OccupancyGrid
 from navd.slam.pose_graph import Edge, optimize
@@ -197,18 +197,26 @@ class ScanMapper:
         return result
 
     def _prior(self, stamp: float, odom: Pose2 | None) -> tuple[Pose2, bool, Pose2 | None]:
-        """The predicted pose, whether it is the odometry's, and the other one to try where
-        the scan does not fit there: the last step taken again (coasted) beside the
-        odometry's, the coasted first when the odometry's step is one no robot makes."""
+        """The predicted pose, whether odometry moved it, and, when that is a step no robot
+        makes, the odometry's own prediction: the last step taken again (coasted) is the
+        prediction then, and the scan decides between the two (``two_priors``)."""
         prior = self.predict(odom)
         odometry_step = odom is not None and self._last_odom is not None and self.pose is not None
         self._last_odom = odom
         coasted = self.motion.coasted()
-        if not odometry_step or coasted is None:
-            return prior, odometry_step, None
-        if not self.motion.plausible(stamp, prior):
+        if odometry_step and coasted is not None and not self.motion.plausible(stamp, prior):
             return coasted, False, prior
-        return prior, True, coasted
+        return prior, odometry_step, None
+
+    def _match(
+        self, points: FloatArray, prior: Pose2, odometry_step: bool, odometry: Pose2 | None
+    ) -> tuple[Match, Pose2, bool]:
+        """(match, its prior, whether odometry moved that): see ``_prior``."""
+        match, prior, spike = match_either(
+            self.matcher, self._field_around, points, prior, odometry
+        )
+        self.counts.odometry_spikes += spike
+        return match, prior, odometry_step or (odometry is not None and not spike)
 
     def _add(self, stamp: float, scan: ScanPoints, odom: Pose2 | None) -> ScanResult:
         s = self.settings
@@ -227,11 +235,7 @@ class ScanMapper:
             keyframe = self._insert(stamp, prior, scan)
             return ScanResult(prior, cov, 0.0, False, keyframe)
         points = voxel_downsample(scan.hits, s.voxel_size_m)
-        match, prior, odometry_step, spike = match_either(
-            self.matcher, self._field_around, self.grid, points,
-            min_score=s.min_score, prior=prior, other=other, by_odometry=odometry_step,
-        )  # fmt: skip
-        self.counts.odometry_spikes += spike
+        match, prior, odometry_step = self._match(points, prior, odometry_step, other)
         # Judge the match on the part of the scan the map can explain: a robot driving into a
         # new corridor sees mostly never-mapped space, where every pose scores zero.
         known = self.grid.known_fraction(match.pose, points)
