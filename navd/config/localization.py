@@ -50,8 +50,9 @@ class SlamConfig(Section):
         le=50,
         description="[m/s] the fastest the robot really moves between two scans (any robot a "
         "log is replayed for, too): a faster odometry step is a spike, not followed unless the "
-        "scan fits clearly better there, and a match that implies one is refused (a step is "
-        "taken as lasting at least the scan period and 0.2 s: logs stamp scans in bursts)",
+        "scan fits clearly better there, and a match implying twice that speed is refused (a "
+        "step is taken as lasting at least the scan period and 0.2 s: logs stamp scans in "
+        "bursts)",
     )
     plausible_turn_radps: float = Field(
         3.0,
