@@ -9,6 +9,8 @@ from __future__ import annotations
 import statistics
 from pathlib import Path
 
+import pytest
+
 from navd.cli import main
 from navd.offline.relations import evaluate, read_relations, read_tum
 from tests.datasets import dataset
@@ -40,3 +42,22 @@ def test_intel_replay_holds_with_3_cm_of_range_noise_over_three_draws(tmp_path: 
         means.append(errors.translation_mean_m)
     assert max(means) <= 2.5 * INTEL_BAG_UNPERTURBED_M, means
     assert statistics.median(means) <= 2 * INTEL_BAG_UNPERTURBED_M, means
+
+
+ACES_UNPERTURBED_M = 0.0395  # measured with the defaults (docs/slam.md)
+
+
+@pytest.mark.parametrize("kind", ["spurious", "odometry_spikes"])
+def test_aces_holds_spurious_returns_and_odometry_spikes(tmp_path: Path, kind: str) -> None:
+    # 3 % of the readings at a spurious 80 m; 1 % of the odometry steps jumping 1 m or
+    # 1.5 rad (the spikes beyond slam.plausible_* are not followed). Within issue 54's
+    # 1.5 times: 0.0415 and 0.0414 m measured. (Intel and fr-clinic do not hold the spikes:
+    # docs/slam.md, "The robustness suite".)
+    freiburg = dataset("freiburg_slam_benchmark")
+    bag = freiburg / "bags_ros1" / "aces.orig.bag"
+    args = ["replay", str(bag), "--out", str(tmp_path), "--quiet", "--perturb", kind]
+    assert main(args) == 0
+    stamps, poses = read_tum(tmp_path / "trajectory.tum")
+    errors = evaluate(stamps, poses, read_relations(freiburg / "relations" / "aces.relations"))
+    assert errors.used == 1279
+    assert errors.translation_mean_m <= 1.5 * ACES_UNPERTURBED_M
