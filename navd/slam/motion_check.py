@@ -9,7 +9,7 @@ spikes (the last step again, as a robot's motion changes little in a scan period
 Logs stamp scans in bursts (intel: steps of 0.4 m 1 ms apart, after a pause), so a step's
 time is taken as at least the scan period (the median time between the last ``PERIOD_SCANS``
 scans) and at least ``MIN_STEP_S``: the check is for jumps, not for exact speeds. (With
-0.2 s alone, intel with every other scan dropped was taken for jumps: 0.71 m against 0.027 m.)
+0.2 s alone, intel with every other scan dropped was taken for jumps: 0.71 m against 0.029 m.)
 """
 
 from __future__ import annotations
